@@ -1,0 +1,192 @@
+r"""Mode-matched Gaussian filters, batched over Monte Carlo runs.
+
+Every filter is a small immutable object with two methods
+
+* ``predict(state, dynamics) -> state``  (time update)
+* ``predict_measurement(state, measurement) -> MeasurementPrediction``
+
+and shares **one** Kalman update, :func:`kalman_update` (Bar-Shalom et al.
+2001, Eq. 5.2.3-10 to -15, in the covariance form that sigma-point filters
+use):
+
+.. math::
+    \nu = z - \hat z,\quad K = P_{xz} S^{-1},\quad \hat x^+ = \hat x + K\nu,
+    \quad P^+ = P - K S K^T,\quad
+    \log L = -\tfrac12\left(\nu^T S^{-1}\nu + \log|2\pi S|\right).
+
+The variants differ only in how the predicted moments are obtained:
+:class:`ExtendedKalmanFilter` linearises (Jacobians; on linear models it *is*
+the Kalman filter), :class:`SigmaPointFilter` integrates with any rule from
+:mod:`mmlib.rules`.  Layers such as strong tracking or adaptive noise wrap a
+filter and override one of the two methods; they never copy the update.
+
+States are immutable ``NamedTuple`` objects with fields ``mean`` (..., n) and
+``cov`` (..., n, n) -- any leading batch axes: (B,) for one filter over B
+Monte Carlo runs, (B, r) inside an IMM with r modes.  Layers may extend the
+state with extra fields, which the IMM carries through untouched (it only
+replaces ``mean`` and ``cov``).  Dynamics may be stacked per mode
+(:class:`mmlib.models.StackedDynamics`); measurements broadcast.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from . import linalg
+from ._validate import check_batch_vector, check_covariance
+from .rules import SigmaPointRule, rule_by_name
+
+LOG_2PI = math.log(2.0 * math.pi)
+
+
+class GaussianState(NamedTuple):
+    """A batch of Gaussian estimates: ``mean`` (B, n), ``cov`` (B, n, n)."""
+
+    mean: np.ndarray
+    cov: np.ndarray
+
+
+class MeasurementPrediction(NamedTuple):
+    """Predicted measurement ``z_pred`` (B, m), innovation covariance ``S`` (B, m, m)
+    (including R) and state-measurement cross-covariance ``Pxz`` (B, n, m)."""
+
+    z_pred: np.ndarray
+    S: np.ndarray
+    Pxz: np.ndarray
+
+
+class UpdateInfo(NamedTuple):
+    innovation: np.ndarray      # (B, m), residual-wrapped
+    S: np.ndarray               # (B, m, m)
+    loglik: np.ndarray          # (B,)  log N(innovation; 0, S), -inf/NaN if S not PD
+    nis: np.ndarray             # (B,)  normalised innovation squared
+
+
+def gaussian_state(mean, cov) -> GaussianState:
+    """Validated initial state: mean (B, n) and cov (B, n, n) or a shared (n, n)."""
+    mean = check_batch_vector(mean, "mean")
+    cov_arr = np.asarray(cov, dtype=float)
+    if cov_arr.ndim == 2:
+        cov_arr = check_covariance(cov_arr, "cov", mean.shape[1])
+        cov_arr = np.broadcast_to(cov_arr, (mean.shape[0],) + cov_arr.shape).copy()
+    else:
+        cov_arr = check_covariance(cov_arr, "cov", mean.shape[1], batch=True)
+        if cov_arr.shape[0] != mean.shape[0]:
+            raise ValueError(f"cov: batch size {cov_arr.shape[0]} does not match mean's {mean.shape[0]}")
+    return GaussianState(mean.copy(), cov_arr)
+
+
+def kalman_update(state, pred: MeasurementPrediction, z: np.ndarray, measurement):
+    r"""The one Kalman update shared by every filter (see module docstring).
+
+    Computed through the Cholesky factor :math:`S = L L^T`: with
+    :math:`A = P_{xz} L^{-T}` and :math:`e = L^{-1}\nu`, the gain is
+    :math:`K = A L^{-1}`, :math:`K\nu = A e`, :math:`K S K^T = A A^T` and the
+    NIS is :math:`e^T e`.  Runs whose innovation covariance is not positive
+    definite get a NaN state and log-likelihood (reported by
+    :func:`mmlib.estimation.run` as diverged), never a patched one.
+    """
+    nu = measurement.residual(z, pred.z_pred)
+    chol_s, _failed = linalg.cholesky(pred.S)
+    linv = np.linalg.inv(chol_s)
+    a = pred.Pxz @ np.swapaxes(linv, -1, -2)                         # (..., n, m)
+    e = (linv @ nu[..., None])[..., 0]                               # (..., m)
+    mean = state.mean + (a @ e[..., None])[..., 0]
+    cov = linalg.symmetrize(state.cov - a @ np.swapaxes(a, -1, -2))
+    nis = (e * e).sum(axis=-1)
+    loglik = -0.5 * (nis + linalg.log_det_from_cholesky(chol_s) + nu.shape[-1] * LOG_2PI)
+    return state._replace(mean=mean, cov=cov), UpdateInfo(nu, pred.S, loglik, nis)
+
+
+class _FilterBase:
+    """``update`` = measurement prediction + the shared Kalman update."""
+
+    def update(self, state, z, measurement):
+        return kalman_update(state, self.predict_measurement(state, measurement), z, measurement)
+
+    def init(self, mean, cov) -> GaussianState:
+        return gaussian_state(mean, cov)
+
+
+@dataclass(frozen=True)
+class ExtendedKalmanFilter(_FilterBase):
+    r"""First-order linearisation: :math:`\hat x^- = f(\hat x)`, :math:`P^- = F P F^T + Q`,
+    :math:`\hat z = h(\hat x^-)`, :math:`S = H P^- H^T + R`, :math:`P_{xz} = P^- H^T`
+    (Bar-Shalom et al. 2001, Sec. 10.3).  On linear models this is exactly the Kalman filter."""
+
+    name: str = "EKF"
+
+    def predict(self, state, dynamics):
+        F = dynamics.jacobian(state.mean)
+        cov = F @ state.cov @ np.swapaxes(F, -1, -2) + dynamics.Q
+        mean = dynamics.transition(state.mean[..., None, :])[..., 0, :]
+        return state._replace(mean=mean, cov=cov)
+
+    def predict_measurement(self, state, measurement):
+        H = measurement.jacobian(state.mean)
+        pxz = state.cov @ np.swapaxes(H, -1, -2)
+        S = H @ pxz + measurement.R
+        return MeasurementPrediction(measurement.h(state.mean[..., None, :])[..., 0, :], S, pxz)
+
+
+def KalmanFilter(name: str = "KF") -> ExtendedKalmanFilter:
+    """The linear Kalman filter: the EKF applied to linear models (identical algebra)."""
+    return ExtendedKalmanFilter(name=name)
+
+
+@dataclass(frozen=True)
+class SigmaPointFilter(_FilterBase):
+    r"""Generic sigma-point (deterministic-sampling) Kalman filter over any rule.
+
+    Time update (e.g. Zhu et al. 2016, Eqs. 1-26 for the fifth-degree rule):
+    :math:`X_i = \hat x + S\xi_i`, :math:`\hat x^- = \sum w^m_i f(X_i)`,
+    :math:`P^- = \mathrm{cov}_{rule}(f(X_i)) + Q`.
+    Measurement prediction (Eqs. 27-50): fresh points from :math:`P^-`,
+    :math:`\hat z = \sum w^m_i h(X_i)`, :math:`S = \mathrm{cov}_{rule}(h(X_i)) + R`,
+    :math:`P_{xz} = \mathrm{cross}_{rule}(X_i, h(X_i))`.
+    UKF, CKF, 5th-degree CKF, SSR-CKF and CDKF are this class with a different rule.
+    """
+
+    rule: SigmaPointRule
+    name: str = ""
+
+    def __post_init__(self):
+        if not isinstance(self.rule, SigmaPointRule):
+            raise ValueError(f"rule: expected a SigmaPointRule, got {type(self.rule).__name__}")
+        if not self.name:
+            object.__setattr__(self, "name", self.rule.name)
+
+    def _points(self, state):
+        chol, _failed = linalg.cholesky(state.cov)
+        return self.rule.points(state.mean, chol)
+
+    def predict(self, state, dynamics):
+        X = self._points(state)
+        Y = dynamics.transition(X)
+        wm = self.rule.unit_points(state.mean.shape[-1]).wm
+        mean = wm @ Y
+        cov = self.rule.covariance(X - state.mean[..., None, :], Y - mean[..., None, :]) + dynamics.Q
+        return state._replace(mean=mean, cov=cov)
+
+    def predict_measurement(self, state, measurement):
+        X = self._points(state)
+        Z = measurement.h(X)
+        wm = self.rule.unit_points(state.mean.shape[-1]).wm
+        z_pred = measurement.average(Z, wm)
+        dz = measurement.residual(Z, z_pred[..., None, :])
+        pzz, pxz = self.rule.covariances(X - state.mean[..., None, :], dz)
+        return MeasurementPrediction(z_pred, pzz + measurement.R, pxz)
+
+
+_FILTER_NAMES = {"kf": "KF", "ekf": "EKF"}
+
+
+def filter_by_name(name: str, **rule_params):
+    """``kf``/``ekf`` or any rule name of :func:`mmlib.rules.rule_by_name`."""
+    key = str(name).lower()
+    if key in _FILTER_NAMES:
+        return ExtendedKalmanFilter(name=_FILTER_NAMES[key])
+    return SigmaPointFilter(rule_by_name(key, **rule_params), name=str(name).upper())

@@ -1,0 +1,269 @@
+r"""Gaussian quadrature ("sigma-point") rules as small immutable objects.
+
+A rule approximates Gaussian-weighted integrals
+
+.. math:: \int g(x)\,\mathcal N(x; m, P)\,dx \approx \sum_i w_i\, g(m + S\xi_i), \qquad P = S S^T,
+
+with unit points :math:`\xi_i` and weights :math:`w_i` that depend only on the
+dimension ``n``.  A rule knows nothing about filtering: the generic filter in
+:mod:`mmlib.filters` asks it for points and mean weights (``unit_points``) and
+for the (cross-)covariance of the deviations of transformed points.  Rules whose
+covariance is *not* a weighted sum of outer products (central differences)
+override :meth:`SigmaPointRule.covariances`.
+
+Conventions: ``S`` is the lower Cholesky factor; ``points`` returns the sigma
+points with shape ``(..., m, n)`` (any batch axes, point, coordinate).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from itertools import combinations
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class UnitPoints:
+    """Points and weights of a rule for a fixed dimension (read-only arrays)."""
+
+    xi: np.ndarray        # (m, n) unit points, N(0, I) coordinates
+    wm: np.ndarray        # (m,) weights for the mean
+    wc: np.ndarray        # (m,) weights for the covariance
+
+    def __post_init__(self):
+        for arr in (self.xi, self.wm, self.wc):
+            arr.setflags(write=False)
+
+
+def _frozen(xi, wm, wc=None) -> UnitPoints:
+    xi = np.asarray(xi, dtype=float)
+    wm = np.asarray(wm, dtype=float)
+    wc = wm.copy() if wc is None else np.asarray(wc, dtype=float)
+    return UnitPoints(xi, wm, wc)
+
+
+class SigmaPointRule:
+    """Base class: a deterministic rule given by :meth:`unit_points`.
+
+    Subclasses are frozen dataclasses holding only their hyper-parameters.
+    """
+
+    name = "rule"
+    degree = 3
+
+    def unit_points(self, n: int) -> UnitPoints:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def num_points(self, n: int) -> int:
+        return self.unit_points(n).xi.shape[0]
+
+    # -- generic moment computations -------------------------------------
+    def points(self, mean: np.ndarray, chol: np.ndarray) -> np.ndarray:
+        """Sigma points ``m + S xi_i``: mean (..., n), chol (..., n, n) -> (..., m, n)."""
+        up = self.unit_points(mean.shape[-1])
+        return mean[..., None, :] + up.xi @ np.swapaxes(chol, -1, -2)
+
+    def covariances(self, dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        r"""``(P_yy, P_xy)`` from deviations ``dx = X_i - m`` (B, m, n) and
+        ``dy = Y_i - \bar y`` (..., m, d):  :math:`\sum_i w^c_i dy_i dy_i^T` and
+        :math:`\sum_i w^c_i dx_i dy_i^T`."""
+        up = self.unit_points(dx.shape[-1])
+        wdy = dy * up.wc[:, None]
+        both = np.swapaxes(np.concatenate([dy, dx], axis=-1), -1, -2) @ wdy   # one matmul
+        d = dy.shape[-1]
+        return both[..., :d, :], both[..., d:, :]
+
+    def covariance(self, dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
+        """Only ``P_yy`` (prediction step); ``dx`` is needed by rules that pair points."""
+        up = self.unit_points(dx.shape[-1])
+        return np.swapaxes(dy, -1, -2) @ (dy * up.wc[:, None])
+
+
+@dataclass(frozen=True)
+class Unscented(SigmaPointRule):
+    r"""Scaled unscented transform (Julier 2002; Wan & van der Merwe 2000).
+
+    :math:`\lambda = \alpha^2 (n+\kappa) - n`; points :math:`0, \pm\sqrt{n+\lambda}\,e_i`;
+    :math:`w^m_0 = \lambda/(n+\lambda)`, :math:`w^c_0 = w^m_0 + 1 - \alpha^2 + \beta`,
+    :math:`w_i = 1/(2(n+\lambda))` (Liu & Wu 2017, Eq. 2).  Exact for polynomials
+    of degree 3 (and for degree-2 covariances whatever ``beta``).
+    """
+
+    alpha: float = 1.0
+    beta: float = 0.0
+    kappa: float = 0.0
+    name = "unscented"
+    degree = 3
+
+    def __post_init__(self):
+        if not self.alpha > 0:
+            raise ValueError(f"alpha: must be > 0, got {self.alpha}")
+
+    @lru_cache(maxsize=None)
+    def unit_points(self, n: int) -> UnitPoints:
+        lam = self.alpha ** 2 * (n + self.kappa) - n
+        if not n + lam > 0:
+            raise ValueError(f"kappa: n + lambda must be > 0 (n={n}, lambda={lam})")
+        c = math.sqrt(n + lam)
+        eye = np.eye(n)
+        xi = np.vstack([np.zeros((1, n)), c * eye, -c * eye])
+        wm = np.full(2 * n + 1, 0.5 / (n + lam))
+        wm[0] = lam / (n + lam)
+        wc = wm.copy()
+        wc[0] += 1.0 - self.alpha ** 2 + self.beta
+        return _frozen(xi, wm, wc)
+
+
+@dataclass(frozen=True)
+class Cubature(SigmaPointRule):
+    r"""Third-degree spherical-radial cubature rule (Arasaratnam & Haykin 2009,
+    IEEE TAC 54(6), Eq. 38-39): ``2n`` points :math:`\pm\sqrt n\,e_i`, weights ``1/(2n)``."""
+
+    name = "cubature3"
+    degree = 3
+
+    @lru_cache(maxsize=None)
+    def unit_points(self, n: int) -> UnitPoints:
+        eye = np.eye(n) * math.sqrt(n)
+        return _frozen(np.vstack([eye, -eye]), np.full(2 * n, 0.5 / n))
+
+
+@dataclass(frozen=True)
+class FifthDegreeCubature(SigmaPointRule):
+    r"""Fifth-degree spherical-radial cubature rule (Jia, Xin & Cheng 2013,
+    Automatica 49, 510-518), ``2n^2 + 1`` points:
+
+    ========================================  ===========  ==========================
+    point                                       count        weight
+    ========================================  ===========  ==========================
+    0                                           1            2/(n+2)
+    :math:`\pm\sqrt{n+2}\,e_i`                  2n           (4-n)/(2(n+2)^2)
+    :math:`\pm\sqrt{n+2}\,s^\pm_{jl}`           2n(n-1)      1/(n+2)^2
+    ========================================  ===========  ==========================
+
+    with :math:`s^\pm_{jl} = (e_j \pm e_l)/\sqrt 2`, ``j < l``.  Zhu et al. 2016
+    print the last weight as 2/(n+2)^2 (their Eq. 13); that value makes the
+    weights sum to 1 + 2n(n-1)/(n+2)^2 and is a misprint (deviation Z-2).
+    """
+
+    name = "cubature5"
+    degree = 5
+
+    @lru_cache(maxsize=None)
+    def unit_points(self, n: int) -> UnitPoints:
+        r = math.sqrt(n + 2.0)
+        eye = np.eye(n)
+        pts = [np.zeros(n)]
+        wts = [2.0 / (n + 2)]
+        for i in range(n):
+            pts += [r * eye[i], -r * eye[i]]
+            wts += [(4.0 - n) / (2.0 * (n + 2) ** 2)] * 2
+        for j, l in combinations(range(n), 2):
+            for s in ((eye[j] + eye[l]), (eye[j] - eye[l])):
+                s = s / math.sqrt(2.0)
+                pts += [r * s, -r * s]
+                wts += [1.0 / (n + 2) ** 2] * 2
+        return _frozen(np.array(pts), np.array(wts))
+
+
+def regular_simplex(n: int) -> np.ndarray:
+    r"""Vertices :math:`a_1..a_{n+1}` of a regular n-simplex on the unit sphere, (n+1, n).
+
+    Construction (Wang, Feng & Tse 2014, Eq. 9): the centred standard basis of
+    :math:`\mathbb R^{n+1}`, :math:`e_j - \mathbf 1/(n+1)`, scaled to unit length
+    and expressed in an orthonormal basis of the hyperplane :math:`\sum x = 0`.
+    Properties (tested): unit norm, :math:`a_i^T a_j = -1/n` for ``i != j``,
+    :math:`\sum_j a_j = 0` and :math:`\sum_j a_j a_j^T = (n+1)/n\, I`.
+    """
+    centred = np.eye(n + 1) - 1.0 / (n + 1)
+    # Orthonormal basis of the hyperplane: Householder-free, via QR of the centred basis.
+    q, _ = np.linalg.qr(centred[:, :n])
+    verts = centred @ q
+    verts /= np.linalg.norm(verts, axis=1, keepdims=True)
+    return verts
+
+
+@dataclass(frozen=True)
+class SphericalSimplexRadial(SigmaPointRule):
+    r"""Third-degree spherical simplex-radial rule (Wang, Feng & Tse 2014, IEEE
+    SPL 21(1); Liu & Wu 2017, Eq. 12): ``2n + 2`` points :math:`\pm\sqrt n\,a_j`
+    with :math:`a_j` the vertices of a regular simplex, equal weights ``1/(2n+2)``."""
+
+    name = "ssr3"
+    degree = 3
+
+    @lru_cache(maxsize=None)
+    def unit_points(self, n: int) -> UnitPoints:
+        a = regular_simplex(n) * math.sqrt(n)
+        return _frozen(np.vstack([a, -a]), np.full(2 * n + 2, 1.0 / (2 * n + 2)))
+
+
+@dataclass(frozen=True)
+class CentralDifference(SigmaPointRule):
+    r"""Second-order Stirling interpolation (central difference / DD2 filter,
+    Nørgaard, Poulsen & Ravn 2000, Automatica 36, Sec. 4; Hu et al. 2017, Eqs. 1-14).
+
+    Points :math:`x,\ x \pm h s_j` (``s_j`` the columns of ``S``); with
+    :math:`Y_0, Y_j^\pm` the transformed points:
+
+    * mean  :math:`\bar y = \frac{h^2-n}{h^2} Y_0 + \frac{1}{2h^2}\sum_j (Y_j^+ + Y_j^-)`
+    * :math:`P_{yy} = \sum_j a_j a_j^T + b_j b_j^T`, with
+      :math:`a_j = (Y_j^+ - Y_j^-)/(2h)` and
+      :math:`b_j = \frac{\sqrt{h^2-1}}{2h^2}(Y_j^+ + Y_j^- - 2Y_0)`
+    * :math:`P_{xy} = \sum_j s_j a_j^T` (first-order term only).
+
+    ``h = sqrt(3)`` is optimal for Gaussian priors (kurtosis 3).  Exact for
+    linear maps (then ``b_j = 0``, ``a_j = F s_j``).
+    """
+
+    h: float = math.sqrt(3.0)
+    name = "central_difference"
+    degree = 3
+
+    def __post_init__(self):
+        if not self.h > 1.0:
+            raise ValueError(f"h: half-step must be > 1, got {self.h}")
+
+    @lru_cache(maxsize=None)
+    def unit_points(self, n: int) -> UnitPoints:
+        h2 = self.h ** 2
+        eye = np.eye(n) * self.h
+        xi = np.vstack([np.zeros((1, n)), eye, -eye])
+        wm = np.full(2 * n + 1, 0.5 / h2)
+        wm[0] = (h2 - n) / h2
+        return _frozen(xi, wm, np.full(2 * n + 1, np.nan))  # wc unused: see covariances
+
+    def covariance(self, dx, dy):
+        return self.covariances(dx, dy)[0]
+
+    def covariances(self, dx, dy):
+        n = dx.shape[-1]
+        h = self.h
+        d0 = dy[..., :1, :]
+        dp, dm = dy[..., 1:n + 1, :], dy[..., n + 1:, :]
+        a = (dp - dm) / (2.0 * h)                                   # (B, n, d)
+        b = (dp + dm - 2.0 * d0) * (math.sqrt(h * h - 1.0) / (2.0 * h * h))
+        at = np.swapaxes(a, -1, -2)
+        pyy = at @ a + np.swapaxes(b, -1, -2) @ b
+        s = dx[..., 1:n + 1, :] / h                                   # rows are s_j^T
+        pxy = np.swapaxes(s, -1, -2) @ a
+        return pyy, pxy
+
+
+_RULES = {
+    "ukf": Unscented, "unscented": Unscented,
+    "ckf": Cubature, "cubature3": Cubature,
+    "5ckf": FifthDegreeCubature, "cubature5": FifthDegreeCubature,
+    "ssrckf": SphericalSimplexRadial, "ssr3": SphericalSimplexRadial,
+    "cdkf": CentralDifference, "central_difference": CentralDifference,
+}
+
+
+def rule_by_name(name: str, **params) -> SigmaPointRule:
+    """Look up a rule by its short name (``ukf``, ``ckf``, ``5ckf``, ``ssrckf``, ``cdkf``)."""
+    key = str(name).lower()
+    if key not in _RULES:
+        raise ValueError(f"name: unknown quadrature rule {name!r}; expected one of {sorted(_RULES)}")
+    return _RULES[key](**params)

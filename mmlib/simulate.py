@@ -1,0 +1,94 @@
+r"""Ground truth and measurements for piecewise maneuver schedules.
+
+Time grid (stated once): ``x_0`` at ``t = 0``; step ``k = 1..K`` moves the
+target over ``[t_{k-1}, t_k)`` with the dynamics of the segment that contains
+``t_{k-1}`` and then measures it at ``t_k = kT``.  A segment ``(t0, t1, mode)``
+therefore covers the transitions that *start* in ``[t0, t1)``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple, Sequence
+
+import numpy as np
+
+from ._validate import as_float_array, check_finite, check_positive_int
+from .montecarlo import MonteCarlo, Stream
+
+
+@dataclass(frozen=True, eq=False)
+class ManeuverSchedule:
+    """Which of ``models`` drives each step: ``segments`` of ``(t_start, t_end, model_index)``,
+    ``default`` elsewhere."""
+
+    models: Sequence
+    segments: Sequence[tuple]
+    default: int
+    T: float
+    n_steps: int
+
+    def __post_init__(self):
+        check_positive_int(self.n_steps, "n_steps")
+        r = len(self.models)
+        for seg in self.segments:
+            if len(seg) != 3 or not 0 <= seg[2] < r or not seg[0] < seg[1]:
+                raise ValueError(f"segments: bad segment {seg!r} (need (t_start < t_end, model index < {r}))")
+        if not 0 <= self.default < r:
+            raise ValueError(f"default: model index {self.default} outside 0..{r - 1}")
+        if not self.T > 0:
+            raise ValueError(f"T: sampling interval must be > 0, got {self.T}")
+
+    def modes(self) -> np.ndarray:
+        """Index of the model used for step k = 1..K, shape (K,)."""
+        t_start = np.arange(self.n_steps) * self.T
+        out = np.full(self.n_steps, self.default)
+        for t0, t1, mode in self.segments:
+            out[(t_start >= t0 - 1e-9) & (t_start < t1 - 1e-9)] = mode
+        return out
+
+    @property
+    def times(self) -> np.ndarray:
+        return np.arange(1, self.n_steps + 1) * self.T
+
+
+class Scenario(NamedTuple):
+    truth: np.ndarray          # (B, K+1, n), index 0 is x_0
+    measurements: np.ndarray   # (B, K, m)
+    modes: np.ndarray          # (K,)
+
+
+def simulate(schedule: ManeuverSchedule, x0, measurement, mc: MonteCarlo, runs,
+             *, process_noise: bool = True, measurement_noise_fn=None) -> Scenario:
+    """Truth trajectories and noisy measurements for the given runs.
+
+    Process noise of run r comes from its ``Stream.TRUTH`` stream, measurement noise
+    from ``Stream.MEASUREMENT`` (one draw of shape (K, n_w) / (K, m) per run), so the
+    truth of run r is the same whichever filters, chunks or measurement model follow.
+    ``measurement_noise_fn(truth, noise)`` may replace the additive-noise model
+    (e.g. sensor faults).
+    """
+    runs = list(runs)
+    x0 = check_finite(as_float_array(x0, "x0"), "x0")
+    n = schedule.models[0].dim
+    if x0.shape not in ((n,), (len(runs), n)):
+        raise ValueError(f"x0: expected shape ({n},) or ({len(runs)}, {n}), got {x0.shape}")
+    modes = schedule.modes()
+    K = schedule.n_steps
+    n_w = max(m.noise_factor.shape[1] for m in schedule.models)
+    w = mc.standard_normal(runs, Stream.TRUTH, (K, n_w))
+    x = np.broadcast_to(x0, (len(runs), n)).copy()
+    truth = [x]
+    for k in range(K):
+        model = schedule.models[modes[k]]
+        x = model.transition(x)
+        if process_noise:
+            L = model.noise_factor
+            x = x + w[:, k, :L.shape[1]] @ L.T
+        truth.append(x)
+    truth = np.stack(truth, axis=1)
+    v = mc.standard_normal(runs, Stream.MEASUREMENT, (K, measurement.dim))
+    if measurement_noise_fn is None:
+        z = measurement.h(truth[:, 1:]) + v @ measurement.noise_factor.T
+    else:
+        z = measurement_noise_fn(truth[:, 1:], v)
+    return Scenario(truth, z, modes)
