@@ -1,0 +1,41 @@
+import numpy as np
+import pytest
+
+from mmlib import models
+
+
+def textbook_kf(x0, P0, F, Q, H, R, zs):
+    """Independent reference: the closed-form Kalman filter, one run at a time, explicit inverse."""
+    x, P = np.array(x0, float), np.array(P0, float)
+    means, covs, logliks = [], [], []
+    for z in zs:
+        x = F @ x
+        P = F @ P @ F.T + Q
+        S = H @ P @ H.T + R
+        K = P @ H.T @ np.linalg.inv(S)
+        nu = z - H @ x
+        x = x + K @ nu
+        P = (np.eye(len(x)) - K @ H) @ P
+        logliks.append(-0.5 * (nu @ np.linalg.solve(S, nu) + np.log(np.linalg.det(2 * np.pi * S))))
+        means.append(x)
+        covs.append(P)
+    return np.array(means), np.array(covs), np.array(logliks)
+
+
+@pytest.fixture
+def linear_problem():
+    """CV target, position sensor, 3 runs x 25 steps of deterministic pseudo-random data."""
+    rng = np.random.default_rng(12345)
+    T = 1.0
+    dyn = models.constant_velocity(T, 2.0)
+    meas = models.position_measurement([25.0, 16.0])
+    B, K = 3, 25
+    x_true = np.tile([100.0, 10.0, -50.0, 5.0], (B, 1))
+    zs = []
+    for _ in range(K):
+        x_true = x_true @ dyn.F.T + rng.standard_normal((B, 2)) @ dyn.noise_factor.T
+        zs.append(x_true @ meas.H.T + rng.standard_normal((B, 2)) * [5.0, 4.0])
+    zs = np.stack(zs, axis=1)
+    x0 = np.tile([90.0, 8.0, -45.0, 4.0], (B, 1)) + rng.standard_normal((B, 4))
+    P0 = np.diag([100.0, 25.0, 100.0, 25.0])
+    return dyn, meas, x0, P0, zs

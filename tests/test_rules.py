@@ -1,0 +1,121 @@
+"""Each quadrature rule integrates every monomial up to its degree exactly against N(0, I)."""
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from mmlib import rules
+
+RULES = [rules.Unscented(), rules.Unscented(alpha=0.5, beta=2.0, kappa=1.0), rules.Cubature(),
+         rules.FifthDegreeCubature(), rules.SphericalSimplexRadial(), rules.CentralDifference()]
+
+
+def gaussian_moment(alpha):
+    """E[prod x_i^a_i] for x ~ N(0, I): product of (a-1)!! for even a, 0 if any a is odd."""
+    out = 1.0
+    for a in alpha:
+        if a % 2:
+            return 0.0
+        out *= math.prod(range(a - 1, 0, -2))
+    return out
+
+
+def monomials(n, degree):
+    for total in range(degree + 1):
+        for combo in itertools.combinations_with_replacement(range(n), total):
+            alpha = [0] * n
+            for i in combo:
+                alpha[i] += 1
+            yield tuple(alpha)
+
+
+@pytest.mark.parametrize("rule", RULES, ids=lambda r: repr(r))
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 6])
+def test_exact_for_monomials_up_to_degree(rule, n):
+    if isinstance(rule, rules.Unscented) and n + rule.alpha ** 2 * (n + rule.kappa) - n <= 0:
+        pytest.skip("invalid scaling")
+    up = rule.unit_points(n)
+    for alpha in monomials(n, rule.degree):
+        values = np.prod(up.xi ** np.array(alpha), axis=1)
+        # tolerance: floating-point scale of the largest term of the sum
+        scale = np.sum(np.abs(up.wm * values)) + 1.0
+        assert abs(up.wm @ values - gaussian_moment(alpha)) <= 1e-13 * scale, (alpha, up.wm @ values)
+
+
+@pytest.mark.parametrize("rule", [rules.Cubature(), rules.SphericalSimplexRadial(), rules.Unscented()],
+                         ids=lambda r: repr(r))
+def test_third_degree_rules_are_not_fifth_degree(rule):
+    # sanity: the exactness test can fail -- E[x1^4] = 3 is missed by degree-3 rules for n = 4
+    up = rule.unit_points(4)
+    assert abs(up.wm @ up.xi[:, 0] ** 4 - 3.0) > 1e-3
+
+
+def test_fifth_degree_weights_jia_2013():
+    n = 4
+    up = rules.FifthDegreeCubature().unit_points(n)
+    assert up.xi.shape == (2 * n * n + 1, n)
+    assert up.wm[0] == pytest.approx(2 / (n + 2), abs=1e-15)
+    # the misprinted 2/(n+2)^2 of Zhu et al. Eq. 13 would not sum to one
+    assert up.wm.sum() == pytest.approx(1.0, abs=1e-14)
+    assert np.isclose(up.wm[-1], 1 / (n + 2) ** 2)
+    wrong = up.wm.copy()
+    wrong[2 * n + 1:] = 2 / (n + 2) ** 2
+    assert abs(wrong.sum() - 1.0) > 0.5
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 6, 9])
+def test_regular_simplex(n):
+    a = rules.regular_simplex(n)
+    assert a.shape == (n + 1, n)
+    np.testing.assert_allclose(np.linalg.norm(a, axis=1), 1.0, atol=1e-14)
+    gram = a @ a.T
+    off = gram[~np.eye(n + 1, dtype=bool)]
+    np.testing.assert_allclose(off, -1.0 / n, atol=1e-14)
+    np.testing.assert_allclose(a.sum(axis=0), 0.0, atol=1e-14)
+    np.testing.assert_allclose(a.T @ a, (n + 1) / n * np.eye(n), atol=1e-14)
+
+
+@pytest.mark.parametrize("rule", RULES, ids=lambda r: repr(r))
+def test_linear_map_moments_are_exact(rule):
+    """Mean, covariance and cross-covariance of y = A x + b, x ~ N(m, P), are exact."""
+    rng = np.random.default_rng(3)
+    n, d, B = 4, 3, 5
+    A = rng.standard_normal((d, n))
+    b = rng.standard_normal(d)
+    m = rng.standard_normal((B, n))
+    L = np.tril(rng.standard_normal((B, n, n))) + 3 * np.eye(n)
+    P = L @ np.swapaxes(L, -1, -2)
+    X = rule.points(m, np.linalg.cholesky(P))
+    Y = X @ A.T + b
+    ybar = rule.unit_points(n).wm @ Y
+    pyy, pxy = rule.covariances(X - m[:, None], Y - ybar[:, None])
+    np.testing.assert_allclose(ybar, m @ A.T + b, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(pyy, A @ P @ A.T, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(pxy, P @ A.T, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(rule.covariance(X - m[:, None], Y - ybar[:, None]), pyy, rtol=0, atol=1e-12)
+
+
+def test_central_difference_second_order_term():
+    """For y = x^2 (n = 1, x ~ N(m, s^2)): the CD mean m^2 + s^2 is exact and the
+    variance is 4 m^2 s^2 + (h^2 - 1) s^4, which equals the true 4 m^2 s^2 + 2 s^4 at h^2 = 3."""
+    rule = rules.CentralDifference()
+    m, s = np.array([[1.5]]), np.array([[[0.7]]])
+    X = rule.points(m, s)
+    Y = X ** 2
+    ybar = rule.unit_points(1).wm @ Y
+    pyy, _ = rule.covariances(X - m[:, None], Y - ybar[:, None])
+    assert ybar[0, 0] == pytest.approx(1.5 ** 2 + 0.49, abs=1e-14)
+    assert pyy[0, 0, 0] == pytest.approx(4 * 1.5 ** 2 * 0.49 + 2 * 0.49 ** 2, abs=1e-13)
+
+
+def test_rule_lookup_and_bad_parameters():
+    assert isinstance(rules.rule_by_name("5CKF"), rules.FifthDegreeCubature)
+    with pytest.raises(ValueError, match="name"):
+        rules.rule_by_name("gauss-hermite")
+    with pytest.raises(ValueError, match="alpha"):
+        rules.Unscented(alpha=0.0)
+    with pytest.raises(ValueError, match="h"):
+        rules.CentralDifference(h=1.0)
+    with pytest.raises(ValueError, match="kappa"):
+        rules.Unscented(kappa=-5.0).unit_points(2)

@@ -1,0 +1,118 @@
+"""Bad input gets a ValueError naming the argument; Monte Carlo is deterministic and chunk-invariant."""
+import numpy as np
+import pytest
+
+import mmlib as m
+from mmlib import models, report
+from mmlib.simulate import ManeuverSchedule, simulate
+
+
+def test_bad_shapes_and_values_name_the_argument(linear_problem):
+    dyn, meas, x0, P0, zs = linear_problem
+    filt = m.KalmanFilter()
+    with pytest.raises(ValueError, match="mean"):
+        filt.init(x0[0], P0)                                   # not batched
+    with pytest.raises(ValueError, match="cov: expected 4x4"):
+        filt.init(x0, np.eye(3))
+    with pytest.raises(ValueError, match="cov: covariance is not symmetric"):
+        filt.init(x0, P0 + np.triu(np.ones((4, 4)), 1))
+    with pytest.raises(ValueError, match="cov: covariance is not positive definite"):
+        filt.init(x0, -P0)
+    with pytest.raises(ValueError, match="mean: contains NaN"):
+        filt.init(np.full_like(x0, np.nan), P0)
+    with pytest.raises(ValueError, match="measurements: contains NaN"):
+        bad = zs.copy()
+        bad[1, 3, 0] = np.nan
+        m.run(m.SingleModel(filt, dyn, meas), filt.init(x0, P0), bad)
+    with pytest.raises(ValueError, match="measurements: expected shape"):
+        m.run(m.SingleModel(filt, dyn, meas), filt.init(x0, P0), zs[0])
+    with pytest.raises(ValueError, match="z: expected shape"):
+        m.SingleModel(filt, dyn, meas).step(filt.init(x0, P0), zs[:, 0, :1])
+    with pytest.raises(ValueError, match="R"):
+        models.position_measurement([1.0, -1.0])
+    with pytest.raises(ValueError, match="q"):
+        models.constant_velocity(1.0, -2.0)
+
+
+def test_imm_bad_inputs(linear_problem):
+    dyn, meas, x0, P0, _ = linear_problem
+    with pytest.raises(ValueError, match="transition: rows must sum to 1"):
+        m.IMM(m.KalmanFilter(), [dyn, dyn], meas, [[0.9, 0.2], [0.1, 0.9]])
+    with pytest.raises(ValueError, match="transition: probabilities must lie in"):
+        m.IMM(m.KalmanFilter(), [dyn, dyn], meas, [[1.1, -0.1], [0.1, 0.9]])
+    with pytest.raises(ValueError, match="transition: expected 2x2"):
+        m.IMM(m.KalmanFilter(), [dyn, dyn], meas, np.eye(3))
+    imm = m.IMM(m.KalmanFilter(), [dyn, dyn], meas, np.eye(2))
+    with pytest.raises(ValueError, match="mode_probabilities"):
+        imm.init(x0, P0, [0.5, 0.6])
+    with pytest.raises(ValueError, match="filter"):
+        m.IMM(object(), [dyn, dyn], meas, np.eye(2))
+    with pytest.raises(ValueError, match="on_divergence"):
+        m.run(imm, imm.init(x0, P0), np.zeros((3, 2, 2)), on_divergence="ignore")
+
+
+def test_unknown_names():
+    with pytest.raises(ValueError, match="name: unknown quadrature rule"):
+        m.filter_by_name("pf")
+    assert m.filter_by_name("ekf").name == "EKF"
+    assert m.filter_by_name("5ckf").rule == m.FifthDegreeCubature()
+
+
+def _scenario(mc, runs):
+    T = 1.0
+    cv = models.constant_velocity(T, 1.0)
+    ct = models.coordinated_turn(T, 0.05, 1.0)
+    sched = ManeuverSchedule([cv, ct], [(5, 10, 1)], 0, T, 15)
+    return simulate(sched, [0.0, 10.0, 0.0, 5.0], models.position_measurement([4.0, 4.0]), mc, runs)
+
+
+def test_same_seed_bit_identical_and_prefix():
+    a = _scenario(m.MonteCarlo(7, 50), range(50))
+    b = _scenario(m.MonteCarlo(7, 50), range(50))
+    small = _scenario(m.MonteCarlo(7, 5), range(5))
+    np.testing.assert_array_equal(a.measurements, b.measurements)
+    np.testing.assert_array_equal(a.truth[:5], small.truth)          # smoke run = prefix
+    np.testing.assert_array_equal(a.measurements[:5], small.measurements)
+    other = _scenario(m.MonteCarlo(8, 5), range(5))
+    assert not np.array_equal(other.measurements, small.measurements)
+
+
+def test_chunked_equals_unchunked():
+    mc = m.MonteCarlo(11, 12)
+    sc = _scenario(mc, range(12))
+    T = 1.0
+    imm = m.IMM(m.SigmaPointFilter(m.Cubature()),
+                [models.constant_velocity(T, 1.0), models.coordinated_turn(T, 0.05, 1.0)],
+                models.position_measurement([4.0, 4.0]), [[0.95, 0.05], [0.1, 0.9]])
+    P0 = np.diag([10.0, 4.0, 10.0, 4.0])
+    x0 = np.tile([0.0, 10.0, 0.0, 5.0], (12, 1))
+    whole = m.run(imm, imm.init(x0, P0), sc.measurements)
+    parts = [m.run(imm, imm.init(x0[c], P0), sc.measurements[c]) for c in mc.chunks(5)]
+    np.testing.assert_array_equal(whole.mean, np.concatenate([p.mean for p in parts]))
+    np.testing.assert_array_equal(whole.mode_probabilities,
+                                  np.concatenate([p.mode_probabilities for p in parts]))
+
+
+def test_schedule_and_montecarlo_validation():
+    cv = models.constant_velocity(1.0, 1.0)
+    with pytest.raises(ValueError, match="segments"):
+        ManeuverSchedule([cv], [(5, 10, 1)], 0, 1.0, 10)
+    with pytest.raises(ValueError, match="n_runs"):
+        m.MonteCarlo(1, 0)
+    with pytest.raises(ValueError, match="run"):
+        m.MonteCarlo(1, 3).generator(3, m.Stream.TRUTH)
+    sched = ManeuverSchedule([cv, cv], [(2, 4, 1)], 0, 1.0, 6)
+    # step k moves over [t_{k-1}, t_k): steps starting at t = 2, 3 use model 1
+    assert sched.modes().tolist() == [0, 0, 1, 1, 0, 0]
+
+
+def test_verdict_rule():
+    assert report.verdict("2.50", 2.52, 0.01, 100, 100) == report.REPRODUCED
+    assert report.verdict("2.50", 2.80, 0.01, 100, 100) == report.QUALITATIVE
+    assert report.verdict("2.50", 4.0, 0.01, 100, 100) == report.NOT_REPRODUCED
+    assert report.verdict("2.50", None, None, reason="method not specified").startswith(report.NOT_REPLICABLE)
+    # the printed precision counts: '3' is known only to +-0.5
+    assert report.verdict("3", 3.4, 0.0) == report.REPRODUCED
+    assert report.claim_verdict(-1.0, 0.1, -1) == "holds"
+    assert report.claim_verdict(1.0, 0.1, -1) == "contradicted"
+    assert report.claim_verdict(0.1, 0.1, -1) == "no detectable difference"
