@@ -233,3 +233,13 @@ def run(estimator, state, measurements, *, keep_cov: bool = True, on_divergence:
             mus.append(est.mode_probabilities)
     return Track(np.stack(means, axis=1), np.stack(covs, axis=1) if keep_cov else None,
                  np.stack(mus, axis=1) if mus else None, diverged_step)
+
+
+def select_runs(state, index):
+    """The sub-batch ``index`` (slice or index array) of any (nested NamedTuple) filter state."""
+    if isinstance(state, tuple):
+        parts = [select_runs(s, index) for s in state]
+        return type(state)(*parts) if hasattr(state, "_fields") else tuple(parts)
+    if isinstance(state, np.ndarray):
+        return state[index]
+    return state
