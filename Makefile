@@ -16,7 +16,8 @@ venv: $(STAMP)
 $(STAMP): requirements.lock pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements.lock
-	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
+	@# mmlib is pure Python and used in place: a .pth file puts the repository on the venv's path
+	$(PY) -c "import sysconfig, pathlib; pathlib.Path(sysconfig.get_paths()['purelib'], 'mmlib-repo.pth').write_text(str(pathlib.Path.cwd()) + '\n')"
 	$(PY) -m ipykernel install --sys-prefix --name mmlib --display-name "mmlib (.venv)" >/dev/null
 	@touch $(STAMP)
 
