@@ -58,7 +58,7 @@ class SingleModel:
     def init(self, mean, cov):
         return self.filter.init(mean, cov)
 
-    def step(self, state, z):
+    def step(self, state, z, *, with_cov: bool = True):
         z = _check_measurement(z, self.measurement.dim)
         state = self.filter.predict(state, self.dynamics)
         state, info = self.filter.update(state, z, self.measurement)
@@ -160,7 +160,8 @@ class IMM:
         stacked = tuple(np.repeat(np.asarray(f)[:, None], r, axis=1) for f in base)
         return IMMState(type(base)(*stacked), np.array(mu, dtype=float))
 
-    def step(self, state: IMMState, z):
+    def step(self, state: IMMState, z, *, with_cov: bool = True):
+        """One IMM cycle.  ``with_cov=False`` skips the fused covariance (an output only)."""
         z = _check_measurement(z, self.measurement.dim)
         c, w = mixing_weights(state.mode_probabilities, self.transition)
         modes = state.modes
@@ -176,7 +177,8 @@ class IMM:
             mu = post / total
             marginal = (top + np.log(total))[:, 0]                    # log p(z_k | z_1:k-1)
         fused_mean = (mu[:, None, :] @ modes.mean)[:, 0]
-        fused_cov = combine_covariances(mu[:, None, :], modes.mean, modes.cov, fused_mean[:, None, :])[:, 0]
+        fused_cov = (combine_covariances(mu[:, None, :], modes.mean, modes.cov, fused_mean[:, None, :])[:, 0]
+                     if with_cov else None)
         return IMMState(modes, mu), Estimate(fused_mean, fused_cov, mu, marginal)
 
 
@@ -218,7 +220,7 @@ def run(estimator, state, measurements, *, keep_cov: bool = True, on_divergence:
     means, covs, mus = [], [], []
     diverged_step = np.full(B, -1)
     for k in range(K):
-        state, est = estimator.step(state, z_all[:, k])
+        state, est = estimator.step(state, z_all[:, k], with_cov=keep_cov)
         bad = ~np.isfinite(est.mean).all(axis=1) & (diverged_step < 0)
         if bad.any():
             diverged_step[bad] = k

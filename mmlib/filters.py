@@ -91,7 +91,7 @@ def kalman_update(state, pred: MeasurementPrediction, z: np.ndarray, measurement
     """
     nu = measurement.residual(z, pred.z_pred)
     chol_s, _failed = linalg.cholesky(pred.S)
-    linv = np.linalg.inv(chol_s)
+    linv = linalg.tril_inverse(chol_s)
     a = pred.Pxz @ np.swapaxes(linv, -1, -2)                         # (..., n, m)
     e = (linv @ nu[..., None])[..., 0]                               # (..., m)
     mean = state.mean + (a @ e[..., None])[..., 0]

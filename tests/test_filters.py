@@ -5,6 +5,7 @@ import pytest
 import mmlib as m
 from mmlib import models
 from conftest import textbook_kf
+from mmlib import linalg as m_linalg
 
 FILTERS = [m.KalmanFilter(), m.ExtendedKalmanFilter(),
            m.SigmaPointFilter(m.Unscented()), m.SigmaPointFilter(m.Unscented(alpha=0.1, beta=2.0, kappa=0.0)),
@@ -175,3 +176,20 @@ def test_non_pd_covariance_is_reported_not_patched(linear_problem):
     np.testing.assert_array_equal(track.mean[[0, 2]], good.mean[[0, 2]])
     with pytest.raises(m.estimation.FilterDivergence, match="run 1 diverged at step 0"):
         m.run(m.SingleModel(filt, dyn, meas), state, zs, on_divergence="raise")
+
+
+@pytest.mark.parametrize("m", [1, 2, 3, 5])
+def test_tril_inverse(m):
+    rng = np.random.default_rng(m)
+    L = np.tril(rng.standard_normal((7, 2, m, m))) + 3 * np.eye(m)
+    inv = m_linalg.tril_inverse(L)
+    np.testing.assert_allclose(inv @ L, np.broadcast_to(np.eye(m), L.shape), rtol=0, atol=1e-14)
+    np.testing.assert_array_equal(m_linalg.tril_inverse(L[:3]), inv[:3])      # batch-size invariant
+
+
+def test_cholesky_reports_failures_per_matrix():
+    a = np.eye(3) * np.ones((4, 2, 1, 1))
+    a[1, 1, 2, 2] = -1.0
+    L, failed = m_linalg.cholesky(a)
+    assert failed.tolist() == [[False, False], [False, True], [False, False], [False, False]]
+    assert np.isnan(L[1, 1]).all() and np.isfinite(L[0]).all()
