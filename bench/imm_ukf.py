@@ -56,24 +56,12 @@ def mmlib_run(n_runs, chunk=2000):
 
 
 def filterpy_run(z_all, x0, P0, dyn, radar, transition):
-    from filterpy.kalman import IMMEstimator, MerweScaledSigmaPoints, UnscentedKalmanFilter
-
-    def hx(x):
-        return radar.h(x[None, None, :])[0, 0]
-
-    def res_z(a, b):
-        return radar.residual(np.asarray(a), np.asarray(b))
+    from mmlib.crosscheck import filterpy_imm_ukf
 
     out = np.empty(z_all.shape[:2] + (4,))
     t0 = time.perf_counter()
     for b, zs in enumerate(z_all):
-        filters = []
-        for d in dyn:
-            f = UnscentedKalmanFilter(4, 2, T, hx, lambda x, dt, F=d.F: F @ x,
-                                      MerweScaledSigmaPoints(4, 1.0, 2.0, 0.0), residual_z=res_z)
-            f.x, f.P, f.Q, f.R = x0.copy(), P0.copy(), d.Q, radar.R
-            filters.append(f)
-        imm = IMMEstimator(filters, np.full(3, 1 / 3), transition)
+        imm = filterpy_imm_ukf(dyn, radar, x0, P0, transition, alpha=1.0, beta=2.0, kappa=0.0)
         for k, z in enumerate(zs):
             imm.predict()
             imm.update(z)

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 filterpy = pytest.importorskip("filterpy")
-from filterpy.kalman import IMMEstimator, KalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
+from filterpy.kalman import KalmanFilter
 
 import mmlib as m
 from mmlib import models
+from mmlib.crosscheck import filterpy_imm_ukf, filterpy_ukf
 
 T = 1.0
 RB = models.RangeBearing(np.diag([100.0, 1e-5]))
@@ -22,10 +23,6 @@ RB = models.RangeBearing(np.diag([100.0, 1e-5]))
 
 def hx(x):
     return RB.h(x[None, None, :])[0, 0]
-
-
-def residual_z(a, b):
-    return RB.residual(np.asarray(a), np.asarray(b))
 
 
 def _radar_data(K=40, seed=5):
@@ -61,9 +58,7 @@ def test_ukf_matches_filterpy_on_range_bearing(alpha, beta, kappa):
     P0 = np.diag([2500.0, 400.0, 2500.0, 400.0])
     filt = m.SigmaPointFilter(m.Unscented(alpha, beta, kappa))
     track = m.run(m.SingleModel(filt, dyn, RB), filt.init(x0[None], P0), zs[None])
-    pts = MerweScaledSigmaPoints(4, alpha=alpha, beta=beta, kappa=kappa)
-    ukf = UnscentedKalmanFilter(4, 2, T, hx, lambda x, dt: dyn.F @ x, pts, residual_z=residual_z)
-    ukf.x, ukf.P, ukf.Q, ukf.R = x0.copy(), P0.copy(), dyn.Q, RB.R
+    ukf = filterpy_ukf(dyn, RB, x0, P0, alpha, beta, kappa)
     for k, z in enumerate(zs):
         ukf.predict()
         ukf.update(z)
@@ -82,13 +77,7 @@ def test_imm_ukf_matches_filterpy_with_rows_from_convention():
     filt = m.SigmaPointFilter(m.Unscented(1.0, 2.0, 0.0))
     imm = m.IMM(filt, dyns, RB, M)
     track = m.run(imm, imm.init(x0[None], P0, mu0), zs[None])
-    fps = []
-    for d in dyns:
-        f = UnscentedKalmanFilter(4, 2, T, hx, lambda x, dt, F=d.F: F @ x,
-                                  MerweScaledSigmaPoints(4, 1.0, 2.0, 0.0), residual_z=residual_z)
-        f.x, f.P, f.Q, f.R = x0.copy(), P0.copy(), d.Q, RB.R
-        fps.append(f)
-    fp = IMMEstimator(fps, mu0.copy(), M)
+    fp = filterpy_imm_ukf(dyns, RB, x0, P0, M, mu0, alpha=1.0, beta=2.0, kappa=0.0)
     for k, z in enumerate(zs):
         fp.predict()
         fp.update(z)

@@ -116,3 +116,25 @@ def test_verdict_rule():
     assert report.claim_verdict(-1.0, 0.1, -1) == "holds"
     assert report.claim_verdict(1.0, 0.1, -1) == "contradicted"
     assert report.claim_verdict(0.1, 0.1, -1) == "no detectable difference"
+
+
+def test_nees_of_the_exact_kalman_filter_averages_to_the_state_dimension():
+    """A consistent filter on its own model: E[NEES] = n (chi-square with n dof)."""
+    from mmlib import metrics
+    from mmlib.montecarlo import Stream
+    mc = m.MonteCarlo(3, 400)
+    cv = models.constant_velocity(1.0, 1.0)
+    meas = models.position_measurement([4.0, 4.0])
+    sched = ManeuverSchedule([cv], [], 0, 1.0, 20)
+    x0 = np.array([0.0, 10.0, 0.0, 5.0])
+    P0 = np.diag([25.0, 4.0, 25.0, 4.0])
+    runs = range(400)
+    truth0 = x0 + mc.standard_normal(runs, Stream.INITIAL, (4,)) @ np.linalg.cholesky(P0).T
+    sc = simulate(sched, truth0, meas, mc, runs)
+    kf = m.KalmanFilter()
+    track = m.run(m.SingleModel(kf, cv, meas), kf.init(np.tile(x0, (400, 1)), P0), sc.measurements)
+    nees = metrics.nees(track.mean - sc.truth[:, 1:], track.cov)          # (400, 20)
+    per_run = metrics.mean_with_se(nees.mean(axis=1))
+    assert abs(per_run.value - 4.0) < 4 * per_run.stderr, per_run        # 4-sigma Monte Carlo band
+    lo, hi = metrics.chi2_band(4, 400)
+    assert lo < 4.0 < hi and hi - lo < 0.6

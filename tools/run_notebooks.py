@@ -5,7 +5,8 @@ Each notebook (jupytext percent source in notebooks/*.py) is converted to
 .ipynb, executed with the ``mmlib`` kernel into a fresh *staging* folder, and
 only if every cell succeeds are its outputs promoted into place:
 
-* profile ``full``:  figures/<paper>/, data/results/<paper>.json, notebooks/executed/<name>.ipynb
+* profile ``full``:  figures/<paper>/, data/results/<paper>.json, notebooks/executed/<name>.ipynb,
+  and reports/<paper>.md rendered from the results
 * profile ``smoke``: the same layout under build/smoke/
 
 Promotion renames whole folders/files (``os.replace``), so a failed or
@@ -103,6 +104,8 @@ def main(argv=None) -> int:
         shutil.rmtree(staging, ignore_errors=True)
         print(f"[{i}/{len(sources)}] {name}: done in {time.perf_counter() - t0:.1f} s -> " + ", ".join(moved),
               flush=True)
+    import make_report
+    make_report.main(["--root", str(final_root)])
     print(f"all {len(sources)} notebook(s) done in {time.perf_counter() - t_all:.1f} s (profile={args.profile})")
     return 0
 
