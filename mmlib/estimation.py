@@ -65,6 +65,35 @@ class SingleModel:
         return state, Estimate(state.mean, state.cov, None, info.loglik)
 
 
+class SwitchingState(NamedTuple):
+    filter_state: Any
+    step: int
+
+
+@dataclass(frozen=True, eq=False)
+class KnownModeSequence:
+    """A filter told the true mode of every step ("clairvoyant" benchmark): step k uses
+    ``dynamics[modes[k]]``.  With linear models and the Kalman filter it is the MMSE
+    estimator, hence a lower bound on the error of any filter, IMM included."""
+
+    filter: Any
+    dynamics: Sequence[Any]
+    modes: np.ndarray
+    measurement: Any
+    name: str = "clairvoyant"
+
+    def init(self, mean, cov):
+        return SwitchingState(self.filter.init(mean, cov), 0)
+
+    def step(self, state, z, *, with_cov: bool = True):
+        z = _check_measurement(z, self.measurement.dim)
+        if state.step >= len(self.modes):
+            raise ValueError(f"z: step {state.step} beyond the {len(self.modes)} known modes")
+        s = self.filter.predict(state.filter_state, self.dynamics[int(self.modes[state.step])])
+        s, info = self.filter.update(s, z, self.measurement)
+        return SwitchingState(s, state.step + 1), Estimate(s.mean, s.cov, None, info.loglik)
+
+
 # --------------------------------------------------------------------------- IMM
 def mixing_weights(mu: np.ndarray, transition: np.ndarray):
     r"""``c`` (B, r) and ``w[b, i, j] = mu_{i|j}`` (B, r, r) (Zhu et al. 2016, Eq. 54)."""

@@ -193,3 +193,14 @@ def test_cholesky_reports_failures_per_matrix():
     L, failed = m_linalg.cholesky(a)
     assert failed.tolist() == [[False, False], [False, True], [False, False], [False, False]]
     assert np.isnan(L[1, 1]).all() and np.isfinite(L[0]).all()
+
+
+def test_known_mode_sequence_equals_single_model_when_one_mode(linear_problem):
+    dyn, meas, x0, P0, zs = linear_problem
+    kf = m.KalmanFilter()
+    single = m.run(m.SingleModel(kf, dyn, meas), kf.init(x0, P0), zs)
+    known = m.estimation.KnownModeSequence(kf, [dyn], np.zeros(zs.shape[1], int), meas)
+    track = m.run(known, known.init(x0, P0), zs)
+    np.testing.assert_array_equal(track.mean, single.mean)
+    with pytest.raises(ValueError, match="beyond"):
+        m.run(known, known.init(x0, P0), np.concatenate([zs, zs], axis=1))

@@ -16,6 +16,7 @@ current.  On failure the script names the notebook and the cell and exits 1.
 from __future__ import annotations
 
 import argparse
+import ast
 import logging
 import os
 import shutil
@@ -57,8 +58,19 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--profile", default="full", choices=["full", "smoke"])
     ap.add_argument("--timeout", type=int, default=900, help="seconds per cell")
+    ap.add_argument("-p", "--param", action="append", default=[], metavar="NAME=VALUE",
+                    help="extra notebook parameter (value parsed as Python literal, else string)")
     ap.add_argument("notebooks", nargs="*", help="notebook sources (default: notebooks/*.py)")
     args = ap.parse_args(argv)
+    extra = {}
+    for item in args.param:
+        if "=" not in item:
+            ap.error(f"--param: expected NAME=VALUE, got {item!r}")
+        key, value = item.split("=", 1)
+        try:
+            extra[key] = ast.literal_eval(value)
+        except (ValueError, SyntaxError):
+            extra[key] = value
 
     import jupytext
     import papermill as pm
@@ -86,7 +98,7 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         try:
             pm.execute_notebook(str(nb_in), str(executed), kernel_name=KERNEL,
-                                parameters={"PROFILE": args.profile, "OUTPUT_ROOT": str(staging)},
+                                parameters={**extra, "PROFILE": args.profile, "OUTPUT_ROOT": str(staging)},
                                 cwd=str(REPO / "notebooks"), execution_timeout=args.timeout,
                                 progress_bar=False, log_output=False, stdout_file=sys.stdout,
                                 stderr_file=sys.stderr)

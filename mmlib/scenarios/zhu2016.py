@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .. import models
-from ..estimation import IMM, SingleModel
+from ..estimation import IMM, KnownModeSequence, SingleModel
 from ..filters import ExtendedKalmanFilter, SigmaPointFilter
 from ..montecarlo import MonteCarlo, Stream
 from ..rules import Cubature, FifthDegreeCubature, Unscented
@@ -150,6 +150,9 @@ def build(setup: Setup):
         "IMMUKF": IMM(SigmaPointFilter(Unscented(*setup.ukf)), modes, meas, T, name="IMMUKF"),
         "5CKF": SingleModel(SigmaPointFilter(FifthDegreeCubature()), single, meas, name="5CKF"),
         "IMM-KF": IMM(ExtendedKalmanFilter(name="KF"), modes, meas, T, name="IMM-KF"),
+        # not in the paper: the Kalman filter told the true mode sequence (MMSE lower bound)
+        "clairvoyant KF": KnownModeSequence(ExtendedKalmanFilter(name="KF"), modes, schedule.modes(), meas,
+                                            name="clairvoyant KF"),
     }
     return schedule, meas, estimators
 
