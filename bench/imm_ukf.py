@@ -78,11 +78,11 @@ def main():
     dyn, radar, sched, mc, x0, P0, transition = problem(100)
     z = simulate(sched, x0, radar, mc, range(100)).measurements
     ours, fp = [], []
-    for i in range(repeats):
+    for _ in range(repeats):
         est, dt = mmlib_run(100)
         ours.append(dt)
         print(f"mmlib   100 runs: {dt * 1e3:8.1f} ms", flush=True)
-    for i in range(repeats):
+    for _ in range(repeats):
         ref, dt = filterpy_run(z, x0, P0, dyn, radar, transition)
         fp.append(dt)
         print(f"FilterPy 100 runs: {dt * 1e3:8.1f} ms", flush=True)

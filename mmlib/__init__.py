@@ -15,3 +15,11 @@ from .rules import (CentralDifference, Cubature, FifthDegreeCubature, SphericalS
                     Unscented, rule_by_name)
 
 __version__ = "0.1.0"
+
+__all__ = [
+    "estimation", "filters", "linalg", "metrics", "models", "montecarlo", "report", "rules", "simulate",
+    "IMM", "MomentMixing", "SingleModel", "Track", "run",
+    "ExtendedKalmanFilter", "GaussianState", "KalmanFilter", "SigmaPointFilter", "filter_by_name", "kalman_update",
+    "MonteCarlo", "Stream",
+    "CentralDifference", "Cubature", "FifthDegreeCubature", "SphericalSimplexRadial", "Unscented", "rule_by_name",
+]

@@ -17,15 +17,13 @@ With :math:`\mu_i` the mode probabilities at k-1:
 """
 from __future__ import annotations
 
-import sys
-import time
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple, Sequence
 
 import numpy as np
 
 from .models import StackedDynamics
-from ._validate import (check_batch_vector, check_finite, as_float_array,
+from ._validate import (check_finite, as_float_array,
                         check_probabilities, check_transition_matrix)
 
 
@@ -98,8 +96,13 @@ class KnownModeSequence:
 def mixing_weights(mu: np.ndarray, transition: np.ndarray):
     r"""``c`` (B, r) and ``w[b, i, j] = mu_{i|j}`` (B, r, r) (Zhu et al. 2016, Eq. 54)."""
     c = mu @ transition
-    w = transition[None, :, :] * mu[:, :, None] / c[:, None, :]
-    return c, w
+    impossible = c <= 0.0
+    if impossible.any():
+        # A mode no other mode can reach has c_j = 0: its mixed estimate gets zero weight in
+        # every later step, so any valid distribution will do; use mu itself (no 0/0 NaN).
+        w = transition[None, :, :] * mu[:, :, None] / np.where(impossible, 1.0, c)[:, None, :]
+        return c, np.where(impossible[:, None, :], mu[:, :, None], w)
+    return c, transition[None, :, :] * mu[:, :, None] / c[:, None, :]
 
 
 @dataclass(frozen=True)
@@ -186,7 +189,9 @@ class IMM:
         else:
             mu = check_probabilities(np.broadcast_to(np.asarray(mode_probabilities, float), (B, r)),
                                      "mode_probabilities")
-        stacked = tuple(np.repeat(np.asarray(f)[:, None], r, axis=1) for f in base)
+        # every per-run field of the mode filter's state gets a mode axis; other fields pass through
+        stacked = tuple(np.repeat(f[:, None], r, axis=1) if isinstance(f, np.ndarray) and f.ndim and f.shape[0] == B
+                        else f for f in base)
         return IMMState(type(base)(*stacked), np.array(mu, dtype=float))
 
     def step(self, state: IMMState, z, *, with_cov: bool = True):

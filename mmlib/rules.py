@@ -47,7 +47,9 @@ def _frozen(xi, wm, wc=None) -> UnitPoints:
 class SigmaPointRule:
     """Base class: a deterministic rule given by :meth:`unit_points`.
 
-    Subclasses are frozen dataclasses holding only their hyper-parameters.
+    Subclasses are frozen dataclasses holding only their hyper-parameters;
+    ``unit_points(n)`` is cached per (rule, n) -- rules are tiny, immutable and
+    long-lived, so the cache holding them is intended.
     """
 
     name = "rule"

@@ -36,11 +36,9 @@ PROGRESS = True
 
 # %%
 import os
-import sys
 import time
 from pathlib import Path
 
-import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Markdown, display
@@ -197,7 +195,7 @@ display(Markdown(markdown_table(
 import scipy.linalg
 
 riccati = {}
-for axis, (pos, r_var) in enumerate(((0, setup.r[0]), (2, setup.r[1]))):
+for pos, r_var in ((0, setup.r[0]), (2, setup.r[1])):
     F1 = np.array([[1.0, setup.T], [0.0, 1.0]])
     G1 = np.array([[setup.T ** 2 / 2], [setup.T]])
     Q1 = G1 @ G1.T * setup.q

@@ -204,3 +204,15 @@ def test_known_mode_sequence_equals_single_model_when_one_mode(linear_problem):
     np.testing.assert_array_equal(track.mean, single.mean)
     with pytest.raises(ValueError, match="beyond"):
         m.run(known, known.init(x0, P0), np.concatenate([zs, zs], axis=1))
+
+
+def test_unreachable_mode_does_not_poison_the_imm(linear_problem):
+    """mu0 = (1, 0) with an identity transition: mode 2 has predicted probability 0."""
+    dyn, meas, x0, P0, zs = linear_problem
+    kf = m.KalmanFilter()
+    imm = m.IMM(kf, [dyn, models.coordinated_turn(1.0, 0.1, 2.0)], meas, np.eye(2))
+    track = m.run(imm, imm.init(x0, P0, [1.0, 0.0]), zs)
+    single = m.run(m.SingleModel(kf, dyn, meas), kf.init(x0, P0), zs)
+    assert not track.diverged.any()
+    np.testing.assert_allclose(track.mean, single.mean, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(track.mode_probabilities[..., 1], 0.0)
