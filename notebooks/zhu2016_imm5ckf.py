@@ -295,7 +295,7 @@ for j, (fignum, label) in enumerate([(5, "model 1 (CV)"), (6, "model 2 (right tu
     show(fig, f"fig{fignum:02d}_mode_probability_{j + 1}",
          "IMM5CKF captures the mode switches at t = 20, 40, 60, 80 s in time, better than the others (Figs. 5-7).",
          "the switches are captured within a few steps (reproduced), but the three curves are identical: "
-         "no IMM5CKF advantage (not reproduced).")
+         "no IMM5CKF advantage (not reproduced); OMTM-IMM is not replicable (Z-14).")
 
 # %% [markdown]
 # ## Filter consistency (not in the paper)
