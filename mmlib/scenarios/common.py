@@ -75,23 +75,29 @@ def paired_mse_difference(a: RunSet, b: RunSet, component: int):
     return metrics.mean_with_se(da - db)
 
 
-def time_per_run(estimator, init_state, measurements, *, repeats: int = 3) -> np.ndarray:
-    """Seconds per run, the paper's way (one run at a time, B = 1); one value per repeat."""
-    times = []
+def _time_one_at_a_time(estimator, init_state, measurements) -> float:
+    t0 = time.perf_counter()
     n = measurements.shape[0]
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        for b in range(n):
-            run(estimator, select_runs(init_state, slice(b, b + 1)), measurements[b:b + 1], keep_cov=False)
-        times.append((time.perf_counter() - t0) / n)
-    return np.array(times)
+    for b in range(n):
+        run(estimator, select_runs(init_state, slice(b, b + 1)), measurements[b:b + 1], keep_cov=False)
+    return (time.perf_counter() - t0) / n
 
 
-def time_batched(estimator, init_state, measurements, *, repeats: int = 3) -> np.ndarray:
-    """Seconds per run when all runs go through in one batch; one value per repeat."""
-    times = []
+def _time_batched(estimator, init_state, measurements) -> float:
+    t0 = time.perf_counter()
+    run(estimator, init_state, measurements, keep_cov=False)
+    return (time.perf_counter() - t0) / measurements.shape[0]
+
+
+def time_algorithms(estimators: dict, init: dict, measurements, *, repeats: int = 3):
+    """Seconds per run of each estimator, ``(one_at_a_time, batched)``: dicts name -> array
+    (one value per repeat).  One at a time (B = 1) is the paper's way; batched is all runs in
+    one call.  Algorithms are interleaved within every repeat, so that ratios between them
+    compare adjacent measurements and are robust to the machine's speed drifting."""
+    single = {name: [] for name in estimators}
+    batched = {name: [] for name in estimators}
     for _ in range(repeats):
-        t0 = time.perf_counter()
-        run(estimator, init_state, measurements, keep_cov=False)
-        times.append((time.perf_counter() - t0) / measurements.shape[0])
-    return np.array(times)
+        for name, est in estimators.items():
+            single[name].append(_time_one_at_a_time(est, init[name], measurements))
+            batched[name].append(_time_batched(est, init[name], measurements))
+    return ({k: np.array(v) for k, v in single.items()}, {k: np.array(v) for k, v in batched.items()})
