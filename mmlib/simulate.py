@@ -3,7 +3,9 @@ r"""Ground truth and measurements for piecewise maneuver schedules.
 Time grid (stated once): ``x_0`` at ``t = 0``; step ``k = 1..K`` moves the
 target over ``[t_{k-1}, t_k)`` with the dynamics of the segment that contains
 ``t_{k-1}`` and then measures it at ``t_k = kT``.  A segment ``(t0, t1, mode)``
-therefore covers the transitions that *start* in ``[t0, t1)``.
+therefore covers the transitions that *start* in ``[t0, t1)``.  A jump
+``(t, indices, values)`` overwrites state components of the truth at ``t``
+(after the step that ends at ``t``), e.g. an acceleration switched on at t.
 """
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ class ManeuverSchedule:
     default: int
     T: float
     n_steps: int
+    jumps: Sequence[tuple] = ()      # (t, state indices, values): set after the step that ends at t
 
     def __post_init__(self):
         check_positive_int(self.n_steps, "n_steps")
@@ -37,6 +40,9 @@ class ManeuverSchedule:
             raise ValueError(f"default: model index {self.default} outside 0..{r - 1}")
         if not self.T > 0:
             raise ValueError(f"T: sampling interval must be > 0, got {self.T}")
+        for jump in self.jumps:
+            if len(jump) != 3 or len(jump[1]) != len(jump[2]):
+                raise ValueError(f"jumps: bad jump {jump!r} (need (t, indices, values) of equal lengths)")
 
     def modes(self) -> np.ndarray:
         """Index of the model used for step k = 1..K, shape (K,)."""
@@ -78,12 +84,16 @@ def simulate(schedule: ManeuverSchedule, x0, measurement, mc: MonteCarlo, runs,
     w = mc.standard_normal(runs, Stream.TRUTH, (K, n_w))
     x = np.broadcast_to(x0, (len(runs), n)).copy()
     truth = [x]
+    times = schedule.times
     for k in range(K):
         model = schedule.models[modes[k]]
         x = model.transition(x)
         if process_noise:
             L = model.noise_factor
             x = x + w[:, k, :L.shape[1]] @ L.T
+        for t_jump, idx, values in schedule.jumps:
+            if abs(times[k] - t_jump) < 1e-9:
+                x[:, list(idx)] = values
         truth.append(x)
     truth = np.stack(truth, axis=1)
     v = mc.standard_normal(runs, Stream.MEASUREMENT, (K, measurement.dim))

@@ -1,0 +1,116 @@
+r"""Strong tracking (suboptimal fading factor) as a thin layer over any filter.
+
+Zhou & Frank 1996 (Int. J. Control 65, 295-307); Liu & Wu 2017, Eqs. 13-19 and 28.
+With the predicted covariance :math:`P^l` (including Q), the innovation
+:math:`v_k` of the predicted measurement and
+
+.. math::
+    V_k = \begin{cases} v_1 v_1^T & \text{first update (Eq. 17, } k = 0)\\
+          (\rho V_{k-1} + v_k v_k^T)/(1 + \rho) & \text{afterwards} \end{cases}
+
+the fading factor is :math:`\lambda_k = \max(1, \mathrm{tr} N_k / \mathrm{tr} M_k)` (Eq. 14) with
+
+* Jacobian form (EKF-based STF, Eqs. 15-16):
+  :math:`N = V - HQH^T - \beta R`, :math:`M = H(P^l - Q)H^T` (:math:`= HFPF^TH^T`);
+* Jacobian-free form (Eqs. 18-19), any rule, with :math:`\tilde H = P_{xz}^T (P^l)^{-1}`:
+  :math:`N = V - \tilde H Q \tilde H^T - \beta R`, :math:`M = P_{zz} - V + N + (\beta - 1)R`.
+
+For the EKF, :math:`P_{xz} = P^l H^T` makes the two forms identical (tested).  The
+prediction covariance is then inflated, :math:`P' = \lambda(P^l - Q) + Q` (Eq. 28), the
+measurement is predicted again from :math:`P'` (Eqs. 29-33) and the shared Kalman update
+follows (Eqs. 34-36).  Where :math:`\lambda = 1` the layer uses :math:`P^l` itself, so a
+strong-tracking filter whose factor never exceeds 1 *is* its base filter, bit for bit.
+
+STF, STUKF, STCKF, STSSRCKF (and a strong-tracking 5th-degree CKF or CDKF) are this
+layer over the corresponding base filter: configurations, not classes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from .filters import gaussian_state, kalman_update
+
+
+class StrongTrackingState(NamedTuple):
+    mean: np.ndarray
+    cov: np.ndarray
+    V: Any = None            # (..., m, m) smoothed innovation outer product; None before the first update
+    Q: Any = None            # (..., n, n) process noise of the last prediction
+    fading: Any = None       # (...,) last fading factor lambda_k
+
+
+def _trace(a):
+    return np.trace(a, axis1=-2, axis2=-1)
+
+
+@dataclass(frozen=True)
+class StrongTracking:
+    """Strong-tracking layer over ``base`` (any filter with ``predict`` / ``predict_measurement``).
+
+    ``beta`` >= 1 is the softening factor, ``rho`` in (0, 1] the forgetting factor
+    (Liu & Wu 2017 use 4.5 and 0.95); ``form`` is ``"jacobian"`` (Eqs. 15-16, needs
+    ``measurement.jacobian``) or ``"statistical"`` (Eqs. 18-19, Jacobian-free)."""
+
+    base: Any
+    beta: float = 4.5
+    rho: float = 0.95
+    form: str = "statistical"
+    name: str = ""
+
+    def __post_init__(self):
+        if not (isinstance(self.beta, (int, float)) and self.beta >= 1.0):
+            raise ValueError(f"beta: softening factor must be >= 1, got {self.beta!r}")
+        if not (isinstance(self.rho, (int, float)) and 0.0 < self.rho <= 1.0):
+            raise ValueError(f"rho: forgetting factor must lie in (0, 1], got {self.rho!r}")
+        if self.form not in ("statistical", "jacobian"):
+            raise ValueError(f"form: expected 'statistical' or 'jacobian', got {self.form!r}")
+        if not self.name:
+            object.__setattr__(self, "name", "ST" + getattr(self.base, "name", "filter"))
+
+    def init(self, mean, cov) -> StrongTrackingState:
+        g = gaussian_state(mean, cov)
+        return StrongTrackingState(g.mean, g.cov)
+
+    def predict(self, state, dynamics):
+        s = self.base.predict(state, dynamics)
+        return s._replace(Q=np.broadcast_to(dynamics.Q, s.cov.shape))
+
+    def predict_measurement(self, state, measurement):
+        return self.base.predict_measurement(state, measurement)
+
+    def fading_factor(self, state, pred, V, measurement):
+        """lambda_k of Eq. 14 for the predicted ``state`` (P^l, Q) and its measurement prediction."""
+        Q, R = state.Q, measurement.R
+        if self.form == "jacobian":
+            H = measurement.jacobian(state.mean)
+            Ht = np.swapaxes(H, -1, -2)
+            N = V - H @ Q @ Ht - self.beta * R
+            M = H @ (state.cov - Q) @ Ht
+        else:
+            X = np.linalg.solve(state.cov, pred.Pxz)                 # (P^l)^-1 Pxz, (..., n, m)
+            N = V - np.swapaxes(X, -1, -2) @ Q @ X - self.beta * R
+            M = pred.S - V + N + (self.beta - 1.0) * R
+        tr_n, tr_m = _trace(N), _trace(M)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            c = np.where(tr_m > 0.0, tr_n / tr_m, 1.0)
+        return np.maximum(c, 1.0)
+
+    def update(self, state, z, measurement):
+        if state.Q is None:
+            raise ValueError("state: strong tracking needs predict() before update() (Q of Eq. 28 unknown)")
+        pred = self.base.predict_measurement(state, measurement)
+        v = measurement.residual(z, pred.z_pred)
+        vvt = v[..., :, None] * v[..., None, :]
+        V = vvt if state.V is None else (self.rho * state.V + vvt) / (1.0 + self.rho)
+        lam = self.fading_factor(state, pred, V, measurement)
+        inflate = lam > 1.0
+        if inflate.any():
+            faded = lam[..., None, None] * (state.cov - state.Q) + state.Q
+            cov = np.where(inflate[..., None, None], faded, state.cov)
+            state = state._replace(cov=cov)
+            pred = self.base.predict_measurement(state, measurement)
+        new, info = kalman_update(state, pred, z, measurement)
+        return new._replace(V=V, fading=lam), info
