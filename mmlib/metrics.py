@@ -74,3 +74,12 @@ def chi2_band(dof: int, n_runs: int, level: float = 0.95):
     (Bar-Shalom et al. 2001, Sec. 5.4.2)."""
     lo, hi = stats.chi2.ppf([(1 - level) / 2, (1 + level) / 2], dof * n_runs)
     return lo / n_runs, hi / n_runs
+
+
+def armse(err, valid=None) -> MCValue:
+    r"""Accumulative RMSE (Liu & Wu 2017, Eqs. 41-42):
+    :math:`\sqrt{\frac1N\sum_k \mathrm{RMSE}^2(k)}` with
+    :math:`\mathrm{RMSE}^2(k) = \frac1M\sum_m \lVert e_{m,k}\rVert^2` -- ``err`` (M, K, d), the
+    squared errors summed over the d components (x and y) first."""
+    sq = (np.asarray(err, dtype=float) ** 2).sum(axis=-1)
+    return rms_with_se(sq.mean(axis=1), valid)

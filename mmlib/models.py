@@ -169,8 +169,17 @@ class LinearMeasurement:
         return weights @ values
 
 
-def position_measurement(R, state_dim: int = 4, position_index=(0, 2)) -> LinearMeasurement:
+def position_indices(state_dim: int) -> tuple:
+    """Indices of x and y in the state ordering of this module: (0, 2) for [x, vx, y, vy],
+    (0, 3) for [x, vx, ax, y, vy, ay]."""
+    if state_dim not in (4, 6):
+        raise ValueError(f"state_dim: expected 4 (CV/CT) or 6 (CA), got {state_dim!r}")
+    return (0, state_dim // 2)
+
+
+def position_measurement(R, state_dim: int = 4, position_index=None) -> LinearMeasurement:
     """Linear x-y position measurement (Zhu et al. 2016, Eq. 62)."""
+    position_index = position_indices(state_dim) if position_index is None else tuple(position_index)
     H = np.zeros((len(position_index), state_dim))
     H[np.arange(len(position_index)), list(position_index)] = 1.0
     R = check_covariance(np.diag(R) if np.ndim(R) == 1 else R, "R", H.shape[0])
@@ -274,3 +283,9 @@ class StackedDynamics:
 
     def with_noise(self, Q) -> "StackedDynamics":
         return StackedDynamics(self.models, np.asarray(Q, dtype=float), self.F)
+
+
+def range_bearing(R, state_dim: int = 4, sensor=(0.0, 0.0)) -> "RangeBearing":
+    """Range-bearing radar at ``sensor`` for a state of the given dimension (positions located
+    by :func:`position_indices`; Liu & Wu 2017 Eq. 40, Hu et al. 2017)."""
+    return RangeBearing(np.asarray(R, dtype=float), np.asarray(sensor, dtype=float), position_indices(state_dim))

@@ -102,6 +102,26 @@ def make_row(item, algorithm, quantity, paper, replicated, stderr, *, n_runs=Non
                verdict(paper, rep, se, n_runs, n_runs_paper, reason), list(deviations), note)
 
 
+def analytic_row(item, algorithm, quantity, paper, finding: str, holds: bool, *, deviations=()) -> Row:
+    """A row judged by analysis rather than by Monte Carlo (e.g. a complexity class): no number,
+    verdict 'reproduced' or 'not reproduced', with the finding as the note."""
+    return Row(item, algorithm, quantity, paper, None, None,
+               REPRODUCED if holds else f"{NOT_REPRODUCED}: {finding}", list(deviations), finding)
+
+
+def combine_claim_verdicts(verdicts) -> str:
+    """One verdict for a claim tested on several quantities (each from :func:`claim_verdict`)."""
+    verdicts = list(verdicts)
+    kinds = {v.split(" (")[0] for v in verdicts}
+    if kinds == {"holds"}:
+        return "holds"
+    if kinds == {"contradicted"}:
+        return "contradicted"
+    if kinds == {"no detectable difference"}:
+        return "not supported: no detectable difference"
+    return "partly: " + "; ".join(verdicts)
+
+
 def git_commit(repo: Path | None = None) -> str:
     try:
         out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,

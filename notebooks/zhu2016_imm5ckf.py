@@ -35,9 +35,7 @@ N_TIMING_RUNS = None      # runs timed one at a time, the paper's way
 PROGRESS = True
 
 # %%
-import os
 import time
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -47,27 +45,20 @@ import mmlib
 from mmlib import metrics, report
 from mmlib.montecarlo import MonteCarlo
 from mmlib.scenarios import common, zhu2016 as paper
-from mmlib.scenarios.presentation import deviations_table, markdown_table, rows_table, shade_intervals, value_pm
+from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
+                                         shade_intervals, value_pm)
 
 PROFILES = {"full": dict(n_runs=paper.N_RUNS_PAPER, timing_runs=10, timing_repeats=7),
             "smoke": dict(n_runs=20, timing_runs=2, timing_repeats=2)}
-if PROFILE not in PROFILES:
-    raise ValueError(f"PROFILE: expected one of {sorted(PROFILES)}, got {PROFILE!r}")
-cfg = dict(PROFILES[PROFILE])
-for name, value in (("N_RUNS", N_RUNS), ("SEED", SEED), ("N_TIMING_RUNS", N_TIMING_RUNS)):
-    if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < (0 if name == "SEED" else 1)):
-        raise ValueError(f"{name}: expected a positive integer or None, got {value!r}")
-if not isinstance(OUTPUT_ROOT, str):
-    raise ValueError(f"OUTPUT_ROOT: expected a path string, got {OUTPUT_ROOT!r}")
-n_runs = N_RUNS or cfg["n_runs"]
-seed = paper.ROOT_SEED if SEED is None else SEED
-timing_runs = min(N_TIMING_RUNS or cfg["timing_runs"], n_runs)
-root = Path(OUTPUT_ROOT) if OUTPUT_ROOT else Path.cwd().resolve().parent if Path.cwd().name == "notebooks" else Path.cwd()
-fig_dir = root / "figures" / paper.PAPER
-results_path = root / "data" / "results" / f"{paper.PAPER}.json"
+nb = NotebookRun(paper.PAPER, paper.ROOT_SEED, PROFILES, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED,
+                 OUTPUT_ROOT=OUTPUT_ROOT, N_TIMING_RUNS=N_TIMING_RUNS)
+n_runs, seed, root = nb.n_runs, nb.seed, nb.root
+cfg = {"timing_repeats": nb.timing_repeats}
+timing_runs = nb.timing_runs
+results_path = nb.results_path
 mc = MonteCarlo(seed, n_runs)
-plt.rcParams.update({"figure.dpi": 110, "axes.grid": True, "grid.alpha": 0.3, "font.size": 10})
-print(f"profile={PROFILE} runs={n_runs} seed={seed} outputs -> {root}")
+plot_style()
+print(nb)
 
 # %% [markdown]
 # ## Set-up and deviations
@@ -227,14 +218,7 @@ t = schedule.times
 maneuvers = [setup.right_turn, setup.left_turn]
 styles = {"IMM5CKF": dict(color="C3", lw=2.2, ls="-"), "IMMCKF": dict(color="C0", lw=1.4, ls="--"),
           "IMMUKF": dict(color="C2", lw=1.2, ls=":"), "5CKF": dict(color="C1", lw=1.2, ls="-")}
-figure_lines = {}
-
-
-def show(fig, stem, claim, ours):
-    paths = report.save_figure(fig, fig_dir, stem)
-    figure_lines[stem] = {"paper_claim": claim, "ours": ours, "files": [os.path.relpath(p, root) for p in paths]}
-    plt.show()
-    display(Markdown(f"**Paper:** {claim}  \n**Ours:** {ours}"))
+show = nb.show
 
 
 truth0, z0, _ = make_batch(range(1))
@@ -365,15 +349,8 @@ def claim(text, verdict, evidence):
 
 
 for other in ("IMMCKF", "IMMUKF", "5CKF"):
-    parts = []
-    for q, comp in paper.QUANTITIES:
-        d = common.paired_mse_difference(results["IMM5CKF"], results[other], comp)
-        parts.append((q, float(d.value), float(d.stderr), report.claim_verdict(float(d.value), float(d.stderr), -1)))
-    verdicts = {p[3] for p in parts}
-    overall = ("holds" if verdicts == {"holds"} else "contradicted" if "contradicted" in verdicts
-               else "not supported: " + "; ".join(sorted(verdicts)))
-    claim(f"IMM5CKF is more accurate than {other}", overall,
-          "; ".join(f"{q}: ΔMSE = {v:.3g} ± {s:.2g} ({vd})" for q, v, s, vd in parts))
+    claim(f"IMM5CKF is more accurate than {other}",
+          *common.better_claim(results, "IMM5CKF", other, paper.QUANTITIES))
 claim("IMM5CKF is more accurate than OMTM-IMM", "not replicable", "OMTM-IMM not specified (Z-14)")
 below = [r[0] for r in bound_rows if r[-1] == "below the floor"]
 claim("Table 1's IMM errors are attainable under the printed set-up (implicit)",
@@ -399,7 +376,7 @@ prov = report.provenance(root_seed=seed, n_runs=n_runs, profile=PROFILE,
                                 "timing_repeats": cfg["timing_repeats"], "mmlib": mmlib.__version__})
 doc = report.write_results(results_path, paper=paper.PAPER, provenance=prov, rows=rows,
                            claims=claims, deviations=[d.as_dict() for d in paper.DEVIATIONS],
-                           figures=figure_lines, sweeps=sweep_json,
+                           figures=nb.figures, sweeps=sweep_json,
                            coincidence={"max_abs_estimate_difference_vs_IMM_KF": coincide,
                                         "max_abs_mode_probability_difference_vs_IMM_KF": coincide_mu},
                            diverged_runs=diverged, nees_time_average=nees_summary, lower_bound=lower_bound,

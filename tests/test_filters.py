@@ -216,3 +216,13 @@ def test_unreachable_mode_does_not_poison_the_imm(linear_problem):
     assert not track.diverged.any()
     np.testing.assert_allclose(track.mean, single.mean, rtol=0, atol=1e-9)
     np.testing.assert_array_equal(track.mode_probabilities[..., 1], 0.0)
+
+
+def test_measurement_factories_locate_positions_for_cv_and_ca_states():
+    x4 = np.array([[3.0, -1.0, 4.0, 2.0]])
+    x6 = np.array([[3.0, -1.0, 9.0, 4.0, 2.0, 7.0]])
+    assert models.range_bearing(np.eye(2), state_dim=4).h(x4)[0, 0] == pytest.approx(5.0)
+    assert models.range_bearing(np.eye(2), state_dim=6).h(x6)[0, 0] == pytest.approx(5.0)
+    np.testing.assert_array_equal(models.position_measurement([1.0, 1.0], state_dim=6).h(x6), [[3.0, 4.0]])
+    with pytest.raises(ValueError, match="state_dim"):
+        models.range_bearing(np.eye(2), state_dim=5)

@@ -18,7 +18,7 @@ def radar_ca():
     """CA target, range-bearing radar; an acceleration jump at t = 20 s the filter's small Q cannot follow."""
     T = 1.0
     ca = models.constant_acceleration(T, 0.01)
-    radar = models.RangeBearing(np.diag([30.0 ** 2, 0.01 ** 2]))
+    radar = models.range_bearing(np.diag([30.0 ** 2, 0.01 ** 2]), state_dim=6)
     sched = ManeuverSchedule([ca], [], 0, T, 40, jumps=[(20.0, (2, 5), (6.0, 8.0))])   # along the line of sight
     mc = m.MonteCarlo(5, 30)
     x0 = np.array([3000.0, 15.0, 0.0, 4000.0, 20.0, 0.0])

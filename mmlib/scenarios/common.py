@@ -66,13 +66,28 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
                          np.concatenate(d["div"]), first[name]) for name, d in out.items()}
 
 
-def paired_mse_difference(a: RunSet, b: RunSet, component: int):
-    """Mean over runs of (time-averaged squared error of a - of b) for one state component,
-    with its standard error; runs diverged in either are excluded."""
+def paired_mse_difference(a: RunSet, b: RunSet, components):
+    """Mean over runs of (time-averaged squared error of a minus that of b), with its standard
+    error; ``components`` is one state index or a tuple whose squared errors are summed (e.g. x
+    and y for a position error).  Runs diverged in either estimator are excluded."""
+    idx = [components] if np.isscalar(components) else list(components)
     ok = a.valid & b.valid
-    da = (a.errors[ok, :, component] ** 2).mean(axis=1)
-    db = (b.errors[ok, :, component] ** 2).mean(axis=1)
+    da = (a.errors[ok][..., idx] ** 2).sum(axis=-1).mean(axis=1)
+    db = (b.errors[ok][..., idx] ** 2).sum(axis=-1).mean(axis=1)
     return metrics.mean_with_se(da - db)
+
+
+def better_claim(results: dict, a: str, b: str, quantities) -> tuple[str, str]:
+    """Verdict and evidence for "a is more accurate than b" over ``quantities`` = [(label, components)],
+    from paired differences on common random numbers (:func:`mmlib.report.claim_verdict`)."""
+    from ..report import claim_verdict, combine_claim_verdicts
+    parts = []
+    for label, comp in quantities:
+        d = paired_mse_difference(results[a], results[b], comp)
+        parts.append((label, float(d.value), float(d.stderr), claim_verdict(float(d.value), float(d.stderr), -1)))
+    verdict = combine_claim_verdicts(f"{v} ({lab})" for lab, _, _, v in parts)
+    evidence = "; ".join(f"{lab}: Δ(mean squared error) = {v:.3g} ± {se:.2g}" for lab, v, se, _ in parts)
+    return verdict, evidence
 
 
 def _time_one_at_a_time(estimator, init_state, measurements) -> float:

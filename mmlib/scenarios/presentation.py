@@ -38,3 +38,53 @@ def rows_table(rows) -> str:
 def shade_intervals(ax, intervals, label="true maneuver", color="0.9"):
     for i, (a, b) in enumerate(intervals):
         ax.axvspan(a, b, color=color, zorder=0, label=label if i == 0 else None)
+
+
+class NotebookRun:
+    """Validated notebook parameters and output locations, shared by every paper notebook.
+
+    ``profiles`` maps a profile name to defaults (``n_runs``, ``timing_runs``, ``timing_repeats``);
+    the papermill parameters override them.  Bad parameters raise ``ValueError`` naming them."""
+
+    def __init__(self, paper: str, root_seed: int, profiles: dict, *, PROFILE, N_RUNS=None, SEED=None,
+                 OUTPUT_ROOT="", N_TIMING_RUNS=None):
+        from pathlib import Path
+        if PROFILE not in profiles:
+            raise ValueError(f"PROFILE: expected one of {sorted(profiles)}, got {PROFILE!r}")
+        for name, value in (("N_RUNS", N_RUNS), ("SEED", SEED), ("N_TIMING_RUNS", N_TIMING_RUNS)):
+            if value is not None and (isinstance(value, bool) or not isinstance(value, int)
+                                      or value < (0 if name == "SEED" else 1)):
+                raise ValueError(f"{name}: expected a positive integer or None, got {value!r}")
+        if not isinstance(OUTPUT_ROOT, str):
+            raise ValueError(f"OUTPUT_ROOT: expected a path string, got {OUTPUT_ROOT!r}")
+        cfg = dict(profiles[PROFILE])
+        self.paper, self.profile = paper, PROFILE
+        self.n_runs = N_RUNS or cfg["n_runs"]
+        self.seed = root_seed if SEED is None else SEED
+        self.timing_runs = min(N_TIMING_RUNS or cfg["timing_runs"], self.n_runs)
+        self.timing_repeats = cfg["timing_repeats"]
+        cwd = Path.cwd().resolve()
+        self.root = Path(OUTPUT_ROOT) if OUTPUT_ROOT else (cwd.parent if cwd.name == "notebooks" else cwd)
+        self.fig_dir = self.root / "figures" / paper
+        self.results_path = self.root / "data" / "results" / f"{paper}.json"
+        self.figures: dict = {}
+
+    def __repr__(self):
+        return f"profile={self.profile} runs={self.n_runs} seed={self.seed} outputs -> {self.root}"
+
+    def show(self, fig, stem: str, claim: str, ours: str):
+        """Save ``fig`` as figures/<paper>/<stem>.{png,svg}, display it with the paper's claim and ours."""
+        import os
+        import matplotlib.pyplot as plt
+        from IPython.display import Markdown, display
+        from ..report import save_figure
+        paths = save_figure(fig, self.fig_dir, stem)
+        self.figures[stem] = {"paper_claim": claim, "ours": ours,
+                              "files": [os.path.relpath(p, self.root) for p in paths]}
+        plt.show()
+        display(Markdown(f"**Paper:** {claim}  \n**Ours:** {ours}"))
+
+
+def plot_style():
+    import matplotlib.pyplot as plt
+    plt.rcParams.update({"figure.dpi": 110, "axes.grid": True, "grid.alpha": 0.3, "font.size": 10})
