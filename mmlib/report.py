@@ -17,7 +17,9 @@ error ``s`` from ``N`` runs, where the paper used ``N_p`` runs:
   not published); the reason is part of the verdict text.
 
 Claims (rankings, "A is better than B") get a separate verdict from a paired
-comparison on common random numbers: :func:`claim_verdict`.
+comparison on common random numbers: :func:`claim_verdict`.  Paired differences
+can detect effects far too small to matter, so a detected difference smaller than
+1 % of the reference mean squared error is labelled *negligible*.
 """
 from __future__ import annotations
 
@@ -66,7 +68,10 @@ def verdict(paper: str | float | None, replicated, stderr, n_runs: int | None = 
     return NOT_REPRODUCED
 
 
-def claim_verdict(difference: float, stderr: float, expected_sign: int) -> str:
+NEGLIGIBLE = 0.01
+
+
+def claim_verdict(difference: float, stderr: float, expected_sign: int, reference: float | None = None) -> str:
     """Verdict on a claim "A < B" (``expected_sign=-1``) or "A > B" (``+1``) from a paired
     difference A - B with its standard error: 'holds' if the difference has the expected sign
     and is at least 3 standard errors from 0, 'contradicted' if it has the opposite sign
@@ -74,10 +79,11 @@ def claim_verdict(difference: float, stderr: float, expected_sign: int) -> str:
     if stderr == 0.0 and difference == 0.0:
         return "no detectable difference (identical)"
     z = difference / stderr if stderr > 0 else math.copysign(math.inf, difference)
+    small = reference is not None and abs(difference) < NEGLIGIBLE * abs(reference)
     if z * expected_sign >= SIGMA_FACTOR:
-        return "holds"
+        return "holds, but negligible (< 1 %)" if small else "holds"
     if z * expected_sign <= -SIGMA_FACTOR:
-        return "contradicted"
+        return "contradicted, but negligible (< 1 %)" if small else "contradicted"
     return "no detectable difference"
 
 
@@ -113,6 +119,9 @@ def combine_claim_verdicts(verdicts) -> str:
     """One verdict for a claim tested on several quantities (each from :func:`claim_verdict`)."""
     verdicts = list(verdicts)
     kinds = {v.split(" (")[0] for v in verdicts}
+    if kinds <= {"no detectable difference", "holds, but negligible", "contradicted, but negligible"} \
+            and kinds != {"no detectable difference"}:
+        return "not supported: differences negligible or undetectable; " + "; ".join(verdicts)
     if kinds == {"holds"}:
         return "holds"
     if kinds == {"contradicted"}:

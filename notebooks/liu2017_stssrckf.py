@@ -106,7 +106,7 @@ for fignum, ((quantity, idx), unit, what) in enumerate(zip(paper.QUANTITIES, ("m
         e = metrics.rmse_over_time(ex1[alg].errors[..., list(idx)].__pow__(2).sum(-1) ** 0.5, ex1[alg].valid)
         ax.plot(t, e.value, label=alg, **st)
     ax.set(xlabel="time (s)", ylabel=f"RMSE of {what} ({unit})", yscale="log",
-           title=f"Fig. {fignum} — RMSE of the estimated {what} (Eq. 41, {nb.n_runs} runs)")
+           title=f"Fig. {fignum} — RMSE of the estimated {what} (Eq. 41, {nb.n_runs} runs; the ST filters overlap)")
     ax.legend(fontsize=8)
     worst_after = {alg: float(metrics.armse(ex1[alg].errors[:, 150:, list(idx)]).value) for alg in styles}
     nb.show(fig, f"fig{fignum:02d}_rmse_{what}",

@@ -84,9 +84,13 @@ def better_claim(results: dict, a: str, b: str, quantities) -> tuple[str, str]:
     parts = []
     for label, comp in quantities:
         d = paired_mse_difference(results[a], results[b], comp)
-        parts.append((label, float(d.value), float(d.stderr), claim_verdict(float(d.value), float(d.stderr), -1)))
-    verdict = combine_claim_verdicts(f"{v} ({lab})" for lab, _, _, v in parts)
-    evidence = "; ".join(f"{lab}: Δ(mean squared error) = {v:.3g} ± {se:.2g}" for lab, v, se, _ in parts)
+        idx = [comp] if np.isscalar(comp) else list(comp)
+        ref = float((results[b].errors[results[b].valid][..., idx] ** 2).sum(axis=-1).mean())
+        parts.append((label, float(d.value), float(d.stderr), ref,
+                      claim_verdict(float(d.value), float(d.stderr), -1, reference=ref)))
+    verdict = combine_claim_verdicts(f"{v} ({lab})" for lab, _, _, _, v in parts)
+    evidence = "; ".join(f"{lab}: Δ(mean squared error) = {v:.3g} ± {se:.2g} ({100 * v / r:+.2g} %)"
+                         for lab, v, se, r, _ in parts)
     return verdict, evidence
 
 
