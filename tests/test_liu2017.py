@@ -40,3 +40,5 @@ def test_setup_validation():
         paper.Setup(maneuver_start=250.0)
     with pytest.raises(ValueError, match="q_sd"):
         paper.Setup(q_sd=0.0)
+    with pytest.raises(ValueError, match="initial_estimate"):
+        paper.Setup(initial_estimate="perfect")

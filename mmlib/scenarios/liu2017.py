@@ -14,7 +14,7 @@ import numpy as np
 from .. import models
 from ..estimation import SingleModel
 from ..filters import ExtendedKalmanFilter, SigmaPointFilter
-from ..montecarlo import MonteCarlo
+from ..montecarlo import MonteCarlo, Stream
 from ..rules import Cubature, SphericalSimplexRadial, Unscented
 from ..simulate import ManeuverSchedule, simulate
 from ..strong_tracking import StrongTracking
@@ -51,7 +51,7 @@ class Setup:
     maneuver_start: float = 150.0                             # s (L-1)
     maneuver_acceleration: tuple = (15.0, 25.0)               # m/s^2
     x0: tuple = (100.0, 15.0, 0.0, 400.0, 20.0, 0.0)          # [x, vx, ax, y, vy, ay]
-    initial_estimate: tuple | None = None                     # None = x0 (as Example 1 prints) (L-6)
+    initial_estimate: str = "true"                            # "true" = x0 (as Example 1 prints) or "sampled" (L-6)
     P0_sd: tuple = (50.0, 20.0, 1.0, 50.0, 10.0, 1.0)
     sigma_r: float = 30.0                                     # m
     sigma_theta: float = 0.010                                # rad (10 mrad)
@@ -67,6 +67,8 @@ class Setup:
                              f"got {self.maneuver_start}")
         if not self.q_sd > 0:
             raise ValueError(f"q_sd: must be > 0, got {self.q_sd}")
+        if self.initial_estimate not in ("true", "sampled"):
+            raise ValueError(f"initial_estimate: expected 'true' or 'sampled', got {self.initial_estimate!r}")
 
 
 EXAMPLE1 = Setup()
@@ -142,12 +144,13 @@ def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
     if names is not None:
         estimators = {k: estimators[k] for k in names}
     x0 = np.array(setup.x0)
-    m0 = x0 if setup.initial_estimate is None else np.array(setup.initial_estimate)
     P0 = np.diag(np.square(setup.P0_sd))
 
     def make_batch(runs):
         sc = simulate(schedule, x0, radar, mc, runs, process_noise=setup.truth_process_noise)
-        start = np.tile(m0, (len(runs), 1))
+        start = np.tile(x0, (len(runs), 1))
+        if setup.initial_estimate == "sampled":
+            start = start + mc.standard_normal(runs, Stream.INITIAL, (6,)) * np.array(setup.P0_sd)
         return sc.truth, sc.measurements, {name: est.init(start, P0) for name, est in estimators.items()}
 
     return make_batch, estimators, schedule
