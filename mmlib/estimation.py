@@ -53,8 +53,9 @@ class SingleModel:
     measurement: Any
     name: str = ""
 
-    def init(self, mean, cov):
-        return self.filter.init(mean, cov)
+    def init(self, mean, cov, **filter_init):
+        """``filter_init`` goes to the filter's ``init`` (e.g. pre-drawn bootstrap noise)."""
+        return self.filter.init(mean, cov, **filter_init)
 
     def step(self, state, z, *, with_cov: bool = True):
         z = _check_measurement(z, self.measurement.dim)
@@ -180,8 +181,9 @@ class IMM:
     def n_modes(self) -> int:
         return len(self.dynamics)
 
-    def init(self, mean, cov, mode_probabilities=None) -> IMMState:
-        base = self.filter.init(mean, cov)
+    def init(self, mean, cov, mode_probabilities=None, **filter_init) -> IMMState:
+        """``filter_init`` goes to the mode filter's ``init``; every mode starts from the same state."""
+        base = self.filter.init(mean, cov, **filter_init)
         B = base.mean.shape[0]
         r = self.n_modes
         if mode_probabilities is None:

@@ -110,6 +110,9 @@ class _FilterBase:
     def init(self, mean, cov) -> GaussianState:
         return gaussian_state(mean, cov)
 
+    def predict_measurement(self, state, measurement):  # pragma: no cover - implemented by subclasses
+        raise NotImplementedError
+
 
 @dataclass(frozen=True)
 class ExtendedKalmanFilter(_FilterBase):

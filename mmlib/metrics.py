@@ -83,3 +83,20 @@ def armse(err, valid=None) -> MCValue:
     squared errors summed over the d components (x and y) first."""
     sq = (np.asarray(err, dtype=float) ** 2).sum(axis=-1)
     return rms_with_se(sq.mean(axis=1), valid)
+
+
+def mean_rmse_over_time(err, valid=None) -> MCValue:
+    r"""Mean over steps of the per-step RMSE across runs (Hu et al. 2017, Table 1 "mean of RMSE"):
+    :math:`\frac1K\sum_k \sqrt{m_k}`, :math:`m_k = \frac1M\sum_r e_{r,k}^2`; ``err`` (M, K).
+
+    Standard error by the delta method with per-run influence values
+    :math:`u_r = \frac1K\sum_k e_{r,k}^2 / (2\sqrt{m_k})` (runs are the independent replications)."""
+    e = np.asarray(err, dtype=float)
+    ok = _valid(valid, e.shape[0])
+    sq = e[ok] ** 2
+    m_k = sq.mean(axis=0)
+    value = np.sqrt(m_k).mean()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.where(m_k > 0, sq / (2.0 * np.sqrt(m_k)), 0.0).mean(axis=1)
+    se = u.std(ddof=1) / np.sqrt(len(u)) if len(u) > 1 else np.nan
+    return MCValue(value, se, int(ok.sum()), int((~ok).sum()))

@@ -222,15 +222,25 @@ class CentralDifference(SigmaPointRule):
 
     ``h = sqrt(3)`` is optimal for Gaussian priors (kurtosis 3).  Exact for
     linear maps (then ``b_j = 0``, ``a_j = F s_j``).
+
+    ``form="weighted"`` is the form Hu et al. 2017 print (Eqs. 1-11): the same points
+    and mean weights, but covariances as weighted outer products of deviations with
+    the *mean* weights, :math:`\sum_l w_l (Y_l - \bar y)(Y_l - \bar y)^T`.  That is
+    exactly the scaled unscented rule with alpha = 1, beta = 0, kappa = h^2 - n (tested);
+    the two forms agree on linear maps and differ in the second-order terms.
     """
 
     h: float = math.sqrt(3.0)
+    form: str = "stirling"
     name = "central_difference"
     degree = 3
 
     def __post_init__(self):
-        if not self.h > 1.0:
-            raise ValueError(f"h: half-step must be > 1, got {self.h}")
+        if not (isinstance(self.h, (int, float)) and self.h > 1.0):
+            raise ValueError(f"h: half-step must be > 1, got {self.h!r}")
+        if self.form not in ("stirling", "weighted"):
+            raise ValueError(f"form: expected 'stirling' (Norgaard et al. 2000) or 'weighted' (Hu et al. 2017), "
+                             f"got {self.form!r}")
 
     @lru_cache(maxsize=None)
     def unit_points(self, n: int) -> UnitPoints:
@@ -239,12 +249,17 @@ class CentralDifference(SigmaPointRule):
         xi = np.vstack([np.zeros((1, n)), eye, -eye])
         wm = np.full(2 * n + 1, 0.5 / h2)
         wm[0] = (h2 - n) / h2
-        return _frozen(xi, wm, np.full(2 * n + 1, np.nan))  # wc unused: see covariances
+        # Stirling form: wc unused (see covariances); weighted form: wc = wm (Hu et al. Eqs. 7, 10, 11)
+        return _frozen(xi, wm, wm.copy() if self.form == "weighted" else np.full(2 * n + 1, np.nan))
 
     def covariance(self, dx, dy):
+        if self.form == "weighted":
+            return SigmaPointRule.covariance(self, dx, dy)
         return self.covariances(dx, dy)[0]
 
     def covariances(self, dx, dy):
+        if self.form == "weighted":
+            return SigmaPointRule.covariances(self, dx, dy)
         n = dx.shape[-1]
         h = self.h
         d0 = dy[..., :1, :]

@@ -8,7 +8,8 @@ import pytest
 from mmlib import rules
 
 RULES = [rules.Unscented(), rules.Unscented(alpha=0.5, beta=2.0, kappa=1.0), rules.Cubature(),
-         rules.FifthDegreeCubature(), rules.SphericalSimplexRadial(), rules.CentralDifference()]
+         rules.FifthDegreeCubature(), rules.SphericalSimplexRadial(), rules.CentralDifference(),
+         rules.CentralDifference(form="weighted")]
 
 
 def gaussian_moment(alpha):
