@@ -279,7 +279,7 @@ claim("IMMEKF has the shortest run time", "holds" if all(per_run["IMMEKF"].mean(
 ekf_vs = {o: common.better_claim(results, o, "IMMEKF", axes_q) for o in ("IMMUKF", "IMMCKF", "IMMCDKF")}
 claim("IMMEKF has the lowest precision",
       "holds" if all(v == "holds" for v, _ in ekf_vs.values()) else
-      "not supported: " + "; ".join(f"vs {o}: {v}" for o, (v, _) in ekf_vs.items()),
+      "not supported: " + "; ".join(f"vs {o}: {v.replace('not supported: ', '')}" for o, (v, _) in ekf_vs.items()),
       " | ".join(f"{o} - IMMEKF: {e}" for o, (_, e) in ekf_vs.items()))
 obs_time = metrics.mean_with_se(per_run["IMMCDKF-OBS"] / per_run["IMMCDKF"])
 claim("IMMCDKF-OBS costs only slightly more time than IMMCDKF", "holds" if obs_time.value < 2 else "contradicted",
