@@ -289,3 +289,25 @@ def range_bearing(R, state_dim: int = 4, sensor=(0.0, 0.0)) -> "RangeBearing":
     """Range-bearing radar at ``sensor`` for a state of the given dimension (positions located
     by :func:`position_indices`; Liu & Wu 2017 Eq. 40, Hu et al. 2017)."""
     return RangeBearing(np.asarray(R, dtype=float), np.asarray(sensor, dtype=float), position_indices(state_dim))
+
+
+@dataclass(frozen=True, eq=False)
+class SensorFault:
+    """Sensor-fault term of Zhou et al. 2017, Eq. 2: ``z = h(x) + v + delta_h``, with a constant
+    range deviation ``delta_r`` (m) and a bearing drift ``delta_theta_k = rate * t_k`` (rad), each
+    per run: arrays of shape (B,).  Used as ``simulate(..., measurement_noise_fn=fault.apply(...))``."""
+
+    range_offset: np.ndarray
+    bearing_rate: np.ndarray
+    times: np.ndarray
+
+    def delta(self) -> np.ndarray:
+        """(B, K, 2) fault term."""
+        dr = np.broadcast_to(np.asarray(self.range_offset, float)[:, None], (len(self.range_offset), len(self.times)))
+        dth = np.asarray(self.bearing_rate, float)[:, None] * np.asarray(self.times, float)[None, :]
+        return np.stack([dr, dth], axis=-1)
+
+    def apply(self, measurement):
+        def noise_fn(truth, v):
+            return measurement.h(truth) + v @ measurement.noise_factor.T + self.delta()
+        return noise_fn

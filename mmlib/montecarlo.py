@@ -28,6 +28,7 @@ class Stream(IntEnum):
     MEASUREMENT = 1
     INITIAL = 2
     FILTER = 3
+    FAULT = 4
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,107 @@
+r"""Innovation-based adaptive filtering as one thin layer over any sigma-point filter.
+
+NAUKF (Zhou, Zhao, Huang & Zhao 2017, Eqs. 27-39).  With the rule's measurement
+covariance :math:`P_{zz}^{sp} = \sum_i W_i (\gamma_i - \hat z)(\cdot)^T` and an estimate
+:math:`\hat C_k` of the innovation covariance :math:`P_{\tilde z\tilde z}`, the adaptive
+gene :math:`\Delta_k = (\hat C_k - P_{zz}^{sp})R^{-1}` (Eq. 27) enters
+:math:`\bar P_{zz} = P_{zz}^{sp} + \Delta_k R` (Eq. 28), i.e.
+
+.. math:: \bar P_{zz} = \hat C_k
+
+identically: the "adaptive gene" replaces the predicted innovation covariance by the
+empirical one.  That is innovation-based adaptive estimation of R (Mohamed & Schwarz
+1999, J. Geodesy 73:193-203: :math:`\hat R = \hat C - P_{zz}^{sp}`,
+:math:`S = P_{zz}^{sp} + \hat R = \hat C`).  What NAUKF adds is the covariance-matching
+test (Eq. 32) and, when the innovation is too large, the inflation
+:math:`\bar P = \zeta(P - Q) + Q` with :math:`\zeta = \max(1, \mathrm{tr}(\hat C - R) /
+\mathrm{tr}(P - Q))` (Eqs. 33-35) -- the same form as a strong-tracking fading factor.
+The gain uses the *unmodified* cross-covariance (Eq. 37, as printed).
+
+:math:`\hat C_k` is the mean of :math:`\tilde z\tilde z^T` over a sliding window
+(``window`` innovations; ``include_current`` decides whether the current innovation is
+in it).  Until ``window`` innovations exist the standard predicted covariance is used.
+
+Configurations: ``InnovationAdaptive(base, zeta=True, include_current=True)`` is NAUKF;
+``InnovationAdaptive(base, zeta=False, include_current=False)`` is the IAE adaptive UKF
+of Mohamed & Schwarz (window of past innovations).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from .filters import MeasurementPrediction, gaussian_state, kalman_update
+
+
+class AdaptiveState(NamedTuple):
+    mean: np.ndarray
+    cov: np.ndarray
+    innovations: Any = None    # (..., window, m) most recent innovations, newest last
+    count: int = 0
+    Q: Any = None
+    zeta: Any = None
+
+
+def _trace(a):
+    return np.trace(a, axis1=-2, axis2=-1)
+
+
+@dataclass(frozen=True)
+class InnovationAdaptive:
+    """Innovation-covariance-matching layer (NAUKF / IAE-AUKF); see the module docstring."""
+
+    base: Any
+    window: int = 10
+    psi: float = 1.0
+    zeta: bool = True
+    include_current: bool = True
+    name: str = ""
+
+    def __post_init__(self):
+        if isinstance(self.window, bool) or not isinstance(self.window, (int, np.integer)) or self.window < 2:
+            raise ValueError(f"window: innovation window must be an integer >= 2, got {self.window!r}")
+        if not (isinstance(self.psi, (int, float)) and self.psi >= 1.0):
+            raise ValueError(f"psi: covariance-matching coefficient must be >= 1 (Eq. 32), got {self.psi!r}")
+        if not self.name:
+            object.__setattr__(self, "name", ("NA" if self.zeta else "A") + getattr(self.base, "name", "filter"))
+
+    def init(self, mean, cov) -> AdaptiveState:
+        g = gaussian_state(mean, cov)
+        return AdaptiveState(g.mean, g.cov)
+
+    def predict(self, state, dynamics):
+        s = self.base.predict(state, dynamics)
+        return s._replace(Q=np.broadcast_to(dynamics.Q, s.cov.shape))
+
+    def predict_measurement(self, state, measurement):
+        return self.base.predict_measurement(state, measurement)
+
+    def update(self, state, z, measurement):
+        pred = self.base.predict_measurement(state, measurement)
+        nu = measurement.residual(z, pred.z_pred)
+        past = state.innovations
+        window_now = nu[..., None, :] if past is None else np.concatenate([past, nu[..., None, :]], axis=-2)
+        window_now = window_now[..., -self.window:, :]
+        used = window_now if self.include_current else past
+        new_state = state._replace(innovations=window_now, count=state.count + 1)
+        have = 0 if used is None else used.shape[-2]
+        if have < self.window:                       # not enough innovations yet: the base filter
+            new, info = kalman_update(new_state, pred, z, measurement)
+            return new, info
+        C = np.swapaxes(used, -1, -2) @ used / have                        # empirical innovation covariance
+        S_bar = C                                                          # Eqs. 27-28: P_zz + Delta R = C
+        if self.zeta:
+            if state.Q is None:
+                raise ValueError("state: predict() must run before update() (Q of Eq. 33 unknown)")
+            matched = _trace(nu[..., :, None] * nu[..., None, :]) <= self.psi * _trace(pred.S)   # Eq. 32
+            base_part = state.cov - state.Q
+            with np.errstate(divide="ignore", invalid="ignore"):
+                z0 = _trace(C - measurement.R) / _trace(base_part)                              # Eq. 35
+            zeta = np.where(matched, 1.0, np.maximum(np.nan_to_num(z0, nan=1.0), 1.0))         # Eq. 34
+            inflate = zeta > 1.0
+            cov = np.where(inflate[..., None, None], zeta[..., None, None] * base_part + state.Q, state.cov)
+            new_state = new_state._replace(cov=cov, zeta=zeta)
+        new, info = kalman_update(new_state, MeasurementPrediction(pred.z_pred, S_bar, pred.Pxz), z, measurement)
+        return new, info
