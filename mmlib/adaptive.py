@@ -21,6 +21,13 @@ The gain uses the *unmodified* cross-covariance (Eq. 37, as printed).
 (``window`` innovations; ``include_current`` decides whether the current innovation is
 in it).  Until ``window`` innovations exist the standard predicted covariance is used.
 
+As printed, :math:`\bar P_{zz} = \hat C` with the unmodified :math:`P_{xz}` gives the posterior
+:math:`P - P_{xz}\hat C^{-1}P_{xz}^T`, which is positive definite only if :math:`\hat C` exceeds
+:math:`P_{xz}^T P^{-1} P_{xz}` (= :math:`HPH^T` for linear h) in every direction; a windowed
+estimate violates that whenever R is not much larger than :math:`HPH^T`, and the run diverges
+(reported).  ``inflate_only=True`` -- *not in the paper*, a labelled variant -- keeps only the
+positive part of :math:`\hat C - P_{zz}`, so the adaptive covariance can only grow.
+
 Configurations: ``InnovationAdaptive(base, zeta=True, include_current=True)`` is NAUKF;
 ``InnovationAdaptive(base, zeta=False, include_current=False)`` is the IAE adaptive UKF
 of Mohamed & Schwarz (window of past innovations).
@@ -57,6 +64,7 @@ class InnovationAdaptive:
     psi: float = 1.0
     zeta: bool = True
     include_current: bool = True
+    inflate_only: bool = False
     name: str = ""
 
     def __post_init__(self):
@@ -92,6 +100,11 @@ class InnovationAdaptive:
             return new, info
         C = np.swapaxes(used, -1, -2) @ used / have                        # empirical innovation covariance
         S_bar = C                                                          # Eqs. 27-28: P_zz + Delta R = C
+        if self.inflate_only:
+            # NOT in the paper: S_bar = S + PSD part of (C - S), so the adaptive covariance can only grow.
+            # As printed, S_bar = C below H P H^T makes P - Pxz C^-1 Pxz^T indefinite (the filter diverges).
+            w, v = np.linalg.eigh(C - pred.S)
+            S_bar = pred.S + (v * np.clip(w, 0.0, None)[..., None, :]) @ np.swapaxes(v, -1, -2)
         if self.zeta:
             if state.Q is None:
                 raise ValueError("state: predict() must run before update() (Q of Eq. 33 unknown)")

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import linalg
+
 
 @dataclass(frozen=True)
 class CubatureMixing:
@@ -34,7 +36,7 @@ class CubatureMixing:
     def __call__(self, means, covs, w):
         B, r, n = means.shape
         l = r * n
-        chol = np.linalg.cholesky(covs)                                    # (B, r, n, n): blocks of S
+        chol, _ = linalg.cholesky(covs)         # (B, r, n, n) blocks of S; a non-PD block gives NaN (reported)
         wt = np.swapaxes(w, -1, -2)                                        # (B, j, i)
         centre = wt @ means                                                # f_j(chi_hat), (B, j, n)
         # point +-sqrt(l) S e_c in block i moves f_j by +-sqrt(l) mu_{i|j} S_i[:, c]

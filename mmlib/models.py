@@ -293,21 +293,22 @@ def range_bearing(R, state_dim: int = 4, sensor=(0.0, 0.0)) -> "RangeBearing":
 
 @dataclass(frozen=True, eq=False)
 class SensorFault:
-    """Sensor-fault term of Zhou et al. 2017, Eq. 2: ``z = h(x) + v + delta_h``, with a constant
-    range deviation ``delta_r`` (m) and a bearing drift ``delta_theta_k = rate * t_k`` (rad), each
-    per run: arrays of shape (B,).  Used as ``simulate(..., measurement_noise_fn=fault.apply(...))``."""
+    """Additive sensor fault (Zhou et al. 2017, Eq. 2): ``z = h(x) + v + delta``, ``delta`` (B, K, m)
+    per run and step.  :meth:`radar` builds the paper's range deviation and bearing drift; use as
+    ``simulate(..., measurement_noise_fn=fault.apply(measurement))``."""
 
-    range_offset: np.ndarray
-    bearing_rate: np.ndarray
-    times: np.ndarray
+    delta: np.ndarray
 
-    def delta(self) -> np.ndarray:
-        """(B, K, 2) fault term."""
-        dr = np.broadcast_to(np.asarray(self.range_offset, float)[:, None], (len(self.range_offset), len(self.times)))
-        dth = np.asarray(self.bearing_rate, float)[:, None] * np.asarray(self.times, float)[None, :]
-        return np.stack([dr, dth], axis=-1)
+    @staticmethod
+    def radar(range_offset, bearing_rate, times) -> "SensorFault":
+        """Range deviation ``delta_r`` (m, per run, constant) and bearing drift
+        ``delta_theta_k = rate * t_k`` (rad, rate per run): arrays of shape (B,) or (B, K)."""
+        t = np.asarray(times, float)
+        dr = np.broadcast_to(np.asarray(range_offset, float).reshape(len(range_offset), -1), (len(range_offset), len(t)))
+        rate = np.asarray(bearing_rate, float).reshape(len(bearing_rate), -1)
+        return SensorFault(np.stack([dr, rate * t[None, :]], axis=-1))
 
     def apply(self, measurement):
         def noise_fn(truth, v):
-            return measurement.h(truth) + v @ measurement.noise_factor.T + self.delta()
+            return measurement.h(truth) + v @ measurement.noise_factor.T + self.delta
         return noise_fn

@@ -102,8 +102,8 @@ def test_zeta_inflation_only_when_covariance_matching_fails(radar_cv):
 
 
 def test_sensor_fault_model():
-    fault = models.SensorFault(np.array([3.0, -5.0]), np.array([0.0, 0.01]), np.arange(1, 4.0))
-    d = fault.delta()
+    fault = models.SensorFault.radar(np.array([3.0, -5.0]), np.array([0.0, 0.01]), np.arange(1, 4.0))
+    d = fault.delta
     assert d.shape == (2, 3, 2)
     np.testing.assert_array_equal(d[0, :, 0], 3.0)
     np.testing.assert_allclose(d[1, :, 1], [0.01, 0.02, 0.03])
