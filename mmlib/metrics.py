@@ -30,6 +30,9 @@ def mean_with_se(samples, valid=None) -> MCValue:
     ok = _valid(valid, samples.shape[0])
     s = samples[ok]
     n = s.shape[0]
+    if n == 0:
+        nan = np.full(samples.shape[1:], np.nan)
+        return MCValue(nan, nan, 0, int((~ok).sum()))
     se = s.std(axis=0, ddof=1) / np.sqrt(n) if n > 1 else np.full(s.shape[1:], np.nan)
     return MCValue(s.mean(axis=0), se, n, int((~ok).sum()))
 
@@ -93,6 +96,8 @@ def mean_rmse_over_time(err, valid=None) -> MCValue:
     :math:`u_r = \frac1K\sum_k e_{r,k}^2 / (2\sqrt{m_k})` (runs are the independent replications)."""
     e = np.asarray(err, dtype=float)
     ok = _valid(valid, e.shape[0])
+    if not ok.any():
+        return MCValue(np.nan, np.nan, 0, int((~ok).sum()))
     sq = e[ok] ** 2
     m_k = sq.mean(axis=0)
     value = np.sqrt(m_k).mean()
@@ -100,3 +105,20 @@ def mean_rmse_over_time(err, valid=None) -> MCValue:
         u = np.where(m_k > 0, sq / (2.0 * np.sqrt(m_k)), 0.0).mean(axis=1)
     se = u.std(ddof=1) / np.sqrt(len(u)) if len(u) > 1 else np.nan
     return MCValue(value, se, int(ok.sum()), int((~ok).sum()))
+
+
+def jackknife(statistic, samples, valid=None) -> MCValue:
+    """Delete-one-run jackknife standard error of ``statistic(samples)`` (samples: runs first);
+    for statistics without a simple closed-form error, e.g. the s.d. over time of a per-step RMSE."""
+    s = np.asarray(samples, dtype=float)
+    ok = _valid(valid, s.shape[0])
+    s = s[ok]
+    n = s.shape[0]
+    if n == 0:
+        return MCValue(np.nan, np.nan, 0, int((~ok).sum()))
+    value = float(statistic(s))
+    if n < 2:
+        return MCValue(value, np.nan, n, int((~ok).sum()))
+    loo = np.array([statistic(np.delete(s, i, axis=0)) for i in range(n)])
+    se = float(np.sqrt((n - 1) / n * ((loo - loo.mean()) ** 2).sum()))
+    return MCValue(value, se, n, int((~ok).sum()))

@@ -144,3 +144,11 @@ def test_nees_of_the_exact_kalman_filter_averages_to_the_state_dimension():
     assert abs(per_run.value - 4.0) < 4 * per_run.stderr, per_run        # 4-sigma Monte Carlo band
     lo, hi = metrics.chi2_band(4, 400)
     assert lo < 4.0 < hi and hi - lo < 0.6
+
+
+def test_jackknife_matches_the_closed_form_for_the_mean():
+    from mmlib import metrics
+    x = np.random.default_rng(2).standard_normal(50)
+    jk = metrics.jackknife(np.mean, x)
+    closed = metrics.mean_with_se(x)
+    assert jk.value == pytest.approx(float(closed.value)) and jk.stderr == pytest.approx(float(closed.stderr), rel=1e-10)
