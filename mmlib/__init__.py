@@ -1,12 +1,19 @@
 """mmlib: batched multiple-model and sigma-point Kalman filtering for replication studies.
 
 Layout: ``rules`` (quadrature rules) -> ``filters`` (one generic recursion, one
-Kalman update) -> ``estimation`` (single model, IMM combinator, batched driver);
+Kalman update) -> layers over any filter (``strong_tracking``, ``adaptive``,
+``bootstrap``) -> ``estimation`` (single model, IMM combinator with pluggable
+``mixing``, batched driver);
 ``models`` and ``simulate`` (dynamics, sensors, truth); ``montecarlo``
 (deterministic per-run streams); ``metrics`` (errors with standard errors);
 ``report`` (verdict rule, results contract); ``scenarios`` (one module per paper).
 """
-from . import estimation, filters, linalg, metrics, models, montecarlo, report, rules, simulate
+from . import (adaptive, bootstrap, estimation, filters, linalg, metrics, mixing, models, montecarlo, report, rules,
+               simulate, strong_tracking)
+from .adaptive import InnovationAdaptive
+from .bootstrap import ObservationBootstrap
+from .mixing import CubatureMixing
+from .strong_tracking import StrongTracking
 from .estimation import IMM, MomentMixing, SingleModel, Track, run
 from .filters import (ExtendedKalmanFilter, GaussianState, KalmanFilter, SigmaPointFilter,
                       filter_by_name, kalman_update)
@@ -17,7 +24,9 @@ from .rules import (CentralDifference, Cubature, FifthDegreeCubature, SphericalS
 __version__ = "0.1.0"
 
 __all__ = [
-    "estimation", "filters", "linalg", "metrics", "models", "montecarlo", "report", "rules", "simulate",
+    "adaptive", "bootstrap", "estimation", "filters", "linalg", "metrics", "mixing", "models", "montecarlo", "report",
+    "rules", "simulate", "strong_tracking",
+    "InnovationAdaptive", "ObservationBootstrap", "CubatureMixing", "StrongTracking",
     "IMM", "MomentMixing", "SingleModel", "Track", "run",
     "ExtendedKalmanFilter", "GaussianState", "KalmanFilter", "SigmaPointFilter", "filter_by_name", "kalman_update",
     "MonteCarlo", "Stream",

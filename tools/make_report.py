@@ -47,17 +47,37 @@ def render(doc: dict, root: Path, out_dir: Path) -> str:
     return "\n".join(lines) + "\n"
 
 
+def render_index(docs) -> str:
+    """Cross-paper summary: verdict counts per paper and every claim verdict, one line each."""
+    from mmlib.report import VERDICTS
+    lines = ["# All papers: what holds", "",
+             "Generated from `data/results/*.json`. Verdict rule: `mmlib/report.py`. Counts are over the comparison "
+             "rows of each paper (tables; timing rows included).", "",
+             markdown_table(["paper", "runs", *VERDICTS, "report"],
+                            [[d["paper"], d["provenance"]["n_runs"],
+                              *[sum(r["verdict"].startswith(v) for r in d["rows"]) for v in VERDICTS],
+                              f"[{d['paper']}.md]({d['paper']}.md)"] for d in docs]), "", "## Claims", ""]
+    for d in docs:
+        lines += [f"### {d['paper']}", "", markdown_table(["claim", "verdict"],
+                                                          [[c["claim"], c["verdict"]] for c in d.get("claims", [])]), ""]
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--root", default=str(REPO), help="folder holding data/results and figures")
     args = ap.parse_args(argv)
     root = Path(args.root).resolve()
     out_dir = root / "reports"
+    docs = []
     for path in sorted((root / "data" / "results").glob("*.json")):
         doc = json.loads(path.read_text())
+        docs.append(doc)
         target = out_dir / f"{doc['paper']}.md"
         atomic_write_text(target, render(doc, root, out_dir))
         print(f"report: {target.relative_to(REPO) if target.is_relative_to(REPO) else target}")
+    if docs:
+        atomic_write_text(out_dir / "README.md", render_index(docs))
     return 0
 
 
