@@ -11,6 +11,7 @@ import numpy as np
 from .. import metrics
 from ..estimation import run, select_runs
 from ..montecarlo import MonteCarlo, Progress
+from ..simulate import simulate
 
 
 @dataclass(frozen=True)
@@ -39,6 +40,28 @@ class RunSet(NamedTuple):
     @property
     def valid(self) -> np.ndarray:
         return self.diverged_step < 0
+
+
+def select(estimators: dict, names=None) -> dict:
+    """The estimators named in ``names`` (all if None), in that order."""
+    return dict(estimators) if names is None else {k: estimators[k] for k in names}
+
+
+def make_batches(mc: MonteCarlo, schedule, measurement, x0, estimators: dict, init_state: Callable, *,
+                 process_noise: bool = True, fault: Callable | None = None, start: Callable | None = None) -> Callable:
+    """The ``make_batch(runs)`` every scenario needs: simulate truth and measurements for the runs
+    (optionally with a sensor fault ``fault(runs) -> SensorFault``), start every filter from
+    ``start(runs)`` (default: the true x0) and initialise each estimator with
+    ``init_state(estimator, start, runs)``.  Returns ``runs -> (truth, measurements, {name: state})``."""
+    x0 = np.asarray(x0, dtype=float)
+
+    def make_batch(runs):
+        noise_fn = None if fault is None else fault(runs).apply(measurement)
+        sc = simulate(schedule, x0, measurement, mc, runs, process_noise=process_noise, measurement_noise_fn=noise_fn)
+        m0 = np.tile(x0, (len(runs), 1)) if start is None else start(runs)
+        return sc.truth, sc.measurements, {n: init_state(e, m0, runs) for n, e in estimators.items()}
+
+    return make_batch
 
 
 def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_size: int = 250,

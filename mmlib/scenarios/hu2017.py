@@ -18,7 +18,8 @@ from ..estimation import IMM
 from ..filters import ExtendedKalmanFilter, SigmaPointFilter
 from ..montecarlo import MonteCarlo, Stream
 from ..rules import CentralDifference, Cubature, Unscented
-from ..simulate import ManeuverSchedule, simulate
+from ..simulate import ManeuverSchedule
+from . import common
 from .common import Deviation
 
 PAPER = "hu2017"
@@ -133,21 +134,18 @@ def build(setup: Setup):
 
 def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
     schedule, radar, estimators = build(setup)
-    if names is not None:
-        estimators = {k: estimators[k] for k in names}
-    x0 = np.array(setup.x0)
+    estimators = common.select(estimators, names)
     P0 = np.diag(np.square(setup.P0_sd))
 
-    def make_batch(runs):
-        sc = simulate(schedule, x0, radar, mc, runs, process_noise=setup.truth_process_noise)
-        start = np.tile(x0, (len(runs), 1))
-        noise = mc.standard_normal(runs, Stream.FILTER, (setup.n_steps, max(setup.n_boot, 1), 2))
-        init = {}
-        for name, est in estimators.items():
-            extra = {"noise": noise[:, :, :setup.n_boot]} if isinstance(est.filter, ObservationBootstrap) else {}
-            init[name] = est.init(start, P0, setup.mode_probabilities0, **extra)
-        return sc.truth, sc.measurements, init
+    def init_state(est, m0, runs):
+        extra = {}
+        if isinstance(est.filter, ObservationBootstrap):     # bootstrap noise from the run's own stream
+            noise = mc.standard_normal(runs, Stream.FILTER, (setup.n_steps, max(setup.n_boot, 1), 2))
+            extra = {"noise": noise[:, :, :setup.n_boot]}
+        return est.init(m0, P0, setup.mode_probabilities0, **extra)
 
+    make_batch = common.make_batches(mc, schedule, radar, setup.x0, estimators, init_state,
+                                     process_noise=setup.truth_process_noise)
     return make_batch, estimators, schedule
 
 

@@ -16,8 +16,9 @@ from ..estimation import SingleModel
 from ..filters import ExtendedKalmanFilter, SigmaPointFilter
 from ..montecarlo import MonteCarlo, Stream
 from ..rules import Cubature, SphericalSimplexRadial, Unscented
-from ..simulate import ManeuverSchedule, simulate
+from ..simulate import ManeuverSchedule
 from ..strong_tracking import StrongTracking
+from . import common
 from .common import Deviation
 
 PAPER = "liu2017"
@@ -141,18 +142,18 @@ def build(setup: Setup):
 
 def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
     schedule, radar, estimators = build(setup)
-    if names is not None:
-        estimators = {k: estimators[k] for k in names}
+    estimators = common.select(estimators, names)
     x0 = np.array(setup.x0)
     P0 = np.diag(np.square(setup.P0_sd))
 
-    def make_batch(runs):
-        sc = simulate(schedule, x0, radar, mc, runs, process_noise=setup.truth_process_noise)
-        start = np.tile(x0, (len(runs), 1))
+    def start(runs):
+        m0 = np.tile(x0, (len(runs), 1))
         if setup.initial_estimate == "sampled":
-            start = start + mc.standard_normal(runs, Stream.INITIAL, (6,)) * np.array(setup.P0_sd)
-        return sc.truth, sc.measurements, {name: est.init(start, P0) for name, est in estimators.items()}
+            m0 = m0 + mc.standard_normal(runs, Stream.INITIAL, (6,)) * np.array(setup.P0_sd)
+        return m0
 
+    make_batch = common.make_batches(mc, schedule, radar, x0, estimators, lambda est, m0, runs: est.init(m0, P0),
+                                     process_noise=setup.truth_process_noise, start=start)
     return make_batch, estimators, schedule
 
 

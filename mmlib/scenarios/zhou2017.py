@@ -19,7 +19,8 @@ from ..filters import ExtendedKalmanFilter, SigmaPointFilter
 from ..mixing import CubatureMixing
 from ..montecarlo import MonteCarlo, Stream
 from ..rules import Cubature, Unscented
-from ..simulate import ManeuverSchedule, simulate
+from ..simulate import ManeuverSchedule
+from . import common
 from .common import Deviation
 
 PAPER = "zhou2017"
@@ -159,17 +160,12 @@ def radar_fault(setup: Setup, mc: MonteCarlo, runs, times):
 
 def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
     schedule, radar, estimators = build(setup)
-    if names is not None:
-        estimators = {k: estimators[k] for k in names}
-    x0 = np.array(setup.x0)
+    estimators = common.select(estimators, names)
     P0 = np.diag(np.square(setup.P0_sd))
-
-    def make_batch(runs):
-        fn = radar_fault(setup, mc, runs, schedule.times).apply(radar) if setup.faults else None
-        sc = simulate(schedule, x0, radar, mc, runs, process_noise=setup.truth_process_noise, measurement_noise_fn=fn)
-        start = np.tile(x0, (len(runs), 1))
-        return sc.truth, sc.measurements, {n: e.init(start, P0, setup.mode_probabilities0) for n, e in estimators.items()}
-
+    fault = (lambda runs: radar_fault(setup, mc, runs, schedule.times)) if setup.faults else None
+    make_batch = common.make_batches(mc, schedule, radar, setup.x0, estimators,
+                                     lambda est, m0, runs: est.init(m0, P0, setup.mode_probabilities0),
+                                     process_noise=setup.truth_process_noise, fault=fault)
     return make_batch, estimators, schedule
 
 
@@ -205,19 +201,17 @@ def gps_analogue(an: GPSAnalogue, mc: MonteCarlo):
                                           inflate_only=an.inflate_only, name="AUKF"),
                "NAUKF": InnovationAdaptive(ukf, window=an.window, inflate_only=an.inflate_only, name="NAUKF")}
     estimators = {k: SingleModel(f, cv, gps, name=k) for k, f in filters.items()}
-    x0 = np.array(an.base.x0)
     P0 = np.diag(np.square(an.base.P0_sd))
 
-    def make_batch(runs):
+    def fault(runs):
         from scipy.special import ndtr
         p = ndtr(mc.standard_normal(runs, Stream.FAULT, (2,)))
         t = schedule.times
         delta = np.zeros((len(runs), len(t), 4))
         delta[:, :, 0] = ((2 * p[:, 0] - 1) * an.offset_max)[:, None]
         delta[:, :, 2] = (p[:, 1] * an.drift_rate_max)[:, None] * t[None, :]
-        sc = simulate(schedule, x0, gps, mc, runs, process_noise=an.base.truth_process_noise,
-                      measurement_noise_fn=models.SensorFault(delta).apply(gps))
-        start = np.tile(x0, (len(runs), 1))
-        return sc.truth, sc.measurements, {n: e.init(start, P0) for n, e in estimators.items()}
+        return models.SensorFault(delta)
 
+    make_batch = common.make_batches(mc, schedule, gps, an.base.x0, estimators, lambda est, m0, runs: est.init(m0, P0),
+                                     process_noise=an.base.truth_process_noise, fault=fault)
     return make_batch, estimators, schedule

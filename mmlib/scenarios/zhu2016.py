@@ -21,7 +21,8 @@ from ..estimation import IMM, KnownModeSequence, SingleModel
 from ..filters import ExtendedKalmanFilter, SigmaPointFilter
 from ..montecarlo import MonteCarlo, Stream
 from ..rules import Cubature, FifthDegreeCubature, Unscented
-from ..simulate import ManeuverSchedule, simulate
+from ..simulate import ManeuverSchedule
+from . import common
 from .common import Deviation
 
 PAPER = "zhu2016"
@@ -163,22 +164,16 @@ def make_batch_fn(setup: Setup, mc: MonteCarlo):
     x0 = np.array(setup.x0)
     P0 = np.diag(setup.P0_diag)
 
-    def make_batch(runs):
-        sc = simulate(schedule, x0, meas, mc, runs, process_noise=setup.truth_process_noise)
-        B = len(runs)
+    def start(runs):
         if setup.initial_estimate == "sampled":
-            eps = mc.standard_normal(runs, Stream.INITIAL, (4,))
-            m0 = x0 + eps @ np.linalg.cholesky(P0).T
-        else:
-            m0 = np.tile(x0, (B, 1))
-        init = {}
-        for name, est in estimators.items():
-            if isinstance(est, IMM):
-                init[name] = est.init(m0, P0, setup.mode_probabilities0)
-            else:
-                init[name] = est.init(m0, P0)
-        return sc.truth, sc.measurements, init
+            return x0 + mc.standard_normal(runs, Stream.INITIAL, (4,)) @ np.linalg.cholesky(P0).T
+        return np.tile(x0, (len(runs), 1))
 
+    def init_state(est, m0, runs):
+        return est.init(m0, P0, setup.mode_probabilities0) if isinstance(est, IMM) else est.init(m0, P0)
+
+    make_batch = common.make_batches(mc, schedule, meas, x0, estimators, init_state,
+                                     process_noise=setup.truth_process_noise, start=start)
     return make_batch, estimators, schedule
 
 
