@@ -135,7 +135,10 @@ def git_commit(repo: Path | None = None) -> str:
     try:
         out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
                              cwd=repo, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+        # generated outputs (promoted notebook by notebook) do not make the code "dirty"
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".",
+                                ":(exclude)data", ":(exclude)figures", ":(exclude)notebooks/executed",
+                                ":(exclude)reports"],
                                capture_output=True, text=True, cwd=repo).stdout.strip()
         return out + ("-dirty" if dirty else "")
     except (OSError, subprocess.CalledProcessError):
