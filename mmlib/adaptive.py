@@ -39,7 +39,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .filters import MeasurementPrediction, gaussian_state, kalman_update
+from .filters import FilterLayer, MeasurementPrediction, kalman_update
+from .linalg import trace
 
 
 class AdaptiveState(NamedTuple):
@@ -51,12 +52,8 @@ class AdaptiveState(NamedTuple):
     zeta: Any = None
 
 
-def _trace(a):
-    return np.trace(a, axis1=-2, axis2=-1)
-
-
 @dataclass(frozen=True)
-class InnovationAdaptive:
+class InnovationAdaptive(FilterLayer):
     """Innovation-covariance-matching layer (NAUKF / IAE-AUKF); see the module docstring."""
 
     base: Any
@@ -66,6 +63,7 @@ class InnovationAdaptive:
     include_current: bool = True
     inflate_only: bool = False
     name: str = ""
+    state_type = AdaptiveState
 
     def __post_init__(self):
         if isinstance(self.window, bool) or not isinstance(self.window, (int, np.integer)) or self.window < 2:
@@ -74,17 +72,6 @@ class InnovationAdaptive:
             raise ValueError(f"psi: covariance-matching coefficient must be >= 1 (Eq. 32), got {self.psi!r}")
         if not self.name:
             object.__setattr__(self, "name", ("NA" if self.zeta else "A") + getattr(self.base, "name", "filter"))
-
-    def init(self, mean, cov) -> AdaptiveState:
-        g = gaussian_state(mean, cov)
-        return AdaptiveState(g.mean, g.cov)
-
-    def predict(self, state, dynamics):
-        s = self.base.predict(state, dynamics)
-        return s._replace(Q=np.broadcast_to(dynamics.Q, s.cov.shape))
-
-    def predict_measurement(self, state, measurement):
-        return self.base.predict_measurement(state, measurement)
 
     def update(self, state, z, measurement):
         pred = self.base.predict_measurement(state, measurement)
@@ -108,10 +95,10 @@ class InnovationAdaptive:
         if self.zeta:
             if state.Q is None:
                 raise ValueError("state: predict() must run before update() (Q of Eq. 33 unknown)")
-            matched = _trace(nu[..., :, None] * nu[..., None, :]) <= self.psi * _trace(pred.S)   # Eq. 32
+            matched = trace(nu[..., :, None] * nu[..., None, :]) <= self.psi * trace(pred.S)   # Eq. 32
             base_part = state.cov - state.Q
             with np.errstate(divide="ignore", invalid="ignore"):
-                z0 = _trace(C - measurement.R) / _trace(base_part)                              # Eq. 35
+                z0 = trace(C - measurement.R) / trace(base_part)                              # Eq. 35
             zeta = np.where(matched, 1.0, np.maximum(np.nan_to_num(z0, nan=1.0), 1.0))         # Eq. 34
             inflate = zeta > 1.0
             cov = np.where(inflate[..., None, None], zeta[..., None, None] * base_part + state.Q, state.cov)

@@ -29,7 +29,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from . import linalg
-from .filters import MeasurementPrediction, UpdateInfo, gaussian_state, kalman_update
+from .filters import FilterLayer, MeasurementPrediction, UpdateInfo, gaussian_state, kalman_update
 
 
 class BootstrapState(NamedTuple):
@@ -40,7 +40,7 @@ class BootstrapState(NamedTuple):
 
 
 @dataclass(frozen=True)
-class ObservationBootstrap:
+class ObservationBootstrap(FilterLayer):
     """CDKF-OBS layer over ``base``: ``n_boot`` bootstrap observations per step, their
     innovation variance ``variance_factor`` x R (2 by the text, 4 by Eq. 18)."""
 
@@ -68,12 +68,6 @@ class ObservationBootstrap:
                 raise ValueError(f"noise: expected pre-drawn standard normals of shape (B={g.mean.shape[0]}, K, "
                                  f"N={self.n_boot}, m), got {None if noise is None else noise.shape}")
         return BootstrapState(g.mean, g.cov, noise, 0)
-
-    def predict(self, state, dynamics):
-        return self.base.predict(state, dynamics)
-
-    def predict_measurement(self, state, measurement):
-        return self.base.predict_measurement(state, measurement)
 
     def update(self, state, z, measurement):
         pred = self.base.predict_measurement(state, measurement)

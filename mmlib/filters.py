@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -182,6 +182,29 @@ class SigmaPointFilter(_FilterBase):
         dz = measurement.residual(Z, z_pred[..., None, :])
         pzz, pxz = self.rule.covariances(X - state.mean[..., None, :], dz)
         return MeasurementPrediction(z_pred, pzz + measurement.R, pxz)
+
+
+class FilterLayer:
+    """Base of the thin layers over a filter (strong tracking, innovation adaptation, observation
+    bootstrapping).  It delegates the time update and the measurement prediction to ``self.base``,
+    records the process noise Q of the prediction when the layer's state has a ``Q`` field (layers
+    that rescale :math:`P - Q` need it at update time), and builds the layer's ``state_type``.
+    A layer overrides ``update`` only -- and never copies the Kalman update."""
+
+    state_type: Any = None
+
+    def init(self, mean, cov, **extra):
+        g = gaussian_state(mean, cov)
+        return self.state_type(g.mean, g.cov, **extra)
+
+    def predict(self, state, dynamics):
+        s = self.base.predict(state, dynamics)
+        if "Q" in s._fields:
+            s = s._replace(Q=np.broadcast_to(dynamics.Q, s.cov.shape))
+        return s
+
+    def predict_measurement(self, state, measurement):
+        return self.base.predict_measurement(state, measurement)
 
 
 _FILTER_NAMES = {"kf": "KF", "ekf": "EKF"}

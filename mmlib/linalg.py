@@ -61,6 +61,11 @@ def _cholesky_slow(a):
     return out, failed
 
 
+def trace(a: np.ndarray) -> np.ndarray:
+    """Trace over the last two axes."""
+    return np.trace(a, axis1=-2, axis2=-1)
+
+
 def log_det_from_cholesky(l_factor: np.ndarray) -> np.ndarray:
     return 2.0 * np.log(np.diagonal(l_factor, axis1=-2, axis2=-1)).sum(axis=-1)
 

@@ -31,7 +31,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .filters import gaussian_state, kalman_update
+from .filters import FilterLayer, kalman_update
+from .linalg import trace
 
 
 class StrongTrackingState(NamedTuple):
@@ -42,12 +43,8 @@ class StrongTrackingState(NamedTuple):
     fading: Any = None       # (...,) last fading factor lambda_k
 
 
-def _trace(a):
-    return np.trace(a, axis1=-2, axis2=-1)
-
-
 @dataclass(frozen=True)
-class StrongTracking:
+class StrongTracking(FilterLayer):
     """Strong-tracking layer over ``base`` (any filter with ``predict`` / ``predict_measurement``).
 
     ``beta`` >= 1 is the softening factor, ``rho`` in (0, 1] the forgetting factor
@@ -59,6 +56,7 @@ class StrongTracking:
     rho: float = 0.95
     form: str = "statistical"
     name: str = ""
+    state_type = StrongTrackingState
 
     def __post_init__(self):
         if not (isinstance(self.beta, (int, float)) and self.beta >= 1.0):
@@ -69,17 +67,6 @@ class StrongTracking:
             raise ValueError(f"form: expected 'statistical' or 'jacobian', got {self.form!r}")
         if not self.name:
             object.__setattr__(self, "name", "ST" + getattr(self.base, "name", "filter"))
-
-    def init(self, mean, cov) -> StrongTrackingState:
-        g = gaussian_state(mean, cov)
-        return StrongTrackingState(g.mean, g.cov)
-
-    def predict(self, state, dynamics):
-        s = self.base.predict(state, dynamics)
-        return s._replace(Q=np.broadcast_to(dynamics.Q, s.cov.shape))
-
-    def predict_measurement(self, state, measurement):
-        return self.base.predict_measurement(state, measurement)
 
     def fading_factor(self, state, pred, V, measurement):
         """lambda_k of Eq. 14 for the predicted ``state`` (P^l, Q) and its measurement prediction."""
@@ -93,7 +80,7 @@ class StrongTracking:
             X = np.linalg.solve(state.cov, pred.Pxz)                 # (P^l)^-1 Pxz, (..., n, m)
             N = V - np.swapaxes(X, -1, -2) @ Q @ X - self.beta * R
             M = pred.S - V + N + (self.beta - 1.0) * R
-        tr_n, tr_m = _trace(N), _trace(M)
+        tr_n, tr_m = trace(N), trace(M)
         with np.errstate(divide="ignore", invalid="ignore"):
             c = np.where(tr_m > 0.0, tr_n / tr_m, 1.0)
         return np.maximum(c, 1.0)

@@ -22,6 +22,15 @@ def textbook_kf(x0, P0, F, Q, H, R, zs):
     return np.array(means), np.array(covs), np.array(logliks)
 
 
+def random_mode_states(seed, B=4, r=3, n=4, scale=100.0):
+    """Random mode means (B, r, n), SPD covariances (B, r, n, n) and mode probabilities (B, r)."""
+    rng = np.random.default_rng(seed)
+    means = rng.standard_normal((B, r, n)) * scale
+    A = rng.standard_normal((B, r, n, n))
+    covs = A @ np.swapaxes(A, -1, -2) + np.eye(n)
+    return means, covs, rng.dirichlet(np.ones(r), size=B)
+
+
 @pytest.fixture
 def linear_problem():
     """CV target, position sensor, 3 runs x 25 steps of deterministic pseudo-random data."""

@@ -4,7 +4,7 @@ import pytest
 
 import mmlib as m
 from mmlib import models
-from conftest import textbook_kf
+from conftest import random_mode_states, textbook_kf
 from mmlib import linalg as m_linalg
 
 FILTERS = [m.KalmanFilter(), m.ExtendedKalmanFilter(),
@@ -98,12 +98,8 @@ def test_transition_rows_are_from():
 
 
 def test_mixing_matches_explicit_sums():
-    rng = np.random.default_rng(0)
-    B, r, n = 4, 3, 4
-    means = rng.standard_normal((B, r, n)) * 100
-    A = rng.standard_normal((B, r, n, n))
-    covs = A @ np.swapaxes(A, -1, -2) + np.eye(n)
-    mu = rng.dirichlet(np.ones(r), size=B)
+    B, r = 4, 3
+    means, covs, mu = random_mode_states(0, B, r)
     T = np.array([[0.9, 0.05, 0.05], [0.1, 0.8, 0.1], [0.05, 0.15, 0.8]])
     _, w = m.estimation.mixing_weights(mu, T)
     mm, mc = m.MomentMixing()(means, covs, w)

@@ -7,16 +7,13 @@ from mmlib import models
 from mmlib.adaptive import InnovationAdaptive
 from mmlib.mixing import CubatureMixing
 from mmlib.simulate import ManeuverSchedule, simulate
+from conftest import random_mode_states
 
 
 def test_cubature_mixing_is_the_weighted_sum_of_independent_gaussians():
     """Independent computation: mean sum mu x, covariance sum mu^2 P (the interaction is linear)."""
-    rng = np.random.default_rng(1)
-    B, r, n = 5, 3, 4
-    means = rng.standard_normal((B, r, n)) * 50
-    A = rng.standard_normal((B, r, n, n))
-    covs = A @ np.swapaxes(A, -1, -2) + np.eye(n)
-    mu = rng.dirichlet(np.ones(r), size=B)
+    B, r = 5, 3
+    means, covs, mu = random_mode_states(1, B, r, scale=50.0)
     T = np.array([[0.99, 0.005, 0.005], [0.005, 0.99, 0.005], [0.005, 0.005, 0.99]])
     _, w = m.estimation.mixing_weights(mu, T)
     mean, cov = CubatureMixing()(means, covs, w)
