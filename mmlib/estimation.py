@@ -28,12 +28,25 @@ from ._validate import (check_finite, as_float_array,
 
 
 class Estimate(NamedTuple):
-    """Per-step output: fused ``mean`` (B, n), ``cov`` (B, n, n), ``mode_probabilities`` (B, r) or None."""
+    """Per-step output: fused ``mean`` (B, n), ``cov`` (B, n, n), ``mode_probabilities`` (B, r) or None,
+    ``loglik`` (B,) and ``innovation`` (B, m): the residual of the measurement against the (for an IMM,
+    mode-probability-weighted) predicted measurement; ``diagnostics`` (B, d): anything an adaptive
+    estimator wants recorded per step (collected by :func:`run`)."""
 
     mean: np.ndarray
     cov: np.ndarray
     mode_probabilities: Any = None
     loglik: Any = None
+    innovation: Any = None
+    diagnostics: Any = None
+
+
+def _measurement_model(default, override):
+    model = default if override is None else override
+    if model is None:
+        raise ValueError("measurement: no measurement model for this step (construct the estimator with one, or "
+                         "pass measurement= / run(..., measurement_models=...))")
+    return model
 
 
 def _check_measurement(z, dim: int, name: str = "z") -> np.ndarray:
@@ -46,7 +59,8 @@ def _check_measurement(z, dim: int, name: str = "z") -> np.ndarray:
 # --------------------------------------------------------------------------- single model
 @dataclass(frozen=True, eq=False)
 class SingleModel:
-    """One filter, one dynamics model, one measurement model."""
+    """One filter, one dynamics model, one measurement model.  ``step`` accepts a per-step
+    ``measurement`` model overriding the default one (e.g. the satellites visible at that step)."""
 
     filter: Any
     dynamics: Any
@@ -57,11 +71,12 @@ class SingleModel:
         """``filter_init`` goes to the filter's ``init`` (e.g. pre-drawn bootstrap noise)."""
         return self.filter.init(mean, cov, **filter_init)
 
-    def step(self, state, z, *, with_cov: bool = True):
-        z = _check_measurement(z, self.measurement.dim)
+    def step(self, state, z, *, with_cov: bool = True, measurement=None):
+        measurement = _measurement_model(self.measurement, measurement)
+        z = _check_measurement(z, measurement.dim)
         state = self.filter.predict(state, self.dynamics)
-        state, info = self.filter.update(state, z, self.measurement)
-        return state, Estimate(state.mean, state.cov, None, info.loglik)
+        state, info = self.filter.update(state, z, measurement)
+        return state, Estimate(state.mean, state.cov, None, info.loglik, info.innovation)
 
 
 class SwitchingState(NamedTuple):
@@ -84,13 +99,14 @@ class KnownModeSequence:
     def init(self, mean, cov):
         return SwitchingState(self.filter.init(mean, cov), 0)
 
-    def step(self, state, z, *, with_cov: bool = True):
-        z = _check_measurement(z, self.measurement.dim)
+    def step(self, state, z, *, with_cov: bool = True, measurement=None):
+        measurement = _measurement_model(self.measurement, measurement)
+        z = _check_measurement(z, measurement.dim)
         if state.step >= len(self.modes):
             raise ValueError(f"z: step {state.step} beyond the {len(self.modes)} known modes")
         s = self.filter.predict(state.filter_state, self.dynamics[int(self.modes[state.step])])
-        s, info = self.filter.update(s, z, self.measurement)
-        return SwitchingState(s, state.step + 1), Estimate(s.mean, s.cov, None, info.loglik)
+        s, info = self.filter.update(s, z, measurement)
+        return SwitchingState(s, state.step + 1), Estimate(s.mean, s.cov, None, info.loglik, info.innovation)
 
 
 # --------------------------------------------------------------------------- IMM
@@ -196,15 +212,18 @@ class IMM:
                         else f for f in base)
         return IMMState(type(base)(*stacked), np.array(mu, dtype=float))
 
-    def step(self, state: IMMState, z, *, with_cov: bool = True):
-        """One IMM cycle.  ``with_cov=False`` skips the fused covariance (an output only)."""
-        z = _check_measurement(z, self.measurement.dim)
+    def step(self, state: IMMState, z, *, with_cov: bool = True, measurement=None, dynamics=None):
+        """One IMM cycle.  ``with_cov=False`` skips the fused covariance (an output only).
+        ``measurement`` overrides the measurement model for this step; ``dynamics`` overrides the
+        stacked mode dynamics (a :class:`~mmlib.models.StackedDynamics`, e.g. with per-run adapted Q)."""
+        measurement = _measurement_model(self.measurement, measurement)
+        z = _check_measurement(z, measurement.dim)
         c, w = mixing_weights(state.mode_probabilities, self.transition)
         modes = state.modes
         mixed_means, mixed_covs = self.mixing(modes.mean, modes.cov, w)
         modes = modes._replace(mean=mixed_means, cov=mixed_covs)
-        modes = self.filter.predict(modes, self.stacked)
-        modes, info = self.filter.update(modes, z[:, None, :], self.measurement)
+        modes = self.filter.predict(modes, self.stacked if dynamics is None else dynamics)
+        modes, info = self.filter.update(modes, z[:, None, :], measurement)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             logpost = info.loglik + np.log(c)                         # (B, r)
             top = np.max(logpost, axis=1, keepdims=True)
@@ -215,7 +234,9 @@ class IMM:
         fused_mean = (mu[:, None, :] @ modes.mean)[:, 0]
         fused_cov = (combine_covariances(mu[:, None, :], modes.mean, modes.cov, fused_mean[:, None, :])[:, 0]
                      if with_cov else None)
-        return IMMState(modes, mu), Estimate(fused_mean, fused_cov, mu, marginal)
+        # innovation against the predicted measurement of the mixture prior: z - sum_j c_j zhat_j
+        innovation = (c[:, :, None] * info.innovation).sum(axis=1)
+        return IMMState(modes, mu), Estimate(fused_mean, fused_cov, mu, marginal, innovation)
 
 
 # --------------------------------------------------------------------------- driver
@@ -223,12 +244,13 @@ class Track(NamedTuple):
     """Output of :func:`run` over K steps: ``mean`` (B, K, n), ``cov`` (B, K, n, n) or None,
     ``mode_probabilities`` (B, K, r) or None, ``diverged_step`` (B,) first step at which
     the run's estimate became non-finite (a covariance stopped being positive definite),
-    -1 if it never did."""
+    -1 if it never did; ``diagnostics`` (B, K, d) or None (see :class:`Estimate`)."""
 
     mean: np.ndarray
     cov: Any
     mode_probabilities: Any
     diverged_step: np.ndarray
+    diagnostics: Any = None
 
     @property
     def diverged(self) -> np.ndarray:
@@ -239,8 +261,32 @@ class FilterDivergence(RuntimeError):
     pass
 
 
-def run(estimator, state, measurements, *, keep_cov: bool = True, on_divergence: str = "record") -> Track:
+def _per_step_measurements(measurements, measurement_models):
+    """Validated ``[(z_k (B, m_k), model_k)]`` for a run whose measurement model changes per step."""
+    models = list(measurement_models)
+    zs = list(measurements)
+    if len(zs) != len(models):
+        raise ValueError(f"measurement_models: {len(models)} models for {len(zs)} measurement steps")
+    out, B = [], None
+    for k, (z, model) in enumerate(zip(zs, models)):
+        z = check_finite(as_float_array(z, f"measurements[{k}]"), f"measurements[{k}]")
+        if z.ndim != 2 or z.shape[1] != model.dim or (B is not None and z.shape[0] != B):
+            raise ValueError(f"measurements[{k}]: expected shape ({B if B is not None else 'B'}, {model.dim}) "
+                             f"for measurement_models[{k}], got {z.shape}")
+        B = z.shape[0]
+        out.append((z, model))
+    if not out:
+        raise ValueError("measurements: no steps")
+    return out
+
+
+def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bool = True,
+        on_divergence: str = "record") -> Track:
     """Run ``estimator`` over ``measurements`` (B, K, m), batched over runs.
+
+    With ``measurement_models`` (a sequence of K models), step k uses model k and
+    ``measurements`` is a sequence of K arrays (B, m_k): the measurement dimension may change
+    from step to step (e.g. the satellites in view).
 
     A run whose state becomes non-finite is *recorded* in ``diverged_step``
     (``on_divergence='record'``) or raises :class:`FilterDivergence` naming the
@@ -248,15 +294,20 @@ def run(estimator, state, measurements, *, keep_cov: bool = True, on_divergence:
     """
     if on_divergence not in ("record", "raise"):
         raise ValueError(f"on_divergence: expected 'record' or 'raise', got {on_divergence!r}")
-    z_all = as_float_array(measurements, "measurements")
-    if z_all.ndim != 3:
-        raise ValueError(f"measurements: expected shape (B, K, m), got {z_all.shape}")
-    check_finite(z_all, "measurements")
-    B, K, _ = z_all.shape
-    means, covs, mus = [], [], []
+    if measurement_models is None:
+        z_all = as_float_array(measurements, "measurements")
+        if z_all.ndim != 3:
+            raise ValueError(f"measurements: expected shape (B, K, m), got {z_all.shape}")
+        check_finite(z_all, "measurements")
+        steps = [(z_all[:, k], None) for k in range(z_all.shape[1])]
+    else:
+        steps = _per_step_measurements(measurements, measurement_models)
+    B = steps[0][0].shape[0]
+    means, covs, mus, diags = [], [], [], []
     diverged_step = np.full(B, -1)
-    for k in range(K):
-        state, est = estimator.step(state, z_all[:, k], with_cov=keep_cov)
+    for k, (z_k, model_k) in enumerate(steps):
+        state, est = (estimator.step(state, z_k, with_cov=keep_cov) if model_k is None
+                      else estimator.step(state, z_k, with_cov=keep_cov, measurement=model_k))
         bad = ~np.isfinite(est.mean).all(axis=1) & (diverged_step < 0)
         if bad.any():
             diverged_step[bad] = k
@@ -269,8 +320,11 @@ def run(estimator, state, measurements, *, keep_cov: bool = True, on_divergence:
             covs.append(est.cov)
         if est.mode_probabilities is not None:
             mus.append(est.mode_probabilities)
+        if est.diagnostics is not None:
+            diags.append(est.diagnostics)
     return Track(np.stack(means, axis=1), np.stack(covs, axis=1) if keep_cov else None,
-                 np.stack(mus, axis=1) if mus else None, diverged_step)
+                 np.stack(mus, axis=1) if mus else None, diverged_step,
+                 np.stack(diags, axis=1) if diags else None)
 
 
 def select_runs(state, index):

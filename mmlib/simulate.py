@@ -63,6 +63,26 @@ class Scenario(NamedTuple):
     modes: np.ndarray          # (K,)
 
 
+def propagate(schedule: ManeuverSchedule, x0, process_noise=None) -> np.ndarray:
+    """Truth (B, K+1, n) from ``x0`` (B, n) under ``schedule``; ``process_noise`` is None (a
+    deterministic trajectory) or standard normals (B, K, n_w) scaled by each step's model."""
+    modes = schedule.modes()
+    x = np.array(x0, dtype=float)
+    truth = [x]
+    times = schedule.times
+    for k in range(schedule.n_steps):
+        model = schedule.models[modes[k]]
+        x = model.transition(x)
+        if process_noise is not None:
+            L = model.noise_factor
+            x = x + process_noise[:, k, :L.shape[1]] @ L.T
+        for t_jump, idx, values in schedule.jumps:
+            if abs(times[k] - t_jump) < 1e-9:
+                x[:, list(idx)] = values
+        truth.append(x)
+    return np.stack(truth, axis=1)
+
+
 def simulate(schedule: ManeuverSchedule, x0, measurement, mc: MonteCarlo, runs,
              *, process_noise: bool = True, measurement_noise_fn=None) -> Scenario:
     """Truth trajectories and noisy measurements for the given runs.
@@ -82,20 +102,7 @@ def simulate(schedule: ManeuverSchedule, x0, measurement, mc: MonteCarlo, runs,
     K = schedule.n_steps
     n_w = max(m.noise_factor.shape[1] for m in schedule.models)
     w = mc.standard_normal(runs, Stream.TRUTH, (K, n_w))
-    x = np.broadcast_to(x0, (len(runs), n)).copy()
-    truth = [x]
-    times = schedule.times
-    for k in range(K):
-        model = schedule.models[modes[k]]
-        x = model.transition(x)
-        if process_noise:
-            L = model.noise_factor
-            x = x + w[:, k, :L.shape[1]] @ L.T
-        for t_jump, idx, values in schedule.jumps:
-            if abs(times[k] - t_jump) < 1e-9:
-                x[:, list(idx)] = values
-        truth.append(x)
-    truth = np.stack(truth, axis=1)
+    truth = propagate(schedule, np.broadcast_to(x0, (len(runs), n)), w if process_noise else None)
     v = mc.standard_normal(runs, Stream.MEASUREMENT, (K, measurement.dim))
     if measurement_noise_fn is None:
         z = measurement.h(truth[:, 1:]) + v @ measurement.noise_factor.T

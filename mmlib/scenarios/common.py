@@ -36,6 +36,7 @@ class RunSet(NamedTuple):
     mode_probabilities: object       # (N, K, r) or None
     diverged_step: np.ndarray        # (N,)
     example_mean: np.ndarray         # (K, n) estimate of the first run (for trajectory plots)
+    diagnostics: object = None       # (N, K, d) per-step diagnostics of adaptive estimators, or None
 
     @property
     def valid(self) -> np.ndarray:
@@ -65,28 +66,33 @@ def make_batches(mc: MonteCarlo, schedule, measurement, x0, estimators: dict, in
 
 
 def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_size: int = 250,
-             label: str = "", progress: bool = True) -> dict:
+             label: str = "", progress: bool = True, measurement_models=None) -> dict:
     """Run every estimator on the same runs (common random numbers), chunk by chunk.
 
     ``make_batch(runs)`` returns ``(truth (B, K+1, n), measurements (B, K, m),
-    init: dict name -> initial state)``.  Returns ``{name: RunSet}``.
+    init: dict name -> initial state)``; with ``measurement_models`` (one per step, see
+    :func:`mmlib.estimation.run`) the measurements are a list of K arrays (B, m_k).
+    Returns ``{name: RunSet}``.
     """
-    out = {name: {"err": [], "mu": [], "div": []} for name in estimators}
+    out = {name: {"err": [], "mu": [], "div": [], "diag": []} for name in estimators}
     first = {}
     bar = Progress(label or "Monte Carlo", mc.n_runs, enabled=progress)
     for runs in mc.chunks(chunk_size):
         truth, z, init = make_batch(runs)
         for name, est in estimators.items():
-            track = run(est, init[name], z, keep_cov=False)
+            track = run(est, init[name], z, keep_cov=False, measurement_models=measurement_models)
             out[name]["err"].append(track.mean - truth[:, 1:])
             out[name]["div"].append(track.diverged_step)
             if track.mode_probabilities is not None:
                 out[name]["mu"].append(track.mode_probabilities)
+            if track.diagnostics is not None:
+                out[name]["diag"].append(track.diagnostics)
             if name not in first:
                 first[name] = track.mean[0]
         bar.advance(len(runs))
     return {name: RunSet(np.concatenate(d["err"]), np.concatenate(d["mu"]) if d["mu"] else None,
-                         np.concatenate(d["div"]), first[name]) for name, d in out.items()}
+                         np.concatenate(d["div"]), first[name],
+                         np.concatenate(d["diag"]) if d["diag"] else None) for name, d in out.items()}
 
 
 def paired_mse_difference(a: RunSet, b: RunSet, components):

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-PAPERS = {"zhu2016": 100, "liu2017": 200, "hu2017": 100, "zhou2017": 100}          # paper -> full Monte Carlo count
+PAPERS = {"zhu2016": 100, "liu2017": 200, "hu2017": 100, "zhou2017": 100, "tseng2011": 100}          # paper -> full Monte Carlo count
 REQUIRED_ROW_KEYS = ("item", "algorithm", "quantity", "paper", "replicated", "stderr", "verdict", "deviations")
 
 

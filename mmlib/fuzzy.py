@@ -1,0 +1,127 @@
+r"""Zero-order Takagi-Sugeno fuzzy inference, batched over Monte Carlo runs.
+
+A rule base over d inputs, each with a few fuzzy sets (membership functions), and one rule
+per combination of sets (a complete grid).  Rule r, "IF x_1 is A_{r1} AND ... AND x_d is A_{rd}
+THEN y = c_r", fires with the product t-norm :math:`w_r = \prod_i \mu_{A_{ri}}(x_i)` and the
+crisp output is the weighted average of the rule consequents (Takagi & Sugeno 1985; Tseng
+et al. 2011, Sec. 3.1, "the output is the weighted average of the y_k"):
+
+.. math:: y = \frac{\sum_r w_r c_r}{\sum_r w_r}.
+
+Why not a package: scikit-fuzzy implements Mamdani inference (fuzzy output sets and centroid
+defuzzification) and simpful evaluates one input vector per call, which would put a Python
+loop over runs in the filter's inner loop.  The inference itself is the formula above; this
+module evaluates it for all runs at once in ~20 lines.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._validate import as_float_array, check_finite
+
+
+@dataclass(frozen=True)
+class Trapezoid:
+    r"""Trapezoidal membership function: 0 below ``a``, rising to 1 at ``b``, 1 up to ``c``,
+    falling to 0 at ``d``.  ``a = b = -inf`` gives a left shoulder, ``c = d = inf`` a right
+    shoulder, ``b = c`` a triangle."""
+
+    name: str
+    a: float
+    b: float
+    c: float
+    d: float
+
+    def __post_init__(self):
+        if not (self.a <= self.b <= self.c <= self.d) or any(map(math.isnan, (self.a, self.b, self.c, self.d))):
+            raise ValueError(f"{self.name}: expected a <= b <= c <= d, got {(self.a, self.b, self.c, self.d)}")
+
+    def __call__(self, x):
+        x = np.asarray(x, dtype=float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            up = np.ones_like(x) if self.a == -math.inf else (
+                (x >= self.b).astype(float) if self.b == self.a else (x - self.a) / (self.b - self.a))
+            down = np.ones_like(x) if self.d == math.inf else (
+                (x <= self.c).astype(float) if self.d == self.c else (self.d - x) / (self.d - self.c))
+        return np.clip(np.minimum(up, down), 0.0, 1.0)
+
+
+def ramp_sets(names, breakpoints) -> tuple:
+    """Sets forming a partition of unity on the real line -- a left shoulder, triangles, a right
+    shoulder -- with ``breakpoints[i]`` the point where set i reaches 1 (the end of the left
+    shoulder, the triangles' peaks, the start of the right shoulder).  E.g. names (N, M, L) with
+    breakpoints (1, 2, 4): N is 1 up to 1 and 0 from 2; M peaks at 2; L is 0 up to 2 and 1 from 4."""
+    names, bp = tuple(names), [float(b) for b in breakpoints]
+    if len(bp) != len(names) or len(names) < 2 or any(b1 <= b0 for b0, b1 in zip(bp, bp[1:])):
+        raise ValueError(f"breakpoints: expected {len(names)} increasing values, got {breakpoints!r}")
+    out = []
+    for i, nm in enumerate(names):
+        a = -math.inf if i == 0 else bp[i - 1]
+        b = -math.inf if i == 0 else bp[i]
+        c = math.inf if i == len(names) - 1 else bp[i]
+        d = math.inf if i == len(names) - 1 else bp[i + 1]
+        out.append(Trapezoid(nm, a, b, c, d))
+    return tuple(out)
+
+
+@dataclass(frozen=True, eq=False)
+class TakagiSugeno:
+    """Zero-order Takagi-Sugeno system with a complete rule grid.
+
+    ``inputs``: one tuple of membership functions per input; ``consequents``: array of shape
+    (n_sets_1, ..., n_sets_d, n_outputs), the crisp output of every rule.  Call with ``x`` (B, d)
+    to get (B, n_outputs)."""
+
+    inputs: tuple
+    consequents: np.ndarray
+    input_names: tuple = ()
+    output_names: tuple = ()
+
+    def __post_init__(self):
+        sets = tuple(tuple(s) for s in self.inputs)
+        cons = check_finite(as_float_array(self.consequents, "consequents"), "consequents")
+        grid = tuple(len(s) for s in sets)
+        if cons.ndim != len(grid) + 1 or cons.shape[:-1] != grid:
+            raise ValueError(f"consequents: expected shape {grid} + (n_outputs,), got {cons.shape}")
+        if self.input_names and len(self.input_names) != len(sets):
+            raise ValueError(f"input_names: expected {len(sets)} names, got {self.input_names!r}")
+        cons.setflags(write=False)
+        object.__setattr__(self, "inputs", sets)
+        object.__setattr__(self, "consequents", cons)
+
+    @property
+    def n_inputs(self) -> int:
+        return len(self.inputs)
+
+    def firing_strengths(self, x) -> np.ndarray:
+        """Rule weights (B, n_sets_1, ..., n_sets_d): product of the memberships."""
+        x = check_finite(as_float_array(x, "x"), "x")
+        if x.ndim != 2 or x.shape[1] != self.n_inputs:
+            raise ValueError(f"x: expected shape (B, {self.n_inputs}), got {x.shape}")
+        w = np.ones((x.shape[0],) + (1,) * self.n_inputs)
+        for i, sets in enumerate(self.inputs):
+            mu = np.stack([s(x[:, i]) for s in sets], axis=-1)        # (B, n_i)
+            shape = [x.shape[0]] + [1] * self.n_inputs
+            shape[1 + i] = len(sets)
+            w = w * mu.reshape(shape)
+        return w
+
+    def __call__(self, x) -> np.ndarray:
+        w = self.firing_strengths(x)
+        B = w.shape[0]
+        wf = w.reshape(B, -1)
+        total = wf.sum(axis=1, keepdims=True)
+        if np.any(total <= 0):
+            b = int(np.argmax(total[:, 0] <= 0))
+            raise ValueError(f"x: input {np.asarray(x)[b].tolist()} (row {b}) fires no rule; the fuzzy sets must "
+                             "cover every input value")
+        return (wf @ self.consequents.reshape(wf.shape[1], -1)) / total
+
+    def rules(self):
+        """Readable rule list: (antecedent set names, consequent vector)."""
+        for idx in itertools.product(*(range(len(s)) for s in self.inputs)):
+            yield tuple(self.inputs[i][j].name for i, j in enumerate(idx)), self.consequents[idx]

@@ -1,0 +1,265 @@
+r"""GNSS pieces for pseudorange-level ("tightly coupled") navigation filters.
+
+State ordering (stated once, used everywhere in this module): per local East-North-Up axis,
+position then velocity, then the receiver clock, all in metres:
+
+    ``[e, ve, n, vn, u, vu, b, d]``  with ``b = c * dt_rx`` (m) and ``d = c * d(dt_rx)/dt`` (m/s).
+
+This follows :mod:`mmlib.models` (per axis, position then its derivative).
+
+* :class:`CircularOrbitConstellation` -- satellites on circular Keplerian orbits, propagated in
+  closed form and rotated into the Earth-fixed frame (IS-GPS-200 user algorithm with e = 0 and
+  no perturbations).  ``nominal_gps24`` gives a 24-satellite, 6-plane, 55-degree constellation.
+* :class:`LocalFrame` -- ECEF <-> local ENU at a reference point, through ``pymap3d``.
+* :class:`Pseudoranges` -- :math:`\rho_i = \lVert s_i - p\rVert + b + v_i` for the satellites in
+  view; a measurement model of the :mod:`mmlib.filters` interface whose dimension is the number
+  of satellites (it changes from step to step: use ``run(..., measurement_models=...)``).
+* :func:`clock_process_noise` and :class:`PVClockNoise` -- the two-state clock model and the
+  position-velocity (continuous white-noise acceleration) process noise of the 8-state filter.
+
+Signal transit time, the Sagnac correction, atmospheric delays and multipath are *not*
+simulated: truth and filter share one geometric model, so leaving them out changes no
+comparison between filters (it would only add terms a receiver corrects with models).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._validate import as_float_array, check_covariance, check_finite
+from .models import LinearGaussianDynamics, _psd_factor
+
+SPEED_OF_LIGHT = 299_792_458.0          # m/s
+EARTH_ROTATION = 7.2921151467e-5        # rad/s (WGS 84, IS-GPS-200)
+EARTH_GM = 3.986005e14                  # m^3/s^2 (WGS 84 value used by GPS)
+GPS_SEMI_MAJOR_AXIS = 26_559_700.0      # m, nominal (two-body period 43,077 s, half a sidereal day - 5 s)
+
+POSITION_INDEX = (0, 2, 4)
+VELOCITY_INDEX = (1, 3, 5)
+CLOCK_INDEX = (6, 7)
+STATE_DIM = 8
+
+
+# --------------------------------------------------------------------------- constellation
+@dataclass(frozen=True, eq=False)
+class CircularOrbitConstellation:
+    r"""Satellites on circular orbits: radius ``a`` (m), inclination ``inclination`` (rad),
+    longitude of the ascending node at t = 0 ``raan`` (rad, Earth-fixed) and argument of
+    latitude at t = 0 ``arg_latitude`` (rad), one entry per satellite.
+
+    Earth-fixed position at time t (IS-GPS-200 Table 20-IV with e = 0, no harmonic corrections,
+    :math:`\dot\Omega = 0` in inertial space):
+
+    .. math::
+        u = u_0 + n t,\quad \Omega = \Omega_0 - \omega_E t,\quad n = \sqrt{GM/a^3},\\
+        s = a\,[\cos u\cos\Omega - \sin u\cos i\sin\Omega,\;
+                \cos u\sin\Omega + \sin u\cos i\cos\Omega,\; \sin u\sin i].
+    """
+
+    raan: np.ndarray
+    arg_latitude: np.ndarray
+    inclination: float = math.radians(55.0)
+    a: float = GPS_SEMI_MAJOR_AXIS
+    names: tuple = ()
+
+    def __post_init__(self):
+        raan = check_finite(as_float_array(self.raan, "raan"), "raan")
+        u0 = check_finite(as_float_array(self.arg_latitude, "arg_latitude"), "arg_latitude")
+        if raan.ndim != 1 or raan.shape != u0.shape:
+            raise ValueError(f"arg_latitude: expected the shape of raan {raan.shape}, got {u0.shape}")
+        if not self.a > 6_378_137.0:
+            raise ValueError(f"a: orbit radius must exceed the Earth's radius, got {self.a}")
+        object.__setattr__(self, "raan", raan)
+        object.__setattr__(self, "arg_latitude", u0)
+        if not self.names:
+            object.__setattr__(self, "names", tuple(f"S{i + 1:02d}" for i in range(len(raan))))
+
+    @property
+    def size(self) -> int:
+        return self.raan.shape[0]
+
+    @property
+    def mean_motion(self) -> float:
+        return math.sqrt(EARTH_GM / self.a ** 3)
+
+    def positions_ecef(self, times) -> np.ndarray:
+        """Earth-fixed positions (K, S, 3) at ``times`` (K,) seconds."""
+        t = as_float_array(times, "times").reshape(-1, 1)
+        u = self.arg_latitude[None, :] + self.mean_motion * t
+        om = self.raan[None, :] - EARTH_ROTATION * t
+        cu, su, co, so = np.cos(u), np.sin(u), np.cos(om), np.sin(om)
+        ci, si = math.cos(self.inclination), math.sin(self.inclination)
+        return self.a * np.stack([cu * co - su * ci * so, cu * so + su * ci * co, su * si], axis=-1)
+
+
+def nominal_gps24(phasing_deg: float = 15.0, raan0_deg: float = 0.0, u0_deg: float = 0.0) -> CircularOrbitConstellation:
+    """A nominal 24-satellite GPS-like constellation: 6 planes 60 degrees apart in right
+    ascension, 4 satellites 90 degrees apart in each, 55 degrees inclination, radius
+    26,559.7 km (two-body period within 5 s of half a sidereal day).  Adjacent planes are phased by ``phasing_deg``
+    (a Walker 24/6/1 pattern for 15 degrees).  The broadcast GPS constellation has uneven
+    in-plane spacing; this regular pattern keeps 6-12 satellites above a 10-degree mask."""
+    planes, per_plane = 6, 4
+    p = np.repeat(np.arange(planes), per_plane)
+    s = np.tile(np.arange(per_plane), planes)
+    raan = np.radians(raan0_deg + 60.0 * p)
+    u0 = np.radians(u0_deg + 90.0 * s + phasing_deg * p)
+    names = tuple(f"{'ABCDEF'[i]}{j + 1}" for i, j in zip(p, s))
+    return CircularOrbitConstellation(raan, u0, names=names)
+
+
+@dataclass(frozen=True)
+class LocalFrame:
+    """Local East-North-Up frame at geodetic ``lat``, ``lon`` (degrees), ``height`` (m, WGS 84);
+    conversions by ``pymap3d`` (a maintained package, so no hand-written geodesy)."""
+
+    lat: float
+    lon: float
+    height: float = 0.0
+
+    def __post_init__(self):
+        if not -90.0 <= self.lat <= 90.0:
+            raise ValueError(f"lat: expected degrees in [-90, 90], got {self.lat}")
+        if not -180.0 <= self.lon <= 360.0:
+            raise ValueError(f"lon: expected degrees in [-180, 360], got {self.lon}")
+
+    @property
+    def origin_ecef(self) -> np.ndarray:
+        import pymap3d
+        return np.array(pymap3d.geodetic2ecef(self.lat, self.lon, self.height))
+
+    def ecef_to_enu(self, xyz) -> np.ndarray:
+        """ECEF points (..., 3) to ENU (..., 3) in this frame."""
+        import pymap3d
+        xyz = np.asarray(xyz, dtype=float)
+        e, n, u = pymap3d.ecef2enu(xyz[..., 0], xyz[..., 1], xyz[..., 2], self.lat, self.lon, self.height)
+        return np.stack([np.asarray(e), np.asarray(n), np.asarray(u)], axis=-1)
+
+    def enu_to_ecef(self, enu) -> np.ndarray:
+        import pymap3d
+        enu = np.asarray(enu, dtype=float)
+        x, y, z = pymap3d.enu2ecef(enu[..., 0], enu[..., 1], enu[..., 2], self.lat, self.lon, self.height)
+        return np.stack([np.asarray(x), np.asarray(y), np.asarray(z)], axis=-1)
+
+
+def elevation(satellites_enu, receiver_enu) -> np.ndarray:
+    """Elevation angle (rad) of satellites (..., S, 3) seen from receivers (..., 3), both in one
+    ENU frame, measured from that frame's horizontal plane.  For a receiver within 10 km of the
+    frame's origin the local vertical differs from the frame's by < 0.1 degrees."""
+    d = np.asarray(satellites_enu, float) - np.asarray(receiver_enu, float)[..., None, :]
+    return np.arcsin(d[..., 2] / np.linalg.norm(d, axis=-1))
+
+
+# --------------------------------------------------------------------------- measurement
+@dataclass(frozen=True, eq=False)
+class Pseudoranges:
+    r"""Pseudoranges to ``satellites`` (m, 3) (ENU, metres) from a receiver with the state of this
+    module: :math:`\rho_i = \lVert s_i - p\rVert + b + v_i`, :math:`v \sim N(0, R)`.
+
+    Jacobian: :math:`\partial\rho_i/\partial p = -(s_i - p)^T/\lVert s_i - p\rVert` (minus the unit
+    line of sight), :math:`\partial\rho_i/\partial b = 1` (Kaplan & Hegarty 2006, Sec. 2.4.2)."""
+
+    satellites: np.ndarray
+    R: np.ndarray
+    names: tuple = ()
+    name: str = "pseudoranges"
+    is_linear: bool = field(default=False, init=False)
+
+    def __post_init__(self):
+        sats = check_finite(as_float_array(self.satellites, "satellites"), "satellites")
+        if sats.ndim != 2 or sats.shape[1] != 3 or sats.shape[0] < 1:
+            raise ValueError(f"satellites: expected shape (m >= 1, 3), got {sats.shape}")
+        R = check_covariance(self.R, "R", sats.shape[0])
+        sats.setflags(write=False)
+        R.setflags(write=False)
+        object.__setattr__(self, "satellites", sats)
+        object.__setattr__(self, "R", R)
+
+    @property
+    def dim(self) -> int:
+        return self.satellites.shape[0]
+
+    @property
+    def noise_factor(self) -> np.ndarray:
+        return np.linalg.cholesky(self.R)
+
+    def _line_of_sight(self, x):
+        p = x[..., list(POSITION_INDEX)]                               # (..., 3)
+        d = self.satellites - p[..., None, :]                          # (..., m, 3)
+        return d, np.sqrt((d * d).sum(axis=-1))
+
+    def h(self, x):
+        _, r = self._line_of_sight(x)
+        return r + x[..., CLOCK_INDEX[0], None]
+
+    def jacobian(self, x):
+        d, r = self._line_of_sight(x)
+        jac = np.zeros(x.shape[:-1] + (self.dim, x.shape[-1]))
+        jac[..., list(POSITION_INDEX)] = -d / r[..., None]
+        jac[..., CLOCK_INDEX[0]] = 1.0
+        return jac
+
+    def residual(self, a, b):
+        return a - b
+
+    def average(self, values, weights):
+        return weights @ values
+
+
+# --------------------------------------------------------------------------- process noise
+def clock_process_noise(T: float, h0: float, h_minus2: float) -> np.ndarray:
+    r"""Discrete process noise (m^2, m^2/s, m^2/s^2) of the two-state clock ``[b, d]`` over T
+    seconds, from the Allan-variance coefficients :math:`h_0` and :math:`h_{-2}`
+    (Brown & Hwang 1997, Sec. 9.3: :math:`S_f = h_0/2`, :math:`S_g = 2\pi^2 h_{-2}`):
+
+    .. math:: Q = c^2\begin{bmatrix} S_f T + S_g T^3/3 & S_g T^2/2\\ S_g T^2/2 & S_g T\end{bmatrix}.
+    """
+    if not (T > 0 and h0 >= 0 and h_minus2 >= 0):
+        raise ValueError(f"T, h0, h_minus2: expected T > 0 and non-negative h, got {T}, {h0}, {h_minus2}")
+    sf, sg = h0 / 2.0, 2.0 * math.pi ** 2 * h_minus2
+    c2 = SPEED_OF_LIGHT ** 2
+    return c2 * np.array([[sf * T + sg * T ** 3 / 3.0, sg * T ** 2 / 2.0], [sg * T ** 2 / 2.0, sg * T]])
+
+
+def _pv_transition(T: float) -> np.ndarray:
+    return np.kron(np.eye(4), np.array([[1.0, T], [0.0, 1.0]]))
+
+
+@dataclass(frozen=True, eq=False)
+class PVClockNoise:
+    r"""Process noise of the 8-state position-velocity-clock model as a function of the
+    acceleration power spectral density :math:`S_p` (m^2/s^3, the same on every axis):
+
+    .. math:: Q(S_p) = S_p\,\mathrm{blkdiag}(Q_1, Q_1, Q_1, 0_2) + \mathrm{blkdiag}(0_6, Q_{clock}),
+              \quad Q_1 = \begin{bmatrix}T^3/3 & T^2/2\\ T^2/2 & T\end{bmatrix}
+
+    (continuous white-noise acceleration, Bar-Shalom et al. 2001, Eq. 6.2.2-12).  ``Q(levels)``
+    takes any array of levels and returns Q with two trailing axes: an IMM's modes and a
+    per-run adapted level use the same arithmetic, so equal levels give bit-identical Q."""
+
+    T: float
+    clock: np.ndarray
+
+    def __post_init__(self):
+        if not self.T > 0:
+            raise ValueError(f"T: sampling interval must be > 0, got {self.T}")
+        check_covariance(self.clock, "clock", 2, semidefinite=True)
+        q1 = np.array([[self.T ** 3 / 3.0, self.T ** 2 / 2.0], [self.T ** 2 / 2.0, self.T]])
+        unit = np.zeros((STATE_DIM, STATE_DIM))
+        unit[:6, :6] = np.kron(np.eye(3), q1)
+        base = np.zeros((STATE_DIM, STATE_DIM))
+        base[6:, 6:] = self.clock
+        object.__setattr__(self, "unit", unit)
+        object.__setattr__(self, "base", base)
+
+    def Q(self, levels) -> np.ndarray:
+        levels = as_float_array(levels, "levels")
+        if np.any(~np.isfinite(levels)) or np.any(levels < 0):
+            raise ValueError("levels: acceleration spectral densities must be finite and >= 0")
+        return levels[..., None, None] * self.unit + self.base
+
+    def dynamics(self, level: float, name: str = "") -> LinearGaussianDynamics:
+        """The 8-state model with one level: ``x_k = F x_{k-1} + w``, ``w ~ N(0, Q(level))``."""
+        Q = self.Q(float(level))
+        return LinearGaussianDynamics(_pv_transition(self.T), Q, _psd_factor(Q), name or f"PV(S_p={level:g})")

@@ -1,0 +1,288 @@
+"""GNSS geometry, clock model, Takagi-Sugeno inference, the noise-adaptive IMM, and the
+Tseng et al. 2011 reconstruction (hand-checkable cases, limits, invariances, bad inputs)."""
+import math
+
+import numpy as np
+import pytest
+
+from mmlib import gnss
+from mmlib.adaptive_imm import FuzzyNoiseBounds, NoiseAdaptiveIMM, degree_of_divergence
+from mmlib.estimation import IMM, SingleModel, run
+from mmlib.filters import KalmanFilter
+from mmlib.fuzzy import TakagiSugeno, Trapezoid, ramp_sets
+from mmlib.models import constant_velocity, position_measurement
+from mmlib.montecarlo import MonteCarlo
+from mmlib.scenarios import common, tseng2011 as paper
+
+SITE = (25.15, 121.78, 0.0)
+
+
+def up_unit(lat_deg, lon_deg):
+    """Geodetic normal in ECEF, written out independently of pymap3d."""
+    la, lo = math.radians(lat_deg), math.radians(lon_deg)
+    return np.array([math.cos(la) * math.cos(lo), math.cos(la) * math.sin(lo), math.sin(la)])
+
+
+# --------------------------------------------------------------------------- geometry
+def test_satellite_at_zenith_has_range_plus_bias_and_90_degrees_elevation():
+    frame = gnss.LocalFrame(*SITE)
+    r = 20_200e3
+    sat_ecef = frame.origin_ecef + r * up_unit(SITE[0], SITE[1])
+    enu = frame.ecef_to_enu(sat_ecef)
+    # double precision at 2e7 m: ~1e-8 m per operation, a few operations in pymap3d
+    np.testing.assert_allclose(enu, [0.0, 0.0, r], rtol=0, atol=1e-6)
+    assert math.degrees(gnss.elevation(enu[None], np.zeros(3))[0]) == pytest.approx(90.0, abs=1e-6)
+    pr = gnss.Pseudoranges(enu[None], np.eye(1))
+    b = 1234.5
+    x = np.array([0, 0, 0, 0, 0, 0, b, 0.0])
+    assert pr.h(x)[0] == pytest.approx(r + b, rel=0, abs=1e-6)
+
+
+def test_pseudorange_and_jacobian_at_a_known_position():
+    sats = np.array([[3.0, 0.0, 4.0], [0.0, 0.0, 10.0], [-6.0, 8.0, 0.0]])
+    pr = gnss.Pseudoranges(sats, np.eye(3))
+    x = np.zeros(8)
+    x[6] = 2.0                                          # clock bias, m
+    np.testing.assert_allclose(pr.h(x), [5.0 + 2.0, 10.0 + 2.0, 10.0 + 2.0], rtol=0, atol=1e-12)
+    H = pr.jacobian(x)
+    np.testing.assert_allclose(H[0, [0, 2, 4]], [-0.6, 0.0, -0.8], atol=1e-12)   # minus the line of sight
+    assert np.all(H[:, 6] == 1.0) and np.all(H[:, [1, 3, 5, 7]] == 0.0)
+    # finite differences at a generic point
+    x = np.array([1.0, 0.5, -2.0, 0.1, 0.3, 0.0, 7.0, 0.2])
+    eps = 1e-6
+    fd = np.stack([(pr.h(x + eps * e) - pr.h(x - eps * e)) / (2 * eps) for e in np.eye(8)], axis=-1)
+    np.testing.assert_allclose(pr.jacobian(x), fd, rtol=0, atol=1e-8)
+
+
+def test_receiver_position_roundtrip_and_horizon():
+    frame = gnss.LocalFrame(*SITE)
+    enu = np.array([[100.0, -250.0, 3.0], [0.0, 0.0, 0.0]])
+    np.testing.assert_allclose(frame.ecef_to_enu(frame.enu_to_ecef(enu)), enu, atol=1e-6)
+    el = gnss.elevation(np.array([[1e7, 0.0, 0.0], [0.0, 1e7, 1e7]]), np.zeros(3))
+    np.testing.assert_allclose(np.degrees(el), [0.0, 45.0], atol=1e-12)
+
+
+def test_circular_orbits_closed_form():
+    i = math.radians(55.0)
+    c = gnss.CircularOrbitConstellation(np.array([0.0, 0.0]), np.array([0.0, math.pi / 2]))
+    p0 = c.positions_ecef([0.0])[0]
+    np.testing.assert_allclose(p0[0], [c.a, 0, 0], atol=1e-6)
+    np.testing.assert_allclose(p0[1], [0, c.a * math.cos(i), c.a * math.sin(i)], atol=1e-6)
+    p = c.positions_ecef(np.linspace(0, 86_400, 7))
+    np.testing.assert_allclose(np.linalg.norm(p, axis=-1), c.a, rtol=1e-14)
+    # two-body period of the nominal radius: half a sidereal day to 5 s (the real orbit's J2 and
+    # radius adjustments close the gap); 10 s bounds it
+    assert 2 * math.pi / c.mean_motion == pytest.approx(math.pi / gnss.EARTH_ROTATION, abs=10.0)
+    const = gnss.nominal_gps24()
+    assert const.size == 24 and len(set(const.names)) == 24
+    with pytest.raises(ValueError, match="arg_latitude"):
+        gnss.CircularOrbitConstellation(np.zeros(3), np.zeros(2))
+    with pytest.raises(ValueError, match="lat"):
+        gnss.LocalFrame(95.0, 0.0)
+
+
+def test_clock_noise_closed_form_and_validation():
+    T, h0, hm2 = 2.0, 2e-19, 2e-20
+    Q = gnss.clock_process_noise(T, h0, hm2)
+    c2 = gnss.SPEED_OF_LIGHT ** 2
+    sg = 2 * math.pi ** 2 * hm2
+    np.testing.assert_allclose(Q, c2 * np.array([[h0 / 2 * T + sg * T ** 3 / 3, sg * T ** 2 / 2],
+                                                 [sg * T ** 2 / 2, sg * T]]), rtol=1e-15)
+    np.testing.assert_allclose(gnss.clock_process_noise(T, h0, 0.0), [[c2 * h0 / 2 * T, 0], [0, 0]], rtol=1e-15)
+    assert np.all(np.linalg.eigvalsh(Q) > 0)
+    with pytest.raises(ValueError, match="h0"):
+        gnss.clock_process_noise(1.0, -1.0, 0.0)
+
+
+def test_pv_clock_noise_levels_are_bit_identical_to_single_models():
+    noise = gnss.PVClockNoise(1.0, gnss.clock_process_noise(1.0, 2e-19, 2e-20))
+    levels = np.array([[0.01, 1.0], [0.3, 0.0]])
+    Q = noise.Q(levels)
+    assert Q.shape == (2, 2, 8, 8)
+    assert np.array_equal(Q[0, 1], noise.dynamics(1.0).Q) and np.array_equal(Q[0, 0], noise.dynamics(0.01).Q)
+    np.testing.assert_allclose(Q[1, 1][:6, :6], 0.0)
+    with pytest.raises(ValueError, match="levels"):
+        noise.Q(np.array([-1.0]))
+
+
+def test_pseudoranges_validate():
+    with pytest.raises(ValueError, match="satellites"):
+        gnss.Pseudoranges(np.zeros((2, 2)), np.eye(2))
+    with pytest.raises(ValueError, match="R"):
+        gnss.Pseudoranges(np.ones((2, 3)), -np.eye(2))
+    with pytest.raises(ValueError, match="satellites"):
+        gnss.Pseudoranges(np.array([[np.nan, 0, 0]]), np.eye(1))
+
+
+# --------------------------------------------------------------------------- fuzzy inference
+def test_trapezoid_and_partition_of_unity():
+    t = Trapezoid("T", 0.0, 1.0, 2.0, 4.0)
+    np.testing.assert_allclose(t([-1, 0, 0.5, 1, 1.5, 2, 3, 4, 5]), [0, 0, 0.5, 1, 1, 1, 0.5, 0, 0])
+    sets = ramp_sets(("N", "M", "L"), (1.0, 2.0, 4.0))
+    x = np.linspace(-3, 10, 1001)
+    np.testing.assert_allclose(sum(s(x) for s in sets), 1.0, atol=1e-15)
+    assert sets[0](0.0) == 1.0 and sets[1](2.0) == 1.0 and sets[2](100.0) == 1.0
+    with pytest.raises(ValueError, match="a <= b"):
+        Trapezoid("bad", 2.0, 1.0, 3.0, 4.0)
+    with pytest.raises(ValueError, match="breakpoints"):
+        ramp_sets(("N", "M"), (2.0, 1.0))
+
+
+def two_input_system(cons=None):
+    sets = ramp_sets(("N", "M", "L"), (1.0, 2.0, 4.0))
+    cons = np.arange(18.0).reshape(3, 3, 2) if cons is None else cons
+    return TakagiSugeno((sets, sets), cons)
+
+
+def test_takagi_sugeno_corners_return_the_corner_rules():
+    ts = two_input_system()
+    x = np.array([[0.0, 0.0], [100.0, 100.0], [0.0, 100.0], [100.0, 0.0], [2.0, 2.0]])
+    np.testing.assert_array_equal(ts(x), ts.consequents[[0, 2, 0, 2, 1], [0, 2, 2, 0, 1]])
+    # between two rules: the weighted average (x1 = 1.5 -> N and M at 1/2 each)
+    np.testing.assert_allclose(ts(np.array([[1.5, 0.0]])), [0.5 * (ts.consequents[0, 0] + ts.consequents[1, 0])])
+    # always inside the hull of the consequents
+    y = ts(np.random.default_rng(1).uniform(0, 6, (200, 2)))
+    assert y.min() >= ts.consequents.min() and y.max() <= ts.consequents.max()
+
+
+def test_takagi_sugeno_bad_inputs():
+    with pytest.raises(ValueError, match="consequents"):
+        two_input_system(np.zeros((3, 2, 2)))
+    ts = two_input_system()
+    with pytest.raises(ValueError, match="x"):
+        ts(np.zeros((4, 3)))
+    with pytest.raises(ValueError, match="x"):
+        ts(np.array([[np.nan, 0.0]]))
+    gap = TakagiSugeno(((Trapezoid("low", -math.inf, -math.inf, 0.0, 1.0),),), np.zeros((1, 1)))
+    with pytest.raises(ValueError, match="fires no rule"):
+        gap(np.array([[5.0]]))
+
+
+def test_degree_of_divergence_definitions():
+    nu = np.array([[3.0, -3.0, 3.0, -3.0], [0.0, 0.0, 0.0, 6.0]])
+    dod = degree_of_divergence(nu, 9.0)
+    np.testing.assert_allclose(dod, [[1.0, 1.0], [1.0, 0.5]])        # same xi, different eta
+    with pytest.raises(ValueError, match="noise_variance"):
+        degree_of_divergence(nu, 0.0)
+    with pytest.raises(ValueError, match="innovation"):
+        degree_of_divergence(nu[0], 1.0)
+
+
+def test_flas_corners_give_the_stated_bounds_and_nan_runs_stay_nan():
+    setup = paper.Setup()
+    flas = FuzzyNoiseBounds(paper.fuzzy_system(setup))
+    R = gnss.Pseudoranges(np.ones((4, 3)), setup.sigma_pr ** 2 * np.eye(4))
+    quiet = np.zeros((1, 4))
+    loud = np.full((1, 4), 100.0)
+    np.testing.assert_allclose(flas(quiet, R), [[setup.s_lower, math.sqrt(setup.s_lower * setup.s_upper)]], rtol=1e-14)
+    np.testing.assert_allclose(flas(loud, R), [[math.sqrt(setup.s_lower * setup.s_upper), setup.s_upper]], rtol=1e-14)
+    out = flas(np.array([[np.nan] * 4, [0.0] * 4]), R)
+    assert np.isnan(out[0]).all() and np.isfinite(out[1]).all()
+
+
+# --------------------------------------------------------------------------- per-step measurement models
+def test_per_step_models_equal_the_fixed_array_path():
+    cv = constant_velocity(1.0, 0.5)
+    meas = position_measurement([4.0, 4.0])
+    est = SingleModel(KalmanFilter(), cv, meas)
+    rng = np.random.default_rng(0)
+    z = rng.normal(size=(5, 12, 2))
+    x0, P0 = np.zeros((5, 4)), np.eye(4)
+    a = run(est, est.init(x0, P0), z)
+    b = run(est, est.init(x0, P0), [z[:, k] for k in range(12)], measurement_models=[meas] * 12)
+    assert np.array_equal(a.mean, b.mean) and np.array_equal(a.cov, b.cov)
+    with pytest.raises(ValueError, match="measurement_models"):
+        run(est, est.init(x0, P0), [z[:, k] for k in range(12)], measurement_models=[meas] * 11)
+    bad = [z[:, k] for k in range(12)]
+    bad[3] = np.full((5, 2), np.nan)
+    with pytest.raises(ValueError, match=r"measurements\[3\]"):
+        run(est, est.init(x0, P0), bad, measurement_models=[meas] * 12)
+    with pytest.raises(ValueError, match=r"measurements\[0\]"):
+        run(est, est.init(x0, P0), [z[:, 0, :1]] + [z[:, k] for k in range(1, 12)], measurement_models=[meas] * 12)
+    no_model = SingleModel(KalmanFilter(), cv, None)
+    with pytest.raises(ValueError, match="no measurement model"):
+        run(no_model, no_model.init(x0, P0), z)
+
+
+# --------------------------------------------------------------------------- the reconstruction
+SHORT = paper.Setup(n_steps=150, turns=((40.0, 90.0, 90.0),))
+
+
+def short_results(setup, names, n_runs, **build_kw):
+    ex = paper.experiment(setup, names=names, **build_kw)
+    mc = MonteCarlo(paper.ROOT_SEED, n_runs)
+    return common.evaluate(ex.estimators, paper.make_batch_fn(ex, mc), mc, progress=False,
+                           measurement_models=ex.measurement_models)
+
+
+def test_frozen_fuzzy_imm_is_the_imm_at_its_initial_bounds_bit_for_bit():
+    ex = paper.experiment(SHORT, names=("FUZZY-IMMUKF",), frozen_fuzzy=True)
+    frozen = ex.estimators["FUZZY-IMMUKF"]
+    plain = frozen.imm                                    # the IMM whose modes have the 'Normal' bounds
+    mc = MonteCarlo(paper.ROOT_SEED, 6)
+    truth, z, init = paper.make_batch_fn(ex, mc)(range(6))
+    a = run(frozen, init["FUZZY-IMMUKF"], z, measurement_models=ex.measurement_models)
+    b = run(plain, init["FUZZY-IMMUKF"].imm, z, measurement_models=ex.measurement_models)
+    assert np.array_equal(a.mean, b.mean) and np.array_equal(a.mode_probabilities, b.mode_probabilities)
+    np.testing.assert_array_equal(a.diagnostics, np.broadcast_to(frozen.initial_levels, a.diagnostics.shape))
+
+
+def test_constant_fuzzy_output_equals_the_imm_to_rounding():
+    setup = SHORT
+    ex = paper.experiment(setup, names=("FUZZY-IMMUKF", "IMMUKF"))
+    imm = ex.estimators["IMMUKF"]
+    ts = paper.fuzzy_system(setup)
+    const = TakagiSugeno(ts.inputs, np.broadcast_to(np.log10([setup.s_lower, setup.s_upper]), ts.consequents.shape))
+    fz = NoiseAdaptiveIMM(imm, paper.noise_model(setup).Q, FuzzyNoiseBounds(const), (setup.s_lower, setup.s_upper))
+    mc = MonteCarlo(paper.ROOT_SEED, 4)
+    truth, z, init = paper.make_batch_fn(ex, mc)(range(4))
+    a = run(fz, fz.init(truth[:, 0], np.diag(np.square(setup.p0_sd)), setup.mu0), z,
+            measurement_models=ex.measurement_models)
+    b = run(imm, imm.init(truth[:, 0], np.diag(np.square(setup.p0_sd)), setup.mu0), z,
+            measurement_models=ex.measurement_models)
+    # 10**log10(s) differs from s by a few ulp; positions are ~1e4 m
+    np.testing.assert_allclose(a.mean, b.mean, rtol=0, atol=1e-6)
+
+
+def test_ukf_equals_ekf_and_imm_beats_a_lower_bound_tuned_ukf():
+    res = short_results(paper.variant(SHORT, s_ukf=0.001), ("UKF", "IMMUKF", "EKF"), 8)
+    pos = [0, 2, 4]
+    # sigma^2/(2r) ~ 1e-6 m of curvature over the spread: the UKF is the EKF
+    assert np.abs(res["UKF"].errors[..., pos] - res["EKF"].errors[..., pos]).max() < 1e-4
+    assert all(r.valid.all() for r in res.values())
+    assert paper.rms(res["IMMUKF"], 0).value < paper.rms(res["UKF"], 0).value
+
+
+def test_reconstruction_is_deterministic_and_prefix_consistent():
+    a = short_results(SHORT, ("FUZZY-IMMUKF",), 6)["FUZZY-IMMUKF"]
+    b = short_results(SHORT, ("FUZZY-IMMUKF",), 6)["FUZZY-IMMUKF"]
+    c = short_results(SHORT, ("FUZZY-IMMUKF",), 3)["FUZZY-IMMUKF"]
+    assert np.array_equal(a.errors, b.errors) and np.array_equal(a.diagnostics, b.diagnostics)
+    assert np.array_equal(a.errors[:3], c.errors)
+
+
+def test_trajectory_follows_the_segment_table():
+    s = paper.Setup()
+    x = paper.trajectory(s)
+    speed = np.hypot(x[:, 1], x[:, 3])
+    np.testing.assert_allclose(speed, s.speed, rtol=1e-12)
+    heading = np.degrees(np.arctan2(x[:, 3], x[:, 1]))
+    # after the full circle the course is East again; +90 after segment 4; back to East after segment 6
+    assert heading[700] == pytest.approx(0.0, abs=1e-6)
+    assert heading[900] == pytest.approx(90.0, abs=1e-6)
+    assert heading[1400] == pytest.approx(0.0, abs=1e-6)
+    np.testing.assert_allclose(x[300, [0, 2]], x[700, [0, 2]], atol=1e-6)       # a closed circle
+
+
+def test_setup_and_estimator_validation():
+    with pytest.raises(ValueError, match="p_stay"):
+        paper.Setup(p_stay=1.0)
+    with pytest.raises(ValueError, match="s_lower"):
+        paper.Setup(s_lower=2.0, s_upper=1.0)
+    with pytest.raises(ValueError, match="mask_deg"):
+        paper.experiment(paper.Setup(n_steps=5, mask_deg=80.0))
+    ex = paper.experiment(SHORT, names=("IMMUKF",))
+    with pytest.raises(ValueError, match="initial_levels"):
+        NoiseAdaptiveIMM(ex.estimators["IMMUKF"], paper.noise_model(SHORT).Q, None, (0.1,))
+    with pytest.raises(ValueError, match="system"):
+        FuzzyNoiseBounds(TakagiSugeno((ramp_sets("NL", (0, 1)),), np.zeros((2, 1))))
