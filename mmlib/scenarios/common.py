@@ -149,3 +149,10 @@ def time_algorithms(estimators: dict, init: dict, measurements, *, repeats: int 
             single[name].append(_time_one_at_a_time(est, init[name], measurements))
             batched[name].append(_time_batched(est, init[name], measurements))
     return ({k: np.array(v) for k, v in single.items()}, {k: np.array(v) for k, v in batched.items()})
+
+
+def first_runs(rs: RunSet, n: int) -> RunSet:
+    """The first ``n`` runs of a RunSet: the same numbers a run over ``n`` runs gives (the streams
+    are per run and the filters batch-size invariant), without recomputing them."""
+    cut = (lambda a: None if a is None else a[:n])
+    return RunSet(rs.errors[:n], cut(rs.mode_probabilities), rs.diverged_step[:n], rs.example_mean, cut(rs.diagnostics))
