@@ -172,6 +172,8 @@ class IMM:
     axis, (B, r, ...), so all modes are predicted and updated in one batched
     call.  ``transition`` is (r, r) with rows = "from", columns = "to".
     ``mixing`` is a strategy with the signature of :class:`MomentMixing`.
+    ``measurement`` may be None when every step supplies its own model
+    (``run(..., measurement_models=...)``).
     """
 
     filter: Any

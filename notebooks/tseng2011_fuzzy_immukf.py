@@ -144,7 +144,9 @@ nb.show(fig, "reconstruction_trajectory_satellites",
 # one-decade band of process noise along the plain IMM's two-decade range: the band's position is the larger of the
 # two inputs' levels — either sign of divergence raises the noise — and the fuzzy bounds never leave the IMM's
 # range, so the comparison with the IMM is fair. Output = product-weighted average of the rule consequents, in
-# $\log_{10} S_p$.
+# $\log_{10} S_p$. The inference is `mmlib/fuzzy.py` (~20 lines of numpy evaluated for all runs at once):
+# scikit-fuzzy is built for Mamdani inference and simpful evaluates one input vector per call, which would put a
+# Python loop over runs inside the filter loop.
 
 # %%
 ts = paper.fuzzy_system(setup)
@@ -426,6 +428,10 @@ claim("The FLAS determines better lower and upper process-noise bounds online (S
       "run and not tuned (T-10)")
 claim("The UKF avoids the EKF's linearisation errors (Sec. 2)", "not testable here (holds trivially)",
       f"pseudoranges are linear over the filter's spread: |UKF - EKF| <= {ukf_ekf:.1e} m over all runs and epochs")
+claim("The approach prevents the divergence problem in high dynamic environments (conclusions)",
+      "not testable here" if not any(diverged.values()) else "see evidence",
+      "no filter diverged in the reconstruction (" + ", ".join(f"{a} {d}/{nb.n_runs}" for a, d in diverged.items())
+      + "), so there was no divergence to prevent; the UKF's errors stay bounded under every tuning swept")
 claim("A lower-order filter model suffices with less computation (conclusions)", "not replicable",
       "no filter-order comparison survives in the text")
 claim("Absolute RMS errors of the table (UKF 7.95/6.32, IMMUKF 3.00/2.30, FUZZY-IMMUKF 1.02/0.73 m)",
