@@ -14,10 +14,13 @@ Degree of divergence (Tseng et al. 2011, Sec. 3.2), from the innovation
 .. math:: \xi_k = \frac{\mathrm{tr}(\upsilon_k\upsilon_k^T)}{m} = \frac{\upsilon_k^T\upsilon_k}{m},
           \qquad \eta_k = \frac1m \sum_i |\upsilon_{k,i}|.
 
-:func:`degree_of_divergence` returns them divided by :math:`\sigma^2` and :math:`\sigma`
-(:math:`\sigma^2` the mean measurement-noise variance), so that the fuzzy sets are
-dimensionless: for consistent innovations with variance near :math:`\sigma^2`, :math:`\xi/\sigma^2`
-is :math:`\chi^2_m/m` (mean 1) and :math:`\eta/\sigma` has mean :math:`\sqrt{2/\pi} \approx 0.80`.
+:func:`degree_of_divergence` divides them by a reference variance :math:`\bar s` and its square
+root, so that the fuzzy sets are dimensionless.  :class:`FuzzyNoiseBounds` uses by default the
+*predicted* innovation variance per measurement, :math:`\bar s = \mathrm{tr}(S_k)/m` (for an IMM,
+of the mixture prior): for a consistent filter, :math:`\xi/\bar s` is then close to
+:math:`\chi^2_m/m` (mean 1) and :math:`\eta/\sqrt{\bar s}` has mean :math:`\approx\sqrt{2/\pi} = 0.80`,
+whatever the filter's own uncertainty.  ``normalise="measurement"`` uses the measurement-noise
+variance instead (mean :math:`1 + \mathrm{tr}(HPH^T)/(m\sigma^2) > 1`).
 """
 from __future__ import annotations
 
@@ -32,8 +35,8 @@ from .fuzzy import TakagiSugeno
 
 
 def degree_of_divergence(innovation, noise_variance) -> np.ndarray:
-    r"""(B, 2): :math:`[\xi/\sigma^2, \eta/\sigma]` for innovations (B, m) and :math:`\sigma^2` (scalar
-    or (B,))."""
+    r"""(B, 2): :math:`[\xi/\bar s, \eta/\sqrt{\bar s}]` for innovations (B, m) and a reference variance
+    :math:`\bar s` (scalar or (B,))."""
     nu = np.asarray(innovation, dtype=float)
     s2 = np.asarray(noise_variance, dtype=float)
     if nu.ndim != 2:
@@ -51,20 +54,31 @@ class FuzzyNoiseBounds:
 
     ``system`` is a Takagi-Sugeno system with the two inputs of :func:`degree_of_divergence`
     and two outputs, the base-10 logarithms of the lower and upper levels (the consequents are
-    averaged in log space: the levels are scale parameters spanning decades)."""
+    averaged in log space: the levels are scale parameters spanning decades).  ``normalise`` is
+    ``"innovation"`` (divide by the predicted innovation variance per measurement) or
+    ``"measurement"`` (by the mean measurement-noise variance)."""
 
     system: TakagiSugeno
+    normalise: str = "innovation"
 
     def __post_init__(self):
         if self.system.n_inputs != 2 or self.system.consequents.shape[-1] != 2:
             raise ValueError("system: expected 2 inputs (xi, eta) and 2 outputs (log10 lower, log10 upper)")
+        if self.normalise not in ("innovation", "measurement"):
+            raise ValueError(f"normalise: expected 'innovation' or 'measurement', got {self.normalise!r}")
 
-    def dod(self, innovation, measurement) -> np.ndarray:
-        return degree_of_divergence(innovation, float(np.mean(np.diag(measurement.R))))
+    def dod(self, estimate, measurement) -> np.ndarray:
+        if self.normalise == "measurement":
+            ref = float(np.mean(np.diag(measurement.R)))
+        else:
+            S = estimate.innovation_cov
+            ref = np.trace(S, axis1=-2, axis2=-1) / S.shape[-1]
+            ref = np.where(np.isfinite(ref), ref, 1.0)          # diverged runs: NaN innovation anyway
+        return degree_of_divergence(estimate.innovation, ref)
 
-    def __call__(self, innovation, measurement) -> np.ndarray:
+    def __call__(self, estimate, measurement) -> np.ndarray:
         """Levels (B, 2); NaN for runs whose innovation is not finite (diverged runs stay visible)."""
-        dod = self.dod(innovation, measurement)
+        dod = self.dod(estimate, measurement)
         ok = np.isfinite(dod).all(axis=1)
         out = np.full((dod.shape[0], 2), np.nan)
         if ok.any():
@@ -82,7 +96,8 @@ class NoiseAdaptiveIMM:
     """IMM with per-run, per-step process-noise levels (see the module docstring).
 
     ``noise(levels)`` maps levels (B, r) to Q (B, r, n, n) (e.g. :meth:`mmlib.gnss.PVClockNoise.Q`);
-    ``controller(innovation, measurement)`` returns the next levels (B, r);
+    ``controller(estimate, measurement)`` returns the next levels (B, r) from this step's
+    :class:`~mmlib.estimation.Estimate` (innovation and its predicted covariance);
     ``initial_levels`` (r,) are the levels of the first step.  Each step's ``Estimate.diagnostics``
     holds the levels used in that step."""
 
@@ -110,13 +125,15 @@ class NoiseAdaptiveIMM:
 
     def step(self, state: NoiseAdaptiveState, z, *, with_cov: bool = True, measurement=None):
         measurement = self.imm.measurement if measurement is None else measurement
-        dynamics = self.imm.stacked.with_noise(self.noise(state.levels))
+        # a diverged run has NaN levels (kept, and recorded in the diagnostics); its state is NaN already, so
+        # any finite placeholder lets the other runs of the batch go on while run() reports this one
+        levels_now = np.where(np.isfinite(state.levels), state.levels, self.initial_levels)
+        dynamics = self.imm.stacked.with_noise(self.noise(levels_now))
         imm_state, est = self.imm.step(state.imm, z, with_cov=with_cov, measurement=measurement, dynamics=dynamics)
         if self.frozen:
             levels = state.levels
         else:
-            levels = np.asarray(self.controller(est.innovation, measurement), dtype=float)
+            levels = np.asarray(self.controller(est, measurement), dtype=float)
             if levels.shape != state.levels.shape:
                 raise ValueError(f"controller: expected levels of shape {state.levels.shape}, got {levels.shape}")
-            # a diverged run has a NaN innovation: keep its NaN levels (reported by run(), never patched)
         return NoiseAdaptiveState(imm_state, levels), est._replace(diagnostics=state.levels)

@@ -28,10 +28,12 @@ from ._validate import (check_finite, as_float_array,
 
 
 class Estimate(NamedTuple):
-    """Per-step output: fused ``mean`` (B, n), ``cov`` (B, n, n), ``mode_probabilities`` (B, r) or None,
-    ``loglik`` (B,) and ``innovation`` (B, m): the residual of the measurement against the (for an IMM,
-    mode-probability-weighted) predicted measurement; ``diagnostics`` (B, d): anything an adaptive
-    estimator wants recorded per step (collected by :func:`run`)."""
+    r"""Per-step output: fused ``mean`` (B, n), ``cov`` (B, n, n), ``mode_probabilities`` (B, r) or None,
+    ``loglik`` (B,), ``innovation`` (B, m) and its predicted covariance ``innovation_cov`` (B, m, m):
+    the residual of the measurement against the predicted measurement (for an IMM, that of the
+    mixture prior: mean :math:`\sum_j c_j \hat z_j`, covariance
+    :math:`\sum_j c_j [S_j + (\hat z_j - \hat z)(\hat z_j - \hat z)^T]`); ``diagnostics`` (B, d): anything
+    an adaptive estimator wants recorded per step (collected by :func:`run`)."""
 
     mean: np.ndarray
     cov: np.ndarray
@@ -39,6 +41,7 @@ class Estimate(NamedTuple):
     loglik: Any = None
     innovation: Any = None
     diagnostics: Any = None
+    innovation_cov: Any = None
 
 
 def _measurement_model(default, override):
@@ -76,7 +79,7 @@ class SingleModel:
         z = _check_measurement(z, measurement.dim)
         state = self.filter.predict(state, self.dynamics)
         state, info = self.filter.update(state, z, measurement)
-        return state, Estimate(state.mean, state.cov, None, info.loglik, info.innovation)
+        return state, Estimate(state.mean, state.cov, None, info.loglik, info.innovation, innovation_cov=info.S)
 
 
 class SwitchingState(NamedTuple):
@@ -106,7 +109,8 @@ class KnownModeSequence:
             raise ValueError(f"z: step {state.step} beyond the {len(self.modes)} known modes")
         s = self.filter.predict(state.filter_state, self.dynamics[int(self.modes[state.step])])
         s, info = self.filter.update(s, z, measurement)
-        return SwitchingState(s, state.step + 1), Estimate(s.mean, s.cov, None, info.loglik, info.innovation)
+        return SwitchingState(s, state.step + 1), Estimate(s.mean, s.cov, None, info.loglik, info.innovation,
+                                                           innovation_cov=info.S)
 
 
 # --------------------------------------------------------------------------- IMM
@@ -236,9 +240,12 @@ class IMM:
         fused_mean = (mu[:, None, :] @ modes.mean)[:, 0]
         fused_cov = (combine_covariances(mu[:, None, :], modes.mean, modes.cov, fused_mean[:, None, :])[:, 0]
                      if with_cov else None)
-        # innovation against the predicted measurement of the mixture prior: z - sum_j c_j zhat_j
+        # innovation against the predicted measurement of the mixture prior: z - sum_j c_j zhat_j, and its
+        # predicted covariance (zhat_j - zhat = innovation - nu_j, so the spread term uses the innovations)
         innovation = (c[:, :, None] * info.innovation).sum(axis=1)
-        return IMMState(modes, mu), Estimate(fused_mean, fused_cov, mu, marginal, innovation)
+        innovation_cov = combine_covariances(c[:, None, :], info.innovation, info.S, innovation[:, None, :])[:, 0]
+        return IMMState(modes, mu), Estimate(fused_mean, fused_cov, mu, marginal, innovation,
+                                             innovation_cov=innovation_cov)
 
 
 # --------------------------------------------------------------------------- driver

@@ -145,8 +145,9 @@ class LocalFrame:
 
 def elevation(satellites_enu, receiver_enu) -> np.ndarray:
     """Elevation angle (rad) of satellites (..., S, 3) seen from receivers (..., 3), both in one
-    ENU frame, measured from that frame's horizontal plane.  For a receiver within 10 km of the
-    frame's origin the local vertical differs from the frame's by < 0.1 degrees."""
+    ENU frame, measured from that frame's horizontal plane.  For a receiver within 25 km of the
+    frame's origin the local vertical differs from the frame's by < 0.25 degrees (truth and filter
+    share this geometry, so applying the mask in the frame's horizon changes no comparison)."""
     d = np.asarray(satellites_enu, float) - np.asarray(receiver_enu, float)[..., None, :]
     return np.arcsin(d[..., 2] / np.linalg.norm(d, axis=-1))
 

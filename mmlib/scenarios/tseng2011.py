@@ -62,7 +62,8 @@ class Setup:
     p_stay: float = 0.99                         # IMM Markov chain (T-9)
     mu0: tuple = (0.5, 0.5)                      # initial mode probabilities (T-9)
     ukf: tuple = (1.0, 2.0, 0.0)                 # alpha, beta, kappa (T-6)
-    xi_breakpoints: tuple = (1.0, 2.0, 4.0)      # fuzzy sets of xi / sigma^2 (T-10)
+    xi_breakpoints: tuple = (1.0, 2.0, 4.0)      # fuzzy sets of xi / s (T-10)
+    dod_normalise: str = "innovation"            # s = predicted innovation variance, or "measurement" (T-10)
     mf_scale: float = 1.0                        # sweep: all fuzzy breakpoints scaled by this (T-10)
     p0_sd: tuple = (10.0, 1.0, 10.0, 1.0, 10.0, 1.0, 30.0, 1.0)   # initial estimate s.d. (T-12)
 
@@ -74,6 +75,8 @@ class Setup:
             raise ValueError(f"s_lower, s_upper: need s_lower < s_upper, got {self.s_lower}, {self.s_upper}")
         if not 0.0 < self.p_stay < 1.0:
             raise ValueError(f"p_stay: must be in (0, 1), got {self.p_stay}")
+        if self.dod_normalise not in ("innovation", "measurement"):
+            raise ValueError(f"dod_normalise: expected 'innovation' or 'measurement', got {self.dod_normalise!r}")
         if not 0.0 <= self.mask_deg < 90.0:
             raise ValueError(f"mask_deg: expected [0, 90) degrees, got {self.mask_deg}")
 
@@ -99,7 +102,7 @@ DEVIATIONS = [
     Deviation("T-3", "satellites", "'GPS' only; constellation, epoch, site and elevation mask not given",
               "a nominal 24-satellite constellation (6 planes of 4, 55 deg, circular orbits, Walker 24/6/1 phasing) "
               "propagated in closed form (mmlib.gnss), site at 25.15 N, 121.78 E (the authors' university, Keelung), "
-              "10-degree mask; the satellites in view change over the 30 minutes",
+              "10-degree mask: 6-7 satellites in view, the set changing once in the 30 minutes",
               "No package propagates a nominal constellation without an almanac; a circular orbit is a closed form "
               "(IS-GPS-200 with e = 0).  Frames are converted with pymap3d.", ""),
     Deviation("T-4", "pseudorange noise", "not given", "white, 3 m s.d., independent between satellites; no "
@@ -122,20 +125,22 @@ DEVIATIONS = [
               "kinematic model.  The bounds span a straight leg to ~1 m/s^2 turns.", "IMM bounds sweep"),
     Deviation("T-8", "UKF's process noise", "not given", "S_p = 0.1 m^2/s^3, the geometric mean of the IMM's bounds",
               "A single filter must compromise between the straight legs and the turns; giving it the IMM's lower "
-              "bound would make the comparison a straw man.  Swept, including the best fixed value in hindsight.",
+              "bound would make the comparison a straw man.  Swept from 0.001 to 1 m^2/s^3.",
               "UKF S_p sweep"),
     Deviation("T-9", "IMM Markov chain and start", "not given", "p_ii = 0.99 (mean sojourn 100 s, the shortest "
               "segment), initial mode probabilities (0.5, 0.5)", ""),
     Deviation("T-10", "FLAS membership functions and rules", "Takagi-Sugeno with DOD inputs (Sec. 3.2); sets, rules "
-              "and consequents lost", "inputs xi/sigma^2 and eta/sigma (Sec. 3.2 DOD over the pseudorange "
-              "variance); three sets each, Normal/Moderate/Large, peaks at (1, 2, 4) for xi/sigma^2 and 0.80 * "
-              "sqrt of those for eta/sigma; 9 rules: the output position p = max(level of xi, level of eta)/2; "
-              "log10 lower = log10 S_L + p * D, log10 upper = log10 S_L + D + p * D with D = half the IMM's "
-              "log-range, so the bounds slide between (0.01, 0.1) and (0.1, 1)",
-              "First principles, not fitted: for consistent innovations xi/sigma^2 ~ chi2_m/m (mean 1, 99.9 % "
-              "quantile ~3 for 8 satellites) and eta/sigma ~ 0.80 sqrt(xi/sigma^2); either input diverging "
-              "raises the noise; the fuzzy bounds never leave the plain IMM's range, so the comparison is fair.",
-              "breakpoints x0.5 / x2"),
+              "and consequents lost", "inputs xi/s and eta/sqrt(s), the Sec. 3.2 DOD over the predicted innovation "
+              "variance per satellite s = tr(S)/m (of the IMM's mixture prior); three sets each, Normal/Moderate/Large, "
+              "peaks at (1, 2, 4) for xi/s and 0.80 * sqrt of those for eta/sqrt(s); 9 rules: the output position "
+              "p = max(level of xi, level of eta)/2; log10 lower = log10 S_L + p * D, log10 upper = log10 S_L + D + "
+              "p * D with D = half the IMM's log-range, so the bounds slide between (0.01, 0.1) and (0.1, 1)",
+              "First principles, not fitted: for a consistent filter xi/s ~ chi2_m/m (mean 1; 95 % quantile ~2, "
+              "99.9 % ~3.5-3.7 for the 6-7 satellites in view) and eta/sqrt(s) ~ 0.80 sqrt(xi/s); either input "
+              "diverging raises the noise; the fuzzy bounds never leave the plain IMM's range, so the comparison is "
+              "fair.  The first version divided by the pseudorange variance sigma^2 instead; review found its "
+              "stated justification wrong (the mean is 1 + tr(HPH^T)/(m sigma^2) ~ 1.25, not 1), so it was "
+              "corrected and is kept as a sweep row.", "breakpoints x0.5 / x2; DOD over sigma^2"),
     Deviation("T-11", "FLAS timing and innovation", "not given",
               "the DOD at epoch k (innovation against the IMM's predicted measurement sum_j c_j zhat_j) sets the "
               "bounds used from epoch k+1; the first epoch uses the 'Normal' bounds", ""),
@@ -143,6 +148,9 @@ DEVIATIONS = [
               "axis; 30 m, 1 m/s clock)^2, the same draw for all filters", ""),
     Deviation("T-13", "Monte Carlo", "not stated (Fig. 15 shows RMS errors, so several runs)",
               "100 runs; RMS over runs and all 1800 epochs", ""),
+    Deviation("T-15", "strong tracking (Appendix B)", "the STUKF of ref. [9] is summarised in Appendix B",
+              "not used", "Neither the table nor the surviving text uses STUKF in the comparison; FUZZY-IMMUKF adapts "
+              "Q through the IMM's bounds, not through fading factors (mmlib's StrongTracking layer would give it).", ""),
     Deviation("T-14", "verdict basis", "absolute errors depend on every unknown above",
               "absolute RMS rows are shown for scale with the verdict 'not replicable'; the ranking and the relative "
               "improvements (1 - RMS_a/RMS_b) are judged", ""),
@@ -203,7 +211,7 @@ def fuzzy_system(setup: Setup) -> TakagiSugeno:
     p = np.maximum.outer(np.arange(3), np.arange(3)) / 2.0                    # rule grid (xi set, eta set)
     cons = np.stack([lo + p * half, lo + half + p * half], axis=-1)
     return TakagiSugeno((ramp_sets(names, bx), ramp_sets(names, be)), cons,
-                        ("xi / sigma^2", "eta / sigma"), ("log10 lower S_p", "log10 upper S_p"))
+                        ("xi / s", "eta / sqrt(s)"), ("log10 lower S_p", "log10 upper S_p"))
 
 
 def noise_model(setup: Setup) -> gnss.PVClockNoise:
@@ -219,7 +227,7 @@ def build(setup: Setup, *, frozen_fuzzy: bool = False):
     low, high = noise.dynamics(setup.s_lower, "lower"), noise.dynamics(setup.s_upper, "upper")
     Tm = np.array([[setup.p_stay, 1 - setup.p_stay], [1 - setup.p_stay, setup.p_stay]])
     imm = IMM(ukf, [low, high], meas0, Tm, name="IMMUKF")
-    flas = FuzzyNoiseBounds(fuzzy_system(setup))
+    flas = FuzzyNoiseBounds(fuzzy_system(setup), setup.dod_normalise)
     normal = 10.0 ** fuzzy_system(setup).consequents[0, 0]
     fimm_base = IMM(ukf, [noise.dynamics(normal[0]), noise.dynamics(normal[1])], meas0, Tm, name="FUZZY-IMMUKF")
     single = noise.dynamics(setup.ukf_level, "UKF")
@@ -325,10 +333,12 @@ def maneuver_flags(setup: Setup) -> np.ndarray:
     return flags
 
 
-def clairvoyant_schedules(ex: Experiment, straight=(1e-4, 1e-3), turning=(0.1, 0.3, 1.0)) -> dict:
+def clairvoyant_schedules(ex: Experiment, straight=(0.0, 1e-4, 1e-3), turning=(0.1, 0.3, 1.0)) -> dict:
     """NOT a filter one can run: the UKF told *when* the vehicle maneuvers, with process-noise level
-    ``straight`` on the straight legs and ``turning`` in the turns -- a grid of schedules whose best
-    member (chosen in hindsight) bounds what any online adaptation of Q can achieve."""
+    ``straight`` on the straight legs (down to 0, the truth's value) and ``turning`` in the turns.  The
+    best schedule of the grid (chosen in hindsight) is a *reference* for what adapting Q to the
+    maneuvers can buy -- not a strict bound (other schedules, or an IMM with adapted modes, could
+    do somewhat better)."""
     from ..estimation import KnownModeSequence
     noise = noise_model(ex.setup)
     ukf = SigmaPointFilter(Unscented(*ex.setup.ukf), name="UKF")
