@@ -256,9 +256,10 @@ ax.legend(fontsize=8, loc="lower left")
 fig.tight_layout()
 nb.show(fig, "reconstruction_mode_probabilities_bounds",
         "the FLAS sets the lower and upper process-noise bounds online from the innovations (Sec. 3).",
-        "the IMMs move to the upper mode in the turns; the fuzzy bounds rise only slightly there and jitter every "
-        "epoch: with a one-epoch window the DOD is a chi-square sample (s.d. ~0.55 of its mean), and the IMM's "
-        "switching already absorbs most of a 0.3 m/s² turn.")
+        "the IMMs move to the upper mode in the turns (FUZZY-IMMUKF more decisively, its modes being closer); the "
+        "median fuzzy bounds sit at the 'Normal' band and rise briefly at the onsets of the turns at 300 s and 800 s; "
+        "single runs jitter every epoch, since with a one-epoch window the DOD is a chi-square sample (s.d. ~0.55 of "
+        "its mean).")
 
 # %% [markdown]
 # ## Table — East/North position RMS errors
