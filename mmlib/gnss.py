@@ -223,6 +223,12 @@ def clock_process_noise(T: float, h0: float, h_minus2: float) -> np.ndarray:
     return c2 * np.array([[sf * T + sg * T ** 3 / 3.0, sg * T ** 2 / 2.0], [sg * T ** 2 / 2.0, sg * T]])
 
 
+def clock_dynamics(T: float, h0: float, h_minus2: float) -> LinearGaussianDynamics:
+    """The two-state clock ``[b, d]`` as dynamics: ``F = [[1, T], [0, 1]]``, Q of :func:`clock_process_noise`."""
+    Q = clock_process_noise(T, h0, h_minus2)
+    return LinearGaussianDynamics(np.array([[1.0, T], [0.0, 1.0]]), Q, _psd_factor(Q), "clock")
+
+
 def _pv_transition(T: float) -> np.ndarray:
     return np.kron(np.eye(4), np.array([[1.0, T], [0.0, 1.0]]))
 

@@ -158,16 +158,21 @@ DEVIATIONS = [
 
 
 # ---------------------------------------------------------------- trajectory and satellites
-def trajectory(setup: Setup) -> np.ndarray:
-    """Noise-free planar truth [e, ve, n, vn] at t = 0..K T, shape (K+1, 4)."""
+def motion_schedule(setup: Setup) -> ManeuverSchedule:
+    """The segment table as a schedule of planar models [e, ve, n, vn]: model 0 = straight line,
+    model i = the i-th turn of ``setup.turns`` (noise-free)."""
     T = setup.T
     cv = models.constant_velocity(T, 0.0)
     turns = [models.coordinated_turn(T, math.radians(deg) / (t1 - t0), 0.0) for t0, t1, deg in setup.turns]
-    schedule = ManeuverSchedule([cv] + turns, [(t0, t1, i + 1) for i, (t0, t1, _) in enumerate(setup.turns)], 0, T,
-                                setup.n_steps)
+    return ManeuverSchedule([cv] + turns, [(t0, t1, i + 1) for i, (t0, t1, _) in enumerate(setup.turns)], 0, T,
+                            setup.n_steps)
+
+
+def trajectory(setup: Setup) -> np.ndarray:
+    """Noise-free planar truth [e, ve, n, vn] at t = 0..K T, shape (K+1, 4)."""
     h = math.radians(setup.heading_deg)
     x0 = np.array([[0.0, setup.speed * math.cos(h), 0.0, setup.speed * math.sin(h)]])
-    return propagate(schedule, x0)[0]
+    return propagate(motion_schedule(setup), x0)[0]
 
 
 def maneuver_intervals(setup: Setup):
@@ -267,21 +272,16 @@ def make_batch_fn(ex: Experiment, mc: MonteCarlo):
     others are in view), the initial-estimate error from Stream.INITIAL."""
     s = ex.setup
     K = s.n_steps
-    clock_Q = gnss.clock_process_noise(s.T, s.clock_h0, s.clock_h_minus2)
-    L = np.linalg.cholesky(clock_Q)
-    F = np.array([[1.0, s.T], [0.0, 1.0]])
+    clock = ManeuverSchedule([gnss.clock_dynamics(s.T, s.clock_h0, s.clock_h_minus2)], [], 0, s.T, K)
     P0 = np.diag(np.square(s.p0_sd))
     n_sat = len(ex.sky.names)
 
     def make_batch(runs):
         B = len(runs)
-        w = mc.standard_normal(runs, Stream.TRUTH, (K, 2)) @ L.T
-        clock = np.zeros((B, K + 1, 2))
-        for k in range(K):
-            clock[:, k + 1] = clock[:, k] @ F.T + w[:, k]
+        clock_truth = propagate(clock, np.zeros((B, 2)), mc.standard_normal(runs, Stream.TRUTH, (K, 2)))
         truth = np.zeros((B, K + 1, gnss.STATE_DIM))
         truth[:, :, [0, 1, 2, 3]] = ex.truth_plane[None]
-        truth[:, :, list(gnss.CLOCK_INDEX)] = clock
+        truth[:, :, list(gnss.CLOCK_INDEX)] = clock_truth
         v = mc.standard_normal(runs, Stream.MEASUREMENT, (K, n_sat)) * s.sigma_pr
         z = [model.h(truth[:, k + 1]) + v[:, k, ex.sky.visible[k]] for k, model in enumerate(ex.measurement_models)]
         x0 = truth[:, 0] + mc.standard_normal(runs, Stream.INITIAL, (gnss.STATE_DIM,)) @ np.sqrt(P0)
@@ -325,12 +325,8 @@ def published_reduction(a: str, b: str, axis: int) -> float:
 
 
 def maneuver_flags(setup: Setup) -> np.ndarray:
-    """1 for the steps whose transition starts inside a maneuvering segment, else 0 (K,)."""
-    t = setup.times - setup.T
-    flags = np.zeros(setup.n_steps, dtype=int)
-    for a, b in maneuver_intervals(setup):
-        flags[(t >= a - 1e-9) & (t < b - 1e-9)] = 1
-    return flags
+    """1 for the steps the truth spends turning, else 0 (K,): the schedule's own step-to-segment map."""
+    return (motion_schedule(setup).modes() > 0).astype(int)
 
 
 def clairvoyant_schedules(ex: Experiment, straight=(0.0, 1e-4, 1e-3), turning=(0.1, 0.3, 1.0)) -> dict:
