@@ -17,9 +17,26 @@ error ``s`` from ``N`` runs, where the paper used ``N_p`` runs:
   not published); the reason is part of the verdict text.
 
 Claims (rankings, "A is better than B") get a separate verdict from a paired
-comparison on common random numbers: :func:`claim_verdict`.  Paired differences
-can detect effects far too small to matter, so a detected difference smaller than
-1 % of the reference mean squared error is labelled *negligible*.
+comparison on common random numbers.  Each tested part of a claim (one quantity,
+one pair of algorithms) gets a *part verdict* from :func:`claim_verdict`:
+
+* ``holds``                   the difference has the claimed sign, >= 3 standard errors from 0;
+* ``contradicted``            the opposite sign, >= 3 standard errors from 0;
+* ``no detectable difference`` otherwise;
+* ``..., but negligible (< 1 %)`` appended to a detected difference smaller than 1 % of the
+  reference mean squared error (paired differences detect effects too small to matter).
+
+A claim's verdict is one of the *claim vocabulary* ``CLAIM_VERDICTS``, optionally
+followed by ``": "`` and detail, combined from its parts by :func:`combine_claim_verdicts`:
+
+* **holds**           every part holds (non-negligibly);
+* **partly**          some parts hold, others do not;
+* **contradicted**    no part holds and at least one is contradicted (non-negligibly);
+* **not supported**   no part holds or is contradicted: differences undetectable or negligible;
+* **not assessable**  the claim cannot be tested by this replication (the reason follows).
+
+Run times are judged by the same rules: a timing row's standard error comes from
+repeated timings, and a timing claim is a part verdict on a ratio minus one.
 """
 from __future__ import annotations
 
@@ -50,17 +67,40 @@ def printed_half_unit(printed: str) -> float:
     return 0.5 * 10.0 ** (-decimals)
 
 
+def _difference_and_sigma(paper, replicated, stderr, n_runs, n_runs_paper):
+    p = float(paper)
+    u = printed_half_unit(paper) if isinstance(paper, str) else 0.0
+    s = float(stderr) if stderr is not None and np.isfinite(stderr) else 0.0
+    s_p = s * math.sqrt(n_runs / n_runs_paper) if (n_runs and n_runs_paper) else 0.0
+    return float(replicated) - p, math.sqrt(s * s + s_p * s_p + u * u)
+
+
+def standardized_distance(paper: str | float, replicated, stderr, n_runs: int | None = None,
+                          n_runs_paper: int | None = None) -> float:
+    """``(replicated - paper) / sigma`` with the combined standard error ``sigma`` of the verdict
+    rule; +-inf when sigma is 0 and the values differ, 0 when they agree exactly."""
+    diff, sigma = _difference_and_sigma(paper, replicated, stderr, n_runs, n_runs_paper)
+    if sigma > 0:
+        return diff / sigma
+    return 0.0 if diff == 0 else math.copysign(math.inf, diff)
+
+
+def verdict_category(text: str) -> str:
+    """The verdict of the number vocabulary ``VERDICTS`` that a verdict text starts with."""
+    head = str(text).split(":")[0].strip()
+    if head not in VERDICTS:
+        raise ValueError(f"verdict: {text!r} is not in the vocabulary {VERDICTS}")
+    return head
+
+
 def verdict(paper: str | float | None, replicated, stderr, n_runs: int | None = None,
             n_runs_paper: int | None = None, reason: str = "") -> str:
     """Apply the verdict rule of this module's docstring."""
     if replicated is None or paper is None or (isinstance(replicated, float) and math.isnan(replicated)):
         return f"{NOT_REPLICABLE}: {reason}" if reason else NOT_REPLICABLE
     p = float(paper)
-    u = printed_half_unit(paper) if isinstance(paper, str) else 0.0
-    s = float(stderr) if stderr is not None and np.isfinite(stderr) else 0.0
-    s_p = s * math.sqrt(n_runs / n_runs_paper) if (n_runs and n_runs_paper) else 0.0
-    sigma = math.sqrt(s * s + s_p * s_p + u * u)
-    diff = abs(float(replicated) - p)
+    diff, sigma = _difference_and_sigma(paper, replicated, stderr, n_runs, n_runs_paper)
+    diff = abs(diff)
     if diff <= SIGMA_FACTOR * sigma:
         return REPRODUCED
     if diff <= RELATIVE_BAND * abs(p):
@@ -115,20 +155,78 @@ def analytic_row(item, algorithm, quantity, paper, finding: str, holds: bool, *,
                REPRODUCED if holds else f"{NOT_REPRODUCED}: {finding}", list(deviations), finding)
 
 
+HOLDS = "holds"
+PARTLY = "partly"
+CONTRADICTED = "contradicted"
+NOT_SUPPORTED = "not supported"
+NOT_ASSESSABLE = "not assessable"
+CLAIM_VERDICTS = (HOLDS, PARTLY, CONTRADICTED, NOT_SUPPORTED, NOT_ASSESSABLE)
+
+
+def claim_category(text: str) -> str:
+    """The claim verdict of ``CLAIM_VERDICTS`` that a claim's verdict text states (the part before
+    ``": "``); ValueError for any text outside the vocabulary, such as a bare part verdict."""
+    head = str(text).split(":")[0].strip()
+    if head not in CLAIM_VERDICTS:
+        raise ValueError(f"verdict: {text!r} is not in the claim vocabulary {CLAIM_VERDICTS} "
+                         f"(combine part verdicts with combine_claim_verdicts)")
+    return head
+
+
 def combine_claim_verdicts(verdicts) -> str:
-    """One verdict for a claim tested on several quantities (each from :func:`claim_verdict`)."""
+    """One claim verdict (module docstring) from the part verdicts of :func:`claim_verdict`, each
+    optionally labelled as ``"<part verdict> (<quantity>)"``."""
     verdicts = list(verdicts)
-    kinds = {v.split(" (")[0] for v in verdicts}
-    if kinds <= {"no detectable difference", "holds, but negligible", "contradicted, but negligible"} \
-            and kinds != {"no detectable difference"}:
-        return "not supported: differences negligible or undetectable; " + "; ".join(verdicts)
-    if kinds == {"holds"}:
-        return "holds"
-    if kinds == {"contradicted"}:
-        return "contradicted"
-    if kinds == {"no detectable difference"}:
-        return "not supported: no detectable difference"
-    return "partly: " + "; ".join(verdicts)
+    if not verdicts:
+        raise ValueError("verdicts: a claim needs at least one part verdict")
+    kinds = [v.split(" (")[0] for v in verdicts]
+    for v, k in zip(verdicts, kinds):
+        if k not in ("holds", "contradicted", "no detectable difference", "holds, but negligible",
+                     "contradicted, but negligible"):
+            raise ValueError(f"verdicts: {v!r} is not a part verdict of claim_verdict")
+    detail = "; ".join(verdicts)
+    if all(k == "holds" for k in kinds):
+        return HOLDS
+    if any(k == "holds" for k in kinds):
+        return f"{PARTLY}: {detail}"
+    if any(k == "contradicted" for k in kinds):
+        return CONTRADICTED if all(k == "contradicted" for k in kinds) else f"{CONTRADICTED}: {detail}"
+    if all(k == "no detectable difference" for k in kinds) and len(kinds) == 1:
+        return f"{NOT_SUPPORTED}: no detectable difference" + (" (identical)" if "identical" in detail else "")
+    return f"{NOT_SUPPORTED}: differences negligible or undetectable; {detail}"
+
+
+def paired_claim(difference: float, stderr: float, expected_sign: int, reference: float | None = None) -> str:
+    """A one-part claim's verdict (claim vocabulary) from a paired difference and its standard error."""
+    return combine_claim_verdicts([claim_verdict(difference, stderr, expected_sign, reference)])
+
+
+class Claims:
+    """The claims of a paper with their verdicts and evidence, in the order they are judged.
+
+    ``add`` checks the verdict against the claim vocabulary, so no verdict outside it can be
+    recorded."""
+
+    def __init__(self):
+        self.items: list = []
+
+    def add(self, claim: str, verdict: str, evidence: str = "") -> str:
+        if not isinstance(claim, str) or not claim.strip():
+            raise ValueError(f"claim: expected a non-empty string, got {claim!r}")
+        claim_category(verdict)
+        if any(c["claim"] == claim for c in self.items):
+            raise ValueError(f"claim: {claim!r} is already judged")
+        self.items.append({"claim": claim, "verdict": verdict, "evidence": evidence})
+        return verdict
+
+    def __iter__(self):
+        return iter(self.items)
+
+    def __len__(self):
+        return len(self.items)
+
+    def as_list(self) -> list:
+        return [dict(c) for c in self.items]
 
 
 def git_commit(repo: Path | None = None) -> str:

@@ -42,7 +42,8 @@ from IPython.display import Markdown, display
 import mmlib
 from mmlib import metrics, report
 from mmlib.montecarlo import MonteCarlo
-from mmlib.scenarios import common, hu2017 as paper
+from mmlib.experiment import evaluation
+from mmlib.scenarios import hu2017 as paper
 from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                          shade_intervals, value_pm)
 
@@ -81,7 +82,7 @@ display(Markdown(markdown_table(["reading", "median of max speed (km/s)", "max s
 
 # %%
 make_batch, estimators, schedule = paper.make_batch_fn(setup, mc)
-results = common.evaluate(estimators, make_batch, mc, label="hu2017 headline", progress=PROGRESS)
+results = evaluation.evaluate(estimators, make_batch, mc, label="hu2017 headline", progress=PROGRESS)
 diverged = {k: int((~r.valid).sum()) for k, r in results.items()}
 print("diverged runs:", diverged)
 t = schedule.times
@@ -163,7 +164,7 @@ for alg in paper.ALGORITHMS:
         rows.append(report.make_row("Table 1", alg, quantity, paper.TABLE1[alg][qi], est.value, est.stderr,
                                     n_runs=est.n_runs, n_runs_paper=paper.N_RUNS_PAPER, deviations=devs))
 timing_batch = make_batch(range(nb.timing_runs))
-per_run, batched = common.time_algorithms(estimators, timing_batch[2], timing_batch[1], repeats=nb.timing_repeats)
+per_run, batched = evaluation.time_algorithms(estimators, timing_batch[2], timing_batch[1], repeats=nb.timing_repeats)
 ref_paper = float(paper.TABLE1["IMMCDKF"][2])
 timing_rows = []
 for alg in paper.ALGORITHMS:
@@ -229,7 +230,7 @@ sweep_rows, sweep_json = [], []
 for label, change in variants:
     s = paper.variant(setup, **change)
     mb, est, _ = paper.make_batch_fn(s, mc, names=("IMMCDKF", "IMMCDKF-OBS"))
-    res = common.evaluate(est, mb, mc, progress=False)
+    res = evaluation.evaluate(est, mb, mc, progress=False)
     truth_s, z_s, init_s = mb(range(min(nb.n_runs, 50)))
     entry = {"variant": label, "changes": {k: list(v) if isinstance(v, tuple) else v for k, v in change.items()}}
     cells = [label]
@@ -263,9 +264,9 @@ def claim(text, verdict, evidence):
 
 axes_q = [("horizontal", 0), ("vertical", 2)]
 for other in ("IMMCDKF", "IMMUKF", "IMMEKF", "IMMCKF"):
-    claim(f"IMMCDKF-OBS is more accurate than {other}", *common.better_claim(results, "IMMCDKF-OBS", other, axes_q))
+    claim(f"IMMCDKF-OBS is more accurate than {other}", *evaluation.better_claim(results, "IMMCDKF-OBS", other, axes_q))
 for other in ("IMMUKF", "IMMEKF", "IMMCKF"):
-    claim(f"IMMCDKF is more accurate than {other}", *common.better_claim(results, "IMMCDKF", other, axes_q))
+    claim(f"IMMCDKF is more accurate than {other}", *evaluation.better_claim(results, "IMMCDKF", other, axes_q))
 mu_gap = float(np.max(np.abs(results["IMMCDKF-OBS"].mode_probabilities.mean(0) - results["IMMCDKF"].mode_probabilities.mean(0))))
 claim("IMMCDKF-OBS identifies the modes better than IMMCDKF (Figs. 1-5)", "not supported",
       f"mean mode-probability curves differ by at most {mu_gap:.3f}; see Figs. 4-5")
@@ -276,7 +277,7 @@ ekf_fast = metrics.mean_with_se(per_run["IMMEKF"] / per_run["IMMCDKF"])
 claim("IMMEKF has the shortest run time", "holds" if all(per_run["IMMEKF"].mean() <= per_run[a].mean()
                                                          for a in paper.ALGORITHMS) else "contradicted",
       f"time ratio to IMMCDKF {value_pm(ekf_fast.value, ekf_fast.stderr, 2)}")
-ekf_vs = {o: common.better_claim(results, o, "IMMEKF", axes_q) for o in ("IMMUKF", "IMMCKF", "IMMCDKF")}
+ekf_vs = {o: evaluation.better_claim(results, o, "IMMEKF", axes_q) for o in ("IMMUKF", "IMMCKF", "IMMCDKF")}
 claim("IMMEKF has the lowest precision",
       "holds" if all(v == "holds" for v, _ in ekf_vs.values()) else
       "not supported: " + "; ".join(f"vs {o}: {v.replace('not supported: ', '')}" for o, (v, _) in ekf_vs.items()),

@@ -43,7 +43,8 @@ from IPython.display import Markdown, display
 import mmlib
 from mmlib import metrics, report
 from mmlib.montecarlo import MonteCarlo
-from mmlib.scenarios import common, liu2017 as paper
+from mmlib.experiment import evaluation
+from mmlib.scenarios import liu2017 as paper
 from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                          shade_intervals, value_pm)
 
@@ -72,7 +73,7 @@ display(Markdown(deviations_table(paper.DEVIATIONS)))
 # %%
 t0 = time.perf_counter()
 make_batch, estimators, schedule = paper.make_batch_fn(paper.EXAMPLE1, mc)
-ex1 = common.evaluate(estimators, make_batch, mc, label="liu2017 example 1", progress=PROGRESS)
+ex1 = evaluation.evaluate(estimators, make_batch, mc, label="liu2017 example 1", progress=PROGRESS)
 print(f"Example 1: {nb.n_runs} runs x {len(estimators)} filters in {time.perf_counter() - t0:.1f} s; "
       f"diverged runs: { {k: int((~r.valid).sum()) for k, r in ex1.items()} }")
 
@@ -160,7 +161,7 @@ counts = {  # points, Cholesky factorisations, evaluations of f and of h per ste
     "STSSRCKF": (2 * n + 2, 3, 2 * n + 2, 2 * (2 * n + 2)),
 }
 timing_batch = make_batch(range(nb.timing_runs))
-per_run, batched = common.time_algorithms({a: estimators[a] for a in paper.FILTERS}, timing_batch[2],
+per_run, batched = evaluation.time_algorithms({a: estimators[a] for a in paper.FILTERS}, timing_batch[2],
                                           timing_batch[1], repeats=nb.timing_repeats)
 ref = float(paper.TABLE2_TIME["SSRCKF"])
 t2 = []
@@ -195,7 +196,7 @@ display(Markdown(markdown_table(
 ex2 = {}
 for case, setup in (("Case 1", paper.EXAMPLE2_CASE1), ("Case 2", paper.EXAMPLE2_CASE2)):
     mb, est, _ = paper.make_batch_fn(setup, mc, names=paper.FILTERS)
-    ex2[case] = common.evaluate(est, mb, mc, label=f"liu2017 example 2 {case}", progress=PROGRESS)
+    ex2[case] = evaluation.evaluate(est, mb, mc, label=f"liu2017 example 2 {case}", progress=PROGRESS)
     case_rows, _ = armse_rows(f"Table 3 {case}", ex2[case], paper.TABLE3[case],
                               ["L-2", "L-3", "L-4", "L-5", "L-6", "L-7", "L-8", "L-9", "L-10"])
     rows += case_rows
@@ -219,7 +220,7 @@ sweep_names = ("SSRCKF", "STF", "STUKF", "STSSRCKF")
 sweep_rows, sweep_json = [], []
 for label, change in variants:
     mb, est, _ = paper.make_batch_fn(paper.variant(paper.EXAMPLE1, **change), mc, names=sweep_names)
-    res = common.evaluate(est, mb, mc, progress=False)
+    res = evaluation.evaluate(est, mb, mc, progress=False)
     vals = {a: metrics.armse(res[a].errors[..., [0, 3]], res[a].valid) for a in sweep_names}
     sweep_rows.append([label] + [value_pm(vals[a].value, vals[a].stderr, 1) for a in sweep_names])
     sweep_json.append({"variant": label, "changes": {k: list(v) if isinstance(v, tuple) else v for k, v in change.items()},
@@ -243,7 +244,7 @@ def claim(text, verdict, evidence):
 
 
 def compare(results, a, b, label):
-    claim(label, *common.better_claim(results, a, b, [(q.split()[0], idx) for q, idx in paper.QUANTITIES]))
+    claim(label, *evaluation.better_claim(results, a, b, [(q.split()[0], idx) for q, idx in paper.QUANTITIES]))
 
 
 div = {k: int((~ex1[k].valid).sum()) for k in paper.FILTERS}

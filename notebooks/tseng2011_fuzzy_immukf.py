@@ -53,7 +53,8 @@ from IPython.display import Markdown, display
 
 import mmlib
 from mmlib import metrics, report
-from mmlib.scenarios import common, tseng2011 as paper
+from mmlib.experiment import evaluation
+from mmlib.scenarios import tseng2011 as paper
 from mmlib.montecarlo import MonteCarlo
 from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                          shade_intervals, value_pm)
@@ -182,7 +183,7 @@ nb.show(fig, "reconstruction_fuzzy_membership_functions",
 
 # %%
 mb = paper.make_batch_fn(ex, mc)
-res = common.evaluate(ex.estimators, mb, mc, label="tseng2011", progress=PROGRESS,
+res = evaluation.evaluate(ex.estimators, mb, mc, label="tseng2011", progress=PROGRESS,
                       measurement_models=ex.measurement_models)
 diverged = {a: int((~r.valid).sum()) for a, r in res.items()}
 ukf_ekf = float(np.abs(res["UKF"].errors[..., [0, 2, 4]] - res["EKF"].errors[..., [0, 2, 4]]).max())
@@ -298,10 +299,10 @@ display(Markdown(rows_table(rows)))
 # %%
 oracles = paper.clairvoyant_schedules(ex)
 ex_or = paper.Experiment(setup, ex.truth_plane, ex.sky, oracles)
-res_or = common.evaluate(oracles, paper.make_batch_fn(ex_or, mc_sweep), mc_sweep, label="tseng2011 oracle",
+res_or = evaluation.evaluate(oracles, paper.make_batch_fn(ex_or, mc_sweep), mc_sweep, label="tseng2011 oracle",
                          progress=PROGRESS, measurement_models=ex.measurement_models)
 or_rows, oracle_json = [], []
-imm_head = common.first_runs(res["IMMUKF"], mc_sweep.n_runs)
+imm_head = evaluation.first_runs(res["IMMUKF"], mc_sweep.n_runs)
 for name, r_ in res_or.items():
     e_, n_ = paper.rms(r_, 0), paper.rms(r_, 2)
     red_e, red_n = paper.rms_reduction(r_, imm_head, 0), paper.rms_reduction(r_, imm_head, 2)
@@ -345,13 +346,13 @@ variants = [("headline", {}, ()),
             ("T-1: speed 30 m/s", dict(speed=30.0), ALL),
             ("T-4: pseudorange s.d. 1 m", dict(sigma_pr=1.0), ALL),
             ("T-4: pseudorange s.d. 10 m", dict(sigma_pr=10.0), ALL)][:PROFILES[nb.profile]["sweep_variants"]]
-headline_sweep = {alg: common.first_runs(res[alg], mc_sweep.n_runs) for alg in ALL}
+headline_sweep = {alg: evaluation.first_runs(res[alg], mc_sweep.n_runs) for alg in ALL}
 sweep_rows, sweep_json = [], []
 for label, change, affected in variants:
     rs_ = dict(headline_sweep)
     if affected:
         ex_v = paper.experiment(paper.variant(setup, **change), names=affected)
-        rs_.update(common.evaluate(ex_v.estimators, paper.make_batch_fn(ex_v, mc_sweep), mc_sweep, progress=False,
+        rs_.update(evaluation.evaluate(ex_v.estimators, paper.make_batch_fn(ex_v, mc_sweep), mc_sweep, progress=False,
                                    measurement_models=ex_v.measurement_models))
     entry = {"variant": label, "changes": change, "recomputed": list(affected)}
     cells = [label]
@@ -410,10 +411,10 @@ qEN = [("East", paper.EAST), ("North", paper.NORTH)]
 ukf_sweep = [e for e in sweep_json if e["variant"].startswith("T-8")]
 fz_sweep = [e["FUZZY-IMMUKF vs IMMUKF reduction %"] for e in sweep_json]
 claim("IMMUKF is more accurate than the UKF (conclusions: 'superior navigation accuracy')",
-      *common.better_claim(res, "IMMUKF", "UKF", qEN))
+      *evaluation.better_claim(res, "IMMUKF", "UKF", qEN))
 for other, note in (("IMMUKF", ""), ("UKF", ", nearly all of it the IMM's")):
     red_o = [r for r in rows if r.algorithm == f"FUZZY-IMMUKF vs {other}"]
-    direction, evidence_o = common.better_claim(res, "FUZZY-IMMUKF", other, qEN)
+    direction, evidence_o = evaluation.better_claim(res, "FUZZY-IMMUKF", other, qEN)
     claim(f"FUZZY-IMMUKF shows remarkable improvement over {other} (abstract)",
           f"direction: {direction}; size: " + ", ".join(f"{r.quantity.split()[0]} {r.verdict}" for r in red_o),
           evidence_o + "; RMS reductions " + ", ".join(value_pm(r.replicated, r.stderr, 1) + " %" for r in red_o)

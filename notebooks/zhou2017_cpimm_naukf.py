@@ -42,7 +42,8 @@ import mmlib
 from mmlib import metrics, report
 from mmlib.mixing import CubatureMixing
 from mmlib.montecarlo import MonteCarlo, Stream
-from mmlib.scenarios import common, zhou2017 as paper
+from mmlib.experiment import evaluation
+from mmlib.scenarios import zhou2017 as paper
 from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                          shade_intervals, value_pm)
 
@@ -129,7 +130,7 @@ nb.show(fig, "fig02_mixture_density", "the mixture is multi-peaked; MSE overesti
 # %%
 case1 = paper.Setup()
 mb1, est1, sched = paper.make_batch_fn(case1, mc, names=("IMM-UKF", "CPIMM-UKF"))
-res1 = common.evaluate(est1, mb1, mc, label="zhou2017 case 1", progress=PROGRESS)
+res1 = evaluation.evaluate(est1, mb1, mc, label="zhou2017 case 1", progress=PROGRESS)
 t = sched.times
 turns = [(a, b) for a, b, _ in case1.turns]
 
@@ -217,9 +218,9 @@ print("time-averaged NEES (4 = consistent):", {k: round(v, 2) for k, v in nees1.
 # %%
 case2 = paper.Setup(faults=True)
 mb2, est2, _ = paper.make_batch_fn(case2, mc)
-res2 = common.evaluate(est2, mb2, mc, label="zhou2017 case 2", progress=PROGRESS)
+res2 = evaluation.evaluate(est2, mb2, mc, label="zhou2017 case 2", progress=PROGRESS)
 mb2b, est2b, _ = paper.make_batch_fn(paper.variant(case2, inflate_only=True), mc, names=("IMM-NAUKF", "CPIMM-NAUKF"))
-res2b = common.evaluate(est2b, mb2b, mc, label="zhou2017 case 2 (inflate-only)", progress=PROGRESS)
+res2b = evaluation.evaluate(est2b, mb2b, mc, label="zhou2017 case 2 (inflate-only)", progress=PROGRESS)
 div2 = {k: int((~r.valid).sum()) for k, r in res2.items()}
 print("Case 2, diverged runs (as printed):", div2)
 names2 = (("IMM-UKF", "IMM-UKF"), ("IMM-NAUKF", "IMM-NAUKF"), ("CPIMM-UKF", "CPIMM-UKF"), ("CPIMM-NAUKF", "CPIMM-NAUKF"))
@@ -277,7 +278,7 @@ analogue = {}
 an_rows = []
 for label, an in (("as printed", paper.GPSAnalogue()), ("inflate-only (not in the paper)", paper.GPSAnalogue(inflate_only=True))):
     mba, esta, _ = paper.gps_analogue(an, mc)
-    resa = common.evaluate(esta, mba, mc, progress=False)
+    resa = evaluation.evaluate(esta, mba, mc, progress=False)
     for alg, rs in resa.items():
         if label != "as printed" and alg in ("EKF", "CKF", "UKF"):
             continue
@@ -308,7 +309,7 @@ sweep_rows, sweep_json = [], []
 for label, change in variants:
     s = paper.variant(case2, **change)
     mbs, ests, _ = paper.make_batch_fn(s, mc, names=("IMM-UKF", "CPIMM-UKF", "CPIMM-NAUKF"))
-    rs_ = common.evaluate(ests, mbs, mc, progress=False)
+    rs_ = evaluation.evaluate(ests, mbs, mc, progress=False)
     cells, entry = [label], {"variant": label, "changes": {k: list(v) if isinstance(v, tuple) else v for k, v in change.items()}}
     for alg in ("IMM-UKF", "CPIMM-UKF", "CPIMM-NAUKF"):
         m_, _ = table_stats(rs_[alg], (0, 2))
@@ -334,17 +335,17 @@ q4 = [("position", (0, 2)), ("velocity", (1, 3))]
 claim("MSE overestimates the covariance of the interacted variable; CP is accurate (Sec. 2.3, Table 1)", "contradicted",
       f"MSE = {mse_sd:.4f} is the exact s.d. of the mixture; CP = {cp_sd:.4f} is the s.d. of a weighted sum of independent "
       "variables, which the paper's MC also sampled")
-claim("CPIMM is more accurate than IMM (Case 1, Table 2)", *common.better_claim(res1, "CPIMM-UKF", "IMM-UKF", q4))
+claim("CPIMM is more accurate than IMM (Case 1, Table 2)", *evaluation.better_claim(res1, "CPIMM-UKF", "IMM-UKF", q4))
 claim("CPIMM's interaction solves the non-Gaussian problem with second-order accuracy (Sec. 3.1.3)", "not supported",
       "the interaction function is linear: CP is exact for it and returns sum(mu^2 P), the covariance of a different "
       f"variable; NEES IMM-UKF {nees1['IMM-UKF']:.2f}, CPIMM-UKF {nees1['CPIMM-UKF']:.2f} (4 = consistent)")
 claim("CPIMM-UKF is more accurate than IMM-UKF under sensor faults (Table 3)",
-      *common.better_claim(res2, "CPIMM-UKF", "IMM-UKF", q4))
+      *evaluation.better_claim(res2, "CPIMM-UKF", "IMM-UKF", q4))
 claim("NAUKF handles sensor faults (IMM-NAUKF, CPIMM-NAUKF best; Table 3)",
       "contradicted" if div2["IMM-NAUKF"] or div2["CPIMM-NAUKF"] else "see rows",
       f"as printed NAUKF diverged in {div2['IMM-NAUKF']}/{nb.n_runs} (IMM) and {div2['CPIMM-NAUKF']}/{nb.n_runs} (CPIMM) "
       "runs; inflate-only variant vs IMM-UKF: "
-      + common.better_claim({"a": res2b["CPIMM-NAUKF"], "b": res2["IMM-UKF"]}, "a", "b", q4)[0])
+      + evaluation.better_claim({"a": res2b["CPIMM-NAUKF"], "b": res2["IMM-UKF"]}, "a", "b", q4)[0])
 after_turn = {alg: float(metrics.rmse_over_time(error_norms(r_, (0, 2)), r_.valid).value[40:60].mean())
               for alg, r_ in (("IMM-UKF", res2["IMM-UKF"]), ("CPIMM-NAUKF (inflate-only)", res2b["CPIMM-NAUKF"]))}
 claim("CPIMM-NAUKF converges faster than IMM-UKF (conclusions)",

@@ -44,7 +44,8 @@ from IPython.display import Markdown, display
 import mmlib
 from mmlib import metrics, report
 from mmlib.montecarlo import MonteCarlo
-from mmlib.scenarios import common, zhu2016 as paper
+from mmlib.experiment import evaluation
+from mmlib.scenarios import zhu2016 as paper
 from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                          shade_intervals, value_pm)
 
@@ -87,7 +88,7 @@ display(Markdown(deviations_table(paper.DEVIATIONS)))
 # %%
 make_batch, estimators, schedule = paper.make_batch_fn(setup, mc)
 t0 = time.perf_counter()
-results = common.evaluate(estimators, make_batch, mc, label="zhu2016 headline", progress=PROGRESS)
+results = evaluation.evaluate(estimators, make_batch, mc, label="zhu2016 headline", progress=PROGRESS)
 print(f"headline Monte Carlo: {n_runs} runs x {len(estimators)} estimators in {time.perf_counter() - t0:.2f} s")
 coincide = {name: float(np.nanmax(np.abs(results[name].errors - results["IMM-KF"].errors)))
             for name in ("IMM5CKF", "IMMCKF", "IMMUKF")}
@@ -122,7 +123,7 @@ for alg in paper.ALGORITHMS:
 
 # Run time: the paper's way (one run at a time) and batched, as ratios to IMMCKF.
 timing_batch = make_batch(range(timing_runs))
-per_run, batched = common.time_algorithms({alg: estimators[alg] for alg in ("IMM5CKF", "IMMCKF", "IMMUKF", "5CKF")},
+per_run, batched = evaluation.time_algorithms({alg: estimators[alg] for alg in ("IMM5CKF", "IMMCKF", "IMMUKF", "5CKF")},
                                            timing_batch[2], timing_batch[1], repeats=cfg["timing_repeats"])
 ref_paper = float(paper.TABLE1["IMMCKF"][4])
 timing_rows = []
@@ -321,7 +322,7 @@ sweep_rows, sweep_json = [], []
 for label, change in variants:
     s = paper.variant(setup, **change)
     mb, est, _ = paper.make_batch_fn(s, mc)
-    res = common.evaluate({k: est[k] for k in ("IMM5CKF", "5CKF")}, mb, mc, label=f"sweep {label[:18]}",
+    res = evaluation.evaluate({k: est[k] for k in ("IMM5CKF", "5CKF")}, mb, mc, label=f"sweep {label[:18]}",
                           progress=False)
     vals = {alg: [metrics.rmse_time_averaged(res[alg].errors[..., c], res[alg].valid) for c in range(4)]
             for alg in res}
@@ -350,7 +351,7 @@ def claim(text, verdict, evidence):
 
 for other in ("IMMCKF", "IMMUKF", "5CKF"):
     claim(f"IMM5CKF is more accurate than {other}",
-          *common.better_claim(results, "IMM5CKF", other, paper.QUANTITIES))
+          *evaluation.better_claim(results, "IMM5CKF", other, paper.QUANTITIES))
 claim("IMM5CKF is more accurate than OMTM-IMM", "not replicable", "OMTM-IMM not specified (Z-14)")
 below = [r[0] for r in bound_rows if r[-1] == "below the floor"]
 claim("Table 1's IMM errors are attainable under the printed set-up (implicit)",

@@ -14,7 +14,8 @@ from mmlib.filters import KalmanFilter
 from mmlib.fuzzy import TakagiSugeno, Trapezoid, ramp_sets
 from mmlib.models import constant_velocity, coordinated_turn, position_measurement
 from mmlib.montecarlo import MonteCarlo
-from mmlib.scenarios import common, tseng2011 as paper
+from mmlib.experiment import evaluation
+from mmlib.scenarios import tseng2011 as paper
 
 SITE = (25.15, 121.78, 0.0)
 
@@ -315,7 +316,7 @@ SHORT = paper.Setup(n_steps=150, turns=((40.0, 90.0, 90.0),))
 def short_results(setup, names, n_runs, **build_kw):
     ex = paper.experiment(setup, names=names, **build_kw)
     mc = MonteCarlo(paper.ROOT_SEED, n_runs)
-    return common.evaluate(ex.estimators, paper.make_batch_fn(ex, mc), mc, progress=False,
+    return evaluation.evaluate(ex.estimators, paper.make_batch_fn(ex, mc), mc, progress=False,
                            measurement_models=ex.measurement_models)
 
 
@@ -362,7 +363,7 @@ def test_reconstruction_is_deterministic_and_prefix_consistent():
     b = short_results(SHORT, ("FUZZY-IMMUKF",), 6)["FUZZY-IMMUKF"]
     c = short_results(SHORT, ("FUZZY-IMMUKF",), 3)["FUZZY-IMMUKF"]
     assert np.array_equal(a.errors, b.errors) and np.array_equal(a.diagnostics, b.diagnostics)
-    head = common.first_runs(a, 3)          # what the notebook's sweep reuses instead of recomputing
+    head = evaluation.first_runs(a, 3)          # what the notebook's sweep reuses instead of recomputing
     assert np.array_equal(head.errors, c.errors) and np.array_equal(head.diagnostics, c.diagnostics)
     assert np.array_equal(head.mode_probabilities, c.mode_probabilities)
 

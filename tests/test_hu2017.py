@@ -3,14 +3,15 @@ import numpy as np
 import pytest
 
 from mmlib import MonteCarlo, metrics, run
-from mmlib.scenarios import common, hu2017 as paper
+from mmlib.experiment import evaluation
+from mmlib.scenarios import hu2017 as paper
 
 
 @pytest.fixture(scope="module")
 def headline():
     mc = MonteCarlo(paper.ROOT_SEED, 10)
     make_batch, est, _ = paper.make_batch_fn(paper.Setup(), mc)
-    return common.evaluate(est, make_batch, mc, progress=False), make_batch, est
+    return evaluation.evaluate(est, make_batch, mc, progress=False), make_batch, est
 
 
 def test_immukf_is_immcdkf_in_the_printed_form(headline):

@@ -3,14 +3,15 @@ import numpy as np
 import pytest
 
 from mmlib import MonteCarlo, metrics
-from mmlib.scenarios import common, liu2017 as paper
+from mmlib.experiment import evaluation
+from mmlib.scenarios import liu2017 as paper
 
 
 @pytest.fixture(scope="module")
 def example1():
     mc = MonteCarlo(paper.ROOT_SEED, 8)
     make_batch, est, _ = paper.make_batch_fn(paper.EXAMPLE1, mc, names=paper.FILTERS)
-    return common.evaluate(est, make_batch, mc, progress=False)
+    return evaluation.evaluate(est, make_batch, mc, progress=False)
 
 
 def test_third_degree_st_filters_nearly_coincide(example1):

@@ -3,21 +3,22 @@ import numpy as np
 import pytest
 
 from mmlib import MonteCarlo
-from mmlib.scenarios import common, zhou2017 as paper
+from mmlib.experiment import evaluation
+from mmlib.scenarios import zhou2017 as paper
 
 
 def test_naukf_as_printed_diverges_and_the_inflate_only_variant_does_not():
     mc = MonteCarlo(paper.ROOT_SEED, 6)
     for inflate_only, expect_diverged in ((False, True), (True, False)):
         mb, est, _ = paper.make_batch_fn(paper.Setup(faults=True, inflate_only=inflate_only), mc, names=("IMM-NAUKF",))
-        res = common.evaluate(est, mb, mc, progress=False)
+        res = evaluation.evaluate(est, mb, mc, progress=False)
         assert res["IMM-NAUKF"].diverged_step.max() >= 0 if expect_diverged else not (~res["IMM-NAUKF"].valid).any()
 
 
 def test_linear_gps_analogue_ekf_ckf_ukf_coincide():
     mc = MonteCarlo(paper.ROOT_SEED, 4)
     mb, est, _ = paper.gps_analogue(paper.GPSAnalogue(), mc)
-    res = common.evaluate({k: est[k] for k in ("EKF", "CKF", "UKF")}, mb, mc, progress=False)
+    res = evaluation.evaluate({k: est[k] for k in ("EKF", "CKF", "UKF")}, mb, mc, progress=False)
     np.testing.assert_allclose(res["CKF"].errors, res["EKF"].errors, rtol=0, atol=1e-9)
     np.testing.assert_allclose(res["UKF"].errors, res["EKF"].errors, rtol=0, atol=1e-9)
 

@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 
 from mmlib import MonteCarlo, metrics
-from mmlib.scenarios import common, zhu2016 as paper
+from mmlib.experiment import evaluation
+from mmlib.scenarios import zhu2016 as paper
 
 
 @pytest.fixture(scope="module")
@@ -11,7 +12,7 @@ def results():
     setup = paper.Setup(n_steps=60)
     mc = MonteCarlo(paper.ROOT_SEED, 6)
     make_batch, estimators, _ = paper.make_batch_fn(setup, mc)
-    return common.evaluate(estimators, make_batch, mc, progress=False)
+    return evaluation.evaluate(estimators, make_batch, mc, progress=False)
 
 
 @pytest.mark.parametrize("name", ["IMM5CKF", "IMMCKF", "IMMUKF"])
@@ -28,7 +29,7 @@ def test_ukf_parameters_do_not_matter_here(ukf):
     setup = paper.Setup(n_steps=30, ukf=ukf)
     mc = MonteCarlo(1, 3)
     make_batch, est, _ = paper.make_batch_fn(setup, mc)
-    res = common.evaluate({k: est[k] for k in ("IMMUKF", "IMM-KF")}, make_batch, mc, progress=False)
+    res = evaluation.evaluate({k: est[k] for k in ("IMMUKF", "IMM-KF")}, make_batch, mc, progress=False)
     np.testing.assert_allclose(res["IMMUKF"].errors, res["IMM-KF"].errors, rtol=0, atol=1e-6)
 
 

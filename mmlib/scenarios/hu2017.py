@@ -19,8 +19,8 @@ from ..filters import ExtendedKalmanFilter, SigmaPointFilter
 from ..montecarlo import MonteCarlo, Stream
 from ..rules import CentralDifference, Cubature, Unscented
 from ..simulate import ManeuverSchedule
-from . import common
-from .common import Deviation
+from ..experiment import evaluation
+from ..experiment.readings import Deviation
 
 PAPER = "hu2017"
 CITATION = ("Z. Hu, J. Zhang, C. Fu, X. Li, Maneuvering target tracking algorithm based on CDKF in observation "
@@ -134,7 +134,7 @@ def build(setup: Setup):
 
 def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
     schedule, radar, estimators = build(setup)
-    estimators = common.select(estimators, names)
+    estimators = evaluation.select(estimators, names)
     P0 = np.diag(np.square(setup.P0_sd))
 
     def init_state(est, m0, runs):
@@ -144,7 +144,7 @@ def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
             extra = {"noise": noise[:, :, :setup.n_boot]}
         return est.init(m0, P0, setup.mode_probabilities0, **extra)
 
-    make_batch = common.make_batches(mc, schedule, radar, setup.x0, estimators, init_state,
+    make_batch = evaluation.make_batches(mc, schedule, radar, setup.x0, estimators, init_state,
                                      process_noise=setup.truth_process_noise)
     return make_batch, estimators, schedule
 

@@ -18,8 +18,8 @@ from ..montecarlo import MonteCarlo, Stream
 from ..rules import Cubature, SphericalSimplexRadial, Unscented
 from ..simulate import ManeuverSchedule
 from ..strong_tracking import StrongTracking
-from . import common
-from .common import Deviation
+from ..experiment import evaluation
+from ..experiment.readings import Deviation
 
 PAPER = "liu2017"
 CITATION = ("H. Liu, W. Wu, Strong Tracking Spherical Simplex-Radial Cubature Kalman Filter for Maneuvering "
@@ -142,7 +142,7 @@ def build(setup: Setup):
 
 def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
     schedule, radar, estimators = build(setup)
-    estimators = common.select(estimators, names)
+    estimators = evaluation.select(estimators, names)
     x0 = np.array(setup.x0)
     P0 = np.diag(np.square(setup.P0_sd))
 
@@ -152,7 +152,7 @@ def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
             m0 = m0 + mc.standard_normal(runs, Stream.INITIAL, (6,)) * np.array(setup.P0_sd)
         return m0
 
-    make_batch = common.make_batches(mc, schedule, radar, x0, estimators, lambda est, m0, runs: est.init(m0, P0),
+    make_batch = evaluation.make_batches(mc, schedule, radar, x0, estimators, lambda est, m0, runs: est.init(m0, P0),
                                      process_noise=setup.truth_process_noise, start=start)
     return make_batch, estimators, schedule
 

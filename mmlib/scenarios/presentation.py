@@ -1,27 +1,9 @@
 """Small rendering helpers shared by the paper notebooks (Markdown tables, figure styling)."""
 from __future__ import annotations
 
-import numpy as np
+import numpy as np  # noqa: F401
 
-
-def markdown_table(header, rows) -> str:
-    def cell(v):
-        if v is None:
-            return "--"
-        if isinstance(v, float):
-            return "nan" if not np.isfinite(v) else f"{v:.4g}"
-        return str(v).replace("|", "\\|")
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(cell(v) for v in r) + " |" for r in rows]
-    return "\n".join(lines)
-
-
-def value_pm(value, stderr, digits=3) -> str:
-    if value is None:
-        return "--"
-    if stderr is None or not np.isfinite(stderr):
-        return f"{value:.{digits}f}"
-    return f"{value:.{digits}f} ± {stderr:.{digits}f}"
+from ..experiment.views import markdown_table, value_pm  # noqa: F401  (re-exported for the notebooks)
 
 
 def deviations_table(deviations) -> str:
@@ -47,14 +29,18 @@ class NotebookRun:
     the papermill parameters override them.  Bad parameters raise ``ValueError`` naming them."""
 
     def __init__(self, paper: str, root_seed: int, profiles: dict, *, PROFILE, N_RUNS=None, SEED=None,
-                 OUTPUT_ROOT="", N_TIMING_RUNS=None):
+                 OUTPUT_ROOT="", N_TIMING_RUNS=None, WORKERS=None, MULTIVERSE_RUNS=None, MULTIVERSE_DESIGN=None):
         from pathlib import Path
         if PROFILE not in profiles:
             raise ValueError(f"PROFILE: expected one of {sorted(profiles)}, got {PROFILE!r}")
-        for name, value in (("N_RUNS", N_RUNS), ("SEED", SEED), ("N_TIMING_RUNS", N_TIMING_RUNS)):
+        for name, value in (("N_RUNS", N_RUNS), ("SEED", SEED), ("N_TIMING_RUNS", N_TIMING_RUNS),
+                            ("WORKERS", WORKERS), ("MULTIVERSE_RUNS", MULTIVERSE_RUNS)):
             if value is not None and (isinstance(value, bool) or not isinstance(value, int)
                                       or value < (0 if name == "SEED" else 1)):
                 raise ValueError(f"{name}: expected a positive integer or None, got {value!r}")
+        if MULTIVERSE_DESIGN not in (None, "auto", "full", "fractional", "star"):
+            raise ValueError(f"MULTIVERSE_DESIGN: expected None, 'auto', 'full', 'fractional' or 'star', "
+                             f"got {MULTIVERSE_DESIGN!r}")
         if not isinstance(OUTPUT_ROOT, str):
             raise ValueError(f"OUTPUT_ROOT: expected a path string, got {OUTPUT_ROOT!r}")
         cfg = dict(profiles[PROFILE])
@@ -63,6 +49,11 @@ class NotebookRun:
         self.seed = root_seed if SEED is None else SEED
         self.timing_runs = min(N_TIMING_RUNS or cfg["timing_runs"], self.n_runs)
         self.timing_repeats = cfg["timing_repeats"]
+        # the reading-space multiverse: Monte Carlo runs per universe and design (profile defaults)
+        self.mv_runs = MULTIVERSE_RUNS or cfg.get("mv_runs", self.n_runs)
+        self.mv_design = MULTIVERSE_DESIGN or cfg.get("mv_design", "auto")
+        from ..experiment.grid import default_workers
+        self.workers = WORKERS or default_workers()
         cwd = Path.cwd().resolve()
         self.root = Path(OUTPUT_ROOT) if OUTPUT_ROOT else (cwd.parent if cwd.name == "notebooks" else cwd)
         self.fig_dir = self.root / "figures" / paper
@@ -70,7 +61,8 @@ class NotebookRun:
         self.figures: dict = {}
 
     def __repr__(self):
-        return f"profile={self.profile} runs={self.n_runs} seed={self.seed} outputs -> {self.root}"
+        return (f"profile={self.profile} runs={self.n_runs} seed={self.seed} multiverse: {self.mv_design} design, "
+                f"{self.mv_runs} runs per universe, {self.workers} worker(s)")
 
     def show(self, fig, stem: str, claim: str, ours: str):
         """Save ``fig`` as figures/<paper>/<stem>.{png,svg}, display it with the paper's claim and ours."""

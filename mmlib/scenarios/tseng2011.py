@@ -21,7 +21,7 @@ from ..fuzzy import TakagiSugeno, ramp_sets
 from ..montecarlo import MonteCarlo, Stream
 from ..rules import Unscented
 from ..simulate import ManeuverSchedule, propagate
-from .common import Deviation
+from ..experiment.readings import Deviation
 
 PAPER = "tseng2011"
 CITATION = ("C.-H. Tseng, C.-W. Chang, D.-J. Jwo, Fuzzy Adaptive Interacting Multiple Model Nonlinear Filter for "

@@ -20,8 +20,8 @@ from ..mixing import CubatureMixing
 from ..montecarlo import MonteCarlo, Stream
 from ..rules import Cubature, Unscented
 from ..simulate import ManeuverSchedule
-from . import common
-from .common import Deviation
+from ..experiment import evaluation
+from ..experiment.readings import Deviation
 
 PAPER = "zhou2017"
 CITATION = ("H. Zhou, H. Zhao, H. Huang, X. Zhao, A Cubature-Principle-Assisted IMM-Adaptive UKF Algorithm for "
@@ -160,10 +160,10 @@ def radar_fault(setup: Setup, mc: MonteCarlo, runs, times):
 
 def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
     schedule, radar, estimators = build(setup)
-    estimators = common.select(estimators, names)
+    estimators = evaluation.select(estimators, names)
     P0 = np.diag(np.square(setup.P0_sd))
     fault = (lambda runs: radar_fault(setup, mc, runs, schedule.times)) if setup.faults else None
-    make_batch = common.make_batches(mc, schedule, radar, setup.x0, estimators,
+    make_batch = evaluation.make_batches(mc, schedule, radar, setup.x0, estimators,
                                      lambda est, m0, runs: est.init(m0, P0, setup.mode_probabilities0),
                                      process_noise=setup.truth_process_noise, fault=fault)
     return make_batch, estimators, schedule
@@ -212,6 +212,6 @@ def gps_analogue(an: GPSAnalogue, mc: MonteCarlo):
         delta[:, :, 2] = (p[:, 1] * an.drift_rate_max)[:, None] * t[None, :]
         return models.SensorFault(delta)
 
-    make_batch = common.make_batches(mc, schedule, gps, an.base.x0, estimators, lambda est, m0, runs: est.init(m0, P0),
+    make_batch = evaluation.make_batches(mc, schedule, gps, an.base.x0, estimators, lambda est, m0, runs: est.init(m0, P0),
                                      process_noise=an.base.truth_process_noise, fault=fault)
     return make_batch, estimators, schedule

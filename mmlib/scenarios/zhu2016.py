@@ -22,8 +22,8 @@ from ..filters import ExtendedKalmanFilter, SigmaPointFilter
 from ..montecarlo import MonteCarlo, Stream
 from ..rules import Cubature, FifthDegreeCubature, Unscented
 from ..simulate import ManeuverSchedule
-from . import common
-from .common import Deviation
+from ..experiment import evaluation
+from ..experiment.readings import Deviation
 
 PAPER = "zhu2016"
 CITATION = ("W. Zhu, W. Wang, G. Yuan, An Improved Interacting Multiple Model Filtering Algorithm "
@@ -159,7 +159,7 @@ def build(setup: Setup):
 
 
 def make_batch_fn(setup: Setup, mc: MonteCarlo):
-    """``runs -> (truth, measurements, initial states)`` for :func:`common.evaluate`."""
+    """``runs -> (truth, measurements, initial states)`` for :func:`evaluation.evaluate`."""
     schedule, meas, estimators = build(setup)
     x0 = np.array(setup.x0)
     P0 = np.diag(setup.P0_diag)
@@ -172,7 +172,7 @@ def make_batch_fn(setup: Setup, mc: MonteCarlo):
     def init_state(est, m0, runs):
         return est.init(m0, P0, setup.mode_probabilities0) if isinstance(est, IMM) else est.init(m0, P0)
 
-    make_batch = common.make_batches(mc, schedule, meas, x0, estimators, init_state,
+    make_batch = evaluation.make_batches(mc, schedule, meas, x0, estimators, init_state,
                                      process_noise=setup.truth_process_noise, start=start)
     return make_batch, estimators, schedule
 

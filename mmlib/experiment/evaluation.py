@@ -1,9 +1,8 @@
-"""Pieces shared by the paper scenarios: deviations, Monte Carlo evaluation of
-estimators on common random numbers, timing."""
+"""Monte Carlo evaluation of estimators on common random numbers, paired comparisons and timing
+(the experiment layer; paper-agnostic)."""
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, asdict
 from typing import Callable, NamedTuple
 
 import numpy as np
@@ -13,20 +12,6 @@ from ..estimation import run, select_runs
 from ..montecarlo import MonteCarlo, Progress
 from ..simulate import simulate
 
-
-@dataclass(frozen=True)
-class Deviation:
-    """A numbered interpretation: what the paper gives, what we do, and why."""
-
-    id: str
-    topic: str
-    paper: str
-    choice: str
-    reason: str
-    sweep: str = ""
-
-    def as_dict(self) -> dict:
-        return asdict(self)
 
 
 class RunSet(NamedTuple):

@@ -1,0 +1,258 @@
+"""A paper's multiverse: every universe of its reading space run, and what holds across them.
+
+A paper module provides
+
+* ``SPACE``: its :class:`~mmlib.experiment.readings.ReadingSpace`;
+* ``PUBLISHED``: every published number a universe can be compared with, as
+  :class:`PublishedNumber` s (table, item, algorithm, quantity, the printed text);
+* a job ``universe(reading, n_runs, seed) -> dict`` built with :func:`universe_result`:
+  the universe's ``values`` (one per published number it replicates, same item, algorithm
+  and quantity), its ``claims`` (verdicts in the claim vocabulary of :mod:`mmlib.report`),
+  its ``effects`` (named paired differences with standard errors, for the specification
+  curve) and its ``diverged`` run counts per algorithm.
+
+:func:`run_multiverse` runs a design through :func:`~mmlib.experiment.grid.run_grid` and
+returns a :class:`Multiverse`, whose :meth:`Multiverse.as_dict` is the ``multiverse``
+object of ``data/results/<paper>.json``:
+
+* ``factors``, ``design``, ``design_description``, ``n_universes``, ``n_runs``;
+* ``universes``: [{``reading``, ``values``, ``claims``, ``effects``, ``diverged``}];
+* ``claims_summary``: per claim, the headline verdict, the count of each verdict across the
+  universes, and ``robust`` (one verdict in at least 90 % of them);
+* ``numbers_summary``: per published number, the headline verdict, ``n_reproduced`` (universes
+  whose value is *reproduced* under the one verdict rule) and ``closest``, the universe of
+  smallest standardized distance, with its reading and verdict;
+* ``table_match``: per published table, the universe minimising the sum over its cells of the
+  squared standardized distances, that sum, and the headline's.
+
+The closest universe and the best table match are forensic findings ("Table 1 is
+consistent with reading X"), never the headline; only the declared discrete options take
+part, so nothing continuous is fitted to a published number.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, NamedTuple
+
+from .. import report
+from .grid import run_grid
+from .readings import Design, ReadingSpace
+
+#: a claim is robust when one verdict holds in at least this fraction of the universes
+ROBUST_FRACTION = 0.9
+
+
+class PublishedNumber(NamedTuple):
+    """A number printed in the paper: ``table`` groups cells for the table match (e.g.
+    "Table 1"), ``item``/``algorithm``/``quantity`` match a universe's value, ``printed`` is the
+    text as printed (its last digit sets the rounding uncertainty)."""
+
+    table: str
+    item: str
+    algorithm: str
+    quantity: str
+    printed: str
+
+    @property
+    def key(self) -> tuple:
+        return (self.item, self.algorithm, self.quantity)
+
+
+def _finite_or_none(x):
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def universe_result(*, values, claims, diverged, effects=(), n_runs: int) -> dict:
+    """The JSON-able result of one universe (validated).
+
+    ``values``: iterable of ``(item, algorithm, quantity, replicated, stderr)``; ``claims``: a
+    :class:`mmlib.report.Claims` or dicts with ``claim`` and ``verdict``; ``diverged``: algorithm
+    -> number of diverged runs; ``effects``: iterable of ``(name, value, stderr)`` or
+    ``(name, value, stderr, published)``."""
+    vals = []
+    for v in values:
+        item, alg, qty, rep, se = v
+        vals.append({"item": item, "algorithm": alg, "quantity": qty, "replicated": _finite_or_none(rep),
+                     "stderr": _finite_or_none(se)})
+    cls = []
+    for c in claims:
+        report.claim_category(c["verdict"])
+        cls.append({"claim": c["claim"], "verdict": c["verdict"]})
+    effs = []
+    for e in effects:
+        name, value, se, *pub = e
+        effs.append({"name": name, "value": _finite_or_none(value), "stderr": _finite_or_none(se),
+                     "published": _finite_or_none(pub[0]) if pub else None})
+    div = {str(k): int(v) for k, v in dict(diverged).items()}
+    return {"values": vals, "claims": cls, "effects": effs, "diverged": div, "n_runs": int(n_runs)}
+
+
+@dataclass
+class Multiverse:
+    """Universes of a design with their results (``universes[i]`` ran ``design.readings[i]``)."""
+
+    space: ReadingSpace
+    design: Design
+    universes: list
+    published: tuple
+    n_runs: int
+    n_runs_paper: int | None = None
+
+    def __post_init__(self):
+        if len(self.universes) != len(self.design.readings):
+            raise ValueError("universes: one result per reading of the design is needed")
+        if self.design.readings[0] != self.space.headline:
+            raise ValueError("design: the headline must be the first universe")
+
+    # -- lookups ----------------------------------------------------------------------------------------------
+    @property
+    def readings(self) -> tuple:
+        return self.design.readings
+
+    @property
+    def headline(self) -> dict:
+        return self.universes[0]
+
+    def value(self, universe: dict, key: tuple):
+        for v in universe["values"]:
+            if (v["item"], v["algorithm"], v["quantity"]) == key:
+                return v
+        return None
+
+    def effect(self, universe: dict, name: str):
+        for e in universe["effects"]:
+            if e["name"] == name:
+                return e
+        raise ValueError(f"effect: no effect {name!r} (effects: {[e['name'] for e in universe['effects']]})")
+
+    def number_verdict(self, pub: PublishedNumber, universe: dict) -> str:
+        v = self.value(universe, pub.key)
+        if v is None or v["replicated"] is None:
+            return report.NOT_REPLICABLE
+        return report.verdict(pub.printed, v["replicated"], v["stderr"], universe["n_runs"], self.n_runs_paper)
+
+    def distance(self, pub: PublishedNumber, universe: dict):
+        v = self.value(universe, pub.key)
+        if v is None or v["replicated"] is None:
+            return None
+        return report.standardized_distance(pub.printed, v["replicated"], v["stderr"], universe["n_runs"],
+                                            self.n_runs_paper)
+
+    # -- summaries --------------------------------------------------------------------------------------------
+    def claims_summary(self) -> list:
+        out = []
+        for c in self.headline["claims"]:
+            verdicts = [u_c["verdict"] for u in self.universes for u_c in u["claims"] if u_c["claim"] == c["claim"]]
+            counts: dict = {}
+            for v in verdicts:
+                cat = report.claim_category(v)
+                counts[cat] = counts.get(cat, 0) + 1
+            top = max(counts.values())
+            out.append({"claim": c["claim"], "headline_verdict": c["verdict"],
+                        "verdict_counts": {k: counts[k] for k in report.CLAIM_VERDICTS if k in counts},
+                        "n_universes": len(verdicts), "robust": top >= ROBUST_FRACTION * len(verdicts)})
+        return out
+
+    def numbers_summary(self) -> list:
+        out = []
+        for pub in self.published:
+            verdicts = [self.number_verdict(pub, u) for u in self.universes]
+            dists = [self.distance(pub, u) for u in self.universes]
+            finite = [(abs(d), i) for i, d in enumerate(dists) if d is not None]
+            closest = None
+            if finite:
+                _, i = min(finite)
+                v = self.value(self.universes[i], pub.key)
+                closest = {"universe": i, "reading": dict(self.readings[i]),
+                           "describe": self.space.describe(self.readings[i]), "replicated": v["replicated"],
+                           "stderr": v["stderr"], "distance": _finite_or_none(dists[i]), "verdict": verdicts[i]}
+            out.append({"table": pub.table, "item": pub.item, "algorithm": pub.algorithm, "quantity": pub.quantity,
+                        "paper": pub.printed, "headline_verdict": verdicts[0],
+                        "headline_distance": _finite_or_none(dists[0]),
+                        "n_reproduced": sum(v == report.REPRODUCED for v in verdicts),
+                        "n_qualitative": sum(v == report.QUALITATIVE for v in verdicts),
+                        "n_universes": len(verdicts), "closest": closest})
+        return out
+
+    def table_distances(self, table: str) -> list:
+        """Sum over the table's replicated cells of squared standardized distances, per universe."""
+        pubs = [p for p in self.published if p.table == table]
+        out = []
+        for u in self.universes:
+            ds = [self.distance(p, u) for p in pubs]
+            ds = [d for d in ds if d is not None]
+            out.append(sum(d * d for d in ds) if ds else None)
+        return out
+
+    @property
+    def tables(self) -> list:
+        seen = []
+        for p in self.published:
+            if p.table not in seen:
+                seen.append(p.table)
+        return seen
+
+    def table_match(self) -> list:
+        out = []
+        for table in self.tables:
+            sums = self.table_distances(table)
+            finite = [(s, i) for i, s in enumerate(sums) if s is not None]
+            if not finite:
+                continue
+            best, i = min(finite)
+            n_cells = sum(1 for p in self.published if p.table == table
+                          and self.distance(p, self.universes[i]) is not None)
+            out.append({"table": table, "n_cells": n_cells, "best_universe": i, "best_reading": dict(self.readings[i]),
+                        "best_describe": self.space.describe(self.readings[i]), "best_sum": _finite_or_none(best),
+                        "headline_sum": _finite_or_none(sums[0]),
+                        "best_n_reproduced": sum(self.number_verdict(p, self.universes[i]) == report.REPRODUCED
+                                                 for p in self.published if p.table == table)})
+        return out
+
+    def one_factor_view(self) -> list:
+        """The universes that differ from the headline in at most one factor, headline first:
+        the classic one-at-a-time sweep, as a view of the multiverse.  Items: (index, factor id or
+        None, reading)."""
+        out = []
+        for i, r in enumerate(self.readings):
+            diff = self.space.differs(r)
+            if len(diff) <= 1:
+                out.append((i, diff[0] if diff else None, r))
+        return out
+
+    def diverged_total(self) -> dict:
+        tot: dict = {}
+        for u in self.universes:
+            for k, v in u["diverged"].items():
+                tot[k] = tot.get(k, 0) + v
+        return tot
+
+    def as_dict(self) -> dict:
+        return {"factors": self.space.as_dict(), "design": self.design.kind,
+                "design_description": self.design.description, "n_universes": len(self.universes),
+                "full_factorial_size": self.space.size, "n_runs": self.n_runs,
+                "universes": [{"reading": dict(r), **u} for r, u in zip(self.readings, self.universes)],
+                "claims_summary": self.claims_summary(), "numbers_summary": self.numbers_summary(),
+                "table_match": self.table_match(), "diverged_total": self.diverged_total()}
+
+
+def run_multiverse(space: ReadingSpace, job: Callable, *, published, n_runs: int, seed: int, algorithms,
+                   design: str = "auto", n_runs_paper: int | None = None, **grid_options) -> Multiverse:
+    """Run ``job`` on every universe of ``space.design(design)`` (see :func:`run_grid` for the
+    executor, worker, cache and progress options)."""
+    d = space.design(design)
+    results = run_grid(job, d.readings, paper=space.paper, algorithms=algorithms, n_runs=n_runs, seed=seed,
+                       **grid_options)
+    return Multiverse(space, d, results, tuple(published), n_runs, n_runs_paper)
+
+
+def from_dict(space: ReadingSpace, doc: dict, published, n_runs_paper: int | None = None) -> Multiverse:
+    """Rebuild a :class:`Multiverse` from the ``multiverse`` object of a results file."""
+    readings = tuple(space.validate(u["reading"]) for u in doc["universes"])
+    universes = [{k: v for k, v in u.items() if k != "reading"} for u in doc["universes"]]
+    return Multiverse(space, Design(doc["design"], doc["design_description"], readings), universes,
+                      tuple(published), doc["n_runs"], n_runs_paper)

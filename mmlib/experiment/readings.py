@@ -1,0 +1,284 @@
+"""Reading spaces: a paper's ambiguities as declared factors, and the designs that run them.
+
+A paper that is silent, contradictory or garbled somewhere admits several *readings*.
+Each ambiguity is a :class:`Factor` (numbered, usually the deviation number that
+discusses it) whose :class:`Option` s are the readings the paper's text supports,
+each saying where.  One option per factor is the *headline*: the reading chosen on
+the text before any run.  A *reading* is a mapping ``factor id -> option name`` that
+names every factor; a *universe* is the experiment run under one reading.
+
+The :class:`ReadingSpace` is the full factorial product of the factors (a
+multiverse analysis: Steegen, Tuerlinckx, Gelman & Vanpaemel 2016, Perspectives on
+Psychological Science 11(5):702, doi:10.1177/1745691616658637; a specification curve:
+Simonsohn, Simmons & Nelson 2020, Nature Human Behaviour 4:1208,
+doi:10.1038/s41562-020-0912-z).  Where the product exceeds the paper's budget of
+universes, :meth:`ReadingSpace.design` returns a stated fractional design instead:
+the headline, every option of every factor varied alone from the headline (the
+"star"), and then universes chosen greedily until every pair of options of every two
+*influential* factors occurs together (a strength-2 covering array; the greedy
+construction of Cohen, Dalal, Fredman & Patton 1997, IEEE Trans. Software Eng.
+23(7):437).  Full factorial is the default.
+
+Only declared discrete options take part: no continuous parameter is ever fitted to a
+published number.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Mapping
+
+
+@dataclass(frozen=True)
+class Deviation:
+    """A numbered interpretation: what the paper gives, what we do, and why."""
+
+    id: str
+    topic: str
+    paper: str
+    choice: str
+    reason: str
+    sweep: str = ""
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class Option:
+    """One reading of an ambiguity.
+
+    ``name`` is a short identifier used in readings (``"150s"``), ``label`` a phrase for
+    tables and figures, ``source`` where the paper's text supports it (section, equation,
+    quotation), and ``changes`` the set-up parameters this reading sets (field name ->
+    value), merged over all factors by :meth:`ReadingSpace.changes`."""
+
+    name: str
+    label: str
+    source: str
+    changes: Mapping = field(default_factory=dict)
+
+    def __post_init__(self):
+        for arg in ("name", "label", "source"):
+            if not isinstance(getattr(self, arg), str) or not getattr(self, arg).strip():
+                raise ValueError(f"{arg}: expected a non-empty string, got {getattr(self, arg)!r}")
+        if not isinstance(self.changes, Mapping):
+            raise ValueError(f"changes: expected a mapping of set-up fields to values, got {self.changes!r}")
+        object.__setattr__(self, "changes", dict(self.changes))
+
+    def as_dict(self) -> dict:
+        return {"name": self.name, "label": self.label, "source": self.source,
+                "changes": {k: list(v) if isinstance(v, tuple) else v for k, v in self.changes.items()}}
+
+
+@dataclass(frozen=True)
+class Factor:
+    """A numbered ambiguity: its options (readings the text supports) and the headline one.
+
+    ``influential`` marks factors whose pairwise interactions a fractional design must
+    cover (a factor shown not to move any result may be declared non-influential; it still
+    appears with every option)."""
+
+    id: str
+    label: str
+    options: tuple
+    headline: str
+    source: str
+    influential: bool = True
+
+    def __post_init__(self):
+        for arg in ("id", "label", "source"):
+            if not isinstance(getattr(self, arg), str) or not getattr(self, arg).strip():
+                raise ValueError(f"{arg}: expected a non-empty string, got {getattr(self, arg)!r}")
+        options = tuple(self.options)
+        if len(options) < 2 or not all(isinstance(o, Option) for o in options):
+            raise ValueError(f"options: factor {self.id!r} needs at least two Option objects, got {self.options!r}")
+        names = [o.name for o in options]
+        if len(set(names)) != len(names):
+            raise ValueError(f"options: factor {self.id!r} repeats an option name: {names}")
+        if self.headline not in names:
+            raise ValueError(f"headline: factor {self.id!r} has no option {self.headline!r} (options: {names})")
+        object.__setattr__(self, "options", options)
+
+    @property
+    def names(self) -> tuple:
+        return tuple(o.name for o in self.options)
+
+    def option(self, name: str) -> Option:
+        for o in self.options:
+            if o.name == name:
+                return o
+        raise ValueError(f"reading: factor {self.id!r} has no option {name!r} (options: {list(self.names)})")
+
+    def as_dict(self) -> dict:
+        return {"id": self.id, "label": self.label, "options": list(self.names), "headline": self.headline,
+                "source": self.source, "influential": self.influential,
+                "option_details": [o.as_dict() for o in self.options]}
+
+
+@dataclass(frozen=True)
+class Design:
+    """The universes to run: ``kind`` is "full", "fractional" or "star"; ``description``
+    states how they were chosen; ``readings`` lists them, the headline first."""
+
+    kind: str
+    description: str
+    readings: tuple
+
+    def __len__(self):
+        return len(self.readings)
+
+
+@dataclass(frozen=True)
+class ReadingSpace:
+    """The full factorial product of a paper's factors, with a budget of universes.
+
+    ``budget`` is the most universes the paper's run may afford; ``None`` means no limit
+    (the full factorial is always run)."""
+
+    paper: str
+    factors: tuple
+    budget: int | None = None
+
+    def __post_init__(self):
+        factors = tuple(self.factors)
+        if not factors or not all(isinstance(f, Factor) for f in factors):
+            raise ValueError(f"factors: expected a non-empty sequence of Factor objects, got {self.factors!r}")
+        ids = [f.id for f in factors]
+        if len(set(ids)) != len(ids):
+            raise ValueError(f"factors: repeated factor id in {ids}")
+        if self.budget is not None and (isinstance(self.budget, bool) or not isinstance(self.budget, int)
+                                        or self.budget < 1):
+            raise ValueError(f"budget: expected a positive integer or None, got {self.budget!r}")
+        object.__setattr__(self, "factors", factors)
+
+    # -- readings ---------------------------------------------------------------------------------------------
+    @property
+    def ids(self) -> tuple:
+        return tuple(f.id for f in self.factors)
+
+    def factor(self, factor_id: str) -> Factor:
+        for f in self.factors:
+            if f.id == factor_id:
+                return f
+        raise ValueError(f"reading: unknown factor {factor_id!r} (factors: {list(self.ids)})")
+
+    @property
+    def headline(self) -> dict:
+        return {f.id: f.headline for f in self.factors}
+
+    @property
+    def size(self) -> int:
+        """Number of universes of the full factorial product."""
+        return math.prod(len(f.options) for f in self.factors)
+
+    def validate(self, reading: Mapping) -> dict:
+        """The reading in factor order; ValueError naming any unknown factor, unknown option or
+        missing factor."""
+        if not isinstance(reading, Mapping):
+            raise ValueError(f"reading: expected a mapping factor id -> option name, got {reading!r}")
+        for fid in reading:
+            self.factor(fid)
+        missing = [f.id for f in self.factors if f.id not in reading]
+        if missing:
+            raise ValueError(f"reading: leaves out factor(s) {missing}; a reading names every factor "
+                             f"(use ReadingSpace.with_headline to fill the rest with headline options)")
+        out = {}
+        for f in self.factors:
+            f.option(reading[f.id])
+            out[f.id] = reading[f.id]
+        return out
+
+    def with_headline(self, **changes) -> dict:
+        """The headline reading with some factors changed: ``space.with_headline(**{"L-1": "100s"})``."""
+        return self.validate({**self.headline, **changes})
+
+    def changes(self, reading: Mapping) -> dict:
+        """Set-up parameters of a reading: the merged ``Option.changes`` of its options.  Two
+        options setting the same parameter to different values is a declaration error."""
+        reading = self.validate(reading)
+        merged, by = {}, {}
+        for f in self.factors:
+            for key, value in f.option(reading[f.id]).changes.items():
+                if key in merged and merged[key] != value:
+                    raise ValueError(f"reading: factors {by[key]!r} and {f.id!r} both set {key!r}")
+                merged[key], by[key] = value, f.id
+        return merged
+
+    def differs(self, reading: Mapping) -> list:
+        """Factor ids in which ``reading`` differs from the headline."""
+        reading = self.validate(reading)
+        return [fid for fid, opt in reading.items() if opt != self.headline[fid]]
+
+    def describe(self, reading: Mapping) -> str:
+        """Short text: 'headline' or the options that differ from it ("L-1: maneuver at 100 s; ...")."""
+        diff = self.differs(reading)
+        if not diff:
+            return "headline"
+        return "; ".join(f"{fid}: {self.factor(fid).option(reading[fid]).label}" for fid in diff)
+
+    # -- designs ----------------------------------------------------------------------------------------------
+    def full(self) -> list:
+        """Every reading, the headline first, then in factor-major order."""
+        grid = [dict(zip(self.ids, combo)) for combo in itertools.product(*(f.names for f in self.factors))]
+        head = self.headline
+        return [head] + [r for r in grid if r != head]
+
+    def star(self) -> list:
+        """The headline and every option of every factor varied alone (one factor at a time)."""
+        out = [self.headline]
+        for f in self.factors:
+            out += [self.with_headline(**{f.id: o}) for o in f.names if o != f.headline]
+        return out
+
+    def covering(self) -> list:
+        """The star, then greedily chosen readings until every pair of options of every two
+        influential factors occurs in some reading (deterministic: ties go to the earliest
+        reading of :meth:`full`)."""
+        chosen = self.star()
+        infl = [f for f in self.factors if f.influential]
+        pairs_of = (lambda r: {(a.id, r[a.id], b.id, r[b.id]) for a, b in itertools.combinations(infl, 2)})
+        needed = {(a.id, x, b.id, y) for a, b in itertools.combinations(infl, 2) for x in a.names for y in b.names}
+        for r in chosen:
+            needed -= pairs_of(r)
+        if not needed:
+            return chosen
+        # candidates: products over the influential factors (non-influential at headline)
+        head = self.headline
+        candidates = [{**head, **dict(zip([f.id for f in infl], combo))}
+                      for combo in itertools.product(*(f.names for f in infl))]
+        taken = {tuple(r.values()) for r in chosen}
+        while needed:
+            best, gain = None, 0
+            for c in candidates:
+                g = len(pairs_of(c) & needed)
+                if g > gain and tuple(c.values()) not in taken:
+                    best, gain = c, g
+            chosen.append(best)
+            taken.add(tuple(best.values()))
+            needed -= pairs_of(best)
+        return chosen
+
+    def design(self, kind: str = "auto") -> Design:
+        """``"auto"``: the full factorial when it fits the budget, else the fractional (covering)
+        design; ``"full"``, ``"fractional"`` or ``"star"`` force one."""
+        if kind not in ("auto", "full", "fractional", "star"):
+            raise ValueError(f"kind: expected 'auto', 'full', 'fractional' or 'star', got {kind!r}")
+        if kind == "auto":
+            kind = "full" if self.budget is None or self.size <= self.budget else "fractional"
+        if kind == "full":
+            return Design("full", f"full factorial: {self.size} universes", tuple(self.full()))
+        if kind == "star":
+            s = self.star()
+            return Design("star", f"headline and each of the {len(s) - 1} other options varied alone "
+                                  f"({len(s)} of {self.size} universes)", tuple(s))
+        c = self.covering()
+        infl = [f.id for f in self.factors if f.influential]
+        return Design("fractional",
+                      f"{len(c)} of {self.size} universes: the headline, every option varied alone, and greedily "
+                      f"added universes until every two-factor combination of options of the influential factors "
+                      f"({', '.join(infl)}) occurs at least once (strength-2 covering array)", tuple(c))
+
+    def as_dict(self) -> list:
+        return [f.as_dict() for f in self.factors]

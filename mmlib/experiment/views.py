@@ -1,0 +1,186 @@
+"""Tables and figures of a multiverse: factors, claim robustness, readings that reproduce the
+published numbers, the one-factor-at-a-time view, the specification curve and the table match.
+
+Markdown tables are returned as text; figures as matplotlib figures (the caller saves them).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import report
+from .multiverse import Multiverse
+
+
+def _cell(v) -> str:
+    if v is None:
+        return "--"
+    if isinstance(v, float):
+        return "nan" if not np.isfinite(v) else f"{v:.4g}"
+    return str(v).replace("|", "\\|").replace("\n", " ")
+
+
+def markdown_table(header, rows) -> str:
+    """A Markdown table; ``|`` in any cell (header included) is escaped, floats get 4 digits."""
+    lines = ["| " + " | ".join(_cell(h) for h in header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(_cell(v) for v in r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def value_pm(value, stderr, digits=3) -> str:
+    if value is None:
+        return "--"
+    if stderr is None or not np.isfinite(stderr):
+        return f"{value:.{digits}f}"
+    return f"{value:.{digits}f} ± {stderr:.{digits}f}"
+
+
+def _reading_text(space, reading) -> str:
+    return space.describe(reading)
+
+
+def factors_table(space) -> str:
+    """One row per factor: id, what is ambiguous, options (headline in bold), where the paper says it."""
+    rows = []
+    for f in space.factors:
+        opts = "; ".join((f"**{o.name}**: {o.label}" if o.name == f.headline else f"{o.name}: {o.label}")
+                         for o in f.options)
+        rows.append([f.id, f.label, opts, f.source, "yes" if f.influential else "no"])
+    return markdown_table(["factor", "ambiguity", "options (headline in bold)", "where in the paper",
+                           "influential"], rows)
+
+
+def claims_table(mv: Multiverse) -> str:
+    """Per claim: headline verdict, verdict counts across universes, robust or not."""
+    rows = []
+    for c in mv.claims_summary():
+        counts = ", ".join(f"{k} {n}" for k, n in c["verdict_counts"].items())
+        rows.append([c["claim"], c["headline_verdict"], counts, "robust" if c["robust"] else "depends on the reading"])
+    return markdown_table(["claim", "headline verdict", f"verdicts across {len(mv.universes)} universes",
+                           f"robust (one verdict in ≥ {100 * 0.9:.0f} %)"], rows)
+
+
+def numbers_table(mv: Multiverse) -> str:
+    """Per published number: headline verdict, universes reproducing it, the closest reading."""
+    rows = []
+    for s in mv.numbers_summary():
+        c = s["closest"]
+        rows.append([s["item"], s["algorithm"], s["quantity"], s["paper"], s["headline_verdict"],
+                     f"{s['n_reproduced']} / {s['n_universes']}",
+                     "--" if c is None else value_pm(c["replicated"], c["stderr"]),
+                     "--" if c is None else c["verdict"],
+                     "--" if c is None else c["describe"]])
+    return markdown_table(["item", "algorithm", "quantity", "paper", "headline verdict", "universes reproducing",
+                           "closest universe's value", "its verdict", "closest reading"], rows)
+
+
+def table_match_table(mv: Multiverse) -> str:
+    rows = [[t["table"], t["n_cells"], t["headline_sum"], t["best_sum"],
+             f"{t['best_n_reproduced']} / {t['n_cells']}", t["best_describe"]] for t in mv.table_match()]
+    return markdown_table(["table", "cells", "headline Σz²", "best Σz²", "cells reproduced by the best",
+                           "best-matching reading"], rows)
+
+
+def one_factor_table(mv: Multiverse, columns) -> str:
+    """The one-factor-at-a-time view: ``columns`` is a list of (header, key) with key a value key
+    (item, algorithm, quantity) or ``("effect", name)``."""
+    rows = []
+    for i, fid, reading in mv.one_factor_view():
+        u = mv.universes[i]
+        label = "headline" if fid is None else f"{fid}: {mv.space.factor(fid).option(reading[fid]).label}"
+        cells = [label]
+        for _, key in columns:
+            if key[0] == "effect":
+                e = mv.effect(u, key[1])
+                cells.append(value_pm(e["value"], e["stderr"], 3 if abs(e["value"] or 0) < 100 else 0))
+            else:
+                v = mv.value(u, key)
+                cells.append("--" if v is None else value_pm(v["replicated"], v["stderr"], 2))
+        ndiv = sum(u["diverged"].values())
+        cells.append(str(ndiv) if ndiv else "")
+        rows.append(cells)
+    return markdown_table(["reading (one factor changed)"] + [h for h, _ in columns] + ["diverged runs"], rows)
+
+
+def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str, published=None,
+                        interval: float = report.SIGMA_FACTOR, symlog: bool = False):
+    """Universes sorted by an effect (value ± ``interval`` standard errors; the verdict rule's band),
+    the headline in red, the published value dashed, and below it which option each universe uses
+    (Simonsohn, Simmons & Nelson 2020)."""
+    import matplotlib.pyplot as plt
+    vals = [mv.effect(u, effect) for u in mv.universes]
+    y = np.array([np.nan if v["value"] is None else v["value"] for v in vals])
+    se = np.array([0.0 if v["stderr"] is None else v["stderr"] for v in vals])
+    order = np.argsort(np.where(np.isfinite(y), y, np.inf), kind="stable")
+    n = len(order)
+    factors = mv.space.factors
+    n_rows = sum(len(f.options) for f in factors)
+    fig, (ax, axp) = plt.subplots(2, 1, figsize=(max(7.5, min(16, 0.09 * n + 6)), 3.6 + 0.16 * n_rows),
+                                  sharex=True, gridspec_kw={"height_ratios": [3.2, 0.16 * n_rows + 0.4]})
+    x = np.arange(n)
+    head_pos = int(np.where(order == 0)[0][0])
+    colors = np.array(["C0"] * n, dtype=object)
+    colors[head_pos] = "C3"
+    ax.errorbar(x, y[order], yerr=interval * se[order], fmt="none", ecolor="0.6", elinewidth=0.8, zorder=1)
+    ax.scatter(x, y[order], c=list(colors), s=14, zorder=2, label="universe (± %g s.e.)" % interval)
+    ax.scatter([head_pos], [y[0]], c="C3", s=40, marker="D", zorder=3, label="headline reading")
+    ax.axhline(0.0, color="k", lw=0.8)
+    pub = published if published is not None else vals[0].get("published")
+    if pub is not None:
+        ax.axhline(pub, color="C2", ls="--", lw=1.2, label=f"published ({pub:.3g})")
+    if symlog:
+        finite = np.abs(y[np.isfinite(y) & (y != 0)])
+        ax.set_yscale("symlog", linthresh=float(np.min(finite)) if finite.size else 1.0)
+    ax.set(ylabel=ylabel, title=title)
+    ax.legend(fontsize=8, loc="best")
+    row, yt, ylab = 0, [], []
+    for f in factors:
+        for o in f.options:
+            used = [j for j, i in enumerate(order) if mv.readings[i][f.id] == o.name]
+            axp.scatter(used, [row] * len(used), s=8, marker="s",
+                        c="C3" if o.name == f.headline else "0.25")
+            yt.append(row)
+            ylab.append(f"{f.id}: {o.label}"[:48])
+            row += 1
+        axp.axhline(row - 0.5, color="0.8", lw=0.6)
+    axp.set_yticks(yt)
+    axp.set_yticklabels(ylab, fontsize=7)
+    axp.set_ylim(row - 0.5, -0.5)
+    axp.set_xlabel(f"universe, sorted by the effect ({n} universes; headline options in red)")
+    axp.grid(False)
+    fig.tight_layout()
+    return fig
+
+
+def table_match_figure(mv: Multiverse, *, title: str):
+    """Per published table, the sum of squared standardized distances of each universe (sorted),
+    the headline and the best match marked; a smaller sum is a closer match to the whole table."""
+    import matplotlib.pyplot as plt
+    tables = [t for t in mv.tables if any(s is not None for s in mv.table_distances(t))]
+    fig, axes = plt.subplots(1, len(tables), figsize=(4.2 * len(tables) + 1, 3.8), squeeze=False)
+    for ax, table in zip(axes[0], tables):
+        sums = np.array([np.nan if s is None else s for s in mv.table_distances(table)])
+        order = np.argsort(np.where(np.isfinite(sums), sums, np.inf), kind="stable")
+        ax.plot(np.arange(len(order)), sums[order], ".", color="C0", ms=4, label="universe")
+        hp = int(np.where(order == 0)[0][0])
+        ax.plot([hp], [sums[0]], "D", color="C3", ms=7, label="headline")
+        ax.plot([0], [sums[order[0]]], "*", color="C2", ms=11, label="best match")
+        n_cells = sum(1 for p in mv.published if p.table == table)
+        ax.axhline(9.0 * n_cells, color="0.4", ls=":", lw=1, label="every cell at 3 s.e.")
+        ax.set(yscale="log", xlabel="universe, sorted", ylabel="Σ z² over the table's cells",
+               title=f"{table} ({n_cells} cells)")
+        ax.legend(fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def summary_line(mv: Multiverse) -> str:
+    """One sentence per paper: does some reading reproduce the tables, are the claims robust."""
+    tm = mv.table_match()
+    robust = [c for c in mv.claims_summary() if c["robust"]]
+    parts = []
+    for t in tm:
+        parts.append(f"{t['table']}: best reading reproduces {t['best_n_reproduced']}/{t['n_cells']} cells "
+                     f"(Σz² {t['best_sum']:.3g} vs headline {t['headline_sum']:.3g}; {t['best_describe']})")
+    claims = f"{len(robust)} of {len(mv.claims_summary())} claim verdicts robust across {len(mv.universes)} universes"
+    return "; ".join(parts + [claims])
