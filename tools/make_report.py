@@ -13,7 +13,20 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from mmlib.report import atomic_write_text  # noqa: E402
-from mmlib.scenarios.presentation import markdown_table, value_pm  # noqa: E402
+from mmlib.experiment import views  # noqa: E402
+from mmlib.experiment.views import markdown_table, value_pm  # noqa: E402
+
+
+def render_multiverse(mv: dict) -> list:
+    """The reading-space section of a paper's report, from the stored ``multiverse`` object."""
+    return ["", "## Reading space (multiverse)", "",
+            f"Design: {mv['design_description']}; {mv['n_runs']} Monte Carlo runs per universe, common random "
+            f"numbers across universes. {views.summary_line(mv)}.", "", "### Factors", "",
+            views.factors_table(mv["factors"]), "", "### Claims across the universes", "", views.claims_table(mv), "",
+            "### Published numbers across the universes", "", views.numbers_table(mv), "",
+            "### Which reading matches each published table", "", views.table_match_table(mv),
+            "", "The best-matching reading is a forensic finding (which declared reading the printed table is "
+            "consistent with), not the headline; no continuous parameter is fitted."]
 
 
 def render(doc: dict, root: Path, out_dir: Path) -> str:
@@ -32,6 +45,8 @@ def render(doc: dict, root: Path, out_dir: Path) -> str:
         lines += ["", "## Claims of the abstract and conclusions", "",
                   markdown_table(["claim", "verdict", "evidence"],
                                  [[c["claim"], c["verdict"], c["evidence"]] for c in doc["claims"]])]
+    if doc.get("multiverse"):
+        lines += render_multiverse(doc["multiverse"])
     if doc.get("figures"):
         lines += ["", "## Figures", ""]
         for stem, fig in doc["figures"].items():
@@ -56,10 +71,36 @@ def render_index(docs) -> str:
              markdown_table(["paper", "runs", *VERDICTS, "report"],
                             [[d["paper"], d["provenance"]["n_runs"],
                               *[sum(r["verdict"].startswith(v) for r in d["rows"]) for v in VERDICTS],
-                              f"[{d['paper']}.md]({d['paper']}.md)"] for d in docs]), "", "## Claims", ""]
+                              f"[{d['paper']}.md]({d['paper']}.md)"] for d in docs]), ""]
+    with_mv = [d for d in docs if d.get("multiverse")]
+    if with_mv:
+        lines += ["## Reading spaces: does some reading reproduce the tables, and are the verdicts robust?", "",
+                  "Each paper's ambiguities are declared as factors and every universe of the design is run "
+                  "(common random numbers). *Headline* is the reading chosen on the text before any run; "
+                  "*best reading* is the declared reading whose numbers are closest to the whole printed table "
+                  "(sum of squared standardized distances) -- a forensic finding, never the headline.", "",
+                  markdown_table(["paper", "universes", "runs each", "table", "cells", "reproduced: headline",
+                                  "reproduced: best reading", "best reading"],
+                                 [[d["paper"], d["multiverse"]["n_universes"], d["multiverse"]["n_runs"], t["table"],
+                                   t["n_cells"],
+                                   sum(n["headline_verdict"] == "reproduced" for n in d["multiverse"]["numbers_summary"]
+                                       if n["table"] == t["table"]),
+                                   t["best_n_reproduced"], t["best_describe"]]
+                                  for d in with_mv for t in d["multiverse"]["table_match"]]), ""]
+    lines += ["## Claims", "", "Verdict of the headline reading, and how it fares across the paper's reading space "
+              "(*robust*: one verdict in at least 90 % of the universes).", ""]
     for d in docs:
-        lines += [f"### {d['paper']}", "", markdown_table(["claim", "verdict"],
-                                                          [[c["claim"], c["verdict"]] for c in d.get("claims", [])]), ""]
+        across = {c["claim"]: c for c in d.get("multiverse", {}).get("claims_summary", [])}
+
+        def spread(c):
+            s = across.get(c["claim"])
+            if s is None:
+                return "--"
+            counts = ", ".join(f"{k} {n}" for k, n in s["verdict_counts"].items())
+            return ("robust: " if s["robust"] else "depends on the reading: ") + counts
+        lines += [f"### {d['paper']}", "", markdown_table(["claim", "verdict", "across the reading space"],
+                                                          [[c["claim"], c["verdict"], spread(c)]
+                                                           for c in d.get("claims", [])]), ""]
     return "\n".join(lines) + "\n"
 
 

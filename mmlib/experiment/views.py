@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import report
-from .multiverse import Multiverse
+from .multiverse import ROBUST_FRACTION, Multiverse
 
 
 def _cell(v) -> str:
@@ -38,13 +38,20 @@ def _reading_text(space, reading) -> str:
     return space.describe(reading)
 
 
+def _summary(mv, key: str):
+    """A summary list from a :class:`Multiverse` (computed) or from its ``as_dict()`` form (stored)."""
+    return mv[key] if isinstance(mv, dict) else getattr(mv, key)()
+
+
 def factors_table(space) -> str:
-    """One row per factor: id, what is ambiguous, options (headline in bold), where the paper says it."""
+    """One row per factor: id, what is ambiguous, options (headline in bold), where the paper says it.
+    ``space``: a ReadingSpace or the ``factors`` list of a stored multiverse."""
     rows = []
-    for f in space.factors:
-        opts = "; ".join((f"**{o.name}**: {o.label}" if o.name == f.headline else f"{o.name}: {o.label}")
-                         for o in f.options)
-        rows.append([f.id, f.label, opts, f.source, "yes" if f.influential else "no"])
+    factors = space if isinstance(space, list) else space.as_dict()
+    for f in factors:
+        opts = "; ".join((f"**{o['name']}**: {o['label']}" if o["name"] == f["headline"] else f"{o['name']}: {o['label']}")
+                         for o in f["option_details"])
+        rows.append([f["id"], f["label"], opts, f["source"], "yes" if f["influential"] else "no"])
     return markdown_table(["factor", "ambiguity", "options (headline in bold)", "where in the paper",
                            "influential"], rows)
 
@@ -52,17 +59,19 @@ def factors_table(space) -> str:
 def claims_table(mv: Multiverse) -> str:
     """Per claim: headline verdict, verdict counts across universes, robust or not."""
     rows = []
-    for c in mv.claims_summary():
+    summary = _summary(mv, "claims_summary")
+    for c in summary:
         counts = ", ".join(f"{k} {n}" for k, n in c["verdict_counts"].items())
         rows.append([c["claim"], c["headline_verdict"], counts, "robust" if c["robust"] else "depends on the reading"])
-    return markdown_table(["claim", "headline verdict", f"verdicts across {len(mv.universes)} universes",
-                           f"robust (one verdict in ≥ {100 * 0.9:.0f} %)"], rows)
+    n = max((c["n_universes"] for c in summary), default=0)
+    return markdown_table(["claim", "headline verdict", f"verdicts across the {n} universes",
+                           f"robust (one verdict in ≥ {100 * ROBUST_FRACTION:.0f} %)"], rows)
 
 
 def numbers_table(mv: Multiverse) -> str:
     """Per published number: headline verdict, universes reproducing it, the closest reading."""
     rows = []
-    for s in mv.numbers_summary():
+    for s in _summary(mv, "numbers_summary"):
         c = s["closest"]
         rows.append([s["item"], s["algorithm"], s["quantity"], s["paper"], s["headline_verdict"],
                      f"{s['n_reproduced']} / {s['n_universes']}",
@@ -75,7 +84,7 @@ def numbers_table(mv: Multiverse) -> str:
 
 def table_match_table(mv: Multiverse) -> str:
     rows = [[t["table"], t["n_cells"], t["headline_sum"], t["best_sum"],
-             f"{t['best_n_reproduced']} / {t['n_cells']}", t["best_describe"]] for t in mv.table_match()]
+             f"{t['best_n_reproduced']} / {t['n_cells']}", t["best_describe"]] for t in _summary(mv, "table_match")]
     return markdown_table(["table", "cells", "headline Σz²", "best Σz²", "cells reproduced by the best",
                            "best-matching reading"], rows)
 
@@ -118,10 +127,9 @@ def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str,
                                   sharex=True, gridspec_kw={"height_ratios": [3.2, 0.16 * n_rows + 0.4]})
     x = np.arange(n)
     head_pos = int(np.where(order == 0)[0][0])
-    colors = np.array(["C0"] * n, dtype=object)
-    colors[head_pos] = "C3"
+    others = x != head_pos
     ax.errorbar(x, y[order], yerr=interval * se[order], fmt="none", ecolor="0.6", elinewidth=0.8, zorder=1)
-    ax.scatter(x, y[order], c=list(colors), s=14, zorder=2, label="universe (± %g s.e.)" % interval)
+    ax.scatter(x[others], y[order][others], c="C0", s=14, zorder=2, label="universe (± %g s.e.)" % interval)
     ax.scatter([head_pos], [y[0]], c="C3", s=40, marker="D", zorder=3, label="headline reading")
     ax.axhline(0.0, color="k", lw=0.8)
     pub = published if published is not None else vals[0].get("published")
@@ -174,13 +182,14 @@ def table_match_figure(mv: Multiverse, *, title: str):
     return fig
 
 
-def summary_line(mv: Multiverse) -> str:
-    """One sentence per paper: does some reading reproduce the tables, are the claims robust."""
-    tm = mv.table_match()
-    robust = [c for c in mv.claims_summary() if c["robust"]]
+def summary_line(mv) -> str:
+    """Per paper, in one line: how well the best reading matches each published table, and how many
+    claim verdicts are robust across the universes (from a Multiverse or its stored form)."""
     parts = []
-    for t in tm:
-        parts.append(f"{t['table']}: best reading reproduces {t['best_n_reproduced']}/{t['n_cells']} cells "
-                     f"(Σz² {t['best_sum']:.3g} vs headline {t['headline_sum']:.3g}; {t['best_describe']})")
-    claims = f"{len(robust)} of {len(mv.claims_summary())} claim verdicts robust across {len(mv.universes)} universes"
-    return "; ".join(parts + [claims])
+    for t in _summary(mv, "table_match"):
+        parts.append(f"{t['table']}: the best-matching reading reproduces {t['best_n_reproduced']} of "
+                     f"{t['n_cells']} cells ({t['best_describe']})")
+    claims = _summary(mv, "claims_summary")
+    n = max((c["n_universes"] for c in claims), default=0)
+    robust = sum(c["robust"] for c in claims)
+    return "; ".join(parts + [f"{robust} of {len(claims)} claim verdicts robust across {n} universes"])

@@ -1,0 +1,41 @@
+"""A small reading space and module-level jobs for the experiment-layer tests (importable by the
+spawned worker processes of the grid runner, hence a module of its own)."""
+import numpy as np
+
+from mmlib import metrics
+from mmlib.experiment import Factor, Option, PublishedNumber, ReadingSpace, universe_result
+from mmlib.montecarlo import MonteCarlo, Stream
+from mmlib.report import Claims, paired_claim
+
+SPACE = ReadingSpace("toy", (
+    Factor("A", "bias", (Option("zero", "no bias", "Sec. 1", {"bias": 0.0}),
+                         Option("one", "bias of one", "Eq. 2", {"bias": 1.0})), "zero", "Sec. 1"),
+    Factor("B", "scale", (Option("s1", "scale 1", "Sec. 2", {"scale": 1.0}),
+                          Option("s2", "scale 2", "Eq. 3", {"scale": 2.0}),
+                          Option("s3", "scale 3", "Fig. 1", {"scale": 3.0})), "s1", "Sec. 2"),
+    Factor("C", "offset of an unused quantity", (Option("c1", "c = 1", "Sec. 3", {"c": 1}),
+                                                 Option("c2", "c = 2", "Sec. 4", {"c": 2})), "c1", "Sec. 3",
+           influential=False),
+), budget=6)
+
+PUBLISHED = (PublishedNumber("Table 1", "T1", "alg", "mean", "1.0"),
+             PublishedNumber("Table 1", "T1", "alg", "sd", "2.0"),
+             PublishedNumber("Table 2", "T2", "alg", "never computed", "5"))
+
+
+def toy_universe(reading, n_runs, seed):
+    """mean and s.d. of bias + scale * N(0, 1) from the TRUTH stream; claim "the mean is positive"."""
+    ch = SPACE.changes(reading)
+    mc = MonteCarlo(seed, n_runs)
+    x = ch["bias"] + ch["scale"] * mc.standard_normal(range(n_runs), Stream.TRUTH, ())
+    m = metrics.mean_with_se(x)
+    claims = Claims()
+    claims.add("the mean is positive", paired_claim(float(m.value), float(m.stderr), +1))
+    return universe_result(values=[("T1", "alg", "mean", m.value, m.stderr),
+                                   ("T1", "alg", "sd", float(np.std(x, ddof=1)), float(np.std(x, ddof=1)) / np.sqrt(2 * n_runs))],
+                           claims=claims, effects=[("mean", m.value, m.stderr, 1.0)],
+                           diverged={"alg": int(ch["c"] == 2)}, n_runs=n_runs)
+
+
+def not_a_dict(reading, n_runs, seed):
+    return [1, 2, 3]

@@ -1,0 +1,311 @@
+"""The experiment layer: reading spaces and designs, the grid runner and its cache, the multiverse
+summaries, and the claim vocabulary."""
+import concurrent.futures as cf
+import itertools
+import json
+import math
+
+import pytest
+
+import experiment_jobs as toy
+from mmlib import report
+from mmlib.experiment import Factor, Option, ReadingSpace, grid, run_grid, run_multiverse
+from mmlib.experiment.multiverse import from_dict
+
+
+def _opt(name, **changes):
+    return Option(name, f"option {name}", "Sec. 1", changes)
+
+
+def _space(levels, influential=None, budget=None):
+    influential = influential or [True] * len(levels)
+    return ReadingSpace("s", tuple(
+        Factor(f"F{i}", f"factor {i}", tuple(_opt(f"o{j}", **{f"p{i}": j}) for j in range(n)), "o0", "Sec. 2",
+               influential=infl) for i, (n, infl) in enumerate(zip(levels, influential))), budget=budget)
+
+
+# -- designs ---------------------------------------------------------------------------------------------------
+def test_full_factorial_is_every_reading_once_headline_first():
+    space = _space([2, 3, 4])
+    d = space.design()
+    assert d.kind == "full" and len(d) == space.size == 24
+    assert d.readings[0] == space.headline
+    assert len({tuple(r.values()) for r in d.readings}) == 24
+
+
+def test_star_design_varies_each_option_alone():
+    space = _space([2, 3, 4])
+    star = space.star()
+    assert len(star) == 1 + 1 + 2 + 3 and star[0] == space.headline
+    for r in star[1:]:
+        assert len(space.differs(r)) == 1
+    for f in space.factors:
+        assert {r[f.id] for r in star} == set(f.names)
+
+
+@pytest.mark.parametrize("levels,influential", [([3, 3, 3, 3], None), ([2, 4, 3, 2, 5], [True, True, False, True, True]),
+                                                ([6, 2, 2, 2, 2, 2, 3], None)])
+def test_fractional_design_covers_every_option_and_influential_pair(levels, influential):
+    space = _space(levels, influential, budget=1)
+    d = space.design()
+    assert d.kind == "fractional" and d.readings[0] == space.headline
+    assert len(d) < space.size
+    rows = [tuple(r.values()) for r in d.readings]
+    assert len(set(rows)) == len(rows)
+    for i, f in enumerate(space.factors):
+        assert {r[i] for r in rows} == set(f.names)
+    infl = [i for i, f in enumerate(space.factors) if f.influential]
+    for a, b in itertools.combinations(infl, 2):
+        pairs = {(r[a], r[b]) for r in rows}
+        assert pairs == set(itertools.product(space.factors[a].names, space.factors[b].names))
+    assert set(map(tuple, (r.values() for r in space.star()))) <= set(rows)      # the smoke subset is inside
+
+
+def test_fractional_design_is_deterministic():
+    a, b = _space([3, 3, 2, 4], budget=5), _space([3, 3, 2, 4], budget=5)
+    assert a.design().readings == b.design().readings
+
+
+def test_auto_design_uses_the_budget():
+    assert _space([2, 2], budget=4).design().kind == "full"
+    assert _space([2, 2, 2], budget=4).design().kind == "fractional"
+
+
+# -- readings: bad input ---------------------------------------------------------------------------------------
+def test_reading_errors_name_the_factor_or_option():
+    space = _space([2, 2])
+    with pytest.raises(ValueError, match="unknown factor 'F9'"):
+        space.validate({"F0": "o0", "F1": "o0", "F9": "o0"})
+    with pytest.raises(ValueError, match="factor 'F1' has no option 'o7'"):
+        space.validate({"F0": "o0", "F1": "o7"})
+    with pytest.raises(ValueError, match=r"leaves out factor\(s\) \['F1'\]"):
+        space.validate({"F0": "o0"})
+    with pytest.raises(ValueError, match="reading"):
+        space.validate(["F0"])
+    with pytest.raises(ValueError, match="kind"):
+        space.design("random")
+
+
+def test_declaration_errors():
+    with pytest.raises(ValueError, match="headline"):
+        Factor("F", "f", (_opt("a"), _opt("b")), "c", "Sec. 1")
+    with pytest.raises(ValueError, match="options"):
+        Factor("F", "f", (_opt("a"),), "a", "Sec. 1")
+    with pytest.raises(ValueError, match="repeats"):
+        Factor("F", "f", (_opt("a"), _opt("a")), "a", "Sec. 1")
+    with pytest.raises(ValueError, match="source"):
+        Option("a", "label", "", {})
+    f = Factor("F", "f", (_opt("a"), _opt("b")), "a", "Sec. 1")
+    with pytest.raises(ValueError, match="repeated factor id"):
+        ReadingSpace("p", (f, f))
+    with pytest.raises(ValueError, match="budget"):
+        ReadingSpace("p", (f,), budget=0)
+
+
+def test_changes_merge_and_conflict():
+    space = _space([2, 3])
+    assert space.changes(space.with_headline(F1="o2")) == {"p0": 0, "p1": 2}
+    clash = ReadingSpace("p", (Factor("A", "a", (_opt("x", q=1), _opt("y", q=2)), "x", "s"),
+                               Factor("B", "b", (_opt("x"), _opt("y", q=3)), "x", "s")))
+    assert clash.changes({"A": "x", "B": "x"}) == {"q": 1}
+    with pytest.raises(ValueError, match="both set 'q'"):
+        clash.changes({"A": "x", "B": "y"})
+
+
+# -- grid runner and cache -------------------------------------------------------------------------------------
+def _grid(tmp_path, **kw):
+    opts = dict(paper="toy", algorithms=["alg"], n_runs=50, seed=7, cache_dir=tmp_path, progress=False)
+    opts.update(kw)
+    return run_grid(toy.toy_universe, toy.SPACE.full(), **opts)
+
+
+def test_results_independent_of_executor_and_worker_count(tmp_path):
+    serial = _grid(tmp_path / "a", workers=1)
+    pool = _grid(tmp_path / "b", workers=2)
+    with cf.ThreadPoolExecutor(3) as ex:
+        threads = _grid(tmp_path / "c", executor=ex)
+    assert serial == pool == threads
+    assert serial[0] == toy.toy_universe(toy.SPACE.headline, 50, 7)
+
+
+def test_cache_returns_identical_numbers_without_recomputing(tmp_path, monkeypatch):
+    first = _grid(tmp_path, workers=1)
+    files = sorted((tmp_path / "toy").glob("*.json"))
+    assert len(files) == toy.SPACE.size
+    calls = []
+    monkeypatch.setattr(grid, "_run_job", lambda *a: calls.append(a) or toy.toy_universe(*a[1:]))
+    again = _grid(tmp_path, workers=1)
+    assert again == first and calls == []
+
+
+@pytest.mark.parametrize("change", [dict(n_runs=51), dict(seed=8), dict(algorithms=["alg", "other"]),
+                                    dict(paper="toy2")])
+def test_cache_recomputes_when_a_key_part_changes(tmp_path, monkeypatch, change):
+    _grid(tmp_path, workers=1)
+    calls = []
+    monkeypatch.setattr(grid, "_run_job", lambda *a: calls.append(a) or toy.toy_universe(*a[1:]))
+    _grid(tmp_path, workers=1, **change)
+    assert len(calls) == toy.SPACE.size
+
+
+def test_cache_key_covers_reading_job_and_library_source(monkeypatch):
+    base = dict(paper="toy", job=toy.toy_universe, reading=toy.SPACE.headline, algorithms=["alg"], n_runs=5, seed=1)
+    k = grid.cache_key(**base)
+    assert grid.cache_key(**{**base, "reading": toy.SPACE.with_headline(A="one")}) != k
+    assert grid.cache_key(**{**base, "job": toy.not_a_dict}) != k
+    monkeypatch.setattr(grid, "source_hash", lambda: "0" * 16)
+    assert grid.cache_key(**base) != k
+
+
+def test_grid_bad_input(tmp_path):
+    with pytest.raises(ValueError, match="n_runs"):
+        _grid(tmp_path, n_runs=0)
+    with pytest.raises(ValueError, match="workers"):
+        _grid(tmp_path, workers=0)
+    with pytest.raises(ValueError, match="job"):
+        run_grid(toy.not_a_dict, [toy.SPACE.headline], paper="toy", algorithms=[], n_runs=2, seed=1,
+                 cache_dir=tmp_path, progress=False, workers=1)
+
+
+def test_progress_line_per_universe(tmp_path):
+    lines = []
+    _grid(tmp_path, workers=1, progress=lines.append)
+    assert len(lines) == toy.SPACE.size and all("universe" in ln for ln in lines)
+    assert any("diverged runs" in ln for ln in lines)           # option c2 reports one diverged run
+    lines.clear()
+    _grid(tmp_path, workers=1, progress=lines.append)
+    assert len(lines) == 1 and "from the cache" in lines[0]
+
+
+def test_universes_share_common_random_numbers(tmp_path):
+    """A factor that leaves the random structure alone (C) changes nothing drawn: same values."""
+    res = _grid(tmp_path, workers=1)
+    by = {tuple(r.values()): u for r, u in zip(toy.SPACE.full(), res)}
+    assert by[("zero", "s1", "c1")]["values"] == by[("zero", "s1", "c2")]["values"]
+    # scale multiplies the same draws: the mean of the scale-2 universe is exactly twice
+    m1 = by[("zero", "s1", "c1")]["values"][0]["replicated"]
+    m2 = by[("zero", "s2", "c1")]["values"][0]["replicated"]
+    assert m2 == pytest.approx(2 * m1, rel=1e-12, abs=1e-15)
+
+
+# -- summaries against hand-computed cases ---------------------------------------------------------------------
+def _mv(tmp_path, design="full", n_runs=400):
+    return run_multiverse(toy.SPACE, toy.toy_universe, published=toy.PUBLISHED, n_runs=n_runs, seed=3,
+                          algorithms=["alg"], design=design, n_runs_paper=100, cache_dir=tmp_path, progress=False,
+                          workers=1)
+
+
+def test_numbers_summary_by_hand(tmp_path):
+    mv = _mv(tmp_path)
+    s = {x["quantity"]: x for x in mv.numbers_summary()}
+    mean = s["mean"]
+    verdicts, dists = [], []
+    for u in mv.universes:
+        v = u["values"][0]
+        sig = math.sqrt(v["stderr"] ** 2 * (1 + 400 / 100) + 0.05 ** 2)      # ours, the paper's, half a unit of "1.0"
+        d = (v["replicated"] - 1.0) / sig
+        dists.append(d)
+        verdicts.append("reproduced" if abs(d) <= 3 else ("qualitatively reproduced"
+                                                          if abs(v["replicated"] - 1.0) <= 0.25 else "not reproduced"))
+    assert mean["n_reproduced"] == verdicts.count("reproduced")
+    assert mean["headline_verdict"] == verdicts[0] == "not reproduced"      # headline has no bias
+    i = min(range(len(dists)), key=lambda j: abs(dists[j]))
+    assert mean["closest"]["universe"] == i and mean["closest"]["distance"] == pytest.approx(dists[i])
+    assert mv.readings[i]["A"] == "one"
+    never = s["never computed"]
+    assert never["headline_verdict"] == "not replicable" and never["n_reproduced"] == 0 and never["closest"] is None
+
+
+def test_table_match_by_hand(tmp_path):
+    mv = _mv(tmp_path)
+    tm = {t["table"]: t for t in mv.table_match()}
+    assert set(tm) == {"Table 1"}                       # Table 2 has no replicated cell
+    sums = []
+    for u in mv.universes:
+        s = 0.0
+        for k, p in ((0, "1.0"), (1, "2.0")):
+            v = u["values"][k]
+            s += report.standardized_distance(p, v["replicated"], v["stderr"], 400, 100) ** 2
+        sums.append(s)
+    best = min(range(len(sums)), key=sums.__getitem__)
+    assert tm["Table 1"]["best_universe"] == best and tm["Table 1"]["best_sum"] == pytest.approx(sums[best])
+    assert tm["Table 1"]["headline_sum"] == pytest.approx(sums[0])
+    assert mv.readings[best]["A"] == "one" and mv.readings[best]["B"] == "s2"   # bias 1, s.d. 2: the printed table
+
+
+def test_claims_summary_by_hand(tmp_path):
+    mv = _mv(tmp_path)
+    (c,) = mv.claims_summary()
+    cats = [report.claim_category(u["claims"][0]["verdict"]) for u in mv.universes]
+    assert c["verdict_counts"] == {k: cats.count(k) for k in report.CLAIM_VERDICTS if k in cats}
+    assert c["n_universes"] == 12 and c["headline_verdict"] == mv.universes[0]["claims"][0]["verdict"]
+    assert c["robust"] is (max(cats.count(k) for k in set(cats)) >= 0.9 * 12)
+    assert c["robust"] is False                        # the mean is positive only under bias 1
+
+
+def test_robust_threshold_is_ninety_percent(tmp_path):
+    mv = _mv(tmp_path)
+    u0 = mv.universes[0]["claims"][0]
+    for k in range(len(mv.universes)):                 # make every universe agree, then break one
+        mv.universes[k]["claims"] = [dict(u0)]
+    assert mv.claims_summary()[0]["robust"]
+    mv.universes[-1]["claims"] = [{"claim": u0["claim"], "verdict": "holds"}]
+    assert mv.claims_summary()[0]["robust"] is (11 >= 0.9 * 12)
+    mv.universes[-2]["claims"] = [{"claim": u0["claim"], "verdict": "holds"}]
+    assert mv.claims_summary()[0]["robust"] is False   # 10 of 12 < 90 %
+
+
+def test_multiverse_json_round_trip(tmp_path):
+    mv = _mv(tmp_path, design="fractional")
+    doc = json.loads(json.dumps(mv.as_dict(), allow_nan=False))
+    for key in ("factors", "design", "n_universes", "universes", "claims_summary", "numbers_summary", "table_match"):
+        assert key in doc
+    assert doc["design"] == "fractional" and doc["n_universes"] == len(doc["universes"])
+    assert all({"reading", "values", "claims", "diverged"} <= set(u) for u in doc["universes"])
+    assert {f["id"] for f in doc["factors"]} == {"A", "B", "C"}
+    back = from_dict(toy.SPACE, doc, toy.PUBLISHED, 100)
+    assert back.as_dict() == doc
+
+
+# -- the claim vocabulary --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("parts,expected", [
+    (["holds (x)", "holds (y)"], "holds"),
+    (["holds (x)", "no detectable difference (y)"], "partly"),
+    (["no detectable difference (x)", "contradicted (y)"], "contradicted"),
+    (["contradicted (x)", "contradicted (y)"], "contradicted"),
+    (["holds, but negligible (< 1 %) (x)", "no detectable difference (y)"], "not supported"),
+    (["contradicted, but negligible (< 1 %) (x)"], "not supported"),
+    (["no detectable difference"], "not supported"),
+])
+def test_combined_claim_verdicts(parts, expected):
+    assert report.claim_category(report.combine_claim_verdicts(parts)) == expected
+
+
+def test_claims_collector_rejects_verdicts_outside_the_vocabulary():
+    c = report.Claims()
+    c.add("A beats B", "holds", "evidence")
+    with pytest.raises(ValueError, match="claim vocabulary"):
+        c.add("C beats D", "depends on the UKF's tuning")
+    with pytest.raises(ValueError, match="claim vocabulary"):
+        c.add("C beats D", "holds, but negligible (< 1 %)")      # a part verdict, not a claim verdict
+    with pytest.raises(ValueError, match="already judged"):
+        c.add("A beats B", "holds")
+    with pytest.raises(ValueError, match="part verdict"):
+        report.combine_claim_verdicts(["depends"])
+    assert c.as_list() == [{"claim": "A beats B", "verdict": "holds", "evidence": "evidence"}]
+
+
+def test_paired_claim_is_the_part_rule():
+    assert report.paired_claim(-5.0, 1.0, -1) == "holds"
+    assert report.paired_claim(5.0, 1.0, -1) == "contradicted"
+    assert report.claim_category(report.paired_claim(-2.0, 1.0, -1)) == "not supported"
+    assert report.claim_category(report.paired_claim(-5.0, 1.0, -1, reference=1e4)) == "not supported"
+
+
+def test_standardized_distance_is_the_verdict_rule():
+    z = report.standardized_distance("10.0", 10.3, 0.1, 100, 100)
+    sigma = math.sqrt(0.01 + 0.01 + 0.05 ** 2)
+    assert z == pytest.approx(0.3 / sigma)
+    assert (abs(z) <= 3) == (report.verdict("10.0", 10.3, 0.1, 100, 100) == "reproduced")
+    assert report.standardized_distance(2.0, 2.0, 0.0) == 0.0
+    assert report.standardized_distance(2.0, 3.0, 0.0) == math.inf

@@ -1,0 +1,97 @@
+"""The reading-space multiverse of every paper: the committed full-fidelity object is what the code
+declares now, the smoke multiverse agrees with it within Monte Carlo error, and the headline
+universe is the notebook's headline, bit for bit.
+
+Tolerance: the smoke run of a universe uses the first runs of the same streams as the committed
+run of that universe (nested samples), so the difference of the two estimates has a standard
+deviation below sqrt(se_smoke^2 + se_full^2); 4 of those is the band (as in test_results.py).
+"""
+import importlib
+import math
+
+import pytest
+
+from mmlib import report
+from test_results import PAPERS, load
+
+KEYS = ("factors", "design", "design_description", "n_universes", "n_runs", "universes", "claims_summary",
+        "numbers_summary", "table_match")
+
+
+def _module(paper):
+    return importlib.import_module(f"mmlib.scenarios.{paper}")
+
+
+def _by_reading(mv):
+    return {tuple(sorted(u["reading"].items())): u for u in mv["universes"]}
+
+
+@pytest.mark.parametrize("paper", sorted(PAPERS))
+def test_committed_multiverse_is_the_declared_design(paper):
+    mod = _module(paper)
+    mv = load(paper, "full")["multiverse"]
+    assert all(k in mv for k in KEYS)
+    assert [f["id"] for f in mv["factors"]] == list(mod.SPACE.ids)
+    for f, decl in zip(mv["factors"], mod.SPACE.factors):
+        assert f["options"] == list(decl.names) and f["headline"] == decl.headline
+    design = mod.SPACE.design(mv["design"])
+    assert [u["reading"] for u in mv["universes"]] == list(design.readings)
+    assert mv["n_universes"] == len(design) == len(mv["universes"])
+    assert mv["universes"][0]["reading"] == mod.SPACE.headline
+
+
+@pytest.mark.parametrize("paper", sorted(PAPERS))
+@pytest.mark.parametrize("profile", ["smoke", "full"])
+def test_every_verdict_in_the_vocabulary_and_every_number_summarised(paper, profile):
+    mod = _module(paper)
+    mv = load(paper, profile)["multiverse"]
+    for u in mv["universes"]:
+        assert isinstance(u["diverged"], dict)
+        for c in u["claims"]:
+            report.claim_category(c["verdict"])
+    assert {(n["item"], n["algorithm"], n["quantity"]) for n in mv["numbers_summary"]} == \
+        {p.key for p in mod.PUBLISHED}
+    for n in mv["numbers_summary"]:
+        report.verdict_category(n["headline_verdict"])
+        assert 0 <= n["n_reproduced"] <= n["n_universes"] == mv["n_universes"]
+    assert [c["claim"] for c in mv["claims_summary"]] == [c["claim"] for c in mv["universes"][0]["claims"]]
+
+
+@pytest.mark.parametrize("paper", sorted(PAPERS))
+def test_smoke_universes_within_monte_carlo_error_of_committed(paper):
+    smoke, full = _by_reading(load(paper, "smoke")["multiverse"]), _by_reading(load(paper, "full")["multiverse"])
+    assert set(smoke) <= set(full), "every smoke universe is a universe of the full design"
+    checked = 0
+    for key, s in smoke.items():
+        f = full[key]
+        fv = {(v["item"], v["algorithm"], v["quantity"]): v for v in f["values"]}
+        for v in s["values"]:
+            w = fv[(v["item"], v["algorithm"], v["quantity"])]
+            if v["replicated"] is None or w["replicated"] is None:
+                assert v["replicated"] is None and w["replicated"] is None, (key, v)
+                continue
+            band = 4.0 * math.hypot(v["stderr"] or 0.0, w["stderr"] or 0.0)
+            assert abs(v["replicated"] - w["replicated"]) <= band, (key, v, w, band)
+            checked += 1
+    assert checked >= 5
+
+
+@pytest.mark.parametrize("paper", sorted(PAPERS))
+def test_smoke_headline_universe_is_the_notebook_headline_bit_for_bit(paper):
+    doc = load(paper, "smoke")
+    mv = doc["multiverse"]
+    assert mv["n_runs"] == doc["provenance"]["n_runs"], "smoke multiverse runs = smoke notebook runs"
+    rows = {(r["item"], r["algorithm"], r["quantity"]): r for r in doc["rows"]}
+    head = mv["universes"][0]
+    compared = 0
+    for v in head["values"]:
+        r = rows.get((v["item"], v["algorithm"], v["quantity"]))
+        if r is None:
+            continue
+        assert v["replicated"] == r["replicated"] and v["stderr"] == r["stderr"], (v, r)
+        compared += 1
+    assert compared >= 1
+    verdicts = {c["claim"]: c["verdict"] for c in doc["claims"]}
+    for c in head["claims"]:
+        if c["claim"] in verdicts:
+            assert c["verdict"] == verdicts[c["claim"]], c
