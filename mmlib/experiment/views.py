@@ -132,6 +132,10 @@ def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str,
     ax.scatter(x[others], y[order][others], c="C0", s=14, zorder=2, label="universe (± %g s.e.)" % interval)
     ax.scatter([head_pos], [y[0]], c="C3", s=40, marker="D", zorder=3, label="headline reading")
     ax.axhline(0.0, color="k", lw=0.8)
+    missing = np.where(~np.isfinite(y[order]))[0]
+    if missing.size:                          # no universe is dropped silently: mark those without a value
+        ax.scatter(missing, np.zeros(missing.size), marker="x", c="k", s=30, zorder=3,
+                   label=f"no value ({missing.size}: every run diverged)")
     pub = published if published is not None else vals[0].get("published")
     if pub is not None:
         ax.axhline(pub, color="C2", ls="--", lw=1.2, label=f"published ({pub:.3g})")
