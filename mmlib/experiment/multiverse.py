@@ -69,15 +69,20 @@ def _finite_or_none(x):
 def universe_result(*, values, claims, diverged, effects=(), n_runs: int) -> dict:
     """The JSON-able result of one universe (validated).
 
-    ``values``: iterable of ``(item, algorithm, quantity, replicated, stderr)``; ``claims``: a
+    ``values``: iterable of ``(item, algorithm, quantity, replicated, stderr)``, optionally with a
+    sixth element ``failed`` (a reason, e.g. "diverged in 20/20 runs") for a value the method was
+    run for but could not produce: its verdict is "not reproduced: <reason>" and its standardized
+    distance infinite (it matches no printed number); ``claims``: a
     :class:`mmlib.report.Claims` or dicts with ``claim`` and ``verdict``; ``diverged``: algorithm
     -> number of diverged runs; ``effects``: iterable of ``(name, value, stderr)`` or
     ``(name, value, stderr, published)``."""
     vals = []
     for v in values:
-        item, alg, qty, rep, se = v
+        item, alg, qty, rep, se, *failed = v
         vals.append({"item": item, "algorithm": alg, "quantity": qty, "replicated": _finite_or_none(rep),
                      "stderr": _finite_or_none(se)})
+        if failed and failed[0]:
+            vals[-1]["failed"] = str(failed[0])
     cls = []
     for c in claims:
         report.claim_category(c["verdict"])
@@ -131,12 +136,16 @@ class Multiverse:
 
     def number_verdict(self, pub: PublishedNumber, universe: dict) -> str:
         v = self.value(universe, pub.key)
+        if v is not None and v["replicated"] is None and v.get("failed"):
+            return f"{report.NOT_REPRODUCED}: {v['failed']}"
         if v is None or v["replicated"] is None:
             return report.NOT_REPLICABLE
         return report.verdict(pub.printed, v["replicated"], v["stderr"], universe["n_runs"], self.n_runs_paper)
 
     def distance(self, pub: PublishedNumber, universe: dict):
         v = self.value(universe, pub.key)
+        if v is not None and v["replicated"] is None and v.get("failed"):
+            return math.inf                       # run but failed: matches no printed value
         if v is None or v["replicated"] is None:
             return None
         return report.standardized_distance(pub.printed, v["replicated"], v["stderr"], universe["n_runs"],

@@ -178,6 +178,14 @@ def table_match_figure(mv: Multiverse, *, title: str):
         ax.plot([0], [sums[order[0]]], "*", color="C2", ms=11, label="best match")
         n_cells = sum(1 for p in mv.published if p.table == table)
         ax.axhline(9.0 * n_cells, color="0.4", ls=":", lw=1, label="every cell at 3 s.e.")
+        failed = np.where(np.isinf(sums[order]))[0]      # a cell whose algorithm failed (e.g. diverged)
+        if failed.size:
+            finite = sums[np.isfinite(sums)]
+            top = 3.0 * max(float(finite.max()) if finite.size else 1.0, 9.0 * n_cells)
+            ax.plot(failed, np.full(failed.size, top), "x", color="k", ms=5,
+                    label=f"a cell failed ({failed.size}; drawn at the top)")
+            if np.isinf(sums[0]):
+                ax.plot([hp], [top], "D", color="C3", ms=7)
         ax.set(yscale="log", xlabel="universe, sorted", ylabel="Σ z² over the table's cells",
                title=f"{table} ({n_cells} cells)")
         ax.legend(fontsize=7)
