@@ -151,7 +151,7 @@ class FifthDegreeCubature(SigmaPointRule):
 
     with :math:`s^\pm_{jl} = (e_j \pm e_l)/\sqrt 2`, ``j < l``.  Zhu et al. 2016
     print the last weight as 2/(n+2)^2 (their Eq. 13); that value makes the
-    weights sum to 1 + 2n(n-1)/(n+2)^2 and is a misprint (deviation Z-2).
+    weights sum to 1 + 2n(n-1)/(n+2)^2 and is a misprint (their deviation Z-1).
     """
 
     name = "cubature5"

@@ -51,3 +51,178 @@ def test_table1_paper_values_are_complete():
     assert all(len(v) == 5 for v in paper.TABLE1.values())
     ids = [d.id for d in paper.DEVIATIONS]
     assert len(ids) == len(set(ids))
+
+
+# --- the reading space (issue 10) ------------------------------------------------------------------------------
+import json
+from dataclasses import dataclass
+from functools import lru_cache
+
+from mmlib import report
+from mmlib.estimation import SingleModel
+from mmlib.experiment import run_grid
+from mmlib.filters import SigmaPointFilter
+from mmlib.montecarlo import Stream
+from mmlib.rules import FifthDegreeCubature, _frozen
+
+
+def _non_headline_readings():
+    return [(f.id, o, paper.SPACE.with_headline(**{f.id: o})) for f in paper.SPACE.factors for o in f.names
+            if o != f.headline]
+
+
+def test_headline_universe_through_a_process_pool_equals_the_notebook_path(tmp_path):
+    """run_grid with 2 spawned workers gives the same bits as the in-process path the notebook uses."""
+    n, seed = 4, paper.ROOT_SEED
+    other = paper.SPACE.with_headline(**{"Z-5": "equal", "Z-10": "CT-left"})
+    grid = run_grid(paper.universe, [paper.SPACE.headline, other], paper=paper.PAPER, algorithms=paper.MV_ALGORITHMS,
+                    n_runs=n, seed=seed, workers=2, cache_dir=tmp_path, use_cache=False, progress=False)
+    for reading, got in zip([paper.SPACE.headline, other], grid):
+        setup = paper.setups(reading)
+        local = paper.summarise(paper.evaluate_reading(reading, MonteCarlo(seed, n)), n, setup)
+        assert got == json.loads(json.dumps(local))          # exact equality of every float
+
+
+def test_headline_universe_values_are_the_headline_table1_rows():
+    n = 3
+    results = paper.evaluate_reading(paper.SPACE.headline, MonteCarlo(paper.ROOT_SEED, n))
+    u = paper.universe(paper.SPACE.headline, n, paper.ROOT_SEED)
+    rows = [r for r in paper.table1_rows(results) if r.replicated is not None]
+    vals = [v for v in u["values"] if v["item"] == "Table 1"]
+    assert [(v["algorithm"], v["quantity"], v["replicated"], v["stderr"]) for v in vals] == \
+        [(r.algorithm, r.quantity, r.replicated, r.stderr) for r in rows]
+    assert [c["claim"] for c in u["claims"]] == [c["claim"] for c in paper.judge_claims(results, paper.Setup())]
+
+
+def _draws(reading, n=3):
+    setup = paper.setups(reading)
+    mc = MonteCarlo(paper.ROOT_SEED, n)
+    make_batch, _, _ = paper.make_batch_fn(setup, mc)
+    truth, z, init = make_batch(range(n))
+    H = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0]])
+    v = (z - truth[:, 1:] @ H.T) / np.sqrt(np.array(setup.r))     # standardized measurement noise
+    return truth, z, v, init["5CKF"].mean
+
+
+@pytest.mark.parametrize("fid,option,reading", _non_headline_readings(), ids=lambda x: x if isinstance(x, str) else "")
+def test_common_random_numbers_across_readings(fid, option, reading):
+    """Every universe uses the same per-run draws: a factor that leaves the random structure alone changes
+    neither the truth nor the measurements; the others change only what they claim to."""
+    t0, z0, v0, m0 = _draws(paper.SPACE.headline)
+    t1, z1, v1, m1 = _draws(reading)
+    # standardized measurement noise is the same draw in every universe (to round-off of scaling back and forth)
+    np.testing.assert_allclose(v1, v0, rtol=0, atol=1e-9)
+    if fid in ("Z-8", "Z-10", "Z-6", "Z-9", "Z-5"):
+        np.testing.assert_array_equal(t1, t0)                 # same truth, bit for bit
+    if fid in ("Z-8", "Z-10", "Z-6", "Z-9"):
+        np.testing.assert_array_equal(z1, z0)
+    if fid != "Z-9":
+        np.testing.assert_array_equal(m1, m0)                 # same initial estimates
+    else:
+        np.testing.assert_array_equal(m1, np.tile(paper.Setup().x0, (3, 1)))
+    if fid in ("Z-7", "Z-12"):
+        assert not np.array_equal(t1, t0)
+
+
+@pytest.mark.parametrize("fid,option,reading", _non_headline_readings(), ids=lambda x: x if isinstance(x, str) else "")
+def test_every_option_changes_the_setup_it_claims_to(fid, option, reading):
+    setup, head = paper.setups(reading), paper.setups(paper.SPACE.headline)
+    changes = paper.SPACE.factor(fid).option(option).changes
+    assert changes
+    for field, value in changes.items():
+        assert getattr(setup, field) == value and getattr(head, field) != value
+    assert {f for f in setup.__dataclass_fields__ if getattr(setup, f) != getattr(head, f)} == set(changes)
+    # ... and the change reaches the simulation or the estimators
+    r0 = paper.evaluate_reading(paper.SPACE.headline, MonteCarlo(paper.ROOT_SEED, 2))
+    r1 = paper.evaluate_reading(reading, MonteCarlo(paper.ROOT_SEED, 2))
+    target = "5CKF" if fid == "Z-10" else "IMMCKF"
+    assert not np.array_equal(r1[target].errors, r0[target].errors)
+
+
+def test_headline_options_are_the_setup_defaults():
+    assert paper.setups(paper.SPACE.headline) == paper.Setup()
+    assert paper.SPACE.design("auto").kind == "full" and paper.SPACE.size == 192
+
+
+@pytest.mark.parametrize("reading,match", [
+    ({**paper.SPACE.headline, "Z-99": "x"}, "Z-99"),
+    ({**paper.SPACE.headline, "Z-5": "diag(1, 1)"}, "diag\\(1, 1\\)"),
+    ({k: v for k, v in paper.SPACE.headline.items() if k != "Z-7"}, "Z-7"),
+])
+def test_bad_reading_names_the_factor_or_option(reading, match):
+    with pytest.raises(ValueError, match=match):
+        paper.setups(reading)
+    with pytest.raises(ValueError, match=match):
+        paper.universe(reading, 2, paper.ROOT_SEED)
+
+
+def test_mode_order_validation_and_effect():
+    with pytest.raises(ValueError, match="mode_order"):
+        paper.Setup(mode_order="right")
+    a = paper.build(paper.Setup())[0]
+    b = paper.build(paper.Setup(mode_order="left-right"))[0]
+    # the same physical manoeuvres, with models 2 and 3 swapped
+    np.testing.assert_array_equal(np.choose(a.modes(), [0, 2, 1]), b.modes())
+    np.testing.assert_array_equal(a.models[1].F, b.models[2].F)
+
+
+@pytest.mark.parametrize("reading", paper.SPACE.design("star").readings, ids=lambda r: paper.SPACE.describe(r))
+def test_sigma_point_imms_coincide_with_imm_kf_in_every_star_universe(reading):
+    """The identity holds in every reading: all the declared readings keep the models linear."""
+    res = paper.evaluate_reading(reading, MonteCarlo(paper.ROOT_SEED, 3))
+    for name in ("IMM5CKF", "IMMCKF", "IMMUKF"):
+        # positions ~1e4 m: 1e-7 m is ~1e-11 relative, round-off over 100 steps
+        np.testing.assert_allclose(res[name].errors, res["IMM-KF"].errors, rtol=0, atol=1e-7)
+        np.testing.assert_allclose(res[name].mode_probabilities, res["IMM-KF"].mode_probabilities, rtol=0, atol=1e-9)
+
+
+def test_published_numbers_are_table1_rmse_cells_and_universe_values():
+    assert len(paper.PUBLISHED) == 16
+    for p in paper.PUBLISHED:
+        qi = [q for q, _ in paper.QUANTITIES].index(p.quantity)
+        assert p.printed == paper.TABLE1[p.algorithm][qi]
+    u = paper.universe(paper.SPACE.headline, 2, paper.ROOT_SEED)
+    keys = {(v["item"], v["algorithm"], v["quantity"]) for v in u["values"]}
+    assert {p.key for p in paper.PUBLISHED} <= keys
+    key = [e for e in u["effects"] if e["name"] == paper.KEY_EFFECT][0]
+    # Table 1: (2.6675^2 + 2.5255^2) - (2.4847^2 + 2.8534^2)
+    assert key["published"] == pytest.approx(-0.82191915, abs=1e-8)
+    for c in u["claims"]:
+        report.claim_category(c["verdict"])
+
+
+def test_floor_claim_is_not_assessable_where_the_floor_is_no_bound():
+    for fid, opt in (("Z-7", "clean"), ("Z-9", "true")):
+        u = paper.universe(paper.SPACE.with_headline(**{fid: opt}), 3, paper.ROOT_SEED)
+        c = [c for c in u["claims"] if c["claim"] == paper.FLOOR_CLAIM][0]
+        assert report.claim_category(c["verdict"]) == "not assessable"
+    u = paper.universe(paper.SPACE.headline, 3, paper.ROOT_SEED)
+    c = [c for c in u["claims"] if c["claim"] == paper.FLOOR_CLAIM][0]
+    assert report.claim_category(c["verdict"]) != "not assessable"
+
+
+@dataclass(frozen=True)
+class _PrintedWeights(FifthDegreeCubature):
+    """Eq. 13 as printed: w2 = 2/(n+2)^2 (deviation Z-1)."""
+
+    @lru_cache(maxsize=None)
+    def unit_points(self, n):
+        u = FifthDegreeCubature().unit_points(n)
+        w = u.wm.copy()
+        w[1 + 2 * n:] *= 2.0
+        return _frozen(u.xi, w)
+
+
+def test_printed_fifth_degree_weight_is_not_a_runnable_reading():
+    """Z-1: the printed weights sum to 5/3 (not 1), and a 5CKF using them diverges at once in every run."""
+    w = _PrintedWeights().unit_points(4).wm
+    assert w.sum() == pytest.approx(5 / 3, rel=1e-12)
+    assert FifthDegreeCubature().unit_points(4).wm.sum() == pytest.approx(1.0, rel=1e-12)
+    setup = paper.Setup()
+    sched, meas, _ = paper.build(setup)
+    est = SingleModel(SigmaPointFilter(_PrintedWeights()), sched.models[0], meas, name="printed")
+    mc = MonteCarlo(paper.ROOT_SEED, 5)
+    make_batch = evaluation.make_batches(mc, sched, meas, np.array(setup.x0), {"printed": est},
+                                         lambda e, m0, runs: e.init(m0, np.diag(setup.P0_diag)))
+    res = evaluation.evaluate({"printed": est}, make_batch, mc, progress=False)
+    assert (res["printed"].diverged_step >= 0).all() and res["printed"].diverged_step.max() <= 2
