@@ -43,3 +43,154 @@ def test_setup_validation():
         paper.Setup(q_sd=0.0)
     with pytest.raises(ValueError, match="initial_estimate"):
         paper.Setup(initial_estimate="perfect")
+
+
+# -- reading space and multiverse ---------------------------------------------------------------------------------
+import json  # noqa: E402
+
+from mmlib import report  # noqa: E402
+from mmlib.experiment import run_grid  # noqa: E402
+from mmlib.experiment.multiverse import Multiverse  # noqa: E402
+from mmlib.experiment.readings import Design  # noqa: E402
+
+N_SMALL = 4
+
+
+def test_headline_universe_from_a_two_process_grid_equals_the_notebook_path(tmp_path):
+    """The notebook's headline (evaluate_reading + summarise + table_rows + judge_claims, in process)
+    and the multiverse's headline universe (spawned worker, JSON round trip) agree bit for bit."""
+    head = paper.SPACE.headline
+    other = paper.SPACE.with_headline(**{"L-4": "0"})
+    grid = run_grid(paper.universe, [head, other], paper=paper.PAPER, algorithms=paper.MV_ALGORITHMS,
+                    n_runs=N_SMALL, seed=paper.ROOT_SEED, workers=2, cache_dir=tmp_path, use_cache=False,
+                    progress=False)
+    results = paper.evaluate_reading(head, MonteCarlo(paper.ROOT_SEED, N_SMALL))
+    local = paper.summarise(results, N_SMALL)
+    assert grid[0] == json.loads(json.dumps(local))
+    rows = paper.table_rows(grid[0])
+    assert [(r.item, r.algorithm, r.quantity, r.replicated, r.stderr) for r in rows] == \
+        [(v["item"], v["algorithm"], v["quantity"], v["replicated"], v["stderr"]) for v in local["values"]]
+    assert [c["verdict"] for c in paper.judge_claims(results)] == [c["verdict"] for c in grid[0]["claims"]]
+    assert grid[1]["values"] != grid[0]["values"]           # kappa changes STUKF's numbers ...
+    stukf = [i for i, v in enumerate(grid[0]["values"]) if v["algorithm"] == "STUKF"]
+    assert all(grid[1]["values"][i] == grid[0]["values"][i]  # ... and nothing else
+               for i in range(len(grid[0]["values"])) if i not in stukf)
+
+
+def _batches(reading, names=("STSSRCKF",)):
+    mc = MonteCarlo(paper.ROOT_SEED, 3)
+    out = {}
+    for case, setup in paper.setups(reading).items():
+        make_batch, _, _ = paper.make_batch_fn(setup, mc, names=names)
+        truth, z, init = make_batch(range(3))
+        out[case] = (truth, z, init["STSSRCKF"].mean, setup)
+    return out
+
+
+def _noise(truth, z, setup):
+    from mmlib import models
+    radar = models.range_bearing(np.diag([setup.sigma_r ** 2, setup.sigma_theta ** 2]), state_dim=6)
+    return z - radar.h(truth[:, 1:])
+
+
+@pytest.mark.parametrize("factor,option", [("L-2", "10"), ("L-4", "n-3"), ("L-6", "sampled"), ("L-1", "100s"),
+                                           ("L-8", "t0+1"), ("L-3", "matched")])
+def test_universes_share_common_random_numbers(factor, option):
+    """Readings that leave the random structure alone see identical truth and measurements; readings that move
+    the truth (onset, truth noise) still see identical measurement-noise draws."""
+    base = _batches(paper.SPACE.headline)
+    alt = _batches(paper.SPACE.with_headline(**{factor: option}))
+    for case in paper.CASES:
+        (t0, z0, m0, s0), (t1, z1, m1, s1) = base[case], alt[case]
+        if factor in ("L-2", "L-4", "L-6"):
+            np.testing.assert_array_equal(t0, t1)
+            np.testing.assert_array_equal(z0, z1)
+        else:
+            np.testing.assert_allclose(_noise(t0, z0, s0), _noise(t1, z1, s1), rtol=0, atol=1e-9)
+        if factor != "L-6":
+            np.testing.assert_array_equal(m0, m1)
+
+
+def test_every_option_changes_the_setups_it_claims():
+    head = paper.setups(paper.SPACE.headline)
+    for f in paper.SPACE.factors:
+        for o in f.options:
+            sets = paper.setups(paper.SPACE.with_headline(**{f.id: o.name}))
+            for case, s in sets.items():
+                for key, value in o.changes.items():
+                    assert getattr(s, key) == value, (f.id, o.name, case, key)
+            if o.name != f.headline:
+                assert any(sets[c] != head[c] for c in paper.CASES), (f.id, o.name)
+    onset = {o: {c: s.onset for c, s in paper.setups(paper.SPACE.with_headline(**{"L-1": o})).items()}
+             for o in ("150s", "100s")}
+    assert onset["150s"] == {"Example 1": 150.0, "Case 1": 150.0, "Case 2": 150.0}
+    assert onset["100s"] == {"Example 1": 100.0, "Case 1": 150.0, "Case 2": 150.0}    # L-1: Example 1 only
+    late = paper.setups(paper.SPACE.with_headline(**{"L-1": "100s", "L-8": "t0+1"}))
+    assert [late[c].onset for c in paper.CASES] == [101.0, 151.0, 151.0]
+    ex2_only = paper.setups(paper.SPACE.with_headline(**{"L-6": "sampled-ex2"}))
+    assert [ex2_only[c].samples_initial_estimate for c in paper.CASES] == [False, True, True]
+    stukf = paper.build(paper.setups(paper.SPACE.with_headline(**{"L-4": "n-3"}))["Example 1"])[2]["STUKF"]
+    assert stukf.filter.base.rule.kappa == 3.0
+
+
+def test_onset_step_moves_the_truth_by_one_step():
+    mc = MonteCarlo(1, 1)
+    for step, first in ((0, 150), (1, 151)):
+        make_batch, _, _ = paper.make_batch_fn(paper.Setup(onset_step=step), mc, names=("SSRCKF",))
+        truth, _, _ = make_batch(range(1))
+        assert truth[0, first - 1, 2] == 0.0 and truth[0, first, 2] == 15.0
+
+
+def _without(fid):
+    return {k: v for k, v in paper.SPACE.headline.items() if k != fid}
+
+
+@pytest.mark.parametrize("reading,word", [({**paper.SPACE.headline, "L-99": "x"}, "unknown factor 'L-99'"),
+                                          ({**paper.SPACE.headline, "L-2": "3"}, "'L-2' has no option '3'"),
+                                          (_without("L-6"), r"leaves out factor\(s\) \['L-6'\]")])
+def test_bad_reading_raises_naming_the_factor_or_option(reading, word):
+    with pytest.raises(ValueError, match=word):
+        paper.setups(reading)
+    with pytest.raises(ValueError, match=word):
+        paper.universe(reading, 2, 1)
+
+
+@pytest.mark.parametrize("kwargs,arg", [(dict(timeline="abstract"), "timeline"), (dict(onset_step=2), "onset_step"),
+                                        (dict(onset_step=True), "onset_step"),
+                                        (dict(discussion_onset=300.0), "discussion_onset"),
+                                        (dict(initial_estimate="sampled-ex2"), "initial_estimate"),
+                                        (dict(printed_initial_estimate=1), "printed_initial_estimate"),
+                                        (dict(truth_process_noise="yes"), "truth_process_noise"),
+                                        (dict(ukf=(0.0, 0.0, -3.0)), "ukf"),
+                                        (dict(maneuver_start=199.5, onset_step=1), "onset_step")])
+def test_new_setup_fields_are_validated(kwargs, arg):
+    with pytest.raises(ValueError, match=arg):
+        paper.Setup(**kwargs)
+
+
+def test_timing_claim_uses_the_verdict_rule():
+    """A ratio of 2 measured in 5 repeats with some spread holds; equal times are 'not supported', never a
+    bare comparison that flips between identical runs."""
+    rng = np.random.default_rng(0)
+    base = 0.01 + 1e-4 * rng.standard_normal(5)
+    per_run = {a: base * (2.0 if a.startswith("ST") and a != "STF" else 1.0) for a in paper.FILTERS}
+    _, claim, _ = paper.table2(per_run, per_run)
+    assert report.claim_category(claim[1]) == report.HOLDS
+    same = {a: base.copy() for a in paper.FILTERS}
+    rows, claim, _ = paper.table2(same, same)
+    assert report.claim_category(claim[1]) == report.NOT_SUPPORTED
+    ratio_rows = [r for r in rows if "time ratio" in r.quantity]
+    assert all(r.stderr is not None for r in ratio_rows)
+
+
+def test_findings_state_the_onset_reading_from_the_data():
+    """On two universes (headline, onset at 100 s) the prose names the reading that reproduces Table 1's
+    position column only if the numbers say so."""
+    readings = (paper.SPACE.headline, paper.SPACE.with_headline(**{"L-1": "100s"}))
+    universes = [json.loads(json.dumps(paper.universe(r, 6, paper.ROOT_SEED))) for r in readings]
+    mv = Multiverse(paper.SPACE, Design("star", "test", readings), universes, paper.PUBLISHED, 6, paper.N_RUNS_PAPER)
+    text = paper.findings(mv)
+    pos = [p for p in paper.PUBLISHED if p.table == "Table 1" and p.quantity.startswith("Position")]
+    reproduced = [all(mv.number_verdict(p, u) == report.REPRODUCED for p in pos) for u in universes]
+    assert ("consistent with the maneuver starting at t = 100 s" in text) == (reproduced == [False, True])
+    assert "Claims." in text and "robust" in text
