@@ -17,6 +17,14 @@ with NEES.  The IMM mode likelihood is the sum over the members of
 :math:`N(\tilde z^n; \hat z, P_{zz}^n)` (Section 2.2, read as a sum over all N + 1
 members), computed in log space; ``likelihood="product"`` treats them as independent.
 
+Eq. 20 prints the member covariance as :math:`P^n = P - K^n P_{zz} (K^n)^T` with
+:math:`K^n = P_{xz} (P_{zz}^n)^{-1}` and the *original* :math:`P_{zz}`; the default
+``covariance="kalman"`` uses :math:`P_{zz}^n` there (the Kalman form, the exact covariance of
+:math:`\hat x^n` when :math:`\tilde z^n` has covariance :math:`P_{zz}^n`);
+``covariance="printed"`` is Eq. 20 as printed,
+:math:`P^n_{\rm printed} = P^n_{\rm kalman} + K^n (P_{zz}^n - P_{zz}) (K^n)^T`
+(identical for the real measurement, n = 0).
+
 The bootstrap noise is drawn *before* filtering from the run's own stream
 (``Stream.FILTER``) and handed to :meth:`ObservationBootstrap.init`, so a run's
 numbers do not depend on the batch.  With ``n_boot = 0`` the layer is its base filter.
@@ -49,6 +57,7 @@ class ObservationBootstrap(FilterLayer):
     variance_factor: float = 2.0
     likelihood: str = "sum"
     name: str = ""
+    covariance: str = "kalman"
 
     def __post_init__(self):
         if isinstance(self.n_boot, bool) or not isinstance(self.n_boot, (int, np.integer)) or self.n_boot < 0:
@@ -57,6 +66,8 @@ class ObservationBootstrap(FilterLayer):
             raise ValueError(f"variance_factor: must be > 0, got {self.variance_factor!r}")
         if self.likelihood not in ("sum", "product"):
             raise ValueError(f"likelihood: expected 'sum' or 'product', got {self.likelihood!r}")
+        if self.covariance not in ("kalman", "printed"):
+            raise ValueError(f"covariance: expected 'kalman' or 'printed' (Eq. 20), got {self.covariance!r}")
         if not self.name:
             object.__setattr__(self, "name", getattr(self.base, "name", "filter") + "-OBS")
 
@@ -87,6 +98,10 @@ class ObservationBootstrap(FilterLayer):
                 zn = boot[..., n - 1, :]
                 p = MeasurementPrediction(pred.z_pred, pred.S + (self.variance_factor - 1.0) * measurement.R, pred.Pxz)
             post, info = kalman_update(state, p, zn, measurement)
+            if n > 0 and self.covariance == "printed":          # Eq. 20 as printed: P_zz, not P_zz^n
+                gain = np.swapaxes(np.linalg.solve(p.S, np.swapaxes(p.Pxz, -1, -2)), -1, -2)
+                extra = (self.variance_factor - 1.0) * (gain @ measurement.R @ np.swapaxes(gain, -1, -2))
+                post = post._replace(cov=linalg.symmetrize(post.cov + extra))
             posts.append(post)
             infos.append(info)
         # Eqs. 22-24: information-weighted fusion of the N + 1 posteriors

@@ -24,7 +24,13 @@
 # **Verdict rule** (`mmlib/report.py`): *reproduced* within 3 combined standard errors; *qualitatively reproduced*
 # within 25 %; *not reproduced* otherwise; *not replicable* when method or data are not published. Claims are judged
 # on paired differences over common random numbers (every filter sees the same truth, measurements and bootstrap
-# draws in run r).
+# draws in run r) and get one verdict of the claim vocabulary (holds / partly / contradicted / not supported / not
+# assessable).
+#
+# **Readings.** The paper is ambiguous in many places (garbled equations, a unit never given, a process noise that
+# serves both the truth and the filters). Every ambiguity is a numbered factor of a *reading space*
+# (`paper.FACTORS`); the headline below is one reading of it, and the section "Reading space" runs a designed set
+# of readings (a multiverse) and reports every claim's and every published number's verdict across it.
 
 # %% tags=["parameters"]
 PROFILE = "full"          # "full" (the paper's 100 runs) or "smoke" (a prefix of the full runs)
@@ -32,9 +38,14 @@ N_RUNS = None             # override the profile's Monte Carlo count
 SEED = None               # override the paper's root seed
 OUTPUT_ROOT = ""          # folder that receives figures/ and data/results/; empty means the repository root
 N_TIMING_RUNS = None      # runs timed one at a time, the paper's way
+WORKERS = None            # worker processes of the multiverse (None: one per core)
+MULTIVERSE_RUNS = None    # override the profile's Monte Carlo runs per universe
+MULTIVERSE_DESIGN = None  # override the profile's design: "auto", "full", "fractional" or "star"
 PROGRESS = True
 
 # %%
+import json
+
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Markdown, display
@@ -42,15 +53,20 @@ from IPython.display import Markdown, display
 import mmlib
 from mmlib import metrics, report
 from mmlib.montecarlo import MonteCarlo
-from mmlib.experiment import evaluation
+from mmlib.experiment import evaluation, run_multiverse, views
 from mmlib.scenarios import hu2017 as paper
 from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                          shade_intervals, value_pm)
 
-PROFILES = {"full": dict(n_runs=paper.N_RUNS_PAPER, timing_runs=20, timing_repeats=5),
-            "smoke": dict(n_runs=20, timing_runs=2, timing_repeats=2)}
+# full: the paper's 100 runs, also in each of the multiverse's universes (30 universes of the covering design,
+#       ~0.4 CPU-s each); smoke: 20 runs, the star design (headline + each option alone) at the same 20 runs, so
+#       that the smoke headline universe equals the smoke headline rows bit for bit.
+PROFILES = {"full": dict(n_runs=paper.N_RUNS_PAPER, timing_runs=20, timing_repeats=8, mv_runs=paper.N_RUNS_PAPER,
+                         mv_design="auto"),
+            "smoke": dict(n_runs=20, timing_runs=2, timing_repeats=3, mv_runs=20, mv_design="star")}
 nb = NotebookRun(paper.PAPER, paper.ROOT_SEED, PROFILES, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED,
-                 OUTPUT_ROOT=OUTPUT_ROOT, N_TIMING_RUNS=N_TIMING_RUNS)
+                 OUTPUT_ROOT=OUTPUT_ROOT, N_TIMING_RUNS=N_TIMING_RUNS, WORKERS=WORKERS,
+                 MULTIVERSE_RUNS=MULTIVERSE_RUNS, MULTIVERSE_DESIGN=MULTIVERSE_DESIGN)
 mc = MonteCarlo(nb.seed, nb.n_runs)
 plot_style()
 print(nb)
@@ -61,31 +77,40 @@ print(nb)
 # State $[x, \dot x, y, \dot y]$ in km and km/s, $\tau = 1$ s, 35 steps, modes $\omega_1 = +0.3$ and
 # $\omega_2 = -0.15$ rad/s with transition matrix [[0.95, 0.05], [0.05, 0.95]], radar noise 0.1 km and 0.1°,
 # N = 2 bootstrap observations, start at $x_0 = [8, 0.4, 6, 0.2]$. Several equations are garbled in the text;
-# every reading is numbered below.
+# every reading is numbered below, and every numbered reading that can move a result is a factor of the reading
+# space (the table after it). H-2 and H-3 are not factors (the printed forms are no defensible reading, or no
+# reading changes a result); H-12 concerns run time, which is not a universe's value.
 
 # %%
-setup = paper.Setup()
+setup = paper.setups(paper.SPACE.headline)
 display(Markdown(deviations_table(paper.DEVIATIONS)))
+display(Markdown(views.factors_table(paper.SPACE)))
 
 # %% [markdown]
 # **H-4 in numbers.** The truth under the two readings of the process-noise unit (first 50 runs): the km²/s⁴ reading
-# turns a 0.45 km/s target into a random walk in speed, which is why we read the variances in m²/s⁴.
+# turns a 0.45 km/s target into a random walk in speed, which is why the headline reads the variances in m²/s⁴.
 
 # %%
 plaus = []
-for label, q in (("m²/s⁴ (headline)", setup.q), ("km²/s⁴", (0.2, 0.4))):
-    tr_truth = paper.make_batch_fn(paper.variant(setup, q=q), mc, names=("IMMCDKF",))[0](range(min(nb.n_runs, 50)))[0]
-    speed = np.hypot(tr_truth[..., 1], tr_truth[..., 3])
-    rng_t = np.hypot(tr_truth[..., 0], tr_truth[..., 2])
-    plaus.append([label, f"{np.median(speed.max(axis=1)):.2f}", f"{speed.max():.2f}", f"{rng_t.min():.2f}"])
+for option in paper.SPACE.factor("H-4").options:
+    st = paper.truth_statistics(paper.SPACE.with_headline(**{"H-4": option.name}), mc, 50)
+    plaus.append([option.label + (" (headline)" if option.name == paper.SPACE.headline["H-4"] else ""),
+                  f"{st['median_max_speed']:.2f}", f"{st['max_speed']:.2f}", f"{st['min_range']:.2f}"])
 display(Markdown(markdown_table(["reading", "median of max speed (km/s)", "max speed (km/s)", "min range (km)"], plaus)))
 
+# %% [markdown]
+# ## The headline reading
+#
+# The headline's Monte Carlo evaluation and its summary come from the same two functions every universe of the
+# multiverse uses (`paper.evaluate_reading`, `paper.summarise`), so the headline universe below *is* these numbers.
+
 # %%
-make_batch, estimators, schedule = paper.make_batch_fn(setup, mc)
-results = evaluation.evaluate(estimators, make_batch, mc, label="hu2017 headline", progress=PROGRESS)
-diverged = {k: int((~r.valid).sum()) for k, r in results.items()}
+res = paper.evaluate_reading(paper.SPACE.headline, mc, progress=PROGRESS)
+headline = paper.summarise(res, nb.n_runs)
+results = res.runs
+diverged = headline["diverged"]
 print("diverged runs:", diverged)
-t = schedule.times
+t = res.times
 mode2 = [((setup.mode2_steps[0] - 1) * setup.T, setup.mode2_steps[1] * setup.T)]
 
 # %% [markdown]
@@ -103,22 +128,26 @@ mode2 = [((setup.mode2_steps[0] - 1) * setup.T, setup.mode2_steps[1] * setup.T)]
 #   order) and its square (fourth order), with $r \approx 10$ km.
 
 # %%
-_, z_c, init_c = make_batch(range(min(nb.n_runs, 50)))
-tr_c = mmlib.run(estimators["IMMCDKF"], init_c["IMMCDKF"], z_c)
-sd_pos = np.sqrt(tr_c.cov[..., 0, 0] + tr_c.cov[..., 2, 2])
-nl_index = np.median(sd_pos / np.hypot(tr_c.mean[..., 0], tr_c.mean[..., 2]), axis=0)
-coincide = {k: float(np.max(np.abs(results[k].errors - results["IMMCDKF"].errors)[..., [0, 2]]))
-            for k in ("IMMUKF", "IMMCKF", "IMMEKF")}
+coincide = paper.coincidence(res)
 rmse_level = float(metrics.mean_rmse_over_time(results["IMMCDKF"].errors[..., 0]).value)
 display(Markdown(markdown_table(
     ["algorithm", "max |position estimate − IMMCDKF's| over all runs and steps (km)", "relative to IMMCDKF's RMSE"],
     [[k, f"{v:.2e}", f"{v / rmse_level:.2%}"] for k, v in coincide.items()])))
+nl_index = np.nanmedian(res.nonlinearity, axis=0)
 print(f"nonlinearity index sigma_pos / r: median {np.median(nl_index):.3f}, max {nl_index.max():.3f}")
 
 # %% [markdown]
 # ## Figures 1–5 — model matching probabilities
+#
+# The "model matching probability" is read as the probability an IMM gives the true mode; per run it is averaged
+# over the 35 steps, and the claims below compare it between algorithms on paired runs.
 
 # %%
+claims = paper.judge_claims(res)
+verdict_of = {c["claim"]: c["verdict"] for c in claims}
+mode_claims = [c for c in verdict_of if "mode" in c]
+p_true = {alg: metrics.mean_with_se(paper.true_mode_probability(res, alg), results[alg].valid)
+          for alg in paper.ALGORITHMS}
 for fignum, alg in enumerate(paper.ALGORITHMS, start=1):
     fig, ax = plt.subplots(figsize=(7, 3.4))
     shade_intervals(ax, mode2, label="true mode 2 (ω = −0.15 rad/s)")
@@ -128,12 +157,11 @@ for fignum, alg in enumerate(paper.ALGORITHMS, start=1):
     ax.set(xlabel="time (s)", ylabel="mean model probability", ylim=(-0.02, 1.02),
            title=f"Fig. {fignum} — {alg}: model matching probabilities ({nb.n_runs} runs)")
     ax.legend(fontsize=8, loc="center left")
-    other = results["IMMCDKF"].mode_probabilities.mean(axis=0)[:, 1]
-    gap = float(np.max(np.abs(mu[:, 1] - other)))
     nb.show(fig, f"fig{fignum:02d}_model_probability_{alg.lower().replace('-', '_')}",
             "IMMCDKF and IMMCDKF-OBS identify the modes better than IMMUKF, IMMEKF, IMMCKF; OBS better than CDKF.",
-            f"modes identified by all five; largest gap to IMMCDKF's mode-2 curve {gap:.3f} "
-            + ("(identical algorithm)." if alg == "IMMUKF" else "."))
+            f"time-averaged probability of the true mode {value_pm(p_true[alg].value, p_true[alg].stderr, 3)}"
+            + (" (the same algorithm as IMMCDKF)" if alg == "IMMUKF" and coincide["IMMUKF"] < 1e-9 else "")
+            + ". " + " ".join(f"*{c}*: {verdict_of[c].split(':')[0]}." for c in mode_claims))
 
 # %% [markdown]
 # ## Figures 6–7 and Table 1 — RMSE and run time
@@ -142,6 +170,7 @@ for fignum, alg in enumerate(paper.ALGORITHMS, start=1):
 styles = {"IMMUKF": dict(color="C2", ls=":", lw=1.4), "IMMEKF": dict(color="C7", ls="-.", lw=1.4),
           "IMMCKF": dict(color="C0", ls="--", lw=1.4), "IMMCDKF": dict(color="C1", ls="-", lw=1.6),
           "IMMCDKF-OBS": dict(color="C3", ls="-", lw=2.2)}
+obs_claims = [c for c in verdict_of if c.startswith("IMMCDKF-OBS is more accurate")]
 for fignum, (comp, axis_name) in zip((6, 7), ((0, "horizontal (x)"), (2, "vertical (y)"))):
     fig, ax = plt.subplots(figsize=(7, 3.6))
     shade_intervals(ax, mode2, label="mode 2")
@@ -153,35 +182,23 @@ for fignum, (comp, axis_name) in zip((6, 7), ((0, "horizontal (x)"), (2, "vertic
     ax.legend(fontsize=8)
     nb.show(fig, f"fig{fignum:02d}_rmse_{axis_name.split()[0]}",
             "IMMCDKF-OBS has the lowest RMSE at all times and stays stable (Figs. 6-7).",
-            "not reproduced: IMMCDKF-OBS has the highest RMSE; the other four overlap.")
+            " ".join(f"*{c.split(':')[0].split(' (')[0]}*: {verdict_of[c].split(':')[0]}." for c in obs_claims))
 
-rows = []
-for alg in paper.ALGORITHMS:
-    for qi, (quantity, comp) in enumerate((("Horizontal mean RMSE (km)", 0), ("Vertical mean RMSE (km)", 2))):
-        est = metrics.mean_rmse_over_time(results[alg].errors[..., comp], results[alg].valid)
-        devs = ["H-2", "H-3", "H-4", "H-5", "H-9", "H-11"] + (["H-1"] if "CDKF" in alg else []) + \
-               (["H-6", "H-7", "H-8"] if alg.endswith("OBS") else []) + (["H-10"] if alg == "IMMUKF" else [])
-        rows.append(report.make_row("Table 1", alg, quantity, paper.TABLE1[alg][qi], est.value, est.stderr,
-                                    n_runs=est.n_runs, n_runs_paper=paper.N_RUNS_PAPER, deviations=devs))
+rows = paper.table1_rows(headline, nb.n_runs)
+make_batch, estimators, _ = paper.make_batch_fn(setup, mc)
 timing_batch = make_batch(range(nb.timing_runs))
 per_run, batched = evaluation.time_algorithms(estimators, timing_batch[2], timing_batch[1], repeats=nb.timing_repeats)
-ref_paper = float(paper.TABLE1["IMMCDKF"][2])
-timing_rows = []
-for alg in paper.ALGORITHMS:
-    r1 = metrics.mean_with_se(per_run[alg] / per_run["IMMCDKF"])
-    r2 = metrics.mean_with_se(batched[alg] / batched["IMMCDKF"])
-    ratio_paper = float(paper.TABLE1[alg][2]) / ref_paper
-    if alg != "IMMCDKF":
-        rows.append(report.make_row("Table 1", alg, "time ratio to IMMCDKF (one run at a time)", f"{ratio_paper:.3f}",
-                                    r1.value, r1.stderr, deviations=["H-12"],
-                                    note=f"{1e3 * per_run[alg].mean():.2f} ms per run here vs {paper.TABLE1[alg][2]} s"))
-    timing_rows.append([alg, paper.TABLE1[alg][2], f"{ratio_paper:.2f}", value_pm(r1.value, r1.stderr, 2),
-                        value_pm(r2.value, r2.stderr, 2), f"{1e3 * per_run[alg].mean():.2f}"])
+timing_rows, timing_table = paper.judge_timing(per_run, batched, claims)
+rows += timing_rows
 display(Markdown(rows_table(rows)))
 display(Markdown(markdown_table(["algorithm", "paper time (s)", "paper ratio to IMMCDKF", "ours, one at a time",
-                                 "ours, batched", "ours: ms per run"], timing_rows)))
+                                 "ours, batched", "ours: ms per run"], timing_table)))
 
 # %% [markdown]
+# The time ratios are judged by the one verdict rule: their standard errors come from the per-repeat ratios (every
+# repeat times all five algorithms back to back), and the paper's ratios carry the two significant digits of its
+# printed times (H-12).
+#
 # ## What the bootstrapped observations add — and what they cost
 #
 # A bootstrap observation is $\tilde z^n = z + v^n$ with fresh noise $v^n$: it is the measurement the filter already
@@ -189,103 +206,179 @@ display(Markdown(markdown_table(["algorithm", "paper time (s)", "paper ratio to 
 # Eqs. 22–24 nevertheless treats the N + 1 posteriors as independent, although all of them share the prior and the
 # real measurement: with identical members it would divide the covariance by N + 1 (tested). The filter therefore
 # claims a precision it does not have. NEES shows it: a consistent filter has an average NEES of 4 (state
-# dimension) inside the χ² band; IMMCDKF-OBS does not.
+# dimension) inside the χ² band; IMMCDKF-OBS does not. (What the fused, shrunken covariance *does* do is lower the
+# gain at the next step; when the filters assume far more process noise than the truth has (H-14), that can pay —
+# see the reading space below.)
 
 # %%
 fig, ax = plt.subplots(figsize=(7, 3.6))
 shade_intervals(ax, mode2, label="mode 2")
 nees_avg = {}
-for alg in ("IMMCDKF", "IMMCDKF-OBS"):
-    tr = mmlib.run(estimators[alg], init_c[alg], z_c)
-    truth_c = make_batch(range(min(nb.n_runs, 50)))[0]
-    nees = metrics.nees(tr.mean - truth_c[:, 1:], tr.cov)[~tr.diverged]
-    ax.plot(t, nees.mean(axis=0), label=alg, **styles[alg])
-    per_run_nees = metrics.mean_with_se(nees.mean(axis=1))
-    nees_avg[alg] = [float(per_run_nees.value), float(per_run_nees.stderr)]
-lo, hi = metrics.chi2_band(4, nees.shape[0])
+for alg in paper.NEES_ALGORITHMS:
+    ne = res.nees[alg]
+    ok = np.isfinite(ne).all(axis=1)
+    ax.plot(t, ne[ok].mean(axis=0), label=alg, **styles[alg])
+    avg = paper.nees_average(res, alg)
+    nees_avg[alg] = [float(avg.value), float(avg.stderr)]
+lo, hi = metrics.chi2_band(4, int(ok.sum()))
 ax.axhspan(lo, hi, color="C2", alpha=0.15, label="95 % χ² band")
 ax.set(yscale="log", xlabel="time (s)", ylabel="average NEES (4 dof)",
-       title="Consistency: NEES averaged over runs (not in the paper)")
+       title=f"Consistency: NEES averaged over {nb.n_runs} runs (not in the paper)")
 ax.legend(fontsize=8)
 nb.show(fig, "extra_nees_consistency", "(not in the paper)",
         f"IMMCDKF: NEES {value_pm(*nees_avg['IMMCDKF'], 2)}; IMMCDKF-OBS: {value_pm(*nees_avg['IMMCDKF-OBS'], 1)} "
-        "(4 = consistent): the fused covariance is over-confident.")
+        "(4 = consistent)" + (": the fused covariance is over-confident." if nees_avg["IMMCDKF-OBS"][0] - 3 *
+                              nees_avg["IMMCDKF-OBS"][1] > hi else "."))
 
 # %% [markdown]
-# ## Sweeps over the readings that could move the comparison
+# ## Claims of the abstract and conclusions (headline reading)
+
+# %%
+display(Markdown(markdown_table(["claim", "verdict", "evidence"],
+                                [[c["claim"], c["verdict"], c["evidence"]] for c in claims])))
+
+# %% [markdown]
+# ## Reading space
 #
-# Mean RMSE (km) and time-averaged NEES of IMMCDKF and IMMCDKF-OBS; same runs and bootstrap draws for every
-# variant. The first row is the headline reading.
+# Each universe below is the whole experiment — all five IMMs on the same runs (the paper's root seed and per-run
+# streams, so every universe sees the same truth, measurement and bootstrap draws wherever its reading leaves
+# them alone) — under one reading of the factors above. The full factorial product is too large for the budget, so
+# the design is stated: the headline, every option varied alone, and universes added until every pair of options
+# of every two influential factors occurs (a strength-2 covering array). The run count per universe is printed
+# with the design; every number carries its standard error at that count.
 
 # %%
-variants = [("headline", {}),
-            ("H-4: noise variances in km²/s⁴ (the literal unit)", dict(q=(0.2, 0.4))),
-            ("H-6: bootstrap variance (2σ)² = 4σ² (Eq. 18 as printed)", dict(boot_variance_factor=4.0)),
-            ("H-7: product of member likelihoods", dict(obs_likelihood="product")),
-            ("H-1: Stirling (Nørgaard) CDKF", dict(cd_form="stirling")),
-            ("H-9: μ0 = (1, 0)", dict(mode_probabilities0=(1.0, 0.0))),
-            ("N = 5 bootstrap observations", dict(n_boot=5)),
-            ("N = 0 (OBS = CDKF)", dict(n_boot=0))]
-sweep_rows, sweep_json = [], []
-for label, change in variants:
-    s = paper.variant(setup, **change)
-    mb, est, _ = paper.make_batch_fn(s, mc, names=("IMMCDKF", "IMMCDKF-OBS"))
-    res = evaluation.evaluate(est, mb, mc, progress=False)
-    truth_s, z_s, init_s = mb(range(min(nb.n_runs, 50)))
-    entry = {"variant": label, "changes": {k: list(v) if isinstance(v, tuple) else v for k, v in change.items()}}
-    cells = [label]
-    for alg in ("IMMCDKF", "IMMCDKF-OBS"):
-        hx = metrics.mean_rmse_over_time(res[alg].errors[..., 0], res[alg].valid)
-        vy = metrics.mean_rmse_over_time(res[alg].errors[..., 2], res[alg].valid)
-        tr = mmlib.run(est[alg], init_s[alg], z_s)
-        ne = float(metrics.nees(tr.mean - truth_s[:, 1:], tr.cov)[~tr.diverged].mean())
-        cells += [value_pm(hx.value, hx.stderr, 4), value_pm(vy.value, vy.stderr, 4), f"{ne:.3g}"]
-        entry[alg] = {"horizontal": [float(hx.value), float(hx.stderr)], "vertical": [float(vy.value), float(vy.stderr)],
-                      "nees": ne}
-    sweep_rows.append(cells)
-    sweep_json.append(entry)
-display(Markdown(markdown_table(["variant", "CDKF horiz.", "CDKF vert.", "CDKF NEES", "OBS horiz.", "OBS vert.",
-                                 "OBS NEES"], sweep_rows)))
+mv = run_multiverse(paper.SPACE, paper.universe, published=paper.PUBLISHED, n_runs=nb.mv_runs, seed=nb.seed,
+                    algorithms=paper.MV_ALGORITHMS, design=nb.mv_design, n_runs_paper=paper.N_RUNS_PAPER,
+                    workers=nb.workers, progress=PROGRESS)
+print(f"{mv.design.kind} design, {len(mv.universes)} universes of {nb.mv_runs} runs: {mv.design.description}")
+same_as_headline = nb.mv_runs == nb.n_runs and json.loads(json.dumps(headline)) == mv.headline
+print("headline universe identical to the headline above:", same_as_headline)
 
 # %% [markdown]
-# Under no reading does bootstrapping make the estimate more accurate; it always makes the covariance
-# over-confident, and more bootstrap observations make it worse. With N = 0 the layer is the plain CDKF (tested).
-
-# %% [markdown]
-# ## Claims of the abstract and conclusions
+# **Influence.** A factor is declared non-influential (it still appears with every option, but the covering array
+# need not pair its options with the others') when its one-factor universes change no claim verdict and move no
+# Table 1 cell, the key effect or the OBS − CDKF mode-probability difference by one combined standard error. The
+# declaration (H-13, H-1, H-10) was made on the full profile's 100 runs; the table rechecks it on this run.
 
 # %%
-claims = []
+infl_rows, infl_bad = [], []
+for f in paper.SPACE.factors:
+    inf = paper.influence(mv, f.id)
+    infl_rows.append([f.id, "yes" if f.influential else "no", f"{inf['table1_cells_se']:.2f}", f"{inf['effects_se']:.2f}",
+                      "; ".join(inf["claims_changed"]) or "none"])
+    if not f.influential and inf["moves"]:
+        infl_bad.append(f.id)
+display(Markdown(markdown_table(["factor", "declared influential", "largest Table 1 cell change (s.e.)",
+                                 "largest key-effect / mode-probability change (s.e.)", "claims whose verdict changes"],
+                                infl_rows)))
+print("declared non-influential and moving nothing:", "yes" if not infl_bad else f"NO, {infl_bad} move results in "
+      f"this run ({nb.mv_runs} runs per universe)")
 
+# %% [markdown]
+# ### Specification curve of the key effect
+#
+# The key effect is the paired difference of the time-averaged position mean squared error (x and y errors squared
+# and summed), IMMCDKF-OBS minus IMMCDKF, in km²: negative means bootstrapping helps. Its published counterpart
+# comes from Table 1: each "mean of RMSE" squared is the axis MSE it implies if the per-step RMSE were constant
+# (by Jensen's inequality a lower bound), so the paper implies
+# 0.0289² + 0.0379² − (0.0433² + 0.0721²) = −0.0048 km².
 
-def claim(text, verdict, evidence):
-    claims.append({"claim": text, "verdict": verdict, "evidence": evidence})
+# %%
+key_pub = paper.published_position_mse("IMMCDKF-OBS") - paper.published_position_mse("IMMCDKF")
+fig = views.specification_curve(mv, paper.KEY_EFFECT, ylabel="Δ position MSE, OBS − CDKF (km², symlog)",
+                                title=f"Does bootstrapping help? OBS − CDKF position MSE per universe ({nb.mv_runs} runs)", published=key_pub, symlog=True)
+helps = paper.bootstrapping_helps(mv)
+key = [mv.effect(u, paper.KEY_EFFECT) for u in mv.universes]
+n_lower = sum(e["value"] + 3 * e["stderr"] < 0 for e in key)
+n_higher = sum(e["value"] - 3 * e["stderr"] > 0 for e in key)
+nb.show(fig, "extra_specification_curve",
+        f"IMMCDKF-OBS is more accurate than IMMCDKF (Table 1 implies {key_pub:.4f} km²).",
+        f"across {len(mv.universes)} universes the OBS−CDKF position MSE is lower by ≥ 3 s.e. in {n_lower}, higher "
+        f"by ≥ 3 s.e. in {n_higher}; the claim holds in {len(helps)} universe(s)"
+        + (": " + "; ".join(h[1] for h in helps) if helps else "") + ".")
 
+# %% [markdown]
+# ### Which readings come closest to Table 1?
+#
+# For every universe, the sum over Table 1's ten RMSE cells of the squared standardized distances (Σz²) to the
+# printed values; the best match is a forensic finding about which reading the table is consistent with, not the
+# headline.
 
-axes_q = [("horizontal", 0), ("vertical", 2)]
-for other in ("IMMCDKF", "IMMUKF", "IMMEKF", "IMMCKF"):
-    claim(f"IMMCDKF-OBS is more accurate than {other}", *evaluation.better_claim(results, "IMMCDKF-OBS", other, axes_q))
-for other in ("IMMUKF", "IMMEKF", "IMMCKF"):
-    claim(f"IMMCDKF is more accurate than {other}", *evaluation.better_claim(results, "IMMCDKF", other, axes_q))
-mu_gap = float(np.max(np.abs(results["IMMCDKF-OBS"].mode_probabilities.mean(0) - results["IMMCDKF"].mode_probabilities.mean(0))))
-claim("IMMCDKF-OBS identifies the modes better than IMMCDKF (Figs. 1-5)", "not supported",
-      f"mean mode-probability curves differ by at most {mu_gap:.3f}; see Figs. 4-5")
-claim("Bootstrapped observations improve precision without new sensors (abstract, conclusions)", "contradicted",
-      f"they carry no new information; RMSE is higher and NEES {value_pm(*nees_avg['IMMCDKF-OBS'], 1)} "
-      f"against {value_pm(*nees_avg['IMMCDKF'], 2)} (4 = consistent)")
-ekf_fast = metrics.mean_with_se(per_run["IMMEKF"] / per_run["IMMCDKF"])
-claim("IMMEKF has the shortest run time", "holds" if all(per_run["IMMEKF"].mean() <= per_run[a].mean()
-                                                         for a in paper.ALGORITHMS) else "contradicted",
-      f"time ratio to IMMCDKF {value_pm(ekf_fast.value, ekf_fast.stderr, 2)}")
-ekf_vs = {o: evaluation.better_claim(results, o, "IMMEKF", axes_q) for o in ("IMMUKF", "IMMCKF", "IMMCDKF")}
-claim("IMMEKF has the lowest precision",
-      "holds" if all(v == "holds" for v, _ in ekf_vs.values()) else
-      "not supported: " + "; ".join(f"vs {o}: {v.replace('not supported: ', '')}" for o, (v, _) in ekf_vs.items()),
-      " | ".join(f"{o} - IMMEKF: {e}" for o, (_, e) in ekf_vs.items()))
-obs_time = metrics.mean_with_se(per_run["IMMCDKF-OBS"] / per_run["IMMCDKF"])
-claim("IMMCDKF-OBS costs only slightly more time than IMMCDKF", "holds" if obs_time.value < 2 else "contradicted",
-      f"time ratio {value_pm(obs_time.value, obs_time.stderr, 2)} (paper {0.0352 / 0.0096:.2f})")
-display(Markdown(markdown_table(["claim", "verdict", "evidence"], [[c["claim"], c["verdict"], c["evidence"]] for c in claims])))
+# %%
+fig = views.table_match_figure(mv, title=f"Distance of each universe to Table 1's RMSE cells\n"
+                                         f"({nb.mv_runs} runs per universe; smaller is closer)")
+tm = mv.table_match()[0]
+nb.show(fig, "extra_table_match", "Table 1 as printed.",
+        f"best-matching reading ({tm['best_describe']}): Σz² = {tm['best_sum']:.3g} over {tm['n_cells']} cells, "
+        f"{tm['best_n_reproduced']} of them reproduced; headline Σz² = {tm['headline_sum']:.3g}.")
+display(Markdown(views.table_match_table(mv)))
+
+# %% [markdown]
+# ### Claims across the reading space
+
+# %%
+display(Markdown(views.claims_table(mv)))
+
+# %% [markdown]
+# ### Published numbers across the reading space
+
+# %%
+display(Markdown(views.numbers_table(mv)))
+
+# %% [markdown]
+# ### One factor at a time
+#
+# The universes that differ from the headline in one factor (what used to be a separate sweep): Table 1's cells of
+# IMMCDKF and IMMCDKF-OBS (km, under the universe's H-11 reading), the key effect (km²), the OBS − CDKF difference in
+# true-mode probability, and the time-averaged NEES of both (4 = consistent).
+
+# %%
+cols = [("CDKF x", ("Table 1", "IMMCDKF", "Horizontal mean RMSE (km)")),
+        ("CDKF y", ("Table 1", "IMMCDKF", "Vertical mean RMSE (km)")),
+        ("OBS x", ("Table 1", "IMMCDKF-OBS", "Horizontal mean RMSE (km)")),
+        ("OBS y", ("Table 1", "IMMCDKF-OBS", "Vertical mean RMSE (km)")),
+        ("Δ MSE OBS − CDKF (km²)", ("effect", paper.KEY_EFFECT)),
+        ("Δ true-mode prob. OBS − CDKF", ("effect", "mode_probability_obs_minus_cdkf")),
+        ("NEES CDKF", ("effect", "nees_IMMCDKF")), ("NEES OBS", ("effect", "nees_IMMCDKF-OBS"))]
+display(Markdown(views.one_factor_table(mv, cols)))
+
+# %% [markdown]
+# ### What the reading space says
+
+# %%
+summary = mv.claims_summary()
+numbers = mv.numbers_summary()
+robust = [c for c in summary if c["robust"]]
+fragile = [c for c in summary if not c["robust"]]
+nees_over = sum(mv.effect(u, "nees_IMMCDKF-OBS")["value"] > mv.effect(u, "nees_IMMCDKF")["value"]
+                for u in mv.universes)
+n_cells_any = sum(s["n_reproduced"] > 0 for s in numbers)
+lines = [
+    f"* **Table 1.** {n_cells_any} of its {len(numbers)} RMSE cells are reproduced by at least one of the "
+    f"{len(mv.universes)} universes; no single reading reproduces more than {tm['best_n_reproduced']} of them "
+    f"(best match: {tm['best_describe']}, Σz² = {tm['best_sum']:.3g} against {tm['headline_sum']:.3g} for the "
+    f"headline)." + (" No reading reproduces the table." if tm["best_n_reproduced"] < tm["n_cells"] else ""),
+    f"* **Does bootstrapping make the estimate more accurate?** "
+    + (f"Yes, under {len(helps)} of {len(mv.universes)} readings: " + "; ".join(
+        f"{d} (Δ MSE {value_pm(v, se, 4)} km²)" for _, d, v, se in helps) + ". Not under the headline."
+       if helps else f"Under none of the {len(mv.universes)} readings.")
+    + f" Its position MSE is lower than IMMCDKF's by ≥ 3 s.e. in {n_lower} universes and higher in {n_higher}.",
+    f"* **Over-confidence.** IMMCDKF-OBS has a larger time-averaged NEES than IMMCDKF in {nees_over} of "
+    f"{len(mv.universes)} universes.",
+    f"* **Robust claim verdicts** ({len(robust)} of {len(summary)}): "
+    + "; ".join(f"*{c['claim']}* — {c['headline_verdict'].split(':')[0]}" for c in robust) + ".",
+    f"* **Verdicts that depend on the reading** ({len(fragile)}): "
+    + "; ".join(f"*{c['claim']}* — " + ", ".join(f"{k} {n}" for k, n in c["verdict_counts"].items())
+                for c in fragile) + ".",
+]
+wide = [s for s in numbers if s["closest"] and s["closest"]["verdict"] == report.REPRODUCED
+        and s["closest"]["stderr"] > 0.25 * abs(s["closest"]["replicated"])]
+if wide:
+    lines.append("* Caution: " + "; ".join(f"{s['algorithm']} {s['quantity'].split()[0].lower()}" for s in wide)
+                 + " is 'reproduced' by its closest universe only because that universe's standard error is over "
+                 "a quarter of its value (heavy-tailed runs), not because the value is close.")
+display(Markdown("\n".join(lines)))
 
 # %% [markdown]
 # ## Results file
@@ -293,9 +386,11 @@ display(Markdown(markdown_table(["claim", "verdict", "evidence"], [[c["claim"], 
 # %%
 prov = report.provenance(root_seed=nb.seed, n_runs=nb.n_runs, profile=nb.profile,
                          extra={"paper_citation": paper.CITATION, "timing_runs": nb.timing_runs,
-                                "timing_repeats": nb.timing_repeats, "mmlib": mmlib.__version__})
-report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows, claims=claims,
-                     deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures, sweeps=sweep_json,
+                                "timing_repeats": nb.timing_repeats, "mmlib": mmlib.__version__,
+                                "multiverse_runs": nb.mv_runs, "multiverse_design": nb.mv_design})
+report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows, claims=claims.as_list(),
+                     deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures,
+                     multiverse=mv.as_dict(), headline_universe_matches=same_as_headline,
                      coincidence_max_position_difference_vs_IMMCDKF_km=coincide,
                      nonlinearity_index={"median": float(np.median(nl_index)), "max": float(nl_index.max())},
                      nees_time_average=nees_avg, diverged_runs=diverged,
