@@ -36,3 +36,131 @@ def test_faults_are_drawn_per_run_and_accumulate():
 def test_setup_validation():
     with pytest.raises(ValueError, match="fault_kind"):
         paper.Setup(fault_kind="random")
+
+
+# ---------------------------------------------------------------- reading space (issue 10)
+from dataclasses import replace as _replace  # noqa: E402
+
+from mmlib.experiment import run_grid  # noqa: E402
+from mmlib.scenarios.zhou2017 import SPACE  # noqa: E402
+
+
+def test_headline_universe_through_a_two_process_grid_equals_the_notebook_path(tmp_path):
+    """The notebook's headline rows come from summarise(evaluate_reading(headline)); the multiverse's
+    headline universe, run in a spawned worker, must be the same numbers bit for bit."""
+    n = 4
+    in_process = paper.summarise(paper.evaluate_reading(SPACE.headline, MonteCarlo(paper.ROOT_SEED, n)), n)
+    [from_grid] = run_grid(paper.universe, [SPACE.headline], paper=paper.PAPER, algorithms=paper.MV_ALGORITHMS,
+                           n_runs=n, seed=paper.ROOT_SEED, workers=2, cache_dir=tmp_path, use_cache=False,
+                           progress=False)
+    import json
+    assert from_grid == json.loads(json.dumps(in_process))
+    assert from_grid["values"] and from_grid["claims"] and from_grid["effects"][0]["name"] == paper.KEY_EFFECT
+
+
+@pytest.mark.parametrize("factor, option", [("Z-12", "inflate-only"), ("Z-13", "q/100"), ("Z-8", "w30"),
+                                            ("Z-3", "deg2")])
+def test_factors_that_leave_the_random_structure_alone_share_truth_and_measurement_draws(factor, option):
+    """Common random numbers: a filter-side factor changes neither truth nor measurements; R's units only
+    rescale the same measurement normals (the truth is identical)."""
+    mc = MonteCarlo(paper.ROOT_SEED, 3)
+    other = SPACE.with_headline(**{factor: option})
+    for case in (0, 1):
+        a = paper.make_batch_fn(paper.setups(SPACE.headline)[case], mc, names=())[0](range(3))
+        b = paper.make_batch_fn(paper.setups(other)[case], mc, names=())[0](range(3))
+        np.testing.assert_array_equal(a[0], b[0])
+        if factor != "Z-3":
+            np.testing.assert_array_equal(a[1], b[1])
+        else:
+            assert not np.array_equal(a[1][..., 1], b[1][..., 1])
+
+
+def test_fault_readings_share_their_draws_and_truth_noise_reading_changes_only_the_truth():
+    mc = MonteCarlo(paper.ROOT_SEED, 3)
+    times = np.arange(1, 101.0)
+    faults = {k: paper.radar_fault(paper.Setup(faults=True, fault_kind=k), mc, range(3), times).delta
+              for k in paper.FAULT_KINDS}
+    np.testing.assert_array_equal(faults["constant-drift"][:, :, 0], faults["constant"][:, :, 0])   # same range offset
+    np.testing.assert_allclose(faults["constant"][:, 0, 1] * 100.0, faults["constant-drift"][:, -1, 1], rtol=1e-12)
+    assert np.all(np.diff(faults["constant"], axis=1) == 0)
+    assert np.all(np.abs(faults["per-step"][..., 0]) <= 5) and np.all((faults["per-step"][..., 1] >= 0)
+                                                                      & (faults["per-step"][..., 1] <= 1e-2))
+    det = SPACE.with_headline(**{"Z-4": "deterministic"})
+    a = paper.make_batch_fn(paper.setups(SPACE.headline)[0], mc, names=())[0](range(3))
+    b = paper.make_batch_fn(paper.setups(det)[0], mc, names=())[0](range(3))
+    assert not np.array_equal(a[0], b[0])
+    # deterministic truth: straight line for the first 20 s at the initial velocity
+    np.testing.assert_allclose(b[0][:, 20, 0], 0.0 + 10.0 * 20, rtol=1e-12)
+
+
+def test_every_option_changes_the_setup_it_claims():
+    base = paper.Setup()
+    for f in SPACE.factors:
+        for o in f.options:
+            case1, case2 = paper.setups(SPACE.with_headline(**{f.id: o.name}))
+            assert o.changes, (f.id, o.name)
+            for field, value in o.changes.items():
+                assert getattr(case1, field) == value and getattr(case2, field) == value, (f.id, o.name, field)
+            changed = {k for k in o.changes if getattr(base, k) != o.changes[k]}
+            assert (o.name == f.headline) == (not changed), (f.id, o.name)
+    # the filter-noise factor scales the filters' Q but never the truth's
+    sched_h, _, est_h = paper.build(paper.Setup())
+    sched_s, _, est_s = paper.build(paper.Setup(filter_q_scale=0.01))
+    np.testing.assert_array_equal(sched_h.models[0].Q, sched_s.models[0].Q)
+    np.testing.assert_allclose(est_s["IMM-UKF"].dynamics[0].Q, 0.01 * est_h["IMM-UKF"].dynamics[0].Q, rtol=1e-15)
+
+
+def test_bad_readings_name_the_factor_or_option():
+    with pytest.raises(ValueError, match="Z-99"):
+        SPACE.validate({**SPACE.headline, "Z-99": "x"})
+    with pytest.raises(ValueError, match="'Z-6'.*'sometimes'"):
+        paper.setups(SPACE.with_headline(**{"Z-6": "sometimes"}))
+    with pytest.raises(ValueError, match="leaves out"):
+        paper.evaluate_reading({"Z-3": "mrad2"}, MonteCarlo(paper.ROOT_SEED, 2))
+
+
+@pytest.mark.parametrize("field, value", [("filter_q_scale", 0.0), ("filter_q_scale", -1.0), ("filter_q_scale", True),
+                                          ("filter_q_scale", float("nan")), ("R_diag", (15.0, 0.0)),
+                                          ("window", 1), ("fault_kind", "sometimes")])
+def test_new_setup_fields_are_validated(field, value):
+    with pytest.raises(ValueError, match=field):
+        paper.Setup(**{field: value})
+
+
+def test_shared_evaluations_are_the_numbers_of_a_fresh_evaluation():
+    """evaluate_algorithm memoises by the relevant set-up: a non-adaptive algorithm under two NAUKF readings
+    is one evaluation, and it equals a fresh, unshared one."""
+    mc = MonteCarlo(paper.ROOT_SEED, 3)
+    s = paper.Setup(faults=True)
+    a = paper.evaluate_algorithm(s, "IMM-UKF", mc)
+    b = paper.evaluate_algorithm(_replace(s, window=30, inflate_only=True), "IMM-UKF", mc)
+    assert a is b
+    mb, est, _ = paper.make_batch_fn(s, mc)
+    fresh = evaluation.evaluate(est, mb, mc, progress=False)
+    np.testing.assert_array_equal(fresh["IMM-UKF"].errors, a.errors)
+    assert paper.evaluate_algorithm(_replace(s, window=30), "IMM-NAUKF", mc) is not \
+        paper.evaluate_algorithm(s, "IMM-NAUKF", mc)
+
+
+def test_published_key_effect_counterpart():
+    # (m^2 + s^2) differences of Table 3: CPIMM-NAUKF minus IMM-UKF
+    expected = (4.8671 ** 2 + 0.9169 ** 2) - (11.8533 ** 2 + 4.3387 ** 2)
+    assert paper.published_mse_difference(paper.TABLE3, "CPIMM-NAUKF", "IMM-UKF") == pytest.approx(expected, rel=1e-12)
+    keys = {p.key for p in paper.PUBLISHED}
+    assert len(keys) == len(paper.PUBLISHED) == 24
+
+
+def test_an_algorithm_diverged_in_every_run_is_not_reproduced_and_matches_no_table():
+    """A Table 3 cell whose algorithm diverged in every run is 'not reproduced' (it was run), never 'not
+    replicable', and its infinite distance keeps that universe from being the best table match."""
+    from mmlib.experiment import multiverse
+    n = 3
+    u = paper.universe(SPACE.headline, n, paper.ROOT_SEED)            # NAUKF as printed diverges
+    failed = [v for v in u["values"] if v["replicated"] is None]
+    assert failed and all(v["failed"] == f"diverged in {n}/{n} runs" for v in failed)
+    design = multiverse.Design("star", "test", (SPACE.headline,))
+    mv = multiverse.Multiverse(SPACE, design, [u], paper.PUBLISHED, n, paper.N_RUNS_PAPER)
+    pub = next(p for p in paper.PUBLISHED if p.algorithm == "CPIMM-NAUKF")
+    assert mv.number_verdict(pub, u).startswith("not reproduced: diverged")
+    assert mv.distance(pub, u) == float("inf")
+    assert [t["best_sum"] for t in mv.table_match() if t["table"] == "Table 3"] == [None]
