@@ -1,0 +1,184 @@
+"""Tseng et al. 2011: the reading space (factors, set-ups, common random numbers), the universe job
+against the notebook's in-process path, the windowed DOD and the verdict vocabulary."""
+import concurrent.futures as cf
+import json
+import multiprocessing
+
+import numpy as np
+import pytest
+
+from mmlib import report
+from mmlib.adaptive_imm import NoiseAdaptiveIMM, WindowedNoiseAdaptiveIMM
+from mmlib.estimation import run
+from mmlib.experiment import evaluation, run_grid
+from mmlib.montecarlo import MonteCarlo
+from mmlib.scenarios import tseng2011 as paper
+
+SHORT = paper.Setup(n_steps=150, turns=((40.0, 90.0, 90.0),))
+
+
+def short_joint(setup, names, n_runs):
+    ex = paper.experiment(setup, names=names)
+    mc = MonteCarlo(paper.ROOT_SEED, n_runs)
+    return evaluation.evaluate(ex.estimators, paper.make_batch_fn(ex, mc), mc, progress=False,
+                               measurement_models=ex.measurement_models)
+
+
+# --------------------------------------------------------------------------- the universe job
+def test_headline_universe_from_a_two_process_pool_equals_the_notebook_path_bit_for_bit(tmp_path):
+    """The job run in a spawned worker of a 2-process pool gives the numbers of the notebook's in-process
+    path (evaluate_reading + summarise), bit for bit (the JSON round trip of floats is exact)."""
+    n = 2
+    pool = cf.ProcessPoolExecutor(max_workers=2, mp_context=multiprocessing.get_context("spawn"))
+    try:
+        (got,) = run_grid(paper.universe, [paper.SPACE.headline], paper=paper.PAPER, algorithms=paper.MV_ALGORITHMS,
+                          n_runs=n, seed=paper.ROOT_SEED, executor=pool, cache_dir=tmp_path, use_cache=False,
+                          progress=False)
+    finally:
+        pool.shutdown(wait=True)
+    mc = MonteCarlo(paper.ROOT_SEED, n)
+    head = paper.summarise(paper.evaluate_reading(paper.SPACE.headline, mc), n)
+    assert got == json.loads(json.dumps(head, allow_nan=False))
+    # a universe differing only in T-8 differs only where T-8 acts: the UKF's numbers
+    other = paper.summarise(paper.evaluate_reading(paper.SPACE.with_headline(**{"T-8": "lower"}), mc), n)
+    for va, vb in zip(head["values"], other["values"]):
+        if va["algorithm"] in ("IMMUKF", "FUZZY-IMMUKF", "FUZZY-IMMUKF vs IMMUKF"):
+            assert va == vb
+        elif va["algorithm"] == "UKF":
+            assert va["replicated"] != vb["replicated"]
+
+
+def test_per_estimator_evaluation_with_reuse_equals_the_joint_evaluation():
+    """evaluate_reading evaluates each estimator alone on its canonical set-up and reuses it across
+    readings: the numbers must be those of all estimators evaluated together on the reading's set-up."""
+    n = 3
+    for setup in (SHORT, paper.replace(SHORT, ukf_rule="below", dod_window=4, mf_scale=0.5),
+                  paper.replace(SHORT, s_lower=0.001, s_upper=0.1, dod_normalise="measurement")):
+        joint = short_joint(setup, paper.ALGORITHMS, n)
+        for name in paper.ALGORITHMS:
+            alone = paper._evaluate_one(paper._canonical(setup, name), name, paper.ROOT_SEED, n, False)
+            assert np.array_equal(alone.errors, joint[name].errors), (setup, name)
+            if joint[name].mode_probabilities is not None:
+                assert np.array_equal(alone.mode_probabilities, joint[name].mode_probabilities)
+    # the reuse is real: the UKF of 'T-8 lower' under the headline IMM is the UKF of 'T-8 geometric'
+    # under the 0.001/0.1 IMM (both 0.01 m^2/s^3)
+    a = paper._canonical(paper.setups(paper.SPACE.with_headline(**{"T-8": "lower"})), "UKF")
+    b = paper._canonical(paper.setups(paper.SPACE.with_headline(**{"T-7": "0.001/0.1"})), "UKF")
+    assert a == b and a.ukf_level == 0.01
+
+
+# --------------------------------------------------------------------------- common random numbers
+def test_filter_only_factors_share_truth_and_measurements_and_noise_factors_share_the_draws():
+    n = 2
+    mc = MonteCarlo(paper.ROOT_SEED, n)
+
+    def batch(reading):
+        ex = paper.experiment(paper.setups(reading), names=("UKF",))
+        truth, z, _ = paper.make_batch_fn(ex, mc)(range(n))
+        return ex, truth, z
+
+    _, truth0, z0 = batch(paper.SPACE.headline)
+    for fid, opt in (("T-7", "0.1/10"), ("T-8", "below"), ("T-10a", "measurement"), ("T-10b", "x2"),
+                     ("T-11", "16")):
+        _, truth, z = batch(paper.SPACE.with_headline(**{fid: opt}))
+        assert np.array_equal(truth, truth0), fid
+        assert all(np.array_equal(a, b) for a, b in zip(z, z0)), fid
+    # the noise s.d. scales the same standard normal draws: (z - h(truth)) / sigma is identical
+    ex3, t3, z3 = batch(paper.SPACE.headline)
+    ex10, t10, z10 = batch(paper.SPACE.with_headline(**{"T-4": "10"}))
+    assert np.array_equal(t3, t10)
+    for k in (0, 500, 1799):
+        w3 = (z3[k] - ex3.measurement_models[k].h(t3[:, k + 1])) / 3.0
+        w10 = (z10[k] - ex10.measurement_models[k].h(t10[:, k + 1])) / 10.0
+        # the pseudoranges are ~2e7 m: subtracting h costs ~4e-9 m, i.e. ~1e-9 in units of sigma
+        np.testing.assert_allclose(w3, w10, rtol=0, atol=1e-8)
+    # the speed changes the trajectory but not the receiver clock's draws
+    _, t20, _ = batch(paper.SPACE.with_headline(**{"T-1": "30"}))
+    assert np.array_equal(t20[..., 6:], truth0[..., 6:]) and not np.array_equal(t20[..., :4], truth0[..., :4])
+
+
+# --------------------------------------------------------------------------- factors and set-ups
+def test_every_option_sets_the_setup_fields_it_declares():
+    head = paper.setups(paper.SPACE.headline)
+    assert head == paper.Setup()                      # the headline reading is the documented default set-up
+    for f in paper.SPACE.factors:
+        for o in f.options:
+            s = paper.setups(paper.SPACE.with_headline(**{f.id: o.name}))
+            assert o.changes, (f.id, o.name)
+            for key, value in o.changes.items():
+                assert getattr(s, key) == value, (f.id, o.name, key)
+            assert (s == head) == (o.name == f.headline), (f.id, o.name)
+    levels = {o.name: paper.setups(paper.SPACE.with_headline(**{"T-8": o.name})).ukf_level
+              for o in paper.SPACE.factor("T-8").options}
+    assert levels == pytest.approx({"geometric": 0.1, "lower": 0.01, "below": 0.001, "upper": 1.0}, rel=1e-12)
+    fz = paper.experiment(paper.setups(paper.SPACE.with_headline(**{"T-11": "4"})),
+                          names=("FUZZY-IMMUKF",)).estimators["FUZZY-IMMUKF"]
+    assert isinstance(fz, WindowedNoiseAdaptiveIMM) and fz.window == 4
+
+
+def test_bad_readings_raise_naming_the_factor_or_option():
+    with pytest.raises(ValueError, match="T-99"):
+        paper.setups({**paper.SPACE.headline, "T-99": "x"})
+    with pytest.raises(ValueError, match="'nope'"):
+        paper.setups(paper.SPACE.with_headline(**{"T-7": "nope"}))
+    reading = dict(paper.SPACE.headline)
+    del reading["T-11"]
+    with pytest.raises(ValueError, match="T-11"):
+        paper.universe(reading, 2, paper.ROOT_SEED)
+
+
+def test_new_setup_fields_validate():
+    with pytest.raises(ValueError, match="ukf_rule"):
+        paper.Setup(ukf_rule="median")
+    for bad in (0, 1.5, True, "4"):
+        with pytest.raises(ValueError, match="dod_window"):
+            paper.Setup(dod_window=bad)
+    with pytest.raises(ValueError, match="s_ukf"):
+        paper.Setup(s_ukf=-0.1)
+    assert paper.Setup(s_ukf=0.3, ukf_rule="below").ukf_level == 0.3          # an explicit level wins
+
+
+# --------------------------------------------------------------------------- the windowed DOD
+def test_window_of_one_is_the_plain_flas_bit_for_bit_and_longer_windows_smooth_the_levels():
+    ex = paper.experiment(SHORT, names=("FUZZY-IMMUKF",))
+    plain = ex.estimators["FUZZY-IMMUKF"]
+    assert isinstance(plain, NoiseAdaptiveIMM) and not isinstance(plain, WindowedNoiseAdaptiveIMM)
+    kw = dict(imm=plain.imm, noise=plain.noise, controller=plain.controller, initial_levels=plain.initial_levels)
+    mc = MonteCarlo(paper.ROOT_SEED, 4)
+    truth, z, init = paper.make_batch_fn(ex, mc)(range(4))
+    x0, P0 = truth[:, 0], np.diag(np.square(SHORT.p0_sd))
+    tracks = {}
+    for W in (1, 8):
+        est = WindowedNoiseAdaptiveIMM(**kw, window=W)
+        tracks[W] = run(est, est.init(x0, P0, SHORT.mu0), z, measurement_models=ex.measurement_models)
+    ref = run(plain, plain.init(x0, P0, SHORT.mu0), z, measurement_models=ex.measurement_models)
+    assert np.array_equal(tracks[1].mean, ref.mean) and np.array_equal(tracks[1].diagnostics, ref.diagnostics)
+    # an average of 8 one-epoch DODs varies less from epoch to epoch than a single one
+    jitter = {W: np.abs(np.diff(np.log10(t.diagnostics[:, 20:, 1]), axis=1)).mean() for W, t in tracks.items()}
+    assert jitter[8] < 0.5 * jitter[1]
+    with pytest.raises(ValueError, match="window"):
+        WindowedNoiseAdaptiveIMM(**kw, window=0)
+    with pytest.raises(ValueError, match="controller"):
+        WindowedNoiseAdaptiveIMM(**{**kw, "controller": lambda e, m: None}, window=2)
+
+
+# --------------------------------------------------------------------------- verdict vocabulary
+def test_rows_with_values_are_judged_by_the_rule_and_claims_use_the_vocabulary():
+    results = short_joint(SHORT, paper.ALGORITHMS, 4)
+    a = paper.assess(results, 4)
+    assert len(a["rows"]) == len(paper.PUBLISHED) == 12
+    for r in a["rows"]:
+        assert r.replicated is not None
+        assert r.verdict == report.verdict(r.paper, r.replicated, r.stderr, 4)
+        assert not r.verdict.startswith(report.NOT_REPLICABLE)
+    for c in a["claims"]:
+        report.claim_category(c["verdict"])
+    u = paper.summarise(results, 4)
+    assert [e["name"] for e in u["effects"]] == [paper.KEY_EFFECT, paper.IMM_EFFECT]
+    key = u["effects"][0]
+    d = evaluation.paired_mse_difference(results["FUZZY-IMMUKF"], results["IMMUKF"], (paper.EAST, paper.NORTH))
+    assert key["value"] == float(d.value) and key["stderr"] == float(d.stderr)
+    # published counterpart: (1.0184^2 + 0.7286^2) - (2.9967^2 + 2.3021^2), to the printed digits
+    assert key["published"] == pytest.approx(-12.71187878, abs=1e-8)
+    verdict, _ = paper.ekf_claim(short_joint(SHORT, ("UKF", "EKF"), 2))[0]
+    assert report.claim_category(verdict) == report.NOT_ASSESSABLE
