@@ -309,3 +309,23 @@ def test_standardized_distance_is_the_verdict_rule():
     assert (abs(z) <= 3) == (report.verdict("10.0", 10.3, 0.1, 100, 100) == "reproduced")
     assert report.standardized_distance(2.0, 2.0, 0.0) == 0.0
     assert report.standardized_distance(2.0, 3.0, 0.0) == math.inf
+
+
+def test_a_failed_value_is_not_reproduced_and_never_the_best_match(tmp_path):
+    """A value the method was run for but could not produce (every run diverged) is judged 'not reproduced' with
+    its reason, has an infinite distance, and cannot be the best table match; 'not replicable' stays reserved for
+    what was never published."""
+    from mmlib.experiment import universe_result
+    mv = _mv(tmp_path)
+    failed = universe_result(values=[("T1", "alg", "mean", None, None, "diverged in 400/400 runs"),
+                                     ("T1", "alg", "sd", 2.0, 0.01)],
+                             claims=mv.universes[0]["claims"], diverged={"alg": 400}, n_runs=400)
+    assert failed["values"][0]["failed"] == "diverged in 400/400 runs" and "failed" not in failed["values"][1]
+    mv.universes[1] = failed
+    pub = toy.PUBLISHED[0]
+    assert mv.number_verdict(pub, failed) == "not reproduced: diverged in 400/400 runs"
+    assert mv.distance(pub, failed) == math.inf
+    assert mv.table_distances("Table 1")[1] == math.inf
+    assert all(t["best_universe"] != 1 for t in mv.table_match())
+    never = toy.PUBLISHED[2]
+    assert mv.number_verdict(never, failed) == "not replicable"

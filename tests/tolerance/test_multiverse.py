@@ -77,10 +77,18 @@ def test_smoke_universes_within_monte_carlo_error_of_committed(paper):
 
 
 @pytest.mark.parametrize("paper", sorted(PAPERS))
-def test_smoke_headline_universe_is_the_notebook_headline_bit_for_bit(paper):
-    doc = load(paper, "smoke")
+@pytest.mark.parametrize("profile", ["smoke", "full"])
+def test_headline_universe_is_the_notebook_headline(paper, profile):
+    """Bit for bit wherever the multiverse and the notebook use the same run count (always in the smoke profile;
+    in the full profile of the papers whose universes run at the paper's count).  Where the universes run fewer
+    runs, the headline universe's runs are the first runs of the notebook's (same streams), so the two estimates
+    differ by less than 4 sqrt(se_u^2 + se_nb^2), as in the smoke-versus-full test."""
+    doc = load(paper, profile)
     mv = doc["multiverse"]
-    assert mv["n_runs"] == doc["provenance"]["n_runs"], "smoke multiverse runs = smoke notebook runs"
+    if profile == "smoke":
+        assert mv["n_runs"] == doc["provenance"]["n_runs"], "smoke multiverse runs = smoke notebook runs"
+    exact = mv["n_runs"] == doc["provenance"]["n_runs"]
+    assert mv["n_runs"] <= doc["provenance"]["n_runs"]
     rows = {(r["item"], r["algorithm"], r["quantity"]): r for r in doc["rows"]}
     head = mv["universes"][0]
     compared = 0
@@ -88,10 +96,17 @@ def test_smoke_headline_universe_is_the_notebook_headline_bit_for_bit(paper):
         r = rows.get((v["item"], v["algorithm"], v["quantity"]))
         if r is None:
             continue
-        assert v["replicated"] == r["replicated"] and v["stderr"] == r["stderr"], (v, r)
+        if exact:
+            assert v["replicated"] == r["replicated"] and v["stderr"] == r["stderr"], (v, r)
+        elif v["replicated"] is None or r["replicated"] is None:
+            assert v["replicated"] is None and r["replicated"] is None, (v, r)
+        else:
+            band = 4.0 * math.hypot(v["stderr"] or 0.0, r["stderr"] or 0.0)
+            assert abs(v["replicated"] - r["replicated"]) <= band, (v, r, band)
         compared += 1
     assert compared >= 1
-    verdicts = {c["claim"]: c["verdict"] for c in doc["claims"]}
-    for c in head["claims"]:
-        if c["claim"] in verdicts:
-            assert c["verdict"] == verdicts[c["claim"]], c
+    if exact:
+        verdicts = {c["claim"]: c["verdict"] for c in doc["claims"]}
+        for c in head["claims"]:
+            if c["claim"] in verdicts:
+                assert c["verdict"] == verdicts[c["claim"]], c

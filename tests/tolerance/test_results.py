@@ -94,13 +94,10 @@ def test_zhu2016_paper_values_and_coincidence():
 
 
 @pytest.mark.parametrize("profile", ["smoke", "full"])
-def test_zhu2016_multiverse_headline_and_identity(profile):
-    """The headline universe is the notebook's Table 1 rows and claims, bit for bit, when both use the same run
-    count (smoke: 20 and 20); in every universe IMM5CKF equals IMM-KF to round-off (linear models) and nothing
-    diverges."""
+def test_zhu2016_identity_in_every_universe(profile):
+    """In every universe IMM5CKF equals IMM-KF to round-off (linear models: the identity holds under every
+    reading) and nothing diverges; the headline universe is the declared headline."""
     doc = load("zhu2016", profile)
-    if "multiverse" not in doc:
-        pytest.skip(f"{profile} results predate the multiverse (regenerate with make figures)")
     from mmlib.scenarios import zhu2016 as paper
     mv = doc["multiverse"]
     head = mv["universes"][0]
@@ -109,16 +106,7 @@ def test_zhu2016_multiverse_headline_and_identity(profile):
         ident = [e for e in u["effects"] if e["name"].startswith("max |IMM5CKF − IMM-KF|")][0]
         assert ident["value"] < 1e-6, u["reading"]              # positions ~1e4 m: round-off scale
         assert not any(u["diverged"].values()), u["reading"]
-    if mv["n_runs"] != doc["provenance"]["n_runs"]:
-        pytest.skip("multiverse and headline use different run counts")
-    rows = {(r["item"], r["algorithm"], r["quantity"]): r for r in doc["rows"]}
-    for v in head["values"]:
-        if v["item"] == "Table 1":
-            r = rows[(v["item"], v["algorithm"], v["quantity"])]
-            assert (r["replicated"], r["stderr"]) == (v["replicated"], v["stderr"]), v
-    verdicts = {c["claim"]: c["verdict"] for c in doc["claims"]}
-    for c in head["claims"]:
-        assert verdicts[c["claim"]] == c["verdict"], c["claim"]
+
 
 def test_liu2017_paper_values_and_near_equality():
     from mmlib.scenarios import liu2017 as paper
@@ -133,28 +121,6 @@ def test_liu2017_paper_values_and_near_equality():
     for alg in ("STCKF", "STUKF"):
         assert abs(pos[alg] - pos["STSSRCKF"]) <= 0.005 * pos["STSSRCKF"]
     assert {"fig01_rmse_position", "fig02_rmse_velocity", "fig03_rmse_acceleration"} <= set(full["figures"])
-
-
-@pytest.mark.parametrize("profile", ["smoke", "full"])
-def test_liu2017_headline_universe_is_the_notebook_headline(profile):
-    """The multiverse's headline universe and the notebook's Table 1/3 rows and claims are the same numbers,
-    bit for bit, whenever they use the same run count (smoke: 20 and 20; full: 200 and 200)."""
-    doc = load("liu2017", profile)
-    if "multiverse" not in doc:
-        pytest.skip(f"{profile} results predate the multiverse (regenerate with make figures)")
-    mv = doc["multiverse"]
-    head = mv["universes"][0]
-    from mmlib.scenarios import liu2017 as paper
-    assert head["reading"] == paper.SPACE.headline
-    if mv["n_runs"] != doc["provenance"]["n_runs"]:
-        pytest.skip("multiverse and headline use different run counts")
-    rows = {(r["item"], r["algorithm"], r["quantity"]): r for r in doc["rows"]}
-    for v in head["values"]:
-        r = rows[(v["item"], v["algorithm"], v["quantity"])]
-        assert (r["replicated"], r["stderr"]) == (v["replicated"], v["stderr"]), v
-    verdicts = {c["claim"]: c["verdict"] for c in doc["claims"]}
-    for c in head["claims"]:
-        assert verdicts[c["claim"]] == c["verdict"], c["claim"]
 
 
 def test_hu2017_coincidence_and_over_confidence():
