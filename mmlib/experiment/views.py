@@ -115,6 +115,7 @@ def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str,
     """Universes sorted by an effect (value ± ``interval`` standard errors; the verdict rule's band),
     the headline in red, the published value dashed, and below it which option each universe uses
     (Simonsohn, Simmons & Nelson 2020)."""
+    import matplotlib
     import matplotlib.pyplot as plt
     vals = [mv.effect(u, effect) for u in mv.universes]
     y = np.array([np.nan if v["value"] is None else v["value"] for v in vals])
@@ -135,13 +136,19 @@ def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str,
     missing = np.where(~np.isfinite(y[order]))[0]
     if missing.size:                          # no universe is dropped silently: mark those without a value
         ax.scatter(missing, np.zeros(missing.size), marker="x", c="k", s=30, zorder=3,
-                   label=f"no value ({missing.size}: every run diverged)")
+                   label=f"no value, drawn at 0 ({missing.size} universes; see their divergence counts)")
+        if not np.isfinite(y[0]):
+            ax.scatter([head_pos], [0.0], c="C3", s=40, marker="D", zorder=4)
     pub = published if published is not None else vals[0].get("published")
     if pub is not None:
         ax.axhline(pub, color="C2", ls="--", lw=1.2, label=f"published ({pub:.3g})")
-    if symlog:
+    if symlog:        # linear within the decade of the smallest |effect|, logarithmic beyond
         finite = np.abs(y[np.isfinite(y) & (y != 0)])
-        ax.set_yscale("symlog", linthresh=float(np.min(finite)) if finite.size else 1.0)
+        linthresh = 10.0 ** np.floor(np.log10(np.min(finite))) if finite.size else 1.0
+        ax.set_yscale("symlog", linthresh=linthresh, linscale=0.6)
+        ax.yaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+        ax.yaxis.set_major_locator(matplotlib.ticker.SymmetricalLogLocator(base=10, linthresh=linthresh,
+                                                                          subs=[1.0]))
     ax.set(ylabel=ylabel, title=title)
     ax.legend(fontsize=8, loc="best")
     row, yt, ylab = 0, [], []
