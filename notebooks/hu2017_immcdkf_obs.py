@@ -85,6 +85,7 @@ print(nb)
 setup = paper.setups(paper.SPACE.headline)
 display(Markdown(deviations_table(paper.DEVIATIONS)))
 display(Markdown(views.factors_table(paper.SPACE)))
+display(Markdown(views.options_table(paper.SPACE)))
 
 # %% [markdown]
 # **H-4 in numbers.** The truth under the two readings of the process-noise unit (first 50 runs): the km²/s⁴ reading

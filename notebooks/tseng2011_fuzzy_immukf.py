@@ -343,6 +343,7 @@ display(Markdown(markdown_table(["claim", "verdict", "evidence"],
 
 # %%
 display(Markdown(views.factors_table(paper.SPACE)))
+display(Markdown(views.options_table(paper.SPACE)))
 mv = run_multiverse(paper.SPACE, paper.universe, published=paper.PUBLISHED, n_runs=nb.mv_runs, seed=nb.seed,
                     algorithms=paper.MV_ALGORITHMS, design=nb.mv_design, workers=nb.workers, progress=PROGRESS)
 print(f"{mv.design.description}; {mv.n_runs} Monte Carlo runs per universe")

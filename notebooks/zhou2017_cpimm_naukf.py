@@ -263,6 +263,7 @@ display(Markdown(markdown_table(["claim", "verdict", "evidence"],
 
 # %%
 display(Markdown(views.factors_table(paper.SPACE)))
+display(Markdown(views.options_table(paper.SPACE)))
 mv = run_multiverse(paper.SPACE, paper.universe, published=paper.PUBLISHED, n_runs=nb.mv_runs, seed=nb.seed,
                     algorithms=paper.MV_ALGORITHMS, design=nb.mv_design, n_runs_paper=paper.N_RUNS_PAPER,
                     workers=nb.workers, progress=PROGRESS)

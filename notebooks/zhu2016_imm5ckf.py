@@ -87,6 +87,7 @@ head = paper.SPACE.headline
 setup = paper.setups(head)
 display(Markdown(deviations_table(paper.DEVIATIONS)))
 display(Markdown(views.factors_table(paper.SPACE)))
+display(Markdown(views.options_table(paper.SPACE)))
 
 # %% [markdown]
 # ## Why IMM5CKF, IMMCKF and IMMUKF must coincide here

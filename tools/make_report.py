@@ -22,7 +22,8 @@ def render_multiverse(mv: dict) -> list:
     return ["", "## Reading space (multiverse)", "",
             f"Design: {mv['design_description']}; {mv['n_runs']} Monte Carlo runs per universe, common random "
             f"numbers across universes. {views.summary_line(mv)}.", "", "### Factors", "",
-            views.factors_table(mv["factors"]), "", "### Claims across the universes", "", views.claims_table(mv), "",
+            views.factors_table(mv["factors"]), "", "Each option, and where the paper's text supports it:", "",
+            views.options_table(mv["factors"]), "", "### Claims across the universes", "", views.claims_table(mv), "",
             "### Published numbers across the universes", "", views.numbers_table(mv), "",
             "### Which reading matches each published table", "", views.table_match_table(mv),
             "", "The best-matching reading is a forensic finding (which declared reading the printed table is "

@@ -56,6 +56,14 @@ def factors_table(space) -> str:
                            "influential"], rows)
 
 
+def options_table(space) -> str:
+    """One row per option: the factor, the option, what it reads, and where the paper's text supports it."""
+    factors = space if isinstance(space, list) else space.as_dict()
+    rows = [[f["id"], o["name"] + (" (headline)" if o["name"] == f["headline"] else ""), o["label"], o["source"]]
+            for f in factors for o in f["option_details"]]
+    return markdown_table(["factor", "option", "reading", "where the paper's text supports it"], rows)
+
+
 def claims_table(mv: Multiverse) -> str:
     """Per claim: headline verdict, verdict counts across universes, robust or not."""
     rows = []
