@@ -10,8 +10,11 @@ error ``s`` from ``N`` runs, where the paper used ``N_p`` runs:
   value is only known to half a unit of its last digit, ``u``;
 * ``sigma = sqrt(s^2 + s_p^2 + u^2)``;
 * **reproduced**            if ``|r - p| <= 3 sigma``  (consistent within Monte Carlo noise);
-* **qualitatively reproduced** if not, but ``|r - p| <= 0.25 |p|``  (same value within 25 %,
-  i.e. the effect sizes the papers argue about are preserved);
+* **inconclusive**          if it would be reproduced, but ``3 sigma > 0.25 |p|``: our interval is wider
+  than the qualitative band, so it cannot tell a reproduction from a 25 % discrepancy (e.g. a value
+  whose runs mostly diverged); such a value never counts as reproducing a printed number;
+* **qualitatively reproduced** if not within ``3 sigma``, but ``|r - p| <= 0.25 |p|``  (same value
+  within 25 %, i.e. the effect sizes the papers argue about are preserved);
 * **not reproduced**        otherwise;
 * **not replicable**        when no replicated value can be produced (method or data
   not published); the reason is part of the verdict text.
@@ -53,9 +56,10 @@ import numpy as np
 
 REPRODUCED = "reproduced"
 QUALITATIVE = "qualitatively reproduced"
+INCONCLUSIVE = "inconclusive"
 NOT_REPRODUCED = "not reproduced"
 NOT_REPLICABLE = "not replicable"
-VERDICTS = (REPRODUCED, QUALITATIVE, NOT_REPRODUCED, NOT_REPLICABLE)
+VERDICTS = (REPRODUCED, QUALITATIVE, INCONCLUSIVE, NOT_REPRODUCED, NOT_REPLICABLE)
 SIGMA_FACTOR = 3.0
 RELATIVE_BAND = 0.25
 
@@ -102,6 +106,8 @@ def verdict(paper: str | float | None, replicated, stderr, n_runs: int | None = 
     diff, sigma = _difference_and_sigma(paper, replicated, stderr, n_runs, n_runs_paper)
     diff = abs(diff)
     if diff <= SIGMA_FACTOR * sigma:
+        if p != 0.0 and SIGMA_FACTOR * sigma > RELATIVE_BAND * abs(p):
+            return f"{INCONCLUSIVE}: ± {SIGMA_FACTOR * sigma:.3g} (3 s.e.) is wider than 25 % of the printed value"
         return REPRODUCED
     if diff <= RELATIVE_BAND * abs(p):
         return QUALITATIVE

@@ -189,29 +189,40 @@ def test_universes_share_common_random_numbers(tmp_path):
 
 
 # -- summaries against hand-computed cases ---------------------------------------------------------------------
-def _mv(tmp_path, design="full", n_runs=400):
+def _mv(tmp_path, design="full", n_runs=1600):
     return run_multiverse(toy.SPACE, toy.toy_universe, published=toy.PUBLISHED, n_runs=n_runs, seed=3,
-                          algorithms=["alg"], design=design, n_runs_paper=100, cache_dir=tmp_path, progress=False,
+                          algorithms=["alg"], design=design, n_runs_paper=6400, cache_dir=tmp_path, progress=False,
                           workers=1)
+
+
+def _hand_verdict(r, se, printed, p):
+    """The verdict rule written out: sigma from ours, the paper's (1600 vs 6400 runs) and half a unit."""
+    sig = math.sqrt(se ** 2 * (1 + 1600 / 6400) + (0.5 * 10 ** -(len(printed.split(".")[1]))) ** 2)
+    d = (r - p) / sig
+    if abs(d) <= 3:
+        return d, ("inconclusive" if 3 * sig > 0.25 * abs(p) else "reproduced")
+    return d, ("qualitatively reproduced" if abs(r - p) <= 0.25 * abs(p) else "not reproduced")
 
 
 def test_numbers_summary_by_hand(tmp_path):
     mv = _mv(tmp_path)
     s = {x["quantity"]: x for x in mv.numbers_summary()}
-    mean = s["mean"]
-    verdicts, dists = [], []
-    for u in mv.universes:
-        v = u["values"][0]
-        sig = math.sqrt(v["stderr"] ** 2 * (1 + 400 / 100) + 0.05 ** 2)      # ours, the paper's, half a unit of "1.0"
-        d = (v["replicated"] - 1.0) / sig
-        dists.append(d)
-        verdicts.append("reproduced" if abs(d) <= 3 else ("qualitatively reproduced"
-                                                          if abs(v["replicated"] - 1.0) <= 0.25 else "not reproduced"))
-    assert mean["n_reproduced"] == verdicts.count("reproduced")
-    assert mean["headline_verdict"] == verdicts[0] == "not reproduced"      # headline has no bias
-    i = min(range(len(dists)), key=lambda j: abs(dists[j]))
-    assert mean["closest"]["universe"] == i and mean["closest"]["distance"] == pytest.approx(dists[i])
-    assert mv.readings[i]["A"] == "one"
+    for k, (qty, printed) in enumerate((("mean", "1.0"), ("sd", "2.0"))):
+        verdicts, dists = [], []
+        for u in mv.universes:
+            v = u["values"][k]
+            d, verdict = _hand_verdict(v["replicated"], v["stderr"], printed, float(printed))
+            dists.append(d)
+            verdicts.append(verdict)
+        got = s[qty]
+        assert [mv.number_verdict(toy.PUBLISHED[k], u).split(":")[0] for u in mv.universes] == verdicts
+        assert got["n_reproduced"] == verdicts.count("reproduced")
+        assert got["n_inconclusive"] == verdicts.count("inconclusive")
+        judged = [j for j in range(len(dists)) if verdicts[j] != "inconclusive"]
+        i = min(judged, key=lambda j: abs(dists[j]))
+        assert got["closest"]["universe"] == i and got["closest"]["distance"] == pytest.approx(dists[i])
+    assert s["mean"]["headline_verdict"] == "not reproduced"                # headline has no bias
+    assert s["mean"]["n_reproduced"] >= 1 and s["mean"]["n_inconclusive"] >= 1   # both branches exercised
     never = s["never computed"]
     assert never["headline_verdict"] == "not replicable" and never["n_reproduced"] == 0 and never["closest"] is None
 
@@ -220,16 +231,23 @@ def test_table_match_by_hand(tmp_path):
     mv = _mv(tmp_path)
     tm = {t["table"]: t for t in mv.table_match()}
     assert set(tm) == {"Table 1"}                       # Table 2 has no replicated cell
-    sums = []
+    sums, judged, n_rep = [], [], []
     for u in mv.universes:
-        s = 0.0
+        s, ok, n = 0.0, True, 0
         for k, p in ((0, "1.0"), (1, "2.0")):
             v = u["values"][k]
-            s += report.standardized_distance(p, v["replicated"], v["stderr"], 400, 100) ** 2
+            d, verdict = _hand_verdict(v["replicated"], v["stderr"], p, float(p))
+            s += d * d
+            ok &= verdict != "inconclusive"
+            n += verdict == "reproduced"
         sums.append(s)
-    best = min(range(len(sums)), key=sums.__getitem__)
-    assert tm["Table 1"]["best_universe"] == best and tm["Table 1"]["best_sum"] == pytest.approx(sums[best])
-    assert tm["Table 1"]["headline_sum"] == pytest.approx(sums[0])
+        judged.append(ok)
+        n_rep.append(n)
+    best = min((j for j in range(len(sums)) if judged[j]), key=sums.__getitem__)
+    t = tm["Table 1"]
+    assert t["best_universe"] == best and t["best_sum"] == pytest.approx(sums[best])
+    assert t["headline_sum"] == pytest.approx(sums[0]) and t["n_excluded_inconclusive"] == judged.count(False)
+    assert t["most_n_reproduced"] == max(n_rep) and t["headline_n_reproduced"] == n_rep[0]
     assert mv.readings[best]["A"] == "one" and mv.readings[best]["B"] == "s2"   # bias 1, s.d. 2: the printed table
 
 
@@ -263,7 +281,7 @@ def test_multiverse_json_round_trip(tmp_path):
     assert doc["design"] == "fractional" and doc["n_universes"] == len(doc["universes"])
     assert all({"reading", "values", "claims", "diverged"} <= set(u) for u in doc["universes"])
     assert {f["id"] for f in doc["factors"]} == {"A", "B", "C"}
-    back = from_dict(toy.SPACE, doc, toy.PUBLISHED, 100)
+    back = from_dict(toy.SPACE, doc, toy.PUBLISHED, 6400)
     assert back.as_dict() == doc
 
 
@@ -329,3 +347,69 @@ def test_a_failed_value_is_not_reproduced_and_never_the_best_match(tmp_path):
     assert all(t["best_universe"] != 1 for t in mv.table_match())
     never = toy.PUBLISHED[2]
     assert mv.number_verdict(never, failed) == "not replicable"
+
+
+def test_a_cache_entry_for_another_key_or_not_a_result_is_recomputed(tmp_path, monkeypatch):
+    first = _grid(tmp_path, workers=1)
+    files = sorted((tmp_path / "toy").glob("*.json"))
+    files[0].write_text(json.dumps({"values": 3}))                       # not a cache entry
+    entry = json.loads(files[1].read_text())
+    entry["key"]["n_runs"] = 999                                          # an entry written for another key
+    files[1].write_text(json.dumps(entry))
+    files[2].write_text("{truncated")
+    calls = []
+    monkeypatch.setattr(grid, "_run_job", lambda *a: calls.append(a) or toy.toy_universe(*a[1:]))
+    again = _grid(tmp_path, workers=1)
+    assert len(calls) == 3 and again == first
+
+
+def test_workers_from_the_environment(monkeypatch):
+    monkeypatch.setenv("WORKERS", "3")
+    assert grid.default_workers() == 3
+    for bad in ("two", "0", "-1"):
+        monkeypatch.setenv("WORKERS", bad)
+        with pytest.raises(ValueError, match="WORKERS"):
+            grid.default_workers()
+
+
+def test_presentation_modules_left_out_of_the_hash_are_not_used_by_any_computation():
+    """The cache key ignores the presentation modules, which is safe only while computing a universe never
+    touches them: run every paper's job (2 runs) in a fresh interpreter and check they were never imported."""
+    import subprocess
+    import sys
+    code = ("import sys, importlib\n"
+            "for p in ('zhu2016', 'liu2017', 'hu2017', 'zhou2017', 'tseng2011'):\n"
+            "    m = importlib.import_module('mmlib.scenarios.' + p)\n"
+            "    m.universe(m.SPACE.headline, 2, 1)\n"
+            "print(sorted(n for n in sys.modules if n in ('mmlib.experiment.views', 'mmlib.scenarios.presentation')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=True)
+    assert out.stdout.strip() == "[]", out.stdout
+    assert {rel.split("/")[-1] for rel in grid.PRESENTATION_MODULES} == {"views.py", "presentation.py"}
+
+
+def test_inconclusive_is_never_reproduced():
+    # within 3 sigma, but 3 sigma is wider than 25 % of the printed value
+    assert report.verdict("10.0", 12.0, 1.0, 100, 100).startswith("inconclusive")
+    assert report.verdict_category(report.verdict("10.0", 12.0, 1.0, 100, 100)) == "inconclusive"
+    # precise and close: reproduced; precise and 20 % off: qualitatively reproduced
+    assert report.verdict("10.0", 10.1, 0.05, 100, 100) == "reproduced"
+    assert report.verdict("10.0", 12.0, 0.05, 100, 100) == "qualitatively reproduced"
+
+
+def test_closest_and_best_match_skip_inconclusive_universes(tmp_path):
+    mv = _mv(tmp_path)
+    before = {x["quantity"]: x for x in mv.numbers_summary()}
+    tm_before = mv.table_match()[0]
+    assert mv.number_verdict(toy.PUBLISHED[0], mv.universes[2]) == "not reproduced"
+    noisy = json.loads(json.dumps(mv.universes[0]))
+    noisy["values"][0].update(replicated=1.0001, stderr=5.0)     # "matches" 1.0 only because it is noisy
+    noisy["values"][1].update(replicated=2.0001, stderr=5.0)
+    mv.universes[2] = noisy
+    pub = toy.PUBLISHED[0]
+    assert mv.number_verdict(pub, noisy).startswith("inconclusive") and abs(mv.distance(pub, noisy)) < 1e-3
+    s = {x["quantity"]: x for x in mv.numbers_summary()}
+    assert s["mean"]["closest"]["universe"] != 2
+    assert s["mean"]["n_inconclusive"] == before["mean"]["n_inconclusive"] + 1
+    tm = mv.table_match()[0]
+    assert tm["best_universe"] != 2 and tm["n_excluded_inconclusive"] == tm_before["n_excluded_inconclusive"] + 1
+    assert tm["most_n_reproduced"] == 2 and mv.readings[tm["most_universe"]]["A"] == "one"

@@ -32,13 +32,22 @@ from .._validate import check_positive_int
 BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
 
 
+#: modules that only render results (tables, figures): editing them cannot change a universe's numbers
+PRESENTATION_MODULES = ("experiment/views.py", "scenarios/presentation.py")
+
+
 @functools.lru_cache(maxsize=1)
 def source_hash() -> str:
-    """SHA-256 (first 16 hex digits) of every ``.py`` file of the installed ``mmlib`` package, by
-    relative path and content: the "mmlib version" of the cache key."""
+    """SHA-256 (first 16 hex digits) of every ``.py`` file of the installed ``mmlib`` package (but the
+    presentation modules), by relative path and content, and of the numpy and scipy versions: the
+    "mmlib version" of the cache key."""
+    import numpy
+    import scipy
     root = Path(__file__).resolve().parent.parent
-    h = hashlib.sha256()
+    h = hashlib.sha256(f"numpy {numpy.__version__}; scipy {scipy.__version__}".encode())
     for path in sorted(root.rglob("*.py")):
+        if path.relative_to(root).as_posix() in PRESENTATION_MODULES:
+            continue
         h.update(str(path.relative_to(root)).encode())
         h.update(b"\0")
         h.update(path.read_bytes())
@@ -56,10 +65,32 @@ def job_name(job: Callable) -> str:
     return f"{getattr(job, '__module__', '?')}.{getattr(job, '__qualname__', repr(job))}"
 
 
-def cache_key(*, paper: str, job: Callable, reading: Mapping, algorithms, n_runs: int, seed: int) -> str:
-    doc = {"paper": paper, "job": job_name(job), "reading": dict(sorted(reading.items())),
-           "algorithms": list(algorithms), "n_runs": int(n_runs), "seed": int(seed), "mmlib": source_hash()}
-    return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:32]
+def key_document(*, paper: str, job: Callable, reading: Mapping, algorithms, n_runs: int, seed: int) -> dict:
+    """What a cached universe depends on; stored with the entry and checked when it is read."""
+    return {"paper": paper, "job": job_name(job), "reading": dict(sorted(reading.items())),
+            "algorithms": list(algorithms), "n_runs": int(n_runs), "seed": int(seed), "mmlib": source_hash()}
+
+
+def cache_key(**parts) -> str:
+    return hashlib.sha256(json.dumps(key_document(**parts), sort_keys=True).encode()).hexdigest()[:32]
+
+
+RESULT_KEYS = ("values", "claims", "effects", "diverged", "n_runs")
+
+
+def _read_entry(path: Path, key_doc: dict):
+    """The cached result, or None when the entry is missing, unreadable, written for another key or
+    not a universe result (it is then recomputed and overwritten)."""
+    try:
+        entry = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError):
+        return None
+    if not isinstance(entry, dict) or entry.get("key") != json.loads(json.dumps(key_doc)):
+        return None
+    res = entry.get("result")
+    if not isinstance(res, dict) or any(k not in res for k in RESULT_KEYS):
+        return None
+    return res
 
 
 def _write_json_atomic(path: Path, doc) -> None:
@@ -73,9 +104,11 @@ def _run_job(job, reading, n_runs, seed):
 
 def default_workers() -> int:
     """``$WORKERS`` if set, else the number of cores this process may use."""
-    env = os.environ.get("WORKERS")
+    env = os.environ.get("WORKERS", "").strip()
     if env:
-        return check_positive_int(int(env), "WORKERS")
+        if not env.isdigit() or int(env) < 1:
+            raise ValueError(f"WORKERS: expected a positive integer (number of worker processes), got {env!r}")
+        return int(env)
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
@@ -115,17 +148,15 @@ def run_grid(job: Callable, readings, *, paper: str, algorithms, n_runs: int, se
     say = (lambda line: print(line, file=sys.stderr, flush=True)) if progress is True else (progress or None)
     tag = label or paper
     results: list = [None] * len(readings)
-    keys = [cache_key(paper=paper, job=job, reading=r, algorithms=algorithms, n_runs=n_runs, seed=seed)
-            for r in readings]
+    key_docs = [key_document(paper=paper, job=job, reading=r, algorithms=algorithms, n_runs=n_runs, seed=seed)
+                for r in readings]
+    keys = [hashlib.sha256(json.dumps(k, sort_keys=True).encode()).hexdigest()[:32] for k in key_docs]
     todo = []
     for i, key in enumerate(keys):
-        path = cache / paper / f"{key}.json"
-        if use_cache and path.exists():
-            try:
-                results[i] = json.loads(path.read_text())
+        if use_cache:
+            results[i] = _read_entry(cache / paper / f"{key}.json", key_docs[i])
+            if results[i] is not None:
                 continue
-            except (OSError, json.JSONDecodeError):
-                pass                            # unreadable cache entry: recompute it
         todo.append(i)
     n_cached = len(readings) - len(todo)
     if say and n_cached:
@@ -153,8 +184,11 @@ def run_grid(job: Callable, readings, *, paper: str, algorithms, n_runs: int, se
             if not isinstance(res, dict):
                 raise ValueError(f"job: {job_name(job)} returned {type(res).__name__}, expected a dict")
             results[i] = json.loads(json.dumps(res, allow_nan=False))   # the same form as from the cache
+            if any(k not in results[i] for k in RESULT_KEYS):
+                raise ValueError(f"job: {job_name(job)} returned a dict without {RESULT_KEYS} "
+                                 f"(build it with multiverse.universe_result)")
             if use_cache:
-                _write_json_atomic(cache / paper / f"{keys[i]}.json", results[i])
+                _write_json_atomic(cache / paper / f"{keys[i]}.json", {"key": key_docs[i], "result": results[i]})
             done += 1
             if say:
                 div = res.get("diverged") or {}

@@ -135,19 +135,26 @@ class Multiverse:
         raise ValueError(f"effect: no effect {name!r} (effects: {[e['name'] for e in universe['effects']]})")
 
     def number_verdict(self, pub: PublishedNumber, universe: dict) -> str:
+        """The verdict rule on one universe's value; a value the universe computed but could not produce
+        (``replicated`` None, e.g. every run diverged) is *not reproduced*; a number no universe
+        computes is *not replicable*."""
         v = self.value(universe, pub.key)
-        if v is not None and v["replicated"] is None and v.get("failed"):
-            return f"{report.NOT_REPRODUCED}: {v['failed']}"
-        if v is None or v["replicated"] is None:
+        if v is None:
             return report.NOT_REPLICABLE
+        if v["replicated"] is None:
+            return f"{report.NOT_REPRODUCED}: {v.get('failed') or 'no value (every run diverged)'}"
         return report.verdict(pub.printed, v["replicated"], v["stderr"], universe["n_runs"], self.n_runs_paper)
+
+    def conclusive(self, pub: PublishedNumber, universe: dict) -> bool:
+        """False when the universe's value is too uncertain to judge (verdict *inconclusive*)."""
+        return not self.number_verdict(pub, universe).startswith(report.INCONCLUSIVE)
 
     def distance(self, pub: PublishedNumber, universe: dict):
         v = self.value(universe, pub.key)
-        if v is not None and v["replicated"] is None and v.get("failed"):
-            return math.inf                       # run but failed: matches no printed value
-        if v is None or v["replicated"] is None:
+        if v is None:
             return None
+        if v["replicated"] is None:
+            return math.inf                       # run but failed: matches no printed value
         return report.standardized_distance(pub.printed, v["replicated"], v["stderr"], universe["n_runs"],
                                             self.n_runs_paper)
 
@@ -171,7 +178,10 @@ class Multiverse:
         for pub in self.published:
             verdicts = [self.number_verdict(pub, u) for u in self.universes]
             dists = [self.distance(pub, u) for u in self.universes]
-            finite = [(abs(d), i) for i, d in enumerate(dists) if d is not None]
+            # the closest universe among those whose value can be judged (an inconclusive value is close
+            # only because it is noisy)
+            finite = [(abs(d), i) for i, d in enumerate(dists)
+                      if d is not None and math.isfinite(d) and not verdicts[i].startswith(report.INCONCLUSIVE)]
             closest = None
             if finite:
                 _, i = min(finite)
@@ -184,6 +194,7 @@ class Multiverse:
                         "headline_distance": _finite_or_none(dists[0]),
                         "n_reproduced": sum(v == report.REPRODUCED for v in verdicts),
                         "n_qualitative": sum(v == report.QUALITATIVE for v in verdicts),
+                        "n_inconclusive": sum(v.startswith(report.INCONCLUSIVE) for v in verdicts),
                         "n_universes": len(verdicts), "closest": closest})
         return out
 
@@ -206,20 +217,32 @@ class Multiverse:
         return seen
 
     def table_match(self) -> list:
+        """Per table: the best match (smallest sum of squared standardized distances, among the universes
+        none of whose cells in the table is inconclusive -- a noisy universe is close only because it is
+        noisy), the headline's sum, and the most cells any universe reproduces."""
         out = []
         for table in self.tables:
+            pubs = [p for p in self.published if p.table == table]
             sums = self.table_distances(table)
-            finite = [(s, i) for i, s in enumerate(sums) if s is not None]
-            if not finite:
+            judged = [all(self.conclusive(p, u) for p in pubs) for u in self.universes]
+            finite = [(s, i) for i, s in enumerate(sums) if s is not None and math.isfinite(s) and judged[i]]
+            if not any(s is not None for s in sums):
                 continue
-            best, i = min(finite)
-            n_cells = sum(1 for p in self.published if p.table == table
-                          and self.distance(p, self.universes[i]) is not None)
-            out.append({"table": table, "n_cells": n_cells, "best_universe": i, "best_reading": dict(self.readings[i]),
-                        "best_describe": self.space.describe(self.readings[i]), "best_sum": _finite_or_none(best),
-                        "headline_sum": _finite_or_none(sums[0]),
-                        "best_n_reproduced": sum(self.number_verdict(p, self.universes[i]) == report.REPRODUCED
-                                                 for p in self.published if p.table == table)})
+            n_rep = [sum(self.number_verdict(p, u) == report.REPRODUCED for p in pubs) for u in self.universes]
+            most = max(range(len(n_rep)), key=lambda i: (n_rep[i], -i))
+            entry = {"table": table, "n_cells": sum(1 for p in pubs if self.distance(p, self.headline) is not None),
+                     "headline_sum": _finite_or_none(sums[0]), "headline_n_reproduced": n_rep[0],
+                     "n_excluded_inconclusive": sum(not j for j in judged),
+                     "most_n_reproduced": n_rep[most], "most_universe": most,
+                     "most_reading": dict(self.readings[most]), "most_describe": self.space.describe(self.readings[most]),
+                     "best_universe": None, "best_reading": None, "best_describe": "no universe can be judged",
+                     "best_sum": None, "best_n_reproduced": 0}
+            if finite:
+                best, i = min(finite)
+                entry.update({"best_universe": i, "best_reading": dict(self.readings[i]),
+                              "best_describe": self.space.describe(self.readings[i]), "best_sum": _finite_or_none(best),
+                              "best_n_reproduced": n_rep[i]})
+            out.append(entry)
         return out
 
     def one_factor_view(self) -> list:
