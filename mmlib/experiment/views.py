@@ -192,8 +192,16 @@ def table_match_figure(mv: Multiverse, *, title: str):
         ax.plot(np.arange(len(order)), sums[order], ".", color="C0", ms=4, label="universe")
         hp = int(np.where(order == 0)[0][0])
         ax.plot([hp], [sums[0]], "D", color="C3", ms=7, label="headline")
-        ax.plot([0], [sums[order[0]]], "*", color="C2", ms=11, label="best match")
-        n_cells = sum(1 for p in mv.published if p.table == table)
+        pubs = [p for p in mv.published if p.table == table]
+        vague = [k for k, i in enumerate(order) if not all(mv.conclusive(p, mv.universes[i]) for p in pubs)]
+        if vague:
+            ax.plot(vague, sums[order][vague], "o", mfc="none", mec="0.5", ms=6,
+                    label=f"a cell inconclusive ({len(vague)}; not eligible)")
+        best = {t["table"]: t for t in mv.table_match()}[table]["best_universe"]
+        if best is not None:
+            bp = int(np.where(order == best)[0][0])
+            ax.plot([bp], [sums[best]], "*", color="C2", ms=11, label="best match (judgeable)")
+        n_cells = len(pubs)
         ax.axhline(9.0 * n_cells, color="0.4", ls=":", lw=1, label="every cell at 3 s.e.")
         failed = np.where(np.isinf(sums[order]))[0]      # a cell whose algorithm failed (e.g. diverged)
         if failed.size:
