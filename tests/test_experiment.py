@@ -413,3 +413,26 @@ def test_closest_and_best_match_skip_inconclusive_universes(tmp_path):
     tm = mv.table_match()[0]
     assert tm["best_universe"] != 2 and tm["n_excluded_inconclusive"] == tm_before["n_excluded_inconclusive"] + 1
     assert tm["most_n_reproduced"] == 2 and mv.readings[tm["most_universe"]]["A"] == "one"
+
+
+def _triples(space, readings):
+    infl = [f for f in space.factors if f.influential]
+    return {(a.id, r[a.id], b.id, r[b.id], c.id, r[c.id]) for r in readings
+            for a, b, c in itertools.combinations(infl, 3)}
+
+
+def test_fractional_design_spends_the_budget_on_three_factor_combinations():
+    space = _space([3, 3, 2, 2, 3], budget=20)
+    cover = space.covering()
+    d = space.design()
+    assert d.kind == "fractional" and len(cover) < len(d) == 20 < space.size
+    assert list(d.readings[:len(cover)]) == cover                 # the strength-2 covering comes first
+    assert len({tuple(r.values()) for r in d.readings}) == 20
+    counts = [len(_triples(space, d.readings[:k])) for k in range(len(cover), 21)]
+    assert all(b > a for a, b in zip(counts, counts[1:]))          # every added universe covers new triples
+    # with a budget beyond what strength 3 needs, filling stops once every triple is covered
+    roomy = _space([2, 2, 2, 2], budget=15)
+    full_triples = _triples(roomy, roomy.full())
+    dr = roomy.design()
+    assert _triples(roomy, dr.readings) == full_triples and len(dr) < 15
+    assert "three-factor" in d.description and "budget of 20" in d.description

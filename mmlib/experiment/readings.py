@@ -29,6 +29,8 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import Mapping
 
+import numpy as np
+
 
 @dataclass(frozen=True)
 class Deviation:
@@ -152,6 +154,7 @@ class ReadingSpace:
                                         or self.budget < 1):
             raise ValueError(f"budget: expected a positive integer or None, got {self.budget!r}")
         object.__setattr__(self, "factors", factors)
+        object.__setattr__(self, "_designs", {})          # designs are deterministic: computed once
 
     # -- readings ---------------------------------------------------------------------------------------------
     @property
@@ -232,53 +235,81 @@ class ReadingSpace:
             out += [self.with_headline(**{f.id: o}) for o in f.names if o != f.headline]
         return out
 
-    def covering(self) -> list:
-        """The star, then greedily chosen readings until every pair of options of every two
-        influential factors occurs in some reading (deterministic: ties go to the earliest
-        reading of :meth:`full`)."""
-        chosen = self.star()
+    def _greedy(self, chosen: list, strength: int, limit: int | None = None) -> list:
+        """Add readings to ``chosen`` greedily, each covering the most not yet covered combinations of
+        ``strength`` options of as many influential factors, until all are covered or ``limit``
+        readings are chosen.  Candidates are the product of the influential factors' options (the
+        others at their headline option); ties go to the earliest candidate in that product's order,
+        so the result is deterministic."""
         infl = [f for f in self.factors if f.influential]
-        pairs_of = (lambda r: {(a.id, r[a.id], b.id, r[b.id]) for a, b in itertools.combinations(infl, 2)})
-        needed = {(a.id, x, b.id, y) for a, b in itertools.combinations(infl, 2) for x in a.names for y in b.names}
-        for r in chosen:
-            needed -= pairs_of(r)
-        if not needed:
+        if len(infl) < strength:
             return chosen
-        # candidates: products over the influential factors (non-influential at headline)
+        names = [f.names for f in infl]
+        sizes = [len(n) for n in names]
+        grid = np.array(list(itertools.product(*(range(k) for k in sizes))), dtype=np.int64)
+        combos = list(itertools.combinations(range(len(infl)), strength))
+        codes = np.empty((len(grid), len(combos)), dtype=np.int64)
+        offset = 0
+        for t, cols in enumerate(combos):           # one integer per (factor combination, options)
+            code, mult = np.zeros(len(grid), dtype=np.int64), 1
+            for c in reversed(cols):
+                code += grid[:, c] * mult
+                mult *= sizes[c]
+            codes[:, t] = code + offset
+            offset += mult
+        covered = np.zeros(offset, dtype=bool)
+        for r in chosen:
+            covered[codes[np.ravel_multi_index([names[j].index(r[f.id]) for j, f in enumerate(infl)], sizes)]] = True
         head = self.headline
-        candidates = [{**head, **dict(zip([f.id for f in infl], combo))}
-                      for combo in itertools.product(*(f.names for f in infl))]
-        taken = {tuple(r.values()) for r in chosen}
-        while needed:
-            best, gain = None, 0
-            for c in candidates:
-                g = len(pairs_of(c) & needed)
-                if g > gain and tuple(c.values()) not in taken:
-                    best, gain = c, g
-            chosen.append(best)
-            taken.add(tuple(best.values()))
-            needed -= pairs_of(best)
+        while limit is None or len(chosen) < limit:
+            gain = (~covered[codes]).sum(axis=1)
+            best = int(np.argmax(gain))
+            if gain[best] == 0:                         # everything covered (a chosen reading gains nothing)
+                break
+            chosen.append({**head, **{f.id: names[j][grid[best, j]] for j, f in enumerate(infl)}})
+            covered[codes[best]] = True
         return chosen
 
+    def covering(self) -> list:
+        """The star, then greedily chosen readings until every pair of options of every two
+        influential factors occurs in some reading (a strength-2 covering array)."""
+        return self._greedy(self.star(), 2)
+
     def design(self, kind: str = "auto") -> Design:
-        """``"auto"``: the full factorial when it fits the budget, else the fractional (covering)
-        design; ``"full"``, ``"fractional"`` or ``"star"`` force one."""
+        """``"auto"``: the full factorial when it fits the budget, else the fractional design;
+        ``"full"``, ``"fractional"`` or ``"star"`` force one.
+
+        The fractional design is the covering design (:meth:`covering`), then, while the budget
+        allows, readings adding the most uncovered combinations of three influential factors' options
+        (towards a strength-3 covering array), so that the budget is spent on interactions."""
         if kind not in ("auto", "full", "fractional", "star"):
             raise ValueError(f"kind: expected 'auto', 'full', 'fractional' or 'star', got {kind!r}")
         if kind == "auto":
             kind = "full" if self.budget is None or self.size <= self.budget else "fractional"
+        if kind in self._designs:
+            return self._designs[kind]
         if kind == "full":
-            return Design("full", f"full factorial: {self.size} universes", tuple(self.full()))
-        if kind == "star":
+            d = Design("full", f"full factorial: {self.size} universes", tuple(self.full()))
+        elif kind == "star":
             s = self.star()
-            return Design("star", f"headline and each of the {len(s) - 1} other options varied alone "
-                                  f"({len(s)} of {self.size} universes)", tuple(s))
-        c = self.covering()
-        infl = [f.id for f in self.factors if f.influential]
-        return Design("fractional",
-                      f"{len(c)} of {self.size} universes: the headline, every option varied alone, and greedily "
-                      f"added universes until every two-factor combination of options of the influential factors "
-                      f"({', '.join(infl)}) occurs at least once (strength-2 covering array)", tuple(c))
+            d = Design("star", f"headline and each of the {len(s) - 1} other options varied alone "
+                               f"({len(s)} of {self.size} universes)", tuple(s))
+        else:
+            c = self.covering()
+            n2 = len(c)
+            if self.budget is not None and n2 < self.budget:
+                c = self._greedy(c, 3, limit=min(self.budget, self.size))
+            infl = [f.id for f in self.factors if f.influential]
+            fill = ("" if len(c) == n2 else
+                    f"; then {len(c) - n2} universes adding the most uncovered three-factor combinations, up to the "
+                    f"budget of {self.budget}")
+            d = Design("fractional",
+                       f"{len(c)} of {self.size} universes: the headline, every option varied alone, and greedily "
+                       f"added universes until every two-factor combination of options of the influential factors "
+                       f"({', '.join(infl)}) occurs at least once (strength-2 covering array, {n2} universes){fill}",
+                       tuple(c))
+        self._designs[kind] = d
+        return d
 
     def as_dict(self) -> list:
         return [f.as_dict() for f in self.factors]
