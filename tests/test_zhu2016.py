@@ -226,3 +226,54 @@ def test_printed_fifth_degree_weight_is_not_a_runnable_reading():
                                          lambda e, m0, runs: e.init(m0, np.diag(setup.P0_diag)))
     res = evaluation.evaluate({"printed": est}, make_batch, mc, progress=False)
     assert (res["printed"].diverged_step >= 0).all() and res["printed"].diverged_step.max() <= 2
+
+
+# --- run time (Z-15) ---------------------------------------------------------------------------------------------
+def _timing_inputs(n=3):
+    mc = MonteCarlo(paper.ROOT_SEED, n)
+    make_batch, est, _ = paper.make_batch_fn(paper.Setup(n_steps=10), mc)
+    truth, z, init = make_batch(range(n))
+    return {a: est[a] for a in ("IMMCKF", "5CKF")}, init, z
+
+
+def test_time_algorithms_shapes_fastest_run_and_gc_restored():
+    import gc
+    ests, init, z = _timing_inputs()
+    assert gc.isenabled()
+    per_run, batched = evaluation.time_algorithms(ests, init, z, repeats=3, per_repeat=2)
+    assert gc.isenabled()                                      # the collector is paused only while timing
+    for a in ests:
+        assert per_run[a].shape == (3,) and batched[a].shape == (3,)
+        assert (per_run[a] > 0).all() and (batched[a] > 0).all()
+    # the single-model filter does a third of an IMM's work: cheaper in every repeat
+    assert (per_run["5CKF"] < per_run["IMMCKF"]).all()
+    with pytest.raises(ValueError, match="per_repeat"):
+        evaluation.time_algorithms(ests, init, z, repeats=3, per_repeat=4)
+    with pytest.raises(ValueError, match="repeats"):
+        evaluation.time_algorithms(ests, init, z, repeats=1)
+
+
+def _fake_times(ratio5, spread, n=30):
+    rng = np.random.default_rng(0)
+    base = 0.02 * (1 + 0.01 * rng.standard_normal(n))
+    per_run = {"IMMCKF": base, "IMM5CKF": base * (ratio5 + spread * rng.standard_normal(n)),
+               "IMMUKF": base * 1.01, "5CKF": base * 0.55}
+    return per_run, {k: v / 7 for k, v in per_run.items()}
+
+
+@pytest.mark.parametrize("ratio5,spread,expected", [(1.05, 0.01, "holds"), (1.0, 0.01, "not supported"),
+                                                    (0.9, 0.01, "contradicted"), (1.05, 0.5, "not supported")])
+def test_timing_claim_and_rows_follow_the_verdict_rule(ratio5, spread, expected):
+    per_run, batched = _fake_times(ratio5, spread)
+    claims = report.Claims()
+    rows, table = paper.judge_timing(per_run, batched, claims)
+    c = claims.as_list()[0]
+    assert c["claim"] == paper.TIMING_CLAIM and report.claim_category(c["verdict"]) == expected
+    r = per_run["IMM5CKF"] / per_run["IMMCKF"]
+    row = [x for x in rows if x.algorithm == "IMM5CKF"][0]
+    assert row.replicated == pytest.approx(r.mean()) and row.stderr == pytest.approx(r.std(ddof=1) / np.sqrt(len(r)))
+    assert row.verdict == report.verdict(row.paper, row.replicated, row.stderr)
+    assert row.paper == f"{14.9726 / 7.2549:.3f}"
+    assert [x.algorithm for x in rows] == ["IMM5CKF", "IMMCKF", "IMMUKF", "5CKF", "OMTM-IMM"]
+    assert [x.verdict.split(":")[0] for x in rows if x.algorithm in ("IMMCKF", "OMTM-IMM")] == ["not replicable"] * 2
+    assert [t[0] for t in table] == ["IMM5CKF", "IMMCKF", "IMMUKF", "5CKF"]

@@ -2,6 +2,7 @@
 (the experiment layer; paper-agnostic)."""
 from __future__ import annotations
 
+import gc
 import time
 from typing import Callable, NamedTuple
 
@@ -108,32 +109,49 @@ def better_claim(results: dict, a: str, b: str, quantities) -> tuple[str, str]:
     return verdict, evidence
 
 
-def _time_one_at_a_time(estimator, init_state, measurements) -> float:
-    t0 = time.perf_counter()
+def time_algorithms(estimators: dict, init: dict, measurements, *, repeats: int = 3,
+                    per_repeat: int | None = None) -> tuple:
+    """CPU seconds per run of each estimator, ``(one_at_a_time, batched)``: dicts name -> array with one
+    value per repeat, for ratios between estimators taken per repeat (their standard error from the
+    repeats, as the verdict rule needs).
+
+    CPU time of the timing thread (``time.thread_time``: the filters are single-threaded numpy), with the
+    garbage collector paused as ``timeit`` does, so that neither other processes nor a notebook kernel's
+    own threads enter the timing.  One untimed warm-up run per estimator comes first.  In every repeat the
+    estimators take turns run by run, their order rotated from repeat to repeat so that none is always
+    first, each running the first ``per_repeat`` runs (default: all) of ``measurements`` one at a time
+    (B = 1, the papers' way); the repeat's one-at-a-time value is the fastest of these runs -- every run
+    does the same work, so the fastest is the least disturbed measurement of it.  Batched: all runs of
+    ``measurements`` in one call, once per repeat."""
     n = measurements.shape[0]
-    for b in range(n):
-        run(estimator, select_runs(init_state, slice(b, b + 1)), measurements[b:b + 1], keep_cov=False)
-    return (time.perf_counter() - t0) / n
-
-
-def _time_batched(estimator, init_state, measurements) -> float:
-    t0 = time.perf_counter()
-    run(estimator, init_state, measurements, keep_cov=False)
-    return (time.perf_counter() - t0) / measurements.shape[0]
-
-
-def time_algorithms(estimators: dict, init: dict, measurements, *, repeats: int = 3):
-    """Seconds per run of each estimator, ``(one_at_a_time, batched)``: dicts name -> array
-    (one value per repeat).  One at a time (B = 1) is the paper's way; batched is all runs in
-    one call.  Algorithms are interleaved within every repeat, so that ratios between them
-    compare adjacent measurements and are robust to the machine's speed drifting."""
-    single = {name: [] for name in estimators}
-    batched = {name: [] for name in estimators}
-    for _ in range(repeats):
-        for name, est in estimators.items():
-            single[name].append(_time_one_at_a_time(est, init[name], measurements))
-            batched[name].append(_time_batched(est, init[name], measurements))
-    return ({k: np.array(v) for k, v in single.items()}, {k: np.array(v) for k, v in batched.items()})
+    per_repeat = n if per_repeat is None else per_repeat
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 2:
+        raise ValueError(f"repeats: expected an integer >= 2 (a standard error needs two), got {repeats!r}")
+    if isinstance(per_repeat, bool) or not isinstance(per_repeat, int) or not 1 <= per_repeat <= n:
+        raise ValueError(f"per_repeat: expected an integer from 1 to the {n} runs of measurements, got {per_repeat!r}")
+    names = list(estimators)
+    single = {a: np.empty((repeats, per_repeat)) for a in names}
+    batched = {a: np.empty(repeats) for a in names}
+    for a in names:
+        run(estimators[a], select_runs(init[a], slice(0, 1)), measurements[:1], keep_cov=False)
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        for r in range(repeats):
+            order = names[r % len(names):] + names[:r % len(names)]
+            for b in range(per_repeat):
+                for a in order:
+                    t0 = time.thread_time()
+                    run(estimators[a], select_runs(init[a], slice(b, b + 1)), measurements[b:b + 1], keep_cov=False)
+                    single[a][r, b] = time.thread_time() - t0
+            for a in order:
+                t0 = time.thread_time()
+                run(estimators[a], init[a], measurements, keep_cov=False)
+                batched[a][r] = (time.thread_time() - t0) / n
+    finally:
+        if was_enabled:
+            gc.enable()
+    return {a: v.min(axis=1) for a, v in single.items()}, batched
 
 
 def first_runs(rs: RunSet, n: int) -> RunSet:

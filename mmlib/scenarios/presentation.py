@@ -1,7 +1,6 @@
 """Small rendering helpers shared by the paper notebooks (Markdown tables, figure styling)."""
 from __future__ import annotations
 
-import numpy as np  # noqa: F401
 
 from ..experiment.views import markdown_table, value_pm  # noqa: F401  (re-exported for the notebooks)
 
