@@ -21,8 +21,10 @@
 # mode probabilities (Figs. 1–5), RMSE (Figs. 6–7) and Table 1. In `mmlib` the CDKF is a quadrature rule of the generic
 # filter and the bootstrapping is one layer (`mmlib/bootstrap.py`) over any mode filter.
 #
-# **Verdict rule** (`mmlib/report.py`): *reproduced* within 3 combined standard errors; *qualitatively reproduced*
-# within 25 %; *not reproduced* otherwise; *not replicable* when method or data are not published. Claims are judged
+# **Verdict rule** (`mmlib/report.py`): *reproduced* within 3 combined standard errors; *inconclusive* when within
+# 3 standard errors but those are wider than 25 % of the printed value (never counted as a reproduction);
+# *qualitatively reproduced* within 25 %; *not reproduced* otherwise; *not replicable* when method or data are not
+# published. Claims are judged
 # on paired differences over common random numbers (every filter sees the same truth, measurements and bootstrap
 # draws in run r) and get one verdict of the claim vocabulary (holds / partly / contradicted / not supported / not
 # assessable).
@@ -58,9 +60,9 @@ from mmlib.scenarios import hu2017 as paper
 from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                          shade_intervals, value_pm)
 
-# full: the paper's 100 runs, also in each of the multiverse's universes (30 universes of the covering design,
-#       ~0.4 CPU-s each); smoke: 20 runs, the star design (headline + each option alone) at the same 20 runs, so
-#       that the smoke headline universe equals the smoke headline rows bit for bit.
+# full: the paper's 100 runs, also in each of the multiverse's universes (the covering design of all factors,
+#       ~0.35 CPU-s per universe); smoke: 20 runs, the star design (headline + each option alone) at the same
+#       20 runs, so that the smoke headline universe equals the smoke headline rows bit for bit.
 PROFILES = {"full": dict(n_runs=paper.N_RUNS_PAPER, timing_runs=20, timing_repeats=8, mv_runs=paper.N_RUNS_PAPER,
                          mv_design="auto"),
             "smoke": dict(n_runs=20, timing_runs=2, timing_repeats=3, mv_runs=20, mv_design="star")}
@@ -88,16 +90,31 @@ display(Markdown(views.factors_table(paper.SPACE)))
 display(Markdown(views.options_table(paper.SPACE)))
 
 # %% [markdown]
-# **H-4 in numbers.** The truth under the two readings of the process-noise unit (first 50 runs): the km²/s⁴ reading
-# turns a 0.45 km/s target into a random walk in speed, which is why the headline reads the variances in m²/s⁴.
+# **H-4 and H-13 in numbers.** The truth under the two readings of the process-noise unit (first runs): the
+# km²/s⁴ reading turns a 0.45 km/s target into a random walk in speed, which is why the headline reads the variances
+# in m²/s⁴. The last two columns say how far the truth's process noise moves the target from the noise-free truth
+# of H-13's other reading (same draws): per run the largest distance over the 35 steps.
 
 # %%
-plaus = []
+plaus, moved, n_truth = [], {}, min(50, nb.n_runs)
 for option in paper.SPACE.factor("H-4").options:
-    st = paper.truth_statistics(paper.SPACE.with_headline(**{"H-4": option.name}), mc, 50)
+    st = paper.truth_statistics(paper.SPACE.with_headline(**{"H-4": option.name}), mc, n_truth)
+    moved[option.name] = st
     plaus.append([option.label + (" (headline)" if option.name == paper.SPACE.headline["H-4"] else ""),
-                  f"{st['median_max_speed']:.2f}", f"{st['max_speed']:.2f}", f"{st['min_range']:.2f}"])
-display(Markdown(markdown_table(["reading", "median of max speed (km/s)", "max speed (km/s)", "min range (km)"], plaus)))
+                  f"{st['median_max_speed']:.2f}", f"{st['max_speed']:.2f}", f"{st['min_range']:.2f}",
+                  f"{1e3 * st['median_max_noise_displacement']:.3g}", f"{1e3 * st['max_noise_displacement']:.3g}"])
+display(Markdown(markdown_table(["reading", "median of max speed (km/s)", "max speed (km/s)", "min range (km)",
+                                 "median of max displacement by the truth noise (m)",
+                                 "max displacement by the truth noise (m)"], plaus)))
+head_moved = moved[paper.SPACE.headline["H-4"]]
+display(Markdown(
+    f"Over the first {n_truth} runs, under the headline unit the truth's process noise moves the target by a median of "
+    f"{1e3 * head_moved['median_max_noise_displacement']:.0f} m "
+    f"(at most {1e3 * head_moved['max_noise_displacement']:.0f} m)"
+    f" against a radar noise of {1e3 * setup.sigma_r:.0f} m in range and "
+    f"{1e3 * np.radians(setup.sigma_theta_deg) * np.hypot(setup.x0[0], setup.x0[2]):.0f} m "
+    f"across the line of sight at the start, so whether the truth carries it (H-13) is not negligible a priori; "
+    f"the covering design pairs each of its options with every option of every other factor."))
 
 # %% [markdown]
 # ## The headline reading
@@ -245,36 +262,46 @@ display(Markdown(markdown_table(["claim", "verdict", "evidence"],
 # streams, so every universe sees the same truth, measurement and bootstrap draws wherever its reading leaves
 # them alone) — under one reading of the factors above. The full factorial product is too large for the budget, so
 # the design is stated: the headline, every option varied alone, and universes added until every pair of options
-# of every two influential factors occurs (a strength-2 covering array). The run count per universe is printed
-# with the design; every number carries its standard error at that count.
+# of every two factors occurs (a strength-2 covering array; every factor is declared influential). The run count
+# per universe is printed with the design; every number carries its standard error at that count. H-11 only
+# changes how Table 1's errors are averaged, so a universe that differs from another only in H-11 repeats its
+# simulation; the number of distinct simulations is printed with the design.
 
 # %%
 mv = run_multiverse(paper.SPACE, paper.universe, published=paper.PUBLISHED, n_runs=nb.mv_runs, seed=nb.seed,
                     algorithms=paper.MV_ALGORITHMS, design=nb.mv_design, n_runs_paper=paper.N_RUNS_PAPER,
                     workers=nb.workers, progress=PROGRESS)
 print(f"{mv.design.kind} design, {len(mv.universes)} universes of {nb.mv_runs} runs: {mv.design.description}")
+sims = paper.simulations(mv)             # universe indices per distinct simulation (ValueError if H-11 moved a claim)
+print(f"{len(sims)} distinct simulations: {len(mv.universes) - len(sims)} universes repeat another's simulation "
+      f"under a different H-11 (Table 1 metric) reading")
 same_as_headline = nb.mv_runs == nb.n_runs and json.loads(json.dumps(headline)) == mv.headline
 print("headline universe identical to the headline above:", same_as_headline)
 
 # %% [markdown]
-# **Influence.** A factor is declared non-influential (it still appears with every option, but the covering array
-# need not pair its options with the others') when its one-factor universes change no claim verdict and move no
-# Table 1 cell, the key effect or the OBS − CDKF mode-probability difference by one combined standard error. The
-# declaration (H-13, H-1, H-10) was made on the full profile's 100 runs; the table rechecks it on this run.
+# **Influence.** How far each factor's one-factor universes move the results from the headline: the largest change
+# of a Table 1 cell, and of the key effect or the OBS − CDKF mode-probability difference, in combined standard errors
+# $\sqrt{s_a^2 + s_b^2}$, and the claims whose verdict changes. This is a description only: the universes share
+# their random numbers, so they are positively correlated and the combined standard error overstates the standard
+# error of a change (every ratio is a lower bound); and a one-factor change cannot show an interaction. No factor
+# is declared non-influential on this evidence: the covering design pairs every two factors.
 
 # %%
-infl_rows, infl_bad = [], []
+infl_rows, infl_moving = [], []
 for f in paper.SPACE.factors:
     inf = paper.influence(mv, f.id)
     infl_rows.append([f.id, "yes" if f.influential else "no", f"{inf['table1_cells_se']:.2f}", f"{inf['effects_se']:.2f}",
                       "; ".join(inf["claims_changed"]) or "none"])
-    if not f.influential and inf["moves"]:
-        infl_bad.append(f.id)
-display(Markdown(markdown_table(["factor", "declared influential", "largest Table 1 cell change (s.e.)",
-                                 "largest key-effect / mode-probability change (s.e.)", "claims whose verdict changes"],
+    if inf["moves"]:
+        infl_moving.append(f.id)
+display(Markdown(markdown_table(["factor", "declared influential", "largest Table 1 cell change (≥ s.e.)",
+                                 "largest key-effect / mode-probability change (≥ s.e.)", "claims whose verdict changes"],
                                 infl_rows)))
-print("declared non-influential and moving nothing:", "yes" if not infl_bad else f"NO, {infl_bad} move results in "
-      f"this run ({nb.mv_runs} runs per universe)")
+display(Markdown(f"Alone, {len(infl_moving)} of {len(paper.SPACE.factors)} factors move a result by at least one "
+                 f"(lower-bound) standard error or change a claim verdict ({', '.join(infl_moving) or 'none'}); "
+                 f"the others may still act through interactions, which the covering design samples "
+                 f"({'every' if all(f.influential for f in paper.SPACE.factors) else 'NOT every'} factor is "
+                 f"declared influential)."))
 
 # %% [markdown]
 # ### Specification curve of the key effect
@@ -289,14 +316,16 @@ print("declared non-influential and moving nothing:", "yes" if not infl_bad else
 key_pub = paper.published_position_mse("IMMCDKF-OBS") - paper.published_position_mse("IMMCDKF")
 fig = views.specification_curve(mv, paper.KEY_EFFECT, ylabel="Δ position MSE, OBS − CDKF (km², symlog)",
                                 title=f"Does bootstrapping help? OBS − CDKF position MSE per universe ({nb.mv_runs} runs)", published=key_pub, symlog=True)
-helps = paper.bootstrapping_helps(mv)
-key = [mv.effect(u, paper.KEY_EFFECT) for u in mv.universes]
+helps = paper.bootstrapping_helps(mv)                       # one entry per distinct simulation
+sim_universes = [mv.universes[idx[0]] for idx in sims]      # one universe per distinct simulation
+key = [mv.effect(u, paper.KEY_EFFECT) for u in sim_universes]
 n_lower = sum(e["value"] + 3 * e["stderr"] < 0 for e in key)
 n_higher = sum(e["value"] - 3 * e["stderr"] > 0 for e in key)
 nb.show(fig, "extra_specification_curve",
         f"IMMCDKF-OBS is more accurate than IMMCDKF (Table 1 implies {key_pub:.4f} km²).",
-        f"across {len(mv.universes)} universes the OBS−CDKF position MSE is lower by ≥ 3 s.e. in {n_lower}, higher "
-        f"by ≥ 3 s.e. in {n_higher}; the claim holds in {len(helps)} universe(s)"
+        f"across the {len(sims)} distinct simulations of the {len(mv.universes)} universes (the curve shows each "
+        f"universe, so a simulation read under several H-11 options appears more than once) the OBS−CDKF position "
+        f"MSE is lower by ≥ 3 s.e. in {n_lower}, higher by ≥ 3 s.e. in {n_higher}; the claim holds in {len(helps)}"
         + (": " + "; ".join(h[1] for h in helps) if helps else "") + ".")
 
 # %% [markdown]
@@ -310,16 +339,43 @@ nb.show(fig, "extra_specification_curve",
 fig = views.table_match_figure(mv, title=f"Distance of each universe to Table 1's RMSE cells\n"
                                          f"({nb.mv_runs} runs per universe; smaller is closer)")
 tm = mv.table_match()[0]
+sum_text = {k: "∞ or undefined" if tm[k] is None else f"{tm[k]:.3g}" for k in ("best_sum", "headline_sum")}
 nb.show(fig, "extra_table_match", "Table 1 as printed.",
-        f"best-matching reading ({tm['best_describe']}): Σz² = {tm['best_sum']:.3g} over {tm['n_cells']} cells, "
-        f"{tm['best_n_reproduced']} of them reproduced; headline Σz² = {tm['headline_sum']:.3g}.")
+        f"most cells reproduced by one reading: {tm['most_n_reproduced']} of {tm['n_cells']} ({tm['most_describe']}); "
+        + (f"smallest Σz² among the universes with no inconclusive cell: {sum_text['best_sum']} "
+           f"({tm['best_describe']}, {tm['best_n_reproduced']} cells reproduced)"
+           if tm["best_universe"] is not None else "no universe is free of inconclusive cells")
+        + f"; headline Σz² = {sum_text['headline_sum']} ({tm['headline_n_reproduced']} cells reproduced).")
 display(Markdown(views.table_match_table(mv)))
 
 # %% [markdown]
 # ### Claims across the reading space
+#
+# The first table counts universes, as the results file's `claims_summary` does. No claim depends on H-11 (the
+# claims are judged on paired mean squared errors and mode probabilities, never on Table 1's averaging), so the
+# universes that differ only in H-11 repeat one simulated reading and count it more than once. The second table
+# counts each distinct simulation once (stored as `claims_summary_by_simulation`).
 
 # %%
 display(Markdown(views.claims_table(mv)))
+by_sim = paper.claims_summary_by_simulation(mv)
+display(Markdown(markdown_table(
+    ["claim", "headline verdict", f"verdicts across the {len(sims)} distinct simulations", "robust"],
+    [[c["claim"], c["headline_verdict"], ", ".join(f"{k} {n}" for k, n in c["verdict_counts"].items()),
+      "robust" if c["robust"] else "depends on the reading"] for c in by_sim])))
+n_dup = len(mv.universes) - len(sims)
+per_universe = mv.claims_summary()
+flip = [c["claim"] for c, d in zip(per_universe, by_sim) if c["robust"] != d["robust"]]
+ex_u, ex_s = per_universe[0], by_sim[0]                     # the first claim as the worked example
+ex_v = report.claim_category(ex_u["headline_verdict"])
+display(Markdown(
+    f"The design's {len(mv.universes)} universes contain {len(sims)} distinct simulations: {n_dup} universes repeat "
+    f"a simulation under another H-11 reading. For example, *{ex_u['claim']}* is '{ex_v}' in "
+    f"{ex_u['verdict_counts'].get(ex_v, 0)} of {ex_u['n_universes']} universes but in "
+    f"{ex_s['verdict_counts'].get(ex_v, 0)} of {ex_s['n_universes']} distinct simulations. "
+    + (f"Counting each simulation once changes the robustness of {len(flip)} claim(s): "
+       + "; ".join(f"*{c}*" for c in flip) + "." if flip else "Counting each simulation once changes no claim's "
+       "robustness.")))
 
 # %% [markdown]
 # ### Published numbers across the reading space
@@ -348,37 +404,44 @@ display(Markdown(views.one_factor_table(mv, cols)))
 # ### What the reading space says
 
 # %%
-summary = mv.claims_summary()
+summary = by_sim                                           # each distinct simulation once (claims ignore H-11)
 numbers = mv.numbers_summary()
 robust = [c for c in summary if c["robust"]]
 fragile = [c for c in summary if not c["robust"]]
 nees_over = sum(mv.effect(u, "nees_IMMCDKF-OBS")["value"] > mv.effect(u, "nees_IMMCDKF")["value"]
-                for u in mv.universes)
+                for u in sim_universes)
 n_cells_any = sum(s["n_reproduced"] > 0 for s in numbers)
 lines = [
     f"* **Table 1.** {n_cells_any} of its {len(numbers)} RMSE cells are reproduced by at least one of the "
-    f"{len(mv.universes)} universes; no single reading reproduces more than {tm['best_n_reproduced']} of them "
-    f"(best match: {tm['best_describe']}, Σz² = {tm['best_sum']:.3g} against {tm['headline_sum']:.3g} for the "
-    f"headline)." + (" No reading reproduces the table." if tm["best_n_reproduced"] < tm["n_cells"] else ""),
+    f"{len(mv.universes)} universes; "
+    + (f"no reading reproduces any of them." if tm["most_n_reproduced"] == 0 else
+       f"no single reading reproduces more than {tm['most_n_reproduced']} of them (first: {tm['most_describe']}).")
+    + (f" Smallest Σz² (among the {len(mv.universes) - tm['n_excluded_inconclusive']} universes with no "
+       f"inconclusive cell): {tm['best_describe']}, Σz² = {sum_text['best_sum']} against {sum_text['headline_sum']} "
+       f"for the headline." if tm["best_universe"] is not None else " No universe is free of inconclusive cells.")
+    + (" No reading reproduces the table." if tm["most_n_reproduced"] < tm["n_cells"]
+       else " A reading reproduces the whole table."),
     f"* **Does bootstrapping make the estimate more accurate?** "
-    + (f"Yes, under {len(helps)} of {len(mv.universes)} readings: " + "; ".join(
-        f"{d} (Δ MSE {value_pm(v, se, 4)} km²)" for _, d, v, se in helps) + ". Not under the headline."
-       if helps else f"Under none of the {len(mv.universes)} readings.")
-    + f" Its position MSE is lower than IMMCDKF's by ≥ 3 s.e. in {n_lower} universes and higher in {n_higher}.",
-    f"* **Over-confidence.** IMMCDKF-OBS has a larger time-averaged NEES than IMMCDKF in {nees_over} of "
-    f"{len(mv.universes)} universes.",
-    f"* **Robust claim verdicts** ({len(robust)} of {len(summary)}): "
+    + (f"Yes, in {len(helps)} of the {len(sims)} distinct simulations: " + "; ".join(
+        f"{d} (Δ MSE {value_pm(v, se, 4)} km²)" for _, d, v, se in helps)
+       + (". Not under the headline." if all(i != 0 for i, *_ in helps) else ".")
+       if helps else f"In none of the {len(sims)} distinct simulations.")
+    + f" Its position MSE is lower than IMMCDKF's by ≥ 3 s.e. in {n_lower} simulations and higher in {n_higher}.",
+    f"* **Over-confidence.** IMMCDKF-OBS has a larger time-averaged NEES than IMMCDKF in {nees_over} of the "
+    f"{len(sims)} distinct simulations.",
+    f"* **Robust claim verdicts** ({len(robust)} of {len(summary)}, each distinct simulation counted once): "
     + "; ".join(f"*{c['claim']}* — {c['headline_verdict'].split(':')[0]}" for c in robust) + ".",
     f"* **Verdicts that depend on the reading** ({len(fragile)}): "
     + "; ".join(f"*{c['claim']}* — " + ", ".join(f"{k} {n}" for k, n in c["verdict_counts"].items())
                 for c in fragile) + ".",
 ]
-wide = [s for s in numbers if s["closest"] and s["closest"]["verdict"] == report.REPRODUCED
-        and s["closest"]["stderr"] > 0.25 * abs(s["closest"]["replicated"])]
-if wide:
-    lines.append("* Caution: " + "; ".join(f"{s['algorithm']} {s['quantity'].split()[0].lower()}" for s in wide)
-                 + " is 'reproduced' by its closest universe only because that universe's standard error is over "
-                 "a quarter of its value (heavy-tailed runs), not because the value is close.")
+noisy = [s for s in numbers if s["n_inconclusive"]]
+if noisy:
+    lines.append(f"* **Inconclusive values.** In {len(noisy)} cells some universes' values are within 3 s.e. of the "
+                 "printed number only because 3 s.e. exceed 25 % of it (heavy-tailed or diverging runs): "
+                 + "; ".join(f"{s['algorithm']} {s['quantity'].split()[0].lower()} in {s['n_inconclusive']}"
+                             for s in noisy)
+                 + " universes. They never count as reproduced and take no part in the closest or best matches.")
 display(Markdown("\n".join(lines)))
 
 # %% [markdown]
@@ -392,6 +455,8 @@ prov = report.provenance(root_seed=nb.seed, n_runs=nb.n_runs, profile=nb.profile
 report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows, claims=claims.as_list(),
                      deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures,
                      multiverse=mv.as_dict(), headline_universe_matches=same_as_headline,
+                     claims_summary_by_simulation=by_sim,
+                     multiverse_distinct_simulations=[list(idx) for idx in sims],
                      coincidence_max_position_difference_vs_IMMCDKF_km=coincide,
                      nonlinearity_index={"median": float(np.median(nl_index)), "max": float(nl_index.max())},
                      nees_time_average=nees_avg, diverged_runs=diverged,

@@ -211,3 +211,82 @@ def test_timing_rows_and_claims_use_standard_errors():
     verdicts = {c["claim"]: c["verdict"] for c in claims}
     assert verdicts["IMMEKF has the shortest run time (Table 1)"] == "holds"
     assert verdicts["IMMCDKF-OBS costs only slightly more time than IMMCDKF (Sec. 3)"] == "holds"
+
+
+# ------------------------------------------------------------------- influence declarations and the design
+def test_every_factor_is_influential_and_the_design_pairs_them_all():
+    """No factor is declared non-influential (review: H-13's truth noise is not negligible, and the one-factor
+    check cannot license it), so the covering design pairs every option of every two factors -- in particular
+    the noise-free truth with the km reading and with every level of the filters' Q -- within the budget."""
+    import itertools
+    assert all(f.influential for f in paper.SPACE.factors)
+    design = paper.SPACE.design()
+    assert design.kind == "fractional" and len(design) <= paper.SPACE.budget
+    for a, b in itertools.combinations(paper.SPACE.factors, 2):
+        for x in a.names:
+            for y in b.names:
+                assert any(r[a.id] == x and r[b.id] == y for r in design.readings), (a.id, x, b.id, y)
+    without = [r for r in design.readings if r["H-13"] == "without"]
+    assert any(r["H-4"] == "km" for r in without)
+    assert {r["H-14"] for r in without} == set(paper.SPACE.factor("H-14").names)
+
+
+def test_truth_noise_moves_the_target_tens_of_metres():
+    """The reason H-13 is influential, measured: over the first 50 runs the truth's process noise moves the
+    target from the noise-free truth by a median of tens of metres under m^2/s^4 (not '< 1 m'), exactly
+    sqrt(1e6) = 1e3 times more under km^2/s^4 (same draws), and not at all without process noise."""
+    mc = _MC(paper.ROOT_SEED, 50)
+    st = {u: paper.truth_statistics(paper.SPACE.with_headline(**{"H-4": u}), mc, 50) for u in ("m", "km")}
+    assert 0.02 < st["m"]["median_max_noise_displacement"] < 0.1          # km: 43 m measured
+    assert st["m"]["max_noise_displacement"] > 0.1                         # 149 m measured
+    np.testing.assert_allclose(st["km"]["median_max_noise_displacement"],
+                               1e3 * st["m"]["median_max_noise_displacement"], rtol=1e-9)
+    calm = paper.truth_statistics(paper.SPACE.with_headline(**{"H-13": "without"}), mc, 50)
+    assert calm["max_noise_displacement"] == 0.0
+
+
+# ------------------------------------------------------------------- metric-only factor H-11
+def _fake_multiverse(verdicts_by_reading, key_values):
+    """A Multiverse of hand-made universes: reading changes -> claim verdict of the one claim, key effect."""
+    from mmlib.experiment.multiverse import Multiverse
+    from mmlib.experiment.readings import Design
+    readings, universes = [], []
+    for (changes, verdict), value in zip(verdicts_by_reading, key_values):
+        readings.append(paper.SPACE.with_headline(**changes))
+        universes.append({"values": [], "claims": [
+            {"claim": "IMMCDKF-OBS is more accurate than IMMCDKF: bootstrapped observations", "verdict": verdict}],
+            "effects": [{"name": paper.KEY_EFFECT, "value": value, "stderr": 0.001, "published": None}],
+            "diverged": {}, "n_runs": 10})
+    return Multiverse(paper.SPACE, Design("star", "hand-made", tuple(readings)), universes, (), 10)
+
+
+def test_claims_are_counted_once_per_distinct_simulation():
+    """Universes that differ only in H-11 are one simulation: counted once.  Hand-computed: 5 universes,
+    3 simulations (headline x3 metrics, H-6, H-7): per universe 'holds' 3 of 5 and 'contradicted' 2, per
+    simulation 'holds' 1 of 3 and 'contradicted' 2 of 3 (not robust either way)."""
+    mv = _fake_multiverse([({}, "holds"), ({"H-11": "mean_over_runs"}, "holds"), ({"H-11": "rms_runs_steps"}, "holds"),
+                           ({"H-6": "(2sigma)2"}, "contradicted"), ({"H-7": "product"}, "contradicted")],
+                          [-0.01, -0.01, -0.01, 0.01, 0.02])
+    assert paper.simulations(mv) == [[0, 1, 2], [3], [4]]
+    per_universe = mv.claims_summary()[0]
+    by_sim = paper.claims_summary_by_simulation(mv)[0]
+    assert per_universe["verdict_counts"] == {"holds": 3, "contradicted": 2} and per_universe["n_universes"] == 5
+    assert by_sim["verdict_counts"] == {"holds": 1, "contradicted": 2} and by_sim["n_universes"] == 3
+    assert not by_sim["robust"]
+    helps = paper.bootstrapping_helps(mv)
+    assert [(i, d) for i, d, _, _ in helps] == [(0, "headline")]            # once, not three times
+
+
+def test_a_metric_only_factor_that_moves_a_claim_is_an_error():
+    mv = _fake_multiverse([({}, "holds"), ({"H-11": "mean_over_runs"}, "contradicted")], [-0.01, -0.01])
+    with pytest.raises(ValueError, match="H-11"):
+        paper.simulations(mv)
+    mv = _fake_multiverse([({}, "holds"), ({"H-11": "mean_over_runs"}, "holds")], [-0.01, -0.02])
+    with pytest.raises(ValueError, match="effect"):
+        paper.simulations(mv)
+
+
+def test_describe_simulation_leaves_out_the_metric_only_factor():
+    r = paper.SPACE.with_headline(**{"H-11": "rms_runs_steps", "H-6": "(2sigma)2"})
+    assert "H-11" not in paper.describe_simulation(r) and "H-6" in paper.describe_simulation(r)
+    assert paper.simulation_key(r) == paper.simulation_key({**r, "H-11": "mean_over_steps"})
