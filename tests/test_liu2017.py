@@ -193,4 +193,68 @@ def test_findings_state_the_onset_reading_from_the_data():
     pos = [p for p in paper.PUBLISHED if p.table == "Table 1" and p.quantity.startswith("Position")]
     reproduced = [all(mv.number_verdict(p, u) == report.REPRODUCED for p in pos) for u in universes]
     assert ("consistent with the maneuver starting at t = 100 s" in text) == (reproduced == [False, True])
+    assert ("its velocity column is" in text) == any(reproduced)      # the other columns are always reported
     assert "Claims." in text and "robust" in text
+
+
+# -- Table 2's complexity rows are judged from the counts -------------------------------------------------------
+def test_printed_complexity_orders_are_read_from_the_text():
+    assert paper.printed_complexity_orders("O((2n+2)^3)") == (3, 3)
+    assert paper.printed_complexity_orders("O(n^2)") == (0, 2)
+    assert paper.printed_complexity_orders("O((2n+1) n^2)") == (1, 3)
+    with pytest.raises(ValueError, match="complexity"):
+        paper.printed_complexity_orders("cubic")
+
+
+def test_complexity_rows_follow_the_counts_not_a_constant():
+    """As printed (cube of the points; O(n^2) for the EKF-based STF) every row is not reproduced; a complexity
+    linear in the points and cubic in n, which the counts give, would be reproduced; and counts whose evaluations
+    grew with the cube of the points would make the printed column reproduced."""
+    rows = paper.complexity_rows()
+    assert [r.algorithm for r in rows] == list(paper.FILTERS)
+    assert all(report.verdict_category(r.verdict) == report.NOT_REPRODUCED for r in rows)
+    assert "slope 1.00" in rows[-1].note and "order 3 in n" in rows[1].note
+    linear = {a: ("O(n^3)" if a == "STF" else t.replace("^3", " n^2")) for a, t in paper.TABLE2_COMPLEXITY.items()}
+    assert all(r.verdict == report.REPRODUCED for r in paper.complexity_rows(printed=linear))
+    cubic = {a: (p, c, p ** 3, 2 * p ** 3, k) if p else (p, c, f, h, k)
+             for a, (p, c, f, h, k) in paper.TABLE2_COUNTS.items()}
+    verdicts = {r.algorithm: r.verdict for r in paper.complexity_rows(counts=cubic)}
+    assert all(verdicts[a] == report.REPRODUCED for a in paper.FILTERS if a != "STF")
+    assert report.verdict_category(verdicts["STF"]) == report.NOT_REPRODUCED     # O(n^2) vs F P F^T
+
+
+# -- findings: most cells any reading reproduces vs the forensic best match -------------------------------------
+def _synthetic_universe(template, table1_offsets):
+    """A copy of ``template`` whose Table 1 cells sit ``table1_offsets[algorithm, quantity]`` combined standard
+    errors from the printed value (stderr 0.1 at 200 runs)."""
+    u = json.loads(json.dumps(template))
+    u["n_runs"] = paper.N_RUNS_PAPER
+    for v in u["values"]:
+        if v["item"] != "Table 1":
+            continue
+        qi = [q for q, _ in paper.QUANTITIES].index(v["quantity"])
+        printed = paper.TABLE1[v["algorithm"]][qi]
+        sigma = 1.0 / report.standardized_distance(printed, float(printed) + 1.0, 0.1, 200, 200)
+        v["replicated"], v["stderr"] = float(printed) + table1_offsets(v["algorithm"], v["quantity"]) * sigma, 0.1
+    return u
+
+
+def test_findings_separate_most_reproduced_from_best_match():
+    readings = (paper.SPACE.headline, paper.SPACE.with_headline(**{"L-1": "100s"}),
+                paper.SPACE.with_headline(**{"L-4": "0"}))
+    template = paper.universe(readings[0], 4, paper.ROOT_SEED)
+    first = (paper.FILTERS[0], paper.QUANTITIES[1][0])                               # SSRCKF velocity
+    many = _synthetic_universe(template, lambda a, q: 20.0 if (a, q) == first else 0.0)   # 14 cells, Σz² 400
+    close = _synthetic_universe(template, lambda a, q: 3.5)                                # 0 cells, Σz² 184
+    mv = Multiverse(paper.SPACE, Design("star", "test", readings), [template, many, close], paper.PUBLISHED,
+                    paper.N_RUNS_PAPER, paper.N_RUNS_PAPER)
+    t1 = [t for t in mv.table_match() if t["table"] == "Table 1"][0]
+    assert (t1["most_universe"], t1["most_n_reproduced"], t1["best_universe"], t1["best_n_reproduced"]) == (1, 14, 2, 0)
+    text = paper.findings(mv)
+    assert "the most cells any one reading reproduces is 14 of 15" in text
+    assert f"is *{mv.space.describe(readings[2])}*" in text and "reproducing 0 cells" in text
+    assert "No declared reading reproduces a whole table." in text
+    # universe 1 reproduces the position and acceleration columns, but not SSRCKF's velocity: said, from the data
+    assert "its velocity column is reproduced in 4 of 5 cells only" in text
+    assert "its acceleration column is reproduced:" in text
+    assert "not a reproduction of Table 1 as a whole" in text
