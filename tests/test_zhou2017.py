@@ -164,3 +164,41 @@ def test_an_algorithm_diverged_in_every_run_is_not_reproduced_and_matches_no_tab
     assert mv.number_verdict(pub, u).startswith("not reproduced: diverged")
     assert mv.distance(pub, u) == float("inf")
     assert [t["best_sum"] for t in mv.table_match() if t["table"] == "Table 3"] == [None]
+
+
+def test_section23_claim_verdicts_are_computed_from_the_moments(monkeypatch):
+    """The Sec. 2.3 claims are judged against the mixture's moments by quadrature: MSE is exact (no
+    overestimation), CP's variance is far off, so both claims are contradicted; were CP's variance the
+    mixture's, the 'CP is accurate' part would no longer be contradicted."""
+    from mmlib import report
+    m = paper.section23_moments()
+    assert m["mixture_var"] == pytest.approx(m["mse_sd"] ** 2, abs=1e-9)
+    assert m["cp_sd"] ** 2 == pytest.approx(sum(u * u * s * s for u, s in zip(paper.EXAMPLE_U, paper.EXAMPLE_SD)))
+    claims = paper.section23_claims()
+    for key in ("overestimates", "second order"):
+        assert report.claim_category(claims[key][0]) == report.CONTRADICTED
+    fake = dict(m, cp_sd=m["mse_sd"])
+    monkeypatch.setattr(paper, "section23_moments", lambda: fake)
+    assert report.claim_category(paper.section23_claims()["second order"][0]) == report.NOT_SUPPORTED
+
+
+def test_gamma_factor_changes_truth_and_filter_noise_and_ukf_factor_leaves_ekf_ckf_shared():
+    sched_d, _, est_d = paper.build(paper.Setup())
+    sched_i, _, est_i = paper.build(paper.Setup(noise_gain="identity"))
+    np.testing.assert_allclose(sched_i.models[0].Q, 5.0 * np.eye(4))
+    np.testing.assert_allclose(est_i["IMM-UKF"].dynamics[0].Q, 5.0 * np.eye(4))
+    assert not np.allclose(sched_d.models[0].Q, sched_i.models[0].Q)
+    with pytest.raises(ValueError, match="noise_gain"):
+        paper.Setup(noise_gain="unit")
+    mc = MonteCarlo(paper.ROOT_SEED, 2)
+    s = paper.Setup()
+    scaled = _replace(s, ukf=(1e-3, 2.0, 0.0))
+    assert paper.evaluate_algorithm(s, "IMM-EKF", mc) is paper.evaluate_algorithm(scaled, "IMM-EKF", mc)
+    assert paper.evaluate_algorithm(s, "IMM-UKF", mc) is not paper.evaluate_algorithm(scaled, "IMM-UKF", mc)
+
+
+def test_design_is_the_stated_fractional_one_within_budget():
+    d = SPACE.design()
+    assert SPACE.size == 1152 and d.kind == "fractional" and len(d) <= SPACE.budget
+    for f in SPACE.factors:
+        assert {r[f.id] for r in d.readings} == set(f.names)
