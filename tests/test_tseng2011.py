@@ -78,7 +78,7 @@ def test_filter_only_factors_share_truth_and_measurements_and_noise_factors_shar
         return ex, truth, z
 
     _, truth0, z0 = batch(paper.SPACE.headline)
-    for fid, opt in (("T-7", "0.1/10"), ("T-8", "below"), ("T-10a", "measurement"), ("T-10b", "x2"),
+    for fid, opt in (("T-7", "0.1/10"), ("T-8", "below"), ("T-9", "0.95"), ("T-10a", "measurement"), ("T-10b", "x2"),
                      ("T-11", "16")):
         _, truth, z = batch(paper.SPACE.with_headline(**{fid: opt}))
         assert np.array_equal(truth, truth0), fid
@@ -182,3 +182,96 @@ def test_rows_with_values_are_judged_by_the_rule_and_claims_use_the_vocabulary()
     assert key["published"] == pytest.approx(-12.71187878, abs=1e-8)
     verdict, _ = paper.ekf_claim(short_joint(SHORT, ("UKF", "EKF"), 2))[0]
     assert report.claim_category(verdict) == report.NOT_ASSESSABLE
+
+
+# --------------------------------------------------------------------------- claimed sizes
+def _reduction_row(replicated, stderr, printed="62.32"):
+    return report.make_row(paper.ITEM, "IMMUKF vs UKF", "East RMS reduction (%)", printed, replicated, stderr, n_runs=25)
+
+
+def test_a_claimed_size_excluded_by_many_standard_errors_is_contradicted_not_unsupported():
+    kind = (lambda part: part.split(" (")[0])
+    # the headline's case: 8.0 +- 0.1 % against a printed 62.32 %: hundreds of s.e. below
+    assert [kind(p) for p in paper.size_parts([_reduction_row(8.0, 0.1)])] == ["contradicted"]
+    assert report.combine_claim_verdicts(paper.size_parts([_reduction_row(8.0, 0.1), _reduction_row(1.0, 0.1,
+                                                                                                    "66.02")])) \
+        == report.CONTRADICTED
+    # reproduced, or within the 25 % band of the number rule: the claimed size is preserved
+    assert kind(paper.size_parts([_reduction_row(62.1, 0.1)])[0]) == "holds"
+    assert kind(paper.size_parts([_reduction_row(50.0, 0.1)])[0]) == "holds"
+    # larger than claimed by far: the improvement is at least the claimed one
+    assert kind(paper.size_parts([_reduction_row(95.0, 0.1)])[0]) == "holds"
+    # too noisy to tell (inconclusive under the number rule): no detectable difference, 'not supported'
+    noisy = _reduction_row(55.0, 8.0)
+    assert report.verdict_category(noisy.verdict) == report.INCONCLUSIVE
+    assert kind(paper.size_parts([noisy])[0]) == "no detectable difference"
+    assert report.claim_category(report.combine_claim_verdicts(paper.size_parts([noisy]))) == report.NOT_SUPPORTED
+    mixed = report.combine_claim_verdicts(paper.size_parts([_reduction_row(62.1, 0.1), _reduction_row(8.0, 0.1)]))
+    assert report.claim_category(mixed) == report.PARTLY
+
+
+def test_remarkable_improvement_combines_direction_and_size_parts():
+    results = short_joint(SHORT, paper.ALGORITHMS, 4)
+    a = paper.assess(results, 4)
+    by = {c["claim"]: c["verdict"] for c in a["claims"]}
+    red = {(r.algorithm, r.quantity.split()[0]): r for r in a["rows"] if "reduction" in r.quantity}
+    direction, _ = paper.direction_parts(results, "FUZZY-IMMUKF", "IMMUKF")
+    size = paper.size_parts([red[("FUZZY-IMMUKF vs IMMUKF", lab)] for lab, _, _ in paper.AXES])
+    assert by["FUZZY-IMMUKF shows remarkable improvement over IMMUKF (abstract)"] == \
+        report.combine_claim_verdicts(direction + size)
+    assert by["FUZZY-IMMUKF's errors are about 66-68 % below IMMUKF's (table)"] == report.combine_claim_verdicts(size)
+    # the direction parts agree with the library's paired comparison
+    assert report.combine_claim_verdicts(direction).split(":")[0] == \
+        evaluation.better_claim(results, "FUZZY-IMMUKF", "IMMUKF", [(l, c) for l, _, c in paper.AXES])[0].split(":")[0]
+
+
+# --------------------------------------------------------------------------- T-5, T-9, T-12
+def test_clock_and_markov_chain_are_influential_factors_and_the_held_fixed_changes_are_no_factor():
+    ids = {f.id: f for f in paper.SPACE.factors}
+    assert ids["T-5"].influential and ids["T-9"].influential
+    assert {o.name for o in ids["T-9"].options} == {"0.99", "0.95", "0.996"}
+    # the full profile runs the strength-2 covering array and nothing more (the wall-time budget)
+    design = paper.SPACE.design("auto")
+    assert design.kind == "fractional" and len(design) == len(paper.SPACE.covering()) <= paper.SPACE.budget
+    assert paper.setups(paper.SPACE.with_headline(**{"T-5": "OCXO"})).clock_h_minus2 == paper.CLOCKS["OCXO"][1]
+    factor_fields = {k for f in paper.SPACE.factors for o in f.options for k in o.changes}
+    for changes in paper.NON_INFLUENTIAL.values():
+        assert not set(changes) & factor_fields
+    # the clock reshapes the truth clock's draws only: positions and pseudorange-noise draws are shared
+    n = 2
+    mc = MonteCarlo(paper.ROOT_SEED, n)
+    out = {}
+    for opt in ("TCXO", "OCXO"):
+        ex = paper.experiment(paper.setups(paper.SPACE.with_headline(**{"T-5": opt})), names=("UKF",))
+        truth, z, _ = paper.make_batch_fn(ex, mc)(range(n))
+        out[opt] = (truth, [zk - m.h(truth[:, k + 1]) for k, (zk, m) in enumerate(zip(z, ex.measurement_models))])
+    assert np.array_equal(out["TCXO"][0][..., :6], out["OCXO"][0][..., :6])
+    assert not np.array_equal(out["TCXO"][0][..., 6:], out["OCXO"][0][..., 6:])
+    for k in (0, 900, 1799):
+        np.testing.assert_allclose(out["TCXO"][1][k], out["OCXO"][1][k], rtol=0, atol=1e-6)
+
+
+def test_held_fixed_initial_conditions_move_no_value_by_one_standard_error():
+    """T-9's initial mode probabilities and T-12's P0 are held fixed because they cannot move a result:
+    on the full set-up (common random numbers) no value or effect moves by 1 s.e. and no claim verdict
+    changes.  A positive control (p_ii = 0.95, a declared factor) does move values by many s.e."""
+    n = 10
+    mc = MonteCarlo(paper.ROOT_SEED, n)
+
+    def universe(**changes):
+        setup = paper.replace(paper.Setup(), **changes)
+        return paper.summarise({name: paper._evaluate_one(paper._canonical(setup, name), name, paper.ROOT_SEED, n,
+                                                          False) for name in paper.ALGORITHMS}, n)
+
+    def largest_shift(u, head):
+        z = [abs(b["replicated"] - a["replicated"]) / a["stderr"] for a, b in zip(head["values"], u["values"])]
+        z += [abs(b["value"] - a["value"]) / a["stderr"] for a, b in zip(head["effects"], u["effects"])]
+        return max(z)
+
+    head = universe()
+    for label, changes in paper.NON_INFLUENTIAL.items():
+        u = universe(**changes)
+        assert largest_shift(u, head) < 1.0, label
+        assert [report.claim_category(c["verdict"]) for c in u["claims"]] == \
+            [report.claim_category(c["verdict"]) for c in head["claims"]], label
+    assert largest_shift(universe(p_stay=0.95), head) > 3.0
