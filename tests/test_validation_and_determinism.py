@@ -111,8 +111,11 @@ def test_verdict_rule():
     assert report.verdict("2.50", 2.80, 0.01, 100, 100) == report.QUALITATIVE
     assert report.verdict("2.50", 4.0, 0.01, 100, 100) == report.NOT_REPRODUCED
     assert report.verdict("2.50", None, None, reason="method not specified").startswith(report.NOT_REPLICABLE)
-    # the printed precision counts: '3' is known only to +-0.5
-    assert report.verdict("3", 3.4, 0.0) == report.REPRODUCED
+    # the printed precision counts: '3.0' is known to +-0.05, '3' only to +-0.5 -- so widely that 3.4 cannot be
+    # told from a 25 % discrepancy (3 x 0.5 > 0.25 x 3): inconclusive, never 'reproduced'
+    assert report.verdict("3.0", 3.1, 0.0) == report.REPRODUCED
+    assert report.verdict("3.0", 3.2, 0.0) == report.QUALITATIVE
+    assert report.verdict("3", 3.4, 0.0).startswith(report.INCONCLUSIVE)
     assert report.claim_verdict(-1.0, 0.1, -1) == "holds"
     assert report.claim_verdict(1.0, 0.1, -1) == "contradicted"
     assert report.claim_verdict(0.1, 0.1, -1) == "no detectable difference"
