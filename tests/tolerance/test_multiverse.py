@@ -67,8 +67,10 @@ def test_smoke_universes_within_monte_carlo_error_of_committed(paper):
         fv = {(v["item"], v["algorithm"], v["quantity"]): v for v in f["values"]}
         for v in s["values"]:
             w = fv[(v["item"], v["algorithm"], v["quantity"])]
-            if v["replicated"] is None or w["replicated"] is None:
-                assert v["replicated"] is None and w["replicated"] is None, (key, v)
+            if w["replicated"] is None:           # every committed run diverged: so did every run of the prefix
+                assert v["replicated"] is None, (key, v, w)
+                continue
+            if v["replicated"] is None:           # every smoke run diverged, some later run did not
                 continue
             band = 4.0 * math.hypot(v["stderr"] or 0.0, w["stderr"] or 0.0)
             assert abs(v["replicated"] - w["replicated"]) <= band, (key, v, w, band)
@@ -98,8 +100,8 @@ def test_headline_universe_is_the_notebook_headline(paper, profile):
             continue
         if exact:
             assert v["replicated"] == r["replicated"] and v["stderr"] == r["stderr"], (v, r)
-        elif v["replicated"] is None or r["replicated"] is None:
-            assert v["replicated"] is None and r["replicated"] is None, (v, r)
+        elif r["replicated"] is None or v["replicated"] is None:   # the universe's runs are a prefix of the notebook's
+            assert r["replicated"] is not None or v["replicated"] is None, (v, r)
         else:
             band = 4.0 * math.hypot(v["stderr"] or 0.0, r["stderr"] or 0.0)
             assert abs(v["replicated"] - r["replicated"]) <= band, (v, r, band)
