@@ -272,7 +272,7 @@ mv = run_multiverse(paper.SPACE, paper.universe, published=paper.PUBLISHED, n_ru
                     algorithms=paper.MV_ALGORITHMS, design=nb.mv_design, n_runs_paper=paper.N_RUNS_PAPER,
                     workers=nb.workers, progress=PROGRESS)
 print(f"{mv.design.kind} design, {len(mv.universes)} universes of {nb.mv_runs} runs: {mv.design.description}")
-sims = paper.simulations(mv)             # universe indices per distinct simulation (ValueError if H-11 moved a claim)
+sims = mv.simulations()                  # universe indices per distinct simulation (ValueError if H-11 moved a claim)
 print(f"{len(sims)} distinct simulations: {len(mv.universes) - len(sims)} universes repeat another's simulation "
       f"under a different H-11 (Table 1 metric) reading")
 same_as_headline = nb.mv_runs == nb.n_runs and json.loads(json.dumps(headline)) == mv.headline
@@ -351,31 +351,15 @@ display(Markdown(views.table_match_table(mv)))
 # %% [markdown]
 # ### Claims across the reading space
 #
-# The first table counts universes, as the results file's `claims_summary` does. No claim depends on H-11 (the
-# claims are judged on paired mean squared errors and mode probabilities, never on Table 1's averaging), so the
-# universes that differ only in H-11 repeat one simulated reading and count it more than once. The second table
-# counts each distinct simulation once (stored as `claims_summary_by_simulation`).
+# H-11 is declared *metric-only*: it changes how Table 1's errors are averaged, never the simulation, the claims or
+# the effects (the library checks this for every universe). Universes that differ only in H-11 therefore repeat
+# one simulated reading, and the claims are counted once per distinct simulation.
 
 # %%
 display(Markdown(views.claims_table(mv)))
-by_sim = paper.claims_summary_by_simulation(mv)
-display(Markdown(markdown_table(
-    ["claim", "headline verdict", f"verdicts across the {len(sims)} distinct simulations", "robust"],
-    [[c["claim"], c["headline_verdict"], ", ".join(f"{k} {n}" for k, n in c["verdict_counts"].items()),
-      "robust" if c["robust"] else "depends on the reading"] for c in by_sim])))
 n_dup = len(mv.universes) - len(sims)
-per_universe = mv.claims_summary()
-flip = [c["claim"] for c, d in zip(per_universe, by_sim) if c["robust"] != d["robust"]]
-ex_u, ex_s = per_universe[0], by_sim[0]                     # the first claim as the worked example
-ex_v = report.claim_category(ex_u["headline_verdict"])
-display(Markdown(
-    f"The design's {len(mv.universes)} universes contain {len(sims)} distinct simulations: {n_dup} universes repeat "
-    f"a simulation under another H-11 reading. For example, *{ex_u['claim']}* is '{ex_v}' in "
-    f"{ex_u['verdict_counts'].get(ex_v, 0)} of {ex_u['n_universes']} universes but in "
-    f"{ex_s['verdict_counts'].get(ex_v, 0)} of {ex_s['n_universes']} distinct simulations. "
-    + (f"Counting each simulation once changes the robustness of {len(flip)} claim(s): "
-       + "; ".join(f"*{c}*" for c in flip) + "." if flip else "Counting each simulation once changes no claim's "
-       "robustness.")))
+display(Markdown(f"The design's {len(mv.universes)} universes contain {len(sims)} distinct simulations: {n_dup} "
+                 f"universes repeat a simulation under another H-11 reading and are counted once above."))
 
 # %% [markdown]
 # ### Published numbers across the reading space
@@ -404,7 +388,7 @@ display(Markdown(views.one_factor_table(mv, cols)))
 # ### What the reading space says
 
 # %%
-summary = by_sim                                           # each distinct simulation once (claims ignore H-11)
+summary = mv.claims_summary()                              # each distinct simulation once (claims ignore H-11)
 numbers = mv.numbers_summary()
 robust = [c for c in summary if c["robust"]]
 fragile = [c for c in summary if not c["robust"]]
@@ -455,8 +439,6 @@ prov = report.provenance(root_seed=nb.seed, n_runs=nb.n_runs, profile=nb.profile
 report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows, claims=claims.as_list(),
                      deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures,
                      multiverse=mv.as_dict(), headline_universe_matches=same_as_headline,
-                     claims_summary_by_simulation=by_sim,
-                     multiverse_distinct_simulations=[list(idx) for idx in sims],
                      coincidence_max_position_difference_vs_IMMCDKF_km=coincide,
                      nonlinearity_index={"median": float(np.median(nl_index)), "max": float(nl_index.max())},
                      nees_time_average=nees_avg, diverged_runs=diverged,

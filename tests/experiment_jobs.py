@@ -39,3 +39,19 @@ def toy_universe(reading, n_runs, seed):
 
 def not_a_dict(reading, n_runs, seed):
     return [1, 2, 3]
+
+
+#: the toy space with a metric-only factor M: it changes only how the reported s.d. is computed
+METRIC_SPACE = ReadingSpace("toy-metric", SPACE.factors + (
+    Factor("M", "which s.d. estimator", (Option("unbiased", "ddof = 1", "Table 1", {"ddof": 1}),
+                                         Option("ml", "ddof = 0", "Eq. 9", {"ddof": 0})), "unbiased", "Table 1",
+           metric_only=True),))
+
+
+def metric_universe(reading, n_runs, seed):
+    ch = METRIC_SPACE.changes(reading)
+    base = toy_universe({k: v for k, v in reading.items() if k != "M"}, n_runs, seed)
+    mc = MonteCarlo(seed, n_runs)
+    x = ch["bias"] + ch["scale"] * mc.standard_normal(range(n_runs), Stream.TRUTH, ())
+    base["values"][1]["replicated"] = float(np.std(x, ddof=ch["ddof"]))
+    return base

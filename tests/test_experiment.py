@@ -436,3 +436,24 @@ def test_fractional_design_spends_the_budget_on_three_factor_combinations():
     dr = roomy.design()
     assert _triples(roomy, dr.readings) == full_triples and len(dr) < 15
     assert "three-factor" in d.description and "budget of 20" in d.description
+
+
+def test_metric_only_factor_counts_each_simulation_once(tmp_path):
+    mv = run_multiverse(toy.METRIC_SPACE, toy.metric_universe, published=toy.PUBLISHED, n_runs=1600, seed=3,
+                        algorithms=["alg"], design="full", n_runs_paper=6400, cache_dir=tmp_path, progress=False,
+                        workers=1)
+    assert len(mv.universes) == 24 and len(mv.simulations()) == 12
+    (c,) = mv.claims_summary()
+    assert c["n_universes"] == 24 and c["n_simulations"] == 12 and sum(c["verdict_counts"].values()) == 12
+    assert mv.as_dict()["n_simulations"] == 12
+    r = toy.METRIC_SPACE.with_headline(M="ml", B="s2")
+    assert toy.METRIC_SPACE.simulation_key(r) == toy.METRIC_SPACE.simulation_key({**r, "M": "unbiased"})
+    assert toy.METRIC_SPACE.describe_simulation(r) == "B: scale 2"
+    # the values may differ between the metric readings of one simulation ...
+    a, b = (mv.universes[i] for i in mv.simulations()[0])
+    assert a["values"][1] != b["values"][1]
+    # ... but a claim that differs is a declaration error
+    b["claims"] = [{"claim": b["claims"][0]["claim"], "verdict": "holds"}] if a["claims"][0]["verdict"] != "holds" \
+        else [{"claim": b["claims"][0]["claim"], "verdict": "contradicted"}]
+    with pytest.raises(ValueError, match="metric-only"):
+        mv.simulations()

@@ -261,32 +261,32 @@ def _fake_multiverse(verdicts_by_reading, key_values):
 
 
 def test_claims_are_counted_once_per_distinct_simulation():
-    """Universes that differ only in H-11 are one simulation: counted once.  Hand-computed: 5 universes,
-    3 simulations (headline x3 metrics, H-6, H-7): per universe 'holds' 3 of 5 and 'contradicted' 2, per
-    simulation 'holds' 1 of 3 and 'contradicted' 2 of 3 (not robust either way)."""
+    """H-11 is metric-only, so universes that differ only in it are one simulation: counted once.  Hand-computed:
+    5 universes, 3 simulations (headline x3 metrics, H-6, H-7): per simulation 'holds' 1 of 3 and 'contradicted'
+    2 of 3 (per universe it would be 3 of 5 and 2 of 5); not robust either way."""
+    assert [f.id for f in paper.SPACE.factors if f.metric_only] == ["H-11"]
     mv = _fake_multiverse([({}, "holds"), ({"H-11": "mean_over_runs"}, "holds"), ({"H-11": "rms_runs_steps"}, "holds"),
                            ({"H-6": "(2sigma)2"}, "contradicted"), ({"H-7": "product"}, "contradicted")],
                           [-0.01, -0.01, -0.01, 0.01, 0.02])
-    assert paper.simulations(mv) == [[0, 1, 2], [3], [4]]
-    per_universe = mv.claims_summary()[0]
-    by_sim = paper.claims_summary_by_simulation(mv)[0]
-    assert per_universe["verdict_counts"] == {"holds": 3, "contradicted": 2} and per_universe["n_universes"] == 5
-    assert by_sim["verdict_counts"] == {"holds": 1, "contradicted": 2} and by_sim["n_universes"] == 3
-    assert not by_sim["robust"]
+    assert mv.simulations() == [[0, 1, 2], [3], [4]]
+    summary = mv.claims_summary()[0]
+    assert summary["verdict_counts"] == {"holds": 1, "contradicted": 2}
+    assert summary["n_simulations"] == 3 and summary["n_universes"] == 5 and not summary["robust"]
     helps = paper.bootstrapping_helps(mv)
     assert [(i, d) for i, d, _, _ in helps] == [(0, "headline")]            # once, not three times
 
 
 def test_a_metric_only_factor_that_moves_a_claim_is_an_error():
     mv = _fake_multiverse([({}, "holds"), ({"H-11": "mean_over_runs"}, "contradicted")], [-0.01, -0.01])
-    with pytest.raises(ValueError, match="H-11"):
-        paper.simulations(mv)
+    with pytest.raises(ValueError, match="metric-only"):
+        mv.simulations()
     mv = _fake_multiverse([({}, "holds"), ({"H-11": "mean_over_runs"}, "holds")], [-0.01, -0.02])
     with pytest.raises(ValueError, match="effect"):
-        paper.simulations(mv)
+        mv.simulations()
 
 
 def test_describe_simulation_leaves_out_the_metric_only_factor():
     r = paper.SPACE.with_headline(**{"H-11": "rms_runs_steps", "H-6": "(2sigma)2"})
-    assert "H-11" not in paper.describe_simulation(r) and "H-6" in paper.describe_simulation(r)
-    assert paper.simulation_key(r) == paper.simulation_key({**r, "H-11": "mean_over_steps"})
+    assert "H-11" not in paper.SPACE.describe_simulation(r) and "H-6" in paper.SPACE.describe_simulation(r)
+    assert paper.SPACE.simulation_key(r) == paper.SPACE.simulation_key({**r, "H-11": "mean_over_steps"})
+    assert paper.SPACE.simulation_key(r) != paper.SPACE.simulation_key({**r, "H-6": "2sigma2"})

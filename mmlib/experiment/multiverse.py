@@ -18,7 +18,8 @@ object of ``data/results/<paper>.json``:
 * ``factors``, ``design``, ``design_description``, ``n_universes``, ``n_runs``;
 * ``universes``: [{``reading``, ``values``, ``claims``, ``effects``, ``diverged``}];
 * ``claims_summary``: per claim, the headline verdict, the count of each verdict across the
-  universes, and ``robust`` (one verdict in at least 90 % of them);
+  distinct simulations (universes that differ only in metric-only factors count once), and
+  ``robust`` (one verdict in at least 90 % of them);
 * ``numbers_summary``: per published number, the headline verdict, ``n_reproduced`` (universes
   whose value is *reproduced* under the one verdict rule) and ``closest``, the universe of
   smallest standardized distance, with its reading and verdict;
@@ -159,10 +160,32 @@ class Multiverse:
                                             self.n_runs_paper)
 
     # -- summaries --------------------------------------------------------------------------------------------
+    def simulations(self) -> list:
+        """The distinct simulations: lists of universe indices whose readings differ only in metric-only
+        factors, in order of first appearance (the headline's first).  ValueError if the universes of one
+        simulation disagree in a claim verdict, an effect or a divergence count (a metric-only factor must
+        change none of them)."""
+        groups: dict = {}
+        for i, r in enumerate(self.readings):
+            groups.setdefault(self.space.simulation_key(r), []).append(i)
+        for idx in groups.values():
+            first = self.universes[idx[0]]
+            for i in idx[1:]:
+                u = self.universes[i]
+                if (u["claims"], u["effects"], u["diverged"]) != (first["claims"], first["effects"], first["diverged"]):
+                    raise ValueError(f"universes {idx[0]} and {i} differ only in metric-only factors but not only in "
+                                     f"their values: a metric-only factor changed a claim, an effect or a divergence")
+        return list(groups.values())
+
     def claims_summary(self) -> list:
+        """Per claim of the headline: the verdict counts over the distinct simulations (each once, whatever
+        its number of metric-only readings; without metric-only factors, one per universe) and ``robust``
+        when one verdict holds in at least ``ROBUST_FRACTION`` of them."""
+        groups = self.simulations()
         out = []
         for c in self.headline["claims"]:
-            verdicts = [u_c["verdict"] for u in self.universes for u_c in u["claims"] if u_c["claim"] == c["claim"]]
+            verdicts = [u_c["verdict"] for idx in groups for u_c in self.universes[idx[0]]["claims"]
+                        if u_c["claim"] == c["claim"]]
             counts: dict = {}
             for v in verdicts:
                 cat = report.claim_category(v)
@@ -170,7 +193,8 @@ class Multiverse:
             top = max(counts.values())
             out.append({"claim": c["claim"], "headline_verdict": c["verdict"],
                         "verdict_counts": {k: counts[k] for k in report.CLAIM_VERDICTS if k in counts},
-                        "n_universes": len(verdicts), "robust": top >= ROBUST_FRACTION * len(verdicts)})
+                        "n_simulations": len(verdicts), "n_universes": len(self.universes),
+                        "robust": top >= ROBUST_FRACTION * len(verdicts)})
         return out
 
     def numbers_summary(self) -> list:
@@ -266,6 +290,7 @@ class Multiverse:
     def as_dict(self) -> dict:
         return {"factors": self.space.as_dict(), "design": self.design.kind,
                 "design_description": self.design.description, "n_universes": len(self.universes),
+                "n_simulations": len(self.simulations()),
                 "full_factorial_size": self.space.size, "n_runs": self.n_runs,
                 "universes": [{"reading": dict(r), **u} for r, u in zip(self.readings, self.universes)],
                 "claims_summary": self.claims_summary(), "numbers_summary": self.numbers_summary(),

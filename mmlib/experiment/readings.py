@@ -80,7 +80,10 @@ class Factor:
 
     ``influential`` marks factors whose pairwise interactions a fractional design must
     cover (a factor shown not to move any result may be declared non-influential; it still
-    appears with every option)."""
+    appears with every option).  ``metric_only`` marks a factor whose options change only how a
+    published number is computed from the same simulated runs (e.g. which average of the errors a
+    table prints), never the simulation or a claim: universes that differ only in such factors
+    are one *simulation*, and claims are counted once per simulation."""
 
     id: str
     label: str
@@ -88,6 +91,7 @@ class Factor:
     headline: str
     source: str
     influential: bool = True
+    metric_only: bool = False
 
     def __post_init__(self):
         for arg in ("id", "label", "source"):
@@ -115,7 +119,7 @@ class Factor:
 
     def as_dict(self) -> dict:
         return {"id": self.id, "label": self.label, "options": list(self.names), "headline": self.headline,
-                "source": self.source, "influential": self.influential,
+                "source": self.source, "influential": self.influential, "metric_only": self.metric_only,
                 "option_details": [o.as_dict() for o in self.options]}
 
 
@@ -213,6 +217,17 @@ class ReadingSpace:
         """Factor ids in which ``reading`` differs from the headline."""
         reading = self.validate(reading)
         return [fid for fid, opt in reading.items() if opt != self.headline[fid]]
+
+    def simulation_key(self, reading: Mapping) -> tuple:
+        """The reading without its metric-only factors: universes with equal keys run the same simulation."""
+        reading = self.validate(reading)
+        metric = {f.id for f in self.factors if f.metric_only}
+        return tuple((fid, opt) for fid, opt in reading.items() if fid not in metric)
+
+    def describe_simulation(self, reading: Mapping) -> str:
+        """:meth:`describe` of the reading with its metric-only factors at their headline option."""
+        reading = self.validate(reading)
+        return self.describe({**reading, **{f.id: f.headline for f in self.factors if f.metric_only}})
 
     def describe(self, reading: Mapping) -> str:
         """Short text: 'headline' or the options that differ from it ("L-1: maneuver at 100 s; ...")."""

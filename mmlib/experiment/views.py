@@ -71,8 +71,11 @@ def claims_table(mv: Multiverse) -> str:
     for c in summary:
         counts = ", ".join(f"{k} {n}" for k, n in c["verdict_counts"].items())
         rows.append([c["claim"], c["headline_verdict"], counts, "robust" if c["robust"] else "depends on the reading"])
-    n = max((c["n_universes"] for c in summary), default=0)
-    return markdown_table(["claim", "headline verdict", f"verdicts across the {n} universes",
+    n = max((c.get("n_simulations", c["n_universes"]) for c in summary), default=0)
+    n_u = max((c["n_universes"] for c in summary), default=0)
+    across = (f"verdicts across the {n} universes" if n == n_u else
+              f"verdicts across the {n} distinct simulations of the {n_u} universes")
+    return markdown_table(["claim", "headline verdict", across,
                            f"robust (one verdict in ≥ {100 * ROBUST_FRACTION:.0f} %)"], rows)
 
 
@@ -228,6 +231,6 @@ def summary_line(mv) -> str:
                      f"all {t['n_cells']} cells (at most {t['most_n_reproduced']}, by {t['most_describe']}; "
                      f"headline {t['headline_n_reproduced']})")
     claims = _summary(mv, "claims_summary")
-    n = max((c["n_universes"] for c in claims), default=0)
+    n = max((c.get("n_simulations", c["n_universes"]) for c in claims), default=0)
     robust = sum(c["robust"] for c in claims)
-    return "; ".join(parts + [f"{robust} of {len(claims)} claim verdicts robust across {n} universes"])
+    return "; ".join(parts + [f"{robust} of {len(claims)} claim verdicts robust across {n} distinct simulations"])

@@ -284,7 +284,7 @@ FACTORS = (
                "over 100 independent runs'", {"rmse_metric": "mean_over_runs"}),
         Option("rms_runs_steps", "RMS over runs and steps", "Table 1 'RMSE' over all runs and steps (one root "
                "of the pooled mean square)", {"rmse_metric": "rms_runs_steps"}),
-    ), "mean_over_steps", "Table 1 caption"),
+    ), "mean_over_steps", "Table 1 caption", metric_only=True),
 )
 
 #: Every factor is influential: the covering design pairs every option of every two factors.  No factor is
@@ -296,7 +296,7 @@ FACTORS = (
 #: common random numbers, understates how significant a change is.  The budget is the number of universes of
 #: 100 runs (measured ~0.35 CPU-s each with time.process_time(), 0.5 s at most) that fit 45 s on 2 workers; the
 #: full factorial (10752) exceeds it, so the auto design is the strength-2 covering array of all factors (30
-#: universes, ~10 CPU-s; 22 distinct simulations, see :data:`METRIC_ONLY`).
+#: universes, ~10 CPU-s; distinct simulations: H-11 is metric-only).
 SPACE = ReadingSpace(PAPER, FACTORS, budget=200)
 TABLE1_QUANTITIES = (("Horizontal mean RMSE (km)", 0), ("Vertical mean RMSE (km)", 2))
 #: every printed Monte Carlo number a universe replicates (the time column is not a universe's value)
@@ -602,70 +602,17 @@ def influence(mv, factor_id: str) -> dict:
 
 
 def bootstrapping_helps(mv) -> list:
-    """The distinct simulations (:func:`simulations`) in which 'IMMCDKF-OBS is more accurate than IMMCDKF'
+    """The distinct simulations (:meth:`Multiverse.simulations`) in which 'IMMCDKF-OBS is more accurate than IMMCDKF'
     holds: (index of its first universe, description of its reading without the metric-only factors, key
     effect value, its standard error)."""
     from ..report import claim_category
     out = []
-    for idx in simulations(mv):
+    for idx in mv.simulations():
         u = mv.universes[idx[0]]
         c = next(c for c in u["claims"] if c["claim"].startswith("IMMCDKF-OBS is more accurate than IMMCDKF"))
         if claim_category(c["verdict"]) == "holds":
             e = mv.effect(u, KEY_EFFECT)
-            out.append((idx[0], describe_simulation(mv.readings[idx[0]]), e["value"], e["stderr"]))
+            out.append((idx[0], SPACE.describe_simulation(mv.readings[idx[0]]), e["value"], e["stderr"]))
     return out
 
 
-# ------------------------------------------------------------------------------------------------------------------
-# Metric-only factors: universes that repeat another universe's simulation
-# ------------------------------------------------------------------------------------------------------------------
-#: factors that change only how Table 1's errors are averaged (H-11), never the simulation, the claims or the
-#: effects: universes differing only in them are one simulated reading counted more than once
-METRIC_ONLY = ("H-11",)
-
-
-def simulation_key(reading) -> tuple:
-    """The reading without its metric-only factors: universes with equal keys run the same simulation."""
-    reading = SPACE.validate(reading)
-    return tuple((fid, opt) for fid, opt in reading.items() if fid not in METRIC_ONLY)
-
-
-def describe_simulation(reading) -> str:
-    """:meth:`ReadingSpace.describe` of the reading with its metric-only factors at the headline."""
-    return SPACE.describe({**SPACE.validate(reading), **{fid: SPACE.headline[fid] for fid in METRIC_ONLY}})
-
-
-def simulations(mv) -> list:
-    """The distinct simulations of a multiverse: lists of universe indices with the same
-    :func:`simulation_key`, in order of first appearance (the headline's first).  ValueError if universes
-    of one simulation disagree in a claim verdict or an effect (a metric-only factor must change neither)."""
-    groups: dict = {}
-    for i, r in enumerate(mv.readings):
-        groups.setdefault(simulation_key(r), []).append(i)
-    for idx in groups.values():
-        first = mv.universes[idx[0]]
-        for i in idx[1:]:
-            u = mv.universes[i]
-            if u["claims"] != first["claims"] or u["effects"] != first["effects"]:
-                raise ValueError(f"universes {idx[0]} and {i} differ only in {METRIC_ONLY} but not only in "
-                                 f"Table 1's values: a metric-only factor changed a claim or an effect")
-    return list(groups.values())
-
-
-def claims_summary_by_simulation(mv) -> list:
-    """:meth:`Multiverse.claims_summary` counted over distinct simulations instead of universes (each
-    simulation once, whatever its number of metric-only readings), with the same robustness fraction."""
-    from ..experiment.multiverse import ROBUST_FRACTION
-    from ..report import CLAIM_VERDICTS, claim_category
-    groups = simulations(mv)
-    out = []
-    for c in mv.headline["claims"]:
-        counts: dict = {}
-        for idx in groups:
-            v = next(x["verdict"] for x in mv.universes[idx[0]]["claims"] if x["claim"] == c["claim"])
-            counts[claim_category(v)] = counts.get(claim_category(v), 0) + 1
-        out.append({"claim": c["claim"], "headline_verdict": c["verdict"],
-                    "verdict_counts": {k: counts[k] for k in CLAIM_VERDICTS if k in counts},
-                    "n_universes": len(groups),
-                    "robust": max(counts.values()) >= ROBUST_FRACTION * len(groups)})
-    return out
