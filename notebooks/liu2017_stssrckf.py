@@ -56,8 +56,8 @@ from mmlib.scenarios import liu2017 as paper
 from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                          shade_intervals, value_pm)
 
-# full: the paper's 200 runs, and the multiverse's fractional design (17 universes) at 200 runs each
-# (~5 CPU-s per universe measured with time.process_time(), ~45 s on two workers);
+# full: the paper's 200 runs, and the multiverse's fractional design (20 universes) at 200 runs each
+# (~5 CPU-s per universe measured with time.process_time(), ~55 s on two workers);
 # smoke: the headline and each option alone at the smoke run count
 PROFILES = {"full": dict(n_runs=paper.N_RUNS_PAPER, timing_runs=5, timing_repeats=5,
                          mv_runs=paper.N_RUNS_PAPER, mv_design="auto"),
@@ -231,7 +231,7 @@ nb.show(fig, "extra_specification_curve",
         f"headline {value_pm(key[0]['value'], key[0]['stderr'], 0)} m²; across the {len(key)} universes "
         f"{min(e['value'] for e in key):.3g} to {max(e['value'] for e in key):.3g} m², negative by more than 3 "
         f"standard errors in {sum(e['value'] + 3 * e['stderr'] < 0 for e in key)} of {len(key)} universes "
-        f"(by factor, see 'What the multiverse says').")
+        f"(by factor: see the notebook's reading-space section).")
 
 # %%
 fig = views.table_match_figure(mv, title="Which reading matches the printed tables? Σ of squared standardized "

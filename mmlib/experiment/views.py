@@ -93,11 +93,16 @@ def numbers_table(mv: Multiverse) -> str:
                            "closest universe's value", "its verdict", "closest reading"], rows)
 
 
+def most_reading(t: dict) -> str:
+    """The reading that reproduces the most cells of a table, or 'none' when no reading reproduces any."""
+    return t["most_describe"] if t["most_n_reproduced"] else "none (no reading reproduces a cell)"
+
+
 def table_match_table(mv) -> str:
     rows = [[t["table"], t["n_cells"], f"{t['headline_n_reproduced']} / {t['n_cells']}", t["headline_sum"],
              t["best_sum"], t["best_describe"], f"{t['best_n_reproduced']} / {t['n_cells']}",
-             f"{t['most_n_reproduced']} / {t['n_cells']}", t["most_describe"]] for t in _summary(mv, "table_match")]
-    return markdown_table(["table", "cells", "headline: cells reproduced", "headline Σz²", "best Σz²",
+             f"{t['most_n_reproduced']} / {t['n_cells']}", most_reading(t)] for t in _summary(mv, "table_match")]
+    return markdown_table(["table", "cells", "headline universe: cells reproduced", "headline Σz²", "best Σz²",
                            "best-matching reading (Σz²)", "its cells reproduced", "most cells any reading reproduces",
                            "that reading"], rows)
 
@@ -140,30 +145,50 @@ def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str,
     fig, (ax, axp) = plt.subplots(2, 1, figsize=(max(7.5, min(16, 0.09 * n + 6)), 3.6 + 0.16 * n_rows),
                                   sharex=True, gridspec_kw={"height_ratios": [3.2, 0.16 * n_rows + 0.4]})
     x = np.arange(n)
+    ys, ses = y[order], se[order]
     head_pos = int(np.where(order == 0)[0][0])
-    others = x != head_pos
-    ax.errorbar(x, y[order], yerr=interval * se[order], fmt="none", ecolor="0.6", elinewidth=0.8, zorder=1)
-    ax.scatter(x[others], y[order][others], c="C0", s=14, zorder=2, label="universe (± %g s.e.)" % interval)
-    ax.scatter([head_pos], [y[0]], c="C3", s=40, marker="D", zorder=3, label="headline reading")
+    has = np.isfinite(ys)
+    no_se = has & np.array([vals[i]["stderr"] is None for i in order])       # e.g. a single surviving run
+    plain = has & ~no_se & (x != head_pos)
+    ax.errorbar(x[has], ys[has], yerr=interval * ses[has], fmt="none", ecolor="0.6", elinewidth=0.8, zorder=1)
+    ax.scatter(x[plain], ys[plain], c="C0", s=14, zorder=2, label="universe (± %g s.e.)" % interval)
+    if no_se.any():
+        ax.scatter(x[no_se], ys[no_se], facecolors="none", edgecolors="C0", s=30, zorder=2,
+                   label=f"no standard error ({int(no_se.sum())}: a single run)")
+    if has[head_pos]:
+        ax.scatter([head_pos], [ys[head_pos]], c="C3", s=40, marker="D", zorder=3, label="headline reading")
     ax.axhline(0.0, color="k", lw=0.8)
-    missing = np.where(~np.isfinite(y[order]))[0]
-    if missing.size:                          # no universe is dropped silently: mark those without a value
-        ax.scatter(missing, np.zeros(missing.size), marker="x", c="k", s=30, zorder=3,
-                   label=f"no value, drawn at 0 ({missing.size} universes; see their divergence counts)")
-        if not np.isfinite(y[0]):
-            ax.scatter([head_pos], [0.0], c="C3", s=40, marker="D", zorder=4)
     pub = published if published is not None else vals[0].get("published")
     if pub is not None:
         ax.axhline(pub, color="C2", ls="--", lw=1.2, label=f"published ({pub:.3g})")
     if symlog:        # linear within the decade of the smallest |effect|, logarithmic beyond
-        finite = np.abs(y[np.isfinite(y) & (y != 0)])
+        finite = np.abs(np.concatenate([y[np.isfinite(y) & (y != 0)], [pub] if pub else []]))
         linthresh = 10.0 ** np.floor(np.log10(np.min(finite))) if finite.size else 1.0
         ax.set_yscale("symlog", linthresh=linthresh, linscale=0.6)
         ax.yaxis.set_minor_locator(matplotlib.ticker.NullLocator())
         ax.yaxis.set_major_locator(matplotlib.ticker.SymmetricalLogLocator(base=10, linthresh=linthresh,
                                                                           subs=[1.0]))
+    # the limits hold every value, its band and the published value, with room at both ends
+    ends = [v for v in np.concatenate([ys[has] - interval * ses[has], ys[has] + interval * ses[has]])] + \
+        ([pub] if pub is not None else []) + [0.0]
+    lo, hi = min(ends), max(ends)
+    if symlog:
+        grow = (lambda v, f: v * f if abs(v) > linthresh else v + np.sign(v or 1) * linthresh)
+        ax.set_ylim(grow(lo, 3.0) if lo < 0 else -linthresh, grow(hi, 3.0) if hi > 0 else linthresh)
+    else:
+        pad = 0.08 * (hi - lo or 1.0)
+        ax.set_ylim(lo - pad, hi + pad)
+    missing = np.where(~has)[0]
+    if missing.size:              # no universe is dropped silently: marked along the bottom, apart from the data
+        strip = matplotlib.transforms.blended_transform_factory(ax.transData, ax.transAxes)
+        ax.scatter(missing, np.full(missing.size, 0.03), transform=strip, marker="x", c="k", s=30, zorder=3,
+                   clip_on=False, label=f"no value ({missing.size} universes: every run diverged)")
+        if not has[head_pos]:
+            ax.scatter([head_pos], [0.03], transform=strip, marker="D", facecolors="none", edgecolors="C3", s=60,
+                       zorder=4, clip_on=False, label="headline reading (no value)")
     ax.set(ylabel=ylabel, title=title)
-    ax.legend(fontsize=8, loc="best")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    axp.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
     row, yt, ylab = 0, [], []
     for f in factors:
         for o in f.options:
@@ -214,6 +239,7 @@ def table_match_figure(mv: Multiverse, *, title: str):
                     label=f"a cell failed ({failed.size}; drawn at the top)")
             if np.isinf(sums[0]):
                 ax.plot([hp], [top], "D", color="C3", ms=7)
+        ax.xaxis.set_major_locator(__import__("matplotlib").ticker.MaxNLocator(integer=True))
         ax.set(yscale="log", xlabel="universe, sorted", ylabel="Σ z² over the table's cells",
                title=f"{table} ({n_cells} cells)")
         ax.legend(fontsize=7)
@@ -227,9 +253,10 @@ def summary_line(mv) -> str:
     how many claim verdicts are robust across the universes (from a Multiverse or its stored form)."""
     parts = []
     for t in _summary(mv, "table_match"):
+        by = f", by {t['most_describe']}" if t["most_n_reproduced"] else ""
         parts.append(f"{t['table']}: {'a' if t['most_n_reproduced'] == t['n_cells'] else 'no'} reading reproduces "
-                     f"all {t['n_cells']} cells (at most {t['most_n_reproduced']}, by {t['most_describe']}; "
-                     f"headline {t['headline_n_reproduced']})")
+                     f"all {t['n_cells']} cells (at most {t['most_n_reproduced']}{by}; headline universe "
+                     f"{t['headline_n_reproduced']})")
     claims = _summary(mv, "claims_summary")
     n = max((c.get("n_simulations", c["n_universes"]) for c in claims), default=0)
     robust = sum(c["robust"] for c in claims)

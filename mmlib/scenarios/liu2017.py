@@ -723,8 +723,8 @@ def _other_columns(mv, universes) -> str:
             head = ("reproduced" if n_rep == len(pubs) else
                     "not reproduced" if n_rep == 0 else f"reproduced in {n_rep} of {len(pubs)} cells only")
             cols.append(f"its {quantity.split()[0].lower()} column is {head}: the strong-tracking filters reach "
-                        f"{min(vals):.1f}–{max(vals):.1f} {unit} against the printed {min(printed):.1f}–"
-                        f"{max(printed):.1f} {unit} (verdicts over its {len(pubs)} cells: "
+                        f"{_span(vals)} {unit} against the printed {_span(printed)} {unit} (verdicts over its "
+                        f"{len(pubs)} cells: "
                         + ", ".join(f"{k} {n}" for k, n in verdicts.items()) + ")")
         out.append(f"Under *{mv.space.describe(mv.readings[i])}* " + "; ".join(cols) + ".")
     reproduced_all = all(
@@ -733,6 +733,12 @@ def _other_columns(mv, universes) -> str:
         for i in universes)
     return " ".join(out) + ("" if reproduced_all else
                             " The position-column match is therefore not a reproduction of Table 1 as a whole.")
+
+
+def _span(values, digits: int = 1) -> str:
+    """'a–b' for a range of values, or one value when they agree at the shown precision."""
+    lo, hi = f"{min(values):.{digits}f}", f"{max(values):.{digits}f}"
+    return lo if lo == hi else f"{lo}–{hi}"
 
 
 def findings(mv) -> str:
@@ -750,8 +756,8 @@ def findings(mv) -> str:
     full_pos = [i for i, u in enumerate(mv.universes)
                 if all(mv.number_verdict(p, u) == report.REPRODUCED for p in pos)]
     text = (f"**Table 1, position column.** Under the headline reading the four strong-tracking filters reach a "
-            f"position ARMSE of {lo:.1f}–{hi:.1f} m (± {max(v['stderr'] for v in st_head):.1f} m), against the "
-            f"printed {min(printed_st):.1f}–{max(printed_st):.1f} m: not reproduced. ")
+            f"position ARMSE of {_span([lo, hi])} m (± {max(v['stderr'] for v in st_head):.1f} m), against the "
+            f"printed {_span(printed_st)} m: not reproduced. ")
     if full_pos:
         descr = []
         for i in full_pos:
