@@ -122,7 +122,8 @@ print("diverged runs per estimator:", diverged)
 # Run times are compared as ratios to IMMCKF (absolute MATLAB seconds cannot be compared across languages and
 # machines, Z-15). They are CPU times of the computing thread (other processes on the machine do not count), with the
 # algorithms taking turns run by run in every repeat; a repeat's one-at-a-time time is the fastest of its runs (they
-# all do the same work). Each ratio is the mean over the repeats of the per-repeat ratio, with its standard error, and
+# all do the same work). Each ratio is the median over the repeats of the per-repeat ratio, with its robust standard error
+# (`metrics.timing_ratio`), and
 # is judged by the same verdict rule as every other number.
 
 # %%

@@ -507,8 +507,8 @@ def judge_timing(per_run: dict, batched: dict, claims: Claims):
     Returns (rows, table rows for display)."""
     rows, table = [], []
     for alg in ALGORITHMS:
-        r1 = metrics.mean_with_se(per_run[alg] / per_run["IMMCDKF"])
-        r2 = metrics.mean_with_se(batched[alg] / batched["IMMCDKF"])
+        r1 = metrics.timing_ratio(per_run[alg], per_run["IMMCDKF"])
+        r2 = metrics.timing_ratio(batched[alg], batched["IMMCDKF"])
         if alg != "IMMCDKF":
             rows.append(make_row("Table 1", alg, "time ratio to IMMCDKF (one run at a time)", paper_ratio_text(alg),
                                  float(r1.value), float(r1.stderr), deviations=["H-12"],
@@ -520,11 +520,11 @@ def judge_timing(per_run: dict, batched: dict, claims: Claims):
     for other in ALGORITHMS:
         if other == "IMMEKF":
             continue
-        r = metrics.mean_with_se(per_run["IMMEKF"] / per_run[other])
+        r = metrics.timing_ratio(per_run["IMMEKF"], per_run[other])
         parts.append(f"{claim_verdict(float(r.value) - 1.0, float(r.stderr), -1)} (vs {other})")
         ev.append(f"IMMEKF / {other} = {float(r.value):.2f} ± {float(r.stderr):.2f}")
     claims.add("IMMEKF has the shortest run time (Table 1)", combine_claim_verdicts(parts), "; ".join(ev))
-    r = metrics.mean_with_se(per_run["IMMCDKF-OBS"] / per_run["IMMCDKF"])
+    r = metrics.timing_ratio(per_run["IMMCDKF-OBS"], per_run["IMMCDKF"])
     paper_ratio = float(TABLE1["IMMCDKF-OBS"][2]) / float(TABLE1["IMMCDKF"][2])
     parts = [f"{claim_verdict(float(r.value) - 1.0, float(r.stderr), +1)} (costs more)",
              f"{claim_verdict(float(r.value) - paper_ratio, float(r.stderr), -1)} (by no more than the paper's "
