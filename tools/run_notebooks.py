@@ -28,6 +28,16 @@ REPO = Path(__file__).resolve().parent.parent
 KERNEL = "mmlib"
 
 
+def sanitize(executed: Path, staging: Path, final_root: Path) -> None:
+    """Strip machine-local paths from an executed notebook before it is promoted: the staging folder
+    becomes the folder the outputs are promoted to, and every path inside the repository becomes
+    relative to it (papermill's metadata, the injected parameters, printed output paths)."""
+    text = executed.read_text()
+    text = text.replace(str(staging), str(final_root))
+    text = text.replace(str(REPO) + "/", "").replace(str(REPO), ".")
+    executed.write_text(text)
+
+
 def promote(staging: Path, final_root: Path, executed: Path, name: str) -> list[str]:
     moved = []
     for fig_dir in sorted((staging / "figures").glob("*")):
@@ -112,6 +122,7 @@ def main(argv=None) -> int:
             print(f"\nFAILED: notebook {src.relative_to(REPO)}: {type(exc).__name__}: {exc}\n"
                   f"  nothing was promoted.", file=sys.stderr)
             return 1
+        sanitize(executed, staging, final_root)
         moved = promote(staging, final_root, executed, name)
         shutil.rmtree(staging, ignore_errors=True)
         print(f"[{i}/{len(sources)}] {name}: done in {time.perf_counter() - t0:.1f} s -> " + ", ".join(moved),

@@ -22,3 +22,14 @@ def test_bad_notebook_parameter_names_notebook_cell_and_parameter():
     assert "FAILED: notebook notebooks/zhu2016_imm5ckf.py, cell" in proc.stderr
     assert "N_RUNS: expected a positive integer" in proc.stderr
     assert (_digest(smoke_results), _digest(committed)) == before      # nothing promoted
+
+
+def test_executed_notebooks_hold_no_machine_local_path():
+    """Committed and smoke executed notebooks name no absolute path of this checkout (the runner makes every
+    path relative to the repository before promoting a notebook)."""
+    paths = sorted((REPO / "notebooks" / "executed").glob("*.ipynb")) + \
+        sorted((REPO / "build" / "smoke" / "executed").glob("*.ipynb"))
+    assert len(paths) >= 10
+    for path in paths:
+        text = path.read_text()
+        assert str(REPO) not in text and "/staging/" not in text, path
