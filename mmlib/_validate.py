@@ -14,12 +14,88 @@ import numpy as np
 RTOL = 1e-9
 
 
+def _describe(value) -> str:
+    return type(value).__name__ if not isinstance(value, np.ndarray) else f"array of dtype {value.dtype}"
+
+
 def as_float_array(value, name: str) -> np.ndarray:
+    """``value`` as a float64 array.  Real numbers only: complex numbers (numpy would drop the
+    imaginary part with a warning), strings, booleans, None and other objects are rejected."""
+    if value is None or isinstance(value, (str, bytes)):
+        raise ValueError(f"{name}: expected real numbers, got {_describe(value)}")
+    raw = value if isinstance(value, np.ndarray) else None
+    if raw is None:
+        try:
+            raw = np.asarray(value)
+        except (TypeError, ValueError) as exc:   # ragged nested sequences
+            raise ValueError(f"{name}: cannot be converted to a float array ({exc})") from None
+    kind = raw.dtype.kind
+    if kind == "O":
+        flat = raw.ravel()
+        if any(isinstance(v, (str, bytes, bool, np.bool_, complex, np.complexfloating)) or v is None
+               for v in flat):
+            raise ValueError(f"{name}: expected real numbers, got {_describe(value)} holding non-real entries")
+    elif kind not in "iuf":
+        what = {"c": "complex numbers", "U": "strings", "S": "bytes", "b": "booleans"}.get(kind, f"dtype {raw.dtype}")
+        raise ValueError(f"{name}: expected real numbers, got {what}")
     try:
-        arr = np.asarray(value, dtype=float)
+        arr = np.asarray(raw, dtype=float)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name}: cannot be converted to a float array ({exc})") from None
     return arr
+
+
+def check_scalar(value, name: str, *, positive: bool = False, nonnegative: bool = False,
+                 finite: bool = True, low: float | None = None, high: float | None = None) -> float:
+    """A real number (Python or numpy scalar, or a 0-d array) as a Python float.
+
+    ``positive``: > 0; ``nonnegative``: >= 0; ``low``/``high``: inclusive bounds; ``finite`` rejects
+    NaN and infinities (NaN is always rejected)."""
+    arr = as_float_array(value, name)
+    if arr.ndim != 0:
+        raise ValueError(f"{name}: expected a real number, got an array of shape {arr.shape}")
+    x = float(arr)
+    if np.isnan(x) or (finite and not np.isfinite(x)):
+        raise ValueError(f"{name}: expected a finite real number, got {x!r}")
+    if positive and not x > 0:
+        raise ValueError(f"{name}: expected a number > 0, got {x!r}")
+    if nonnegative and not x >= 0:
+        raise ValueError(f"{name}: expected a number >= 0, got {x!r}")
+    if low is not None and x < low:
+        raise ValueError(f"{name}: expected a number >= {low}, got {x!r}")
+    if high is not None and x > high:
+        raise ValueError(f"{name}: expected a number <= {high}, got {x!r}")
+    return x
+
+
+def check_index(value, name: str, size: int) -> int:
+    """An integer index into an axis of length ``size`` (negative indices are rejected)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name}: expected an integer index, got {value!r}")
+    if not 0 <= int(value) < size:
+        raise ValueError(f"{name}: index {int(value)} outside 0..{size - 1}")
+    return int(value)
+
+
+def check_mask(value, name: str, n: int) -> np.ndarray:
+    """A boolean mask of length ``n`` (an index list is not a mask: it is rejected, never cast)."""
+    arr = np.asarray(value)
+    if arr.dtype.kind != "b":
+        raise ValueError(f"{name}: expected a boolean mask of length {n}, got {_describe(value)}"
+                         f"{' of shape ' + str(arr.shape) if arr.ndim else ''}")
+    if arr.shape != (n,):
+        raise ValueError(f"{name}: expected a boolean mask of shape ({n},), got shape {arr.shape}")
+    return arr
+
+
+def check_has(obj, name: str, what: str, methods) -> object:
+    """``obj`` provides every attribute in ``methods`` (duck-typed interface check), else a ValueError
+    naming the argument, e.g. ``measurement: expected a measurement model (with h, R, ...), got str``."""
+    missing = [m for m in methods if not hasattr(obj, m)]
+    if missing or isinstance(obj, np.ndarray):
+        raise ValueError(f"{name}: expected {what} (providing {', '.join(methods)}), got {_describe(obj)}"
+                         + (f" lacking {', '.join(missing)}" if missing and not isinstance(obj, (str, np.ndarray)) else ""))
+    return obj
 
 
 def check_finite(arr: np.ndarray, name: str) -> np.ndarray:
@@ -100,6 +176,6 @@ def check_choice(value, name: str, choices) -> str:
 
 
 def check_positive_int(value, name: str, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < minimum:
         raise ValueError(f"{name}: expected an integer >= {minimum}, got {value!r}")
     return int(value)
