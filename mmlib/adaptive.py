@@ -39,6 +39,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ._validate import check_has, check_positive_int, check_scalar
 from .filters import FilterLayer, MeasurementPrediction, kalman_update
 from .linalg import trace
 
@@ -66,10 +67,9 @@ class InnovationAdaptive(FilterLayer):
     state_type = AdaptiveState
 
     def __post_init__(self):
-        if isinstance(self.window, bool) or not isinstance(self.window, (int, np.integer)) or self.window < 2:
-            raise ValueError(f"window: innovation window must be an integer >= 2, got {self.window!r}")
-        if not (isinstance(self.psi, (int, float)) and self.psi >= 1.0):
-            raise ValueError(f"psi: covariance-matching coefficient must be >= 1 (Eq. 32), got {self.psi!r}")
+        check_has(self.base, "base", "a filter", ("init", "predict", "predict_measurement"))
+        object.__setattr__(self, "window", check_positive_int(self.window, "window", minimum=2))
+        object.__setattr__(self, "psi", check_scalar(self.psi, "psi", low=1.0))   # Eq. 32 coefficient
         if not self.name:
             object.__setattr__(self, "name", ("NA" if self.zeta else "A") + getattr(self.base, "name", "filter"))
 
@@ -77,6 +77,8 @@ class InnovationAdaptive(FilterLayer):
         pred = self.base.predict_measurement(state, measurement)
         nu = measurement.residual(z, pred.z_pred)
         past = state.innovations
+        if past is not None and past.shape[-1] != nu.shape[-1]:
+            past = None    # the measurement set changed dimension: innovations of different sets are not pooled
         window_now = nu[..., None, :] if past is None else np.concatenate([past, nu[..., None, :]], axis=-2)
         window_now = window_now[..., -self.window:, :]
         used = window_now if self.include_current else past

@@ -109,10 +109,17 @@ class NoiseAdaptiveIMM:
     name: str = "adaptive IMM"
 
     def __post_init__(self):
+        if not isinstance(self.imm, IMM):
+            raise ValueError(f"imm: expected an mmlib.estimation.IMM, got {type(self.imm).__name__}")
+        if not callable(self.noise):
+            raise ValueError(f"noise: expected a callable levels (B, r) -> Q (B, r, n, n), got {type(self.noise).__name__}")
         lv = as_float_array(self.initial_levels, "initial_levels")
         if lv.shape != (self.imm.n_modes,) or np.any(~np.isfinite(lv)) or np.any(lv < 0):
             raise ValueError(f"initial_levels: expected {self.imm.n_modes} finite levels >= 0, got {self.initial_levels!r}")
         object.__setattr__(self, "initial_levels", lv)
+        if not self.frozen and not callable(self.controller):
+            raise ValueError(f"controller: expected a callable (estimate, measurement) -> levels, "
+                             f"got {type(self.controller).__name__}")
 
     @property
     def measurement(self):
@@ -124,6 +131,8 @@ class NoiseAdaptiveIMM:
         return NoiseAdaptiveState(s, np.tile(self.initial_levels, (B, 1)))
 
     def step(self, state: NoiseAdaptiveState, z, *, with_cov: bool = True, measurement=None):
+        if not isinstance(state, NoiseAdaptiveState):
+            raise ValueError(f"state: expected the NoiseAdaptiveState returned by init(), got {type(state).__name__}")
         measurement = self.imm.measurement if measurement is None else measurement
         # a diverged run has NaN levels (kept, and recorded in the diagnostics); its state is NaN already, so
         # any finite placeholder lets the other runs of the batch go on while run() reports this one
@@ -174,6 +183,9 @@ class WindowedNoiseAdaptiveIMM(NoiseAdaptiveIMM):
         return WindowedNoiseAdaptiveState(s.imm, s.levels, np.zeros((B, int(self.window), 2)), np.zeros(B, dtype=int))
 
     def step(self, state: WindowedNoiseAdaptiveState, z, *, with_cov: bool = True, measurement=None):
+        if not isinstance(state, WindowedNoiseAdaptiveState):
+            raise ValueError(f"state: expected the WindowedNoiseAdaptiveState returned by init(), "
+                             f"got {type(state).__name__}")
         measurement = self.imm.measurement if measurement is None else measurement
         levels_now = np.where(np.isfinite(state.levels), state.levels, self.initial_levels)
         dynamics = self.imm.stacked.with_noise(self.noise(levels_now))

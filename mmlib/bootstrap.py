@@ -37,6 +37,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from . import linalg
+from ._validate import as_float_array, check_choice, check_finite, check_has, check_positive_int, check_scalar
 from .filters import FilterLayer, MeasurementPrediction, UpdateInfo, gaussian_state, kalman_update
 
 
@@ -60,22 +61,22 @@ class ObservationBootstrap(FilterLayer):
     covariance: str = "kalman"
 
     def __post_init__(self):
-        if isinstance(self.n_boot, bool) or not isinstance(self.n_boot, (int, np.integer)) or self.n_boot < 0:
-            raise ValueError(f"n_boot: number of bootstrap observations must be an integer >= 0, got {self.n_boot!r}")
-        if not (isinstance(self.variance_factor, (int, float)) and self.variance_factor > 0):
-            raise ValueError(f"variance_factor: must be > 0, got {self.variance_factor!r}")
-        if self.likelihood not in ("sum", "product"):
-            raise ValueError(f"likelihood: expected 'sum' or 'product', got {self.likelihood!r}")
-        if self.covariance not in ("kalman", "printed"):
-            raise ValueError(f"covariance: expected 'kalman' or 'printed' (Eq. 20), got {self.covariance!r}")
+        check_has(self.base, "base", "a filter", ("init", "predict", "predict_measurement"))
+        object.__setattr__(self, "n_boot", check_positive_int(self.n_boot, "n_boot", minimum=0))
+        object.__setattr__(self, "variance_factor", check_scalar(self.variance_factor, "variance_factor", positive=True))
+        check_choice(self.likelihood, "likelihood", ("sum", "product"))
+        check_choice(self.covariance, "covariance", ("kalman", "printed"))   # Eq. 20
         if not self.name:
             object.__setattr__(self, "name", getattr(self.base, "name", "filter") + "-OBS")
 
     def init(self, mean, cov, noise=None) -> BootstrapState:
+        """``noise`` (B, K, N, m): pre-drawn standard normals for K steps, N = ``n_boot`` bootstrap
+        observations, m >= every step's measurement dimension (a step with m_k < m uses the first m_k)."""
         g = gaussian_state(mean, cov)
         if self.n_boot > 0:
-            noise = np.asarray(noise, dtype=float) if noise is not None else None
-            if noise is None or noise.ndim != 4 or noise.shape[0] != g.mean.shape[0] or noise.shape[2] != self.n_boot:
+            noise = None if noise is None else check_finite(as_float_array(noise, "noise"), "noise")
+            if noise is None or noise.ndim != 4 or noise.shape[0] != g.mean.shape[0] or noise.shape[2] != self.n_boot \
+                    or noise.shape[1] == 0 or noise.shape[3] == 0:
                 raise ValueError(f"noise: expected pre-drawn standard normals of shape (B={g.mean.shape[0]}, K, "
                                  f"N={self.n_boot}, m), got {None if noise is None else noise.shape}")
         return BootstrapState(g.mean, g.cov, noise, 0)
@@ -86,9 +87,14 @@ class ObservationBootstrap(FilterLayer):
             new, info = kalman_update(state, pred, z, measurement)
             return new._replace(step=state.step + 1), info
         if state.noise is None or state.step >= state.noise.shape[-3]:
-            raise ValueError("state: no pre-drawn bootstrap noise left for this step (see init)")
+            raise ValueError(f"noise: pre-drawn bootstrap noise for {0 if state.noise is None else state.noise.shape[-3]}"
+                             f" steps, but step {state.step} needs it (draw it for every step, see init)")
+        m = z.shape[-1]
+        if state.noise.shape[-1] < m:
+            raise ValueError(f"noise: pre-drawn for measurements of dimension {state.noise.shape[-1]}, "
+                             f"but step {state.step} has dimension {m}")
         # (B, N, m), or (B, r, N, m) inside an IMM, where every mode holds the same draws
-        eps = state.noise[..., state.step, :, :]
+        eps = state.noise[..., state.step, :, :m]
         boot = z[..., None, :] + eps @ measurement.noise_factor.T            # (..., N, m), Eq. 15
         posts, infos = [], []
         for n in range(self.n_boot + 1):
@@ -111,7 +117,11 @@ class ObservationBootstrap(FilterLayer):
         cov = linalg.symmetrize(np.linalg.inv(total))
         weighted = sum(Y @ p.mean[..., None] for Y, p in zip(infos_mat, posts))[..., 0]
         mean = (cov @ weighted[..., None])[..., 0]
-        mean = np.where(np.isfinite(chol).all(axis=(-2, -1))[..., None], mean, np.nan)
+        fused_ok = np.isfinite(chol).all(axis=(-2, -1))
+        mean = np.where(fused_ok[..., None], mean, np.nan)
+        failed = ~fused_ok
+        for i in infos:
+            failed = failed | i.failed
         ll = np.stack([i.loglik for i in infos], axis=-1)
         if self.likelihood == "sum":
             top = np.max(ll, axis=-1, keepdims=True)
@@ -119,4 +129,4 @@ class ObservationBootstrap(FilterLayer):
         else:
             loglik = ll.sum(axis=-1)
         new = state._replace(mean=mean, cov=cov, step=state.step + 1)
-        return new, UpdateInfo(infos[0].innovation, infos[0].S, loglik, infos[0].nis)
+        return new, UpdateInfo(infos[0].innovation, infos[0].S, loglik, infos[0].nis, failed)

@@ -18,13 +18,83 @@ With :math:`\mu_i` the mode probabilities at k-1:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import IntEnum
 from typing import Any, NamedTuple, Sequence
 
 import numpy as np
 
+from .linalg import matmul_rows
 from .models import StackedDynamics
-from ._validate import (check_finite, as_float_array,
+from ._validate import (check_finite, as_float_array, check_has,
                         check_probabilities, check_transition_matrix)
+
+
+class Failure(IntEnum):
+    """Why a run diverged (``Estimate.failure``, ``Track.divergence_cause``); 0 = it did not."""
+
+    NONE = 0
+    COVARIANCE = 1      # an innovation or posterior covariance stopped being positive definite
+    LIKELIHOOD = 2      # every mode's likelihood underflowed to zero: the mode probabilities are undefined
+    NONFINITE = 3       # the estimate became non-finite otherwise (overflow)
+
+
+#: Human-readable cause of each :class:`Failure`.
+FAILURE_CAUSES = {
+    Failure.COVARIANCE: "covariance no longer positive definite",
+    Failure.LIKELIHOOD: "every mode's likelihood underflowed to zero (measurement incompatible with every mode); "
+                        "mode probabilities undefined",
+    Failure.NONFINITE: "estimate no longer finite (overflow)",
+}
+
+#: What the library expects of each kind of object (duck-typed interfaces, checked at construction).
+FILTER_METHODS = ("init", "predict", "update")
+DYNAMICS_METHODS = ("transition", "jacobian", "Q", "dim")
+MEASUREMENT_METHODS = ("h", "jacobian", "residual", "average", "R", "dim")
+
+
+def _check_filter(f, name: str = "filter"):
+    return check_has(f, name, "a mode-matched filter", FILTER_METHODS)
+
+
+def _check_dynamics(d, name: str = "dynamics"):
+    return check_has(d, name, "a dynamics model", DYNAMICS_METHODS)
+
+
+def _check_measurement_model(m, name: str = "measurement"):
+    return None if m is None else check_has(m, name, "a measurement model", MEASUREMENT_METHODS)
+
+
+def batch_size(state) -> int:
+    """Number of runs B of any (nested NamedTuple) estimator state: the leading axis of its first array."""
+    if isinstance(state, np.ndarray):
+        return state.shape[0]
+    for part in state:
+        if isinstance(part, np.ndarray) and part.ndim:
+            return part.shape[0]
+        if isinstance(part, tuple):
+            try:
+                return batch_size(part)
+            except ValueError:
+                continue
+    raise ValueError("state: holds no per-run array")
+
+
+def _check_state(state, name: str, fields, dim: int | None = None, kind: str = "filter state"):
+    """``state`` is a NamedTuple with ``fields`` (as returned by ``init``); its mean has dimension ``dim``."""
+    if not (isinstance(state, tuple) and hasattr(state, "_fields")) or any(f not in state._fields for f in fields):
+        raise ValueError(f"{name}: expected a {kind} as returned by init() (fields {', '.join(fields)}), "
+                         f"got {type(state).__name__}")
+    if dim is not None:
+        mean = state.mean if "mean" in state._fields else state.modes.mean
+        if np.shape(mean)[-1] != dim:
+            raise ValueError(f"{name}: state dimension {np.shape(mean)[-1]} does not match the dynamics' {dim}")
+    return state
+
+
+def _check_mean_dim(mean, dim: int):
+    shape = np.shape(as_float_array(mean, "mean"))
+    if len(shape) != 2 or shape[1] != dim:
+        raise ValueError(f"mean: expected shape (B, {dim}) for the dynamics' state dimension {dim}, got {shape}")
 
 
 class Estimate(NamedTuple):
@@ -42,6 +112,17 @@ class Estimate(NamedTuple):
     innovation: Any = None
     diagnostics: Any = None
     innovation_cov: Any = None
+    failure: Any = None           # (B,) Failure codes of the runs that failed at this step (0: none), or None
+
+
+def _failure_codes(failed):
+    """Failure codes (B,) from a ``failed`` mask (B,) or (B, r) of the mode filters, or None."""
+    if failed is None:
+        return None
+    failed = np.asarray(failed)
+    if failed.ndim > 1:
+        failed = failed.any(axis=tuple(range(1, failed.ndim)))
+    return np.where(failed, np.int8(Failure.COVARIANCE), np.int8(Failure.NONE))
 
 
 def _measurement_model(default, override):
@@ -52,10 +133,12 @@ def _measurement_model(default, override):
     return model
 
 
-def _check_measurement(z, dim: int, name: str = "z") -> np.ndarray:
+def _check_measurement(z, dim: int, name: str = "z", batch: int | None = None) -> np.ndarray:
     z = as_float_array(z, name)
     if z.ndim != 2 or z.shape[1] != dim:
-        raise ValueError(f"{name}: expected shape (B, {dim}), got {z.shape}")
+        raise ValueError(f"{name}: expected shape ({'B' if batch is None else batch}, {dim}), got {z.shape}")
+    if batch is not None and z.shape[0] != batch:
+        raise ValueError(f"{name}: {z.shape[0]} runs of measurements for a state of {batch} runs")
     return check_finite(z, name)
 
 
@@ -70,16 +153,26 @@ class SingleModel:
     measurement: Any
     name: str = ""
 
+    def __post_init__(self):
+        _check_filter(self.filter)
+        _check_dynamics(self.dynamics)
+        _check_measurement_model(self.measurement)
+        if not self.name:
+            object.__setattr__(self, "name", str(getattr(self.filter, "name", "") or type(self.filter).__name__))
+
     def init(self, mean, cov, **filter_init):
         """``filter_init`` goes to the filter's ``init`` (e.g. pre-drawn bootstrap noise)."""
+        _check_mean_dim(mean, self.dynamics.dim)
         return self.filter.init(mean, cov, **filter_init)
 
     def step(self, state, z, *, with_cov: bool = True, measurement=None):
-        measurement = _measurement_model(self.measurement, measurement)
-        z = _check_measurement(z, measurement.dim)
+        _check_state(state, "state", ("mean", "cov"), self.dynamics.dim)
+        measurement = _check_measurement_model(_measurement_model(self.measurement, measurement))
+        z = _check_measurement(z, measurement.dim, batch=batch_size(state))
         state = self.filter.predict(state, self.dynamics)
         state, info = self.filter.update(state, z, measurement)
-        return state, Estimate(state.mean, state.cov, None, info.loglik, info.innovation, innovation_cov=info.S)
+        return state, Estimate(state.mean, state.cov, None, info.loglik, info.innovation, innovation_cov=info.S,
+                               failure=_failure_codes(getattr(info, "failed", None)))
 
 
 class SwitchingState(NamedTuple):
@@ -99,24 +192,41 @@ class KnownModeSequence:
     measurement: Any
     name: str = "clairvoyant"
 
+    def __post_init__(self):
+        _check_filter(self.filter)
+        dyn = tuple(_check_dynamics(d, f"dynamics[{i}]") for i, d in enumerate(self.dynamics))
+        if not dyn or len({d.dim for d in dyn}) != 1:
+            raise ValueError(f"dynamics: expected one or more models of one state dimension, got {len(dyn)} models")
+        modes = np.asarray(self.modes)
+        if modes.ndim != 1 or modes.dtype.kind not in "iu" or np.any(modes < 0) or np.any(modes >= len(dyn)):
+            raise ValueError(f"modes: expected a 1-D integer array of model indices in 0..{len(dyn) - 1}, "
+                             f"got {self.modes!r}")
+        _check_measurement_model(self.measurement)
+        object.__setattr__(self, "dynamics", dyn)
+
     def init(self, mean, cov):
+        _check_mean_dim(mean, self.dynamics[0].dim)
         return SwitchingState(self.filter.init(mean, cov), 0)
 
     def step(self, state, z, *, with_cov: bool = True, measurement=None):
-        measurement = _measurement_model(self.measurement, measurement)
-        z = _check_measurement(z, measurement.dim)
+        if not isinstance(state, SwitchingState):
+            raise ValueError(f"state: expected the SwitchingState returned by init(), got {type(state).__name__}")
+        _check_state(state.filter_state, "state", ("mean", "cov"), self.dynamics[0].dim)
+        measurement = _check_measurement_model(_measurement_model(self.measurement, measurement))
+        z = _check_measurement(z, measurement.dim, batch=batch_size(state.filter_state))
         if state.step >= len(self.modes):
             raise ValueError(f"z: step {state.step} beyond the {len(self.modes)} known modes")
         s = self.filter.predict(state.filter_state, self.dynamics[int(self.modes[state.step])])
         s, info = self.filter.update(s, z, measurement)
         return SwitchingState(s, state.step + 1), Estimate(s.mean, s.cov, None, info.loglik, info.innovation,
-                                                           innovation_cov=info.S)
+                                                           innovation_cov=info.S,
+                                                           failure=_failure_codes(getattr(info, "failed", None)))
 
 
 # --------------------------------------------------------------------------- IMM
 def mixing_weights(mu: np.ndarray, transition: np.ndarray):
     r"""``c`` (B, r) and ``w[b, i, j] = mu_{i|j}`` (B, r, r) (Zhu et al. 2016, Eq. 54)."""
-    c = mu @ transition
+    c = matmul_rows(mu, transition)          # mu @ transition, the same bits for a run whatever the batch size
     impossible = c <= 0.0
     if impossible.any():
         # A mode no other mode can reach has c_j = 0: its mixed estimate gets zero weight in
@@ -151,14 +261,13 @@ def combine_covariances(wt, means, covs, centres):
     ``wt`` (B, J, I), ``means`` (B, I, n), ``covs`` (B, I, n, n), ``centres`` (B, J, n)."""
     B, J, I = wt.shape
     n = means.shape[-1]
-    # Centre on one component first: sum_i w_ji y_i y_i^T - c_j c_j^T with y = x - ref has
-    # no cancellation beyond the spread of the components themselves.
-    ref = means[:, :1, :]
-    y = means - ref
-    second = covs + y[..., :, None] * y[..., None, :]
-    spread = (wt @ second.reshape(B, I, n * n)).reshape(B, J, n, n)
-    cy = centres - ref
-    spread -= cy[..., :, None] * cy[..., None, :]
+    # Deviations from each centre, d_ji = x_i - c_j: every term w_ji [P_i + d_ji d_ji^T] is positive
+    # semi-definite, so the sum stays so to round-off (no subtraction of c c^T, which can cancel and
+    # give a negative variance).  Every product is per run (batch-size independent).
+    pooled = (wt @ covs.reshape(B, I, n * n)).reshape(B, J, n, n)
+    d = means[:, None, :, :] - centres[:, :, None, :]                  # (B, J, I, n)
+    wd = wt[..., :, None] * d                                          # (B, J, I, n)
+    spread = pooled + np.swapaxes(wd, -1, -2) @ d                      # (B, J, n, n)
     return 0.5 * (spread + np.swapaxes(spread, -1, -2))
 
 
@@ -188,12 +297,18 @@ class IMM:
     name: str = "IMM"
 
     def __post_init__(self):
-        dyn = tuple(self.dynamics)
+        if isinstance(self.dynamics, (str, bytes, np.ndarray)) or not hasattr(self.dynamics, "__iter__"):
+            raise ValueError(f"dynamics: expected a sequence of dynamics models, got {type(self.dynamics).__name__}")
+        dyn = tuple(_check_dynamics(d, f"dynamics[{i}]") for i, d in enumerate(self.dynamics))
+        if not dyn:
+            raise ValueError("dynamics: an IMM needs at least one mode")
         T = check_transition_matrix(self.transition, "transition")
         if T.shape[0] != len(dyn):
             raise ValueError(f"transition: expected {len(dyn)}x{len(dyn)} for {len(dyn)} modes, got {T.shape}")
-        if not hasattr(self.filter, "predict") or not hasattr(self.filter, "update"):
-            raise ValueError(f"filter: expected a mode-matched filter, got {type(self.filter).__name__}")
+        _check_filter(self.filter)
+        _check_measurement_model(self.measurement)
+        if not callable(self.mixing):
+            raise ValueError(f"mixing: expected a mixing strategy (callable), got {type(self.mixing).__name__}")
         object.__setattr__(self, "dynamics", dyn)
         object.__setattr__(self, "stacked", StackedDynamics.of(dyn))
         object.__setattr__(self, "transition", T)
@@ -204,15 +319,20 @@ class IMM:
         return len(self.dynamics)
 
     def init(self, mean, cov, mode_probabilities=None, **filter_init) -> IMMState:
-        """``filter_init`` goes to the mode filter's ``init``; every mode starts from the same state."""
+        """``filter_init`` goes to the mode filter's ``init``; every mode starts from the same state.
+        ``mode_probabilities`` (r,) or (B, r), default uniform."""
+        _check_mean_dim(mean, self.stacked.dim)
         base = self.filter.init(mean, cov, **filter_init)
         B = base.mean.shape[0]
         r = self.n_modes
         if mode_probabilities is None:
             mu = np.full((B, r), 1.0 / r)
         else:
-            mu = check_probabilities(np.broadcast_to(np.asarray(mode_probabilities, float), (B, r)),
-                                     "mode_probabilities")
+            mu = as_float_array(mode_probabilities, "mode_probabilities")
+            if mu.shape not in ((r,), (B, r)):
+                raise ValueError(f"mode_probabilities: expected shape ({r},) or ({B}, {r}) for {r} modes and "
+                                 f"{B} runs, got {mu.shape}")
+            mu = check_probabilities(np.broadcast_to(mu, (B, r)), "mode_probabilities")
         # every per-run field of the mode filter's state gets a mode axis; other fields pass through
         stacked = tuple(np.repeat(f[:, None], r, axis=1) if isinstance(f, np.ndarray) and f.ndim and f.shape[0] == B
                         else f for f in base)
@@ -222,8 +342,11 @@ class IMM:
         """One IMM cycle.  ``with_cov=False`` skips the fused covariance (an output only).
         ``measurement`` overrides the measurement model for this step; ``dynamics`` overrides the
         stacked mode dynamics (a :class:`~mmlib.models.StackedDynamics`, e.g. with per-run adapted Q)."""
-        measurement = _measurement_model(self.measurement, measurement)
-        z = _check_measurement(z, measurement.dim)
+        if not isinstance(state, IMMState):
+            raise ValueError(f"state: expected the IMMState returned by init(), got {type(state).__name__}")
+        _check_state(state.modes, "state", ("mean", "cov"), self.stacked.dim, "IMM mode-filter state")
+        measurement = _check_measurement_model(_measurement_model(self.measurement, measurement))
+        z = _check_measurement(z, measurement.dim, batch=state.mode_probabilities.shape[0])
         c, w = mixing_weights(state.mode_probabilities, self.transition)
         modes = state.modes
         mixed_means, mixed_covs = self.mixing(modes.mean, modes.cov, w)
@@ -237,6 +360,15 @@ class IMM:
             total = post.sum(axis=1, keepdims=True)
             mu = post / total
             marginal = (top + np.log(total))[:, 0]                    # log p(z_k | z_1:k-1)
+        failure = _failure_codes(getattr(info, "failed", None))
+        # every mode's likelihood underflowed (log L_j = -inf for all j, e.g. a wild measurement): the
+        # posterior mode probabilities are 0/0, undefined.  Diverged, with that cause, never patched.
+        underflow = (top[:, 0] == -np.inf)
+        if underflow.any():
+            if failure is None:
+                failure = np.zeros(mu.shape[0], dtype=np.int8)
+            failure = np.where(underflow & (failure == Failure.NONE), np.int8(Failure.LIKELIHOOD), failure)
+            mu = np.where(underflow[:, None], np.nan, mu)
         fused_mean = (mu[:, None, :] @ modes.mean)[:, 0]
         fused_cov = (combine_covariances(mu[:, None, :], modes.mean, modes.cov, fused_mean[:, None, :])[:, 0]
                      if with_cov else None)
@@ -245,25 +377,34 @@ class IMM:
         innovation = (c[:, :, None] * info.innovation).sum(axis=1)
         innovation_cov = combine_covariances(c[:, None, :], info.innovation, info.S, innovation[:, None, :])[:, 0]
         return IMMState(modes, mu), Estimate(fused_mean, fused_cov, mu, marginal, innovation,
-                                             innovation_cov=innovation_cov)
+                                             innovation_cov=innovation_cov, failure=failure)
 
 
 # --------------------------------------------------------------------------- driver
 class Track(NamedTuple):
     """Output of :func:`run` over K steps: ``mean`` (B, K, n), ``cov`` (B, K, n, n) or None,
     ``mode_probabilities`` (B, K, r) or None, ``diverged_step`` (B,) first step at which
-    the run's estimate became non-finite (a covariance stopped being positive definite),
-    -1 if it never did; ``diagnostics`` (B, K, d) or None (see :class:`Estimate`)."""
+    the run failed (a covariance stopped being positive definite, every mode likelihood
+    underflowed, or the estimate overflowed), -1 if it never did; ``diagnostics`` (B, K, d) or
+    None (see :class:`Estimate`); ``divergence_cause`` (B,) :class:`Failure` codes (0: none)."""
 
     mean: np.ndarray
     cov: Any
     mode_probabilities: Any
     diverged_step: np.ndarray
     diagnostics: Any = None
+    divergence_cause: Any = None
 
     @property
     def diverged(self) -> np.ndarray:
         return self.diverged_step >= 0
+
+    def divergence_report(self, name: str = "estimator") -> list[str]:
+        """One line per diverged run: ``name: run r diverged at step k (cause)``."""
+        causes = self.divergence_cause if self.divergence_cause is not None else \
+            np.full(self.diverged_step.shape, int(Failure.NONFINITE))
+        return [f"{name}: run {int(r)} diverged at step {int(self.diverged_step[r])} "
+                f"({FAILURE_CAUSES[Failure(int(causes[r]))]})" for r in np.flatnonzero(self.diverged_step >= 0)]
 
 
 class FilterDivergence(RuntimeError):
@@ -278,6 +419,7 @@ def _per_step_measurements(measurements, measurement_models):
         raise ValueError(f"measurement_models: {len(models)} models for {len(zs)} measurement steps")
     out, B = [], None
     for k, (z, model) in enumerate(zip(zs, models)):
+        _check_measurement_model(model, f"measurement_models[{k}]")
         z = check_finite(as_float_array(z, f"measurements[{k}]"), f"measurements[{k}]")
         if z.ndim != 2 or z.shape[1] != model.dim or (B is not None and z.shape[0] != B):
             raise ValueError(f"measurements[{k}]: expected shape ({B if B is not None else 'B'}, {model.dim}) "
@@ -285,7 +427,7 @@ def _per_step_measurements(measurements, measurement_models):
         B = z.shape[0]
         out.append((z, model))
     if not out:
-        raise ValueError("measurements: no steps")
+        raise ValueError("measurements: no steps (K = 0)")
     return out
 
 
@@ -297,33 +439,49 @@ def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bo
     ``measurements`` is a sequence of K arrays (B, m_k): the measurement dimension may change
     from step to step (e.g. the satellites in view).
 
-    A run whose state becomes non-finite is *recorded* in ``diverged_step``
-    (``on_divergence='record'``) or raises :class:`FilterDivergence` naming the
-    run and step (``'raise'``).  It is never patched.
+    A run whose estimate fails at step k (see :class:`Failure`) is *recorded* in
+    ``diverged_step`` and ``divergence_cause`` (``on_divergence='record'``) or raises
+    :class:`FilterDivergence` naming the estimator, run, step and cause (``'raise'``).
+    It is never patched.
     """
     if on_divergence not in ("record", "raise"):
         raise ValueError(f"on_divergence: expected 'record' or 'raise', got {on_divergence!r}")
+    check_has(estimator, "estimator", "an estimator", ("init", "step"))
+    if isinstance(state, np.ndarray) or not isinstance(state, tuple):
+        raise ValueError(f"state: expected the state returned by estimator.init(), got {type(state).__name__}")
+    B = batch_size(state)
     if measurement_models is None:
         z_all = as_float_array(measurements, "measurements")
         if z_all.ndim != 3:
             raise ValueError(f"measurements: expected shape (B, K, m), got {z_all.shape}")
+        if z_all.shape[1] == 0:
+            raise ValueError("measurements: no steps (K = 0)")
+        model = getattr(estimator, "measurement", None)
+        if model is not None and hasattr(model, "dim") and z_all.shape[2] != model.dim:
+            raise ValueError(f"measurements: measurement dimension {z_all.shape[2]} does not match the estimator's "
+                             f"measurement model ({model.dim})")
         check_finite(z_all, "measurements")
         steps = [(z_all[:, k], None) for k in range(z_all.shape[1])]
     else:
         steps = _per_step_measurements(measurements, measurement_models)
-    B = steps[0][0].shape[0]
+    if steps[0][0].shape[0] != B:
+        raise ValueError(f"measurements: {steps[0][0].shape[0]} runs of measurements for a state of {B} runs")
+    name = str(getattr(estimator, "name", "") or type(estimator).__name__)
     means, covs, mus, diags = [], [], [], []
     diverged_step = np.full(B, -1)
+    cause = np.zeros(B, dtype=np.int8)
     for k, (z_k, model_k) in enumerate(steps):
         state, est = (estimator.step(state, z_k, with_cov=keep_cov) if model_k is None
                       else estimator.step(state, z_k, with_cov=keep_cov, measurement=model_k))
-        bad = ~np.isfinite(est.mean).all(axis=1) & (diverged_step < 0)
+        failure = np.zeros(B, dtype=np.int8) if est.failure is None else est.failure
+        bad = (~np.isfinite(est.mean).all(axis=1) | (failure != Failure.NONE)) & (diverged_step < 0)
         if bad.any():
             diverged_step[bad] = k
+            cause[bad] = np.where(failure[bad] != Failure.NONE, failure[bad], np.int8(Failure.NONFINITE))
             if on_divergence == "raise":
-                raise FilterDivergence(
-                    f"{getattr(estimator, 'name', 'estimator')}: run {int(np.argmax(bad))} diverged at step {k} "
-                    "(covariance no longer positive definite)")
+                r = int(np.argmax(bad))
+                raise FilterDivergence(f"{name}: run {r} diverged at step {k} "
+                                       f"({FAILURE_CAUSES[Failure(int(cause[r]))]})")
         means.append(est.mean)
         if keep_cov:
             covs.append(est.cov)
@@ -333,7 +491,7 @@ def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bo
             diags.append(est.diagnostics)
     return Track(np.stack(means, axis=1), np.stack(covs, axis=1) if keep_cov else None,
                  np.stack(mus, axis=1) if mus else None, diverged_step,
-                 np.stack(diags, axis=1) if diags else None)
+                 np.stack(diags, axis=1) if diags else None, cause)
 
 
 def select_runs(state, index):

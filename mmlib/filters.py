@@ -61,8 +61,9 @@ class MeasurementPrediction(NamedTuple):
 class UpdateInfo(NamedTuple):
     innovation: np.ndarray      # (B, m), residual-wrapped
     S: np.ndarray               # (B, m, m)
-    loglik: np.ndarray          # (B,)  log N(innovation; 0, S), -inf/NaN if S not PD
+    loglik: np.ndarray          # (B,)  log N(innovation; 0, S), NaN if S not PD
     nis: np.ndarray             # (B,)  normalised innovation squared
+    failed: Any = None          # (B,) bool: S or the posterior covariance not positive definite (state NaN)
 
 
 def gaussian_state(mean, cov) -> GaussianState:
@@ -88,9 +89,19 @@ def kalman_update(state, pred: MeasurementPrediction, z: np.ndarray, measurement
     NIS is :math:`e^T e`.  Runs whose innovation covariance is not positive
     definite get a NaN state and log-likelihood (reported by
     :func:`mmlib.estimation.run` as diverged), never a patched one.
+
+    **Positive-definiteness check, for every filter.**  The posterior
+    :math:`P^+ = P - AA^T` is symmetrised and factorised; a run whose :math:`P^+` has no
+    Cholesky factor (LAPACK ``potrf``: a pivot :math:`\le 0`, i.e. not positive definite to
+    working precision, tolerance zero) is diverged *at this step*: its mean, covariance and
+    log-likelihood become NaN and ``UpdateInfo.failed`` is True.  Without the check a
+    KF/EKF could return a negative variance silently, and a sigma-point filter would only
+    fail at the next step's sigma points (one step late).  The Joseph form was not chosen:
+    it needs an explicit H, which sigma-point filters do not have, and its statistically
+    linearised version is algebraically the same expression as :math:`P - AA^T`.
     """
     nu = measurement.residual(z, pred.z_pred)
-    chol_s, _failed = linalg.cholesky(pred.S)
+    chol_s, s_failed = linalg.cholesky(pred.S)
     linv = linalg.tril_inverse(chol_s)
     a = pred.Pxz @ np.swapaxes(linv, -1, -2)                         # (..., n, m)
     e = (linv @ nu[..., None])[..., 0]                               # (..., m)
@@ -98,7 +109,15 @@ def kalman_update(state, pred: MeasurementPrediction, z: np.ndarray, measurement
     cov = linalg.symmetrize(state.cov - a @ np.swapaxes(a, -1, -2))
     nis = (e * e).sum(axis=-1)
     loglik = -0.5 * (nis + linalg.log_det_from_cholesky(chol_s) + nu.shape[-1] * LOG_2PI)
-    return state._replace(mean=mean, cov=cov), UpdateInfo(nu, pred.S, loglik, nis)
+    _, post_failed = linalg.cholesky(cov)
+    # NaN in, NaN out: a covariance already non-finite (e.g. sigma points of a prediction whose covariance
+    # had no Cholesky factor) has no factor either; LAPACK does not flag NaN, so test it here
+    failed = s_failed | post_failed | ~np.isfinite(cov).all(axis=(-2, -1))
+    if failed.any():
+        mean = np.where(failed[..., None], np.nan, mean)
+        cov = np.where(failed[..., None, None], np.nan, cov)
+        loglik = np.where(failed, np.nan, loglik)
+    return state._replace(mean=mean, cov=cov), UpdateInfo(nu, pred.S, loglik, nis, failed)
 
 
 class _FilterBase:

@@ -31,6 +31,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ._validate import check_choice, check_has, check_scalar
 from .filters import FilterLayer, kalman_update
 from .linalg import trace
 
@@ -59,12 +60,10 @@ class StrongTracking(FilterLayer):
     state_type = StrongTrackingState
 
     def __post_init__(self):
-        if not (isinstance(self.beta, (int, float)) and self.beta >= 1.0):
-            raise ValueError(f"beta: softening factor must be >= 1, got {self.beta!r}")
-        if not (isinstance(self.rho, (int, float)) and 0.0 < self.rho <= 1.0):
-            raise ValueError(f"rho: forgetting factor must lie in (0, 1], got {self.rho!r}")
-        if self.form not in ("statistical", "jacobian"):
-            raise ValueError(f"form: expected 'statistical' or 'jacobian', got {self.form!r}")
+        check_has(self.base, "base", "a filter", ("init", "predict", "predict_measurement"))
+        object.__setattr__(self, "beta", check_scalar(self.beta, "beta", low=1.0))       # softening factor
+        object.__setattr__(self, "rho", check_scalar(self.rho, "rho", positive=True, high=1.0))   # forgetting
+        check_choice(self.form, "form", ("statistical", "jacobian"))
         if not self.name:
             object.__setattr__(self, "name", "ST" + getattr(self.base, "name", "filter"))
 
@@ -91,7 +90,10 @@ class StrongTracking(FilterLayer):
         pred = self.base.predict_measurement(state, measurement)
         v = measurement.residual(z, pred.z_pred)
         vvt = v[..., :, None] * v[..., None, :]
-        V = vvt if state.V is None else (self.rho * state.V + vvt) / (1.0 + self.rho)
+        # Eq. 17 restarts when the measurement set changes dimension (e.g. the satellites in view): outer
+        # products of innovations of different sizes cannot be averaged
+        restart = state.V is None or state.V.shape[-1] != vvt.shape[-1]
+        V = vvt if restart else (self.rho * state.V + vvt) / (1.0 + self.rho)
         lam = self.fading_factor(state, pred, V, measurement)
         inflate = lam > 1.0
         if inflate.any():

@@ -1,0 +1,106 @@
+"""Estimators, their states and the layers: every bad input is a ValueError naming the argument the caller
+wrote (never an AttributeError, an IndexError, a numpy broadcasting error or a silently wrong result)."""
+import numpy as np
+import pytest
+
+import mmlib as m
+from mmlib import models
+from mmlib.adaptive import InnovationAdaptive
+from mmlib.bootstrap import ObservationBootstrap
+from mmlib.strong_tracking import StrongTracking
+
+B, K = 3, 6
+CV = models.constant_velocity(1.0, 2.0)
+POS = models.position_measurement([25.0, 16.0])
+UKF = m.SigmaPointFilter(m.Unscented())
+X0 = np.tile([100.0, 10.0, -50.0, 5.0], (B, 1))
+P0 = np.diag([100.0, 25.0, 100.0, 25.0])
+Z = np.random.default_rng(1).standard_normal((B, K, 2)) * 5 + [100.0, -50.0]
+TR = [[0.9, 0.1], [0.1, 0.9]]
+
+
+def _imm():
+    return m.IMM(UKF, [CV, models.constant_velocity(1.0, 20.0)], POS, TR)
+
+
+CASES = {
+    "filter is a string": (lambda: m.SingleModel("ukf", CV, POS), "filter"),
+    "dynamics is a string": (lambda: m.SingleModel(UKF, "cv", POS), "dynamics"),
+    "measurement is a string": (lambda: m.SingleModel(UKF, CV, "radar"), "measurement"),
+    "measurement is an array": (lambda: m.SingleModel(UKF, CV, np.eye(2)), "measurement"),
+    "IMM dynamics not a sequence": (lambda: m.IMM(UKF, CV, POS, [[1.0]]), "dynamics"),
+    "IMM one mode is a string": (lambda: m.IMM(UKF, [CV, "ct"], POS, TR), r"dynamics\[1\]"),
+    "IMM filter is a string": (lambda: m.IMM("ukf", [CV, CV], POS, TR), "filter"),
+    "IMM mixing not callable": (lambda: m.IMM(UKF, [CV, CV], POS, TR, mixing="moment"), "mixing"),
+    "known modes out of range": (lambda: m.estimation.KnownModeSequence(UKF, [CV], np.array([0, 1]), POS), "modes"),
+    "state dimension != model's": (lambda: m.SingleModel(UKF, CV, POS).init(X0[:, :3], np.eye(3)), "mean"),
+    "IMM mean dimension != model's": (lambda: _imm().init(X0[:, :3], np.eye(3)), "mean"),
+    "mode_probabilities wrong length": (lambda: _imm().init(X0, P0, mode_probabilities=[0.2, 0.3, 0.5]),
+                                        "mode_probabilities"),
+    "mode_probabilities not summing to 1": (lambda: _imm().init(X0, P0, mode_probabilities=[0.2, 0.3]),
+                                            "mode_probabilities"),
+    "step with an array as state": (lambda: m.SingleModel(UKF, CV, POS).step(X0, Z[:, 0]), "state"),
+    "IMM step with a Gaussian state": (lambda: _imm().step(UKF.init(X0, P0), Z[:, 0]), "state"),
+    "step with fewer runs of z": (lambda: m.SingleModel(UKF, CV, POS).step(UKF.init(X0, P0), Z[:2, 0]), "z"),
+    "IMM step with fewer runs of z": (lambda: _imm().step(_imm().init(X0, P0), Z[:2, 0]), "z"),
+    "step with a state of another dimension": (
+        lambda: m.SingleModel(UKF, CV, POS).step(UKF.init(np.zeros((B, 6)), np.eye(6)), Z[:, 0]), "state"),
+    "run with fewer runs of measurements": (
+        lambda: m.run(m.SingleModel(UKF, CV, POS), UKF.init(X0, P0), Z[:2]), "measurements"),
+    "run with more runs of measurements": (
+        lambda: m.run(_imm(), _imm().init(X0, P0), np.concatenate([Z, Z])), "measurements"),
+    "run with K = 0": (lambda: m.run(m.SingleModel(UKF, CV, POS), UKF.init(X0, P0), Z[:, :0]), "measurements"),
+    "run with measurement dimension != model's": (
+        lambda: m.run(m.SingleModel(UKF, CV, POS), UKF.init(X0, P0), np.zeros((B, K, 3))), "measurements"),
+    "run with complex measurements": (
+        lambda: m.run(m.SingleModel(UKF, CV, POS), UKF.init(X0, P0), Z + 1j), "measurements"),
+    "run with an array as state": (lambda: m.run(m.SingleModel(UKF, CV, POS), X0, Z), "state"),
+    "run with a string as estimator": (lambda: m.run("IMM", UKF.init(X0, P0), Z), "estimator"),
+    "run with a string as a per-step model": (
+        lambda: m.run(m.SingleModel(UKF, CV, None), UKF.init(X0, P0), list(np.swapaxes(Z, 0, 1)),
+                      measurement_models=["pos"] * K), r"measurement_models\[0\]"),
+    "strong tracking beta NaN": (lambda: StrongTracking(UKF, beta=float("nan")), "beta"),
+    "strong tracking beta < 1": (lambda: StrongTracking(UKF, beta=0.5), "beta"),
+    "strong tracking rho 0": (lambda: StrongTracking(UKF, rho=0.0), "rho"),
+    "strong tracking base string": (lambda: StrongTracking("ukf"), "base"),
+    "strong tracking form": (lambda: StrongTracking(UKF, form="exact"), "form"),
+    "adaptive window 1": (lambda: InnovationAdaptive(UKF, window=1), "window"),
+    "adaptive window float": (lambda: InnovationAdaptive(UKF, window=5.0), "window"),
+    "adaptive psi inf": (lambda: InnovationAdaptive(UKF, psi=float("inf")), "psi"),
+    "bootstrap n_boot negative": (lambda: ObservationBootstrap(UKF, n_boot=-1), "n_boot"),
+    "bootstrap variance_factor NaN": (lambda: ObservationBootstrap(UKF, variance_factor=float("nan")),
+                                      "variance_factor"),
+    "bootstrap noise of the wrong N": (
+        lambda: ObservationBootstrap(UKF, n_boot=2).init(X0, P0, noise=np.zeros((B, K, 3, 2))), "noise"),
+    "bootstrap noise of the wrong batch": (
+        lambda: ObservationBootstrap(UKF, n_boot=2).init(X0, P0, noise=np.zeros((B + 1, K, 2, 2))), "noise"),
+    "bootstrap noise with NaN": (
+        lambda: ObservationBootstrap(UKF, n_boot=2).init(X0, P0, noise=np.full((B, K, 2, 2), np.nan)), "noise"),
+    "bootstrap noise too short": (
+        lambda: m.run(m.SingleModel(ObservationBootstrap(UKF, n_boot=2), CV, POS),
+                      ObservationBootstrap(UKF, n_boot=2).init(X0, P0, noise=np.zeros((B, K - 1, 2, 2))), Z), "noise"),
+    "bootstrap noise of a smaller dimension": (
+        lambda: m.run(m.SingleModel(ObservationBootstrap(UKF, n_boot=2), CV, POS),
+                      ObservationBootstrap(UKF, n_boot=2).init(X0, P0, noise=np.zeros((B, K, 2, 1))), Z), "noise"),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES), ids=list(CASES))
+def test_bad_input_is_a_value_error_naming_the_argument(case):
+    call, name = CASES[case]
+    with pytest.raises(ValueError, match=name):
+        call()
+
+
+def test_numpy_scalars_are_accepted_by_the_layers():
+    """np.float32 / np.int64 parameters are numbers (the old checks rejected them)."""
+    st = StrongTracking(UKF, beta=np.float32(4.5), rho=np.float64(0.95))
+    assert st.beta == 4.5 and isinstance(st.beta, float)
+    assert InnovationAdaptive(UKF, window=np.int64(5), psi=np.float32(2.0)).window == 5
+    assert ObservationBootstrap(UKF, n_boot=np.int32(3), variance_factor=np.float32(2.0)).n_boot == 3
+
+
+def test_track_has_one_diverged_step_per_run():
+    """Old code broadcast two runs of measurements over three runs of state and returned 2 diverged steps."""
+    track = m.run(m.SingleModel(UKF, CV, POS), UKF.init(X0, P0), Z)
+    assert track.diverged_step.shape == (B,) and track.divergence_cause.shape == (B,)

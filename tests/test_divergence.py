@@ -1,0 +1,162 @@
+"""Divergence is reported at the step where it happens, with its cause, for every filter, layer and the IMM.
+
+Fault injection: at step ``K_BAD`` the measurement model's R is slightly *negative*, -1e-3 I.  For a linear
+position measurement with predicted position variance p (>> 1e-3 here), S = p + R > 0 still has a Cholesky
+factor, but the posterior variance p - p^2/(p + R) = pR/(p + R) < 0: the posterior covariance stops being
+positive definite at exactly that step.  For the sigma-point rules the measurement is linear, so every
+rule computes the same S and P_xz (to round-off) and the same indefinite posterior.
+"""
+import numpy as np
+import pytest
+
+import mmlib as m
+from mmlib import models
+from mmlib.adaptive import InnovationAdaptive
+from mmlib.bootstrap import ObservationBootstrap
+from mmlib.estimation import Failure, FilterDivergence, combine_covariances
+from mmlib.strong_tracking import StrongTracking
+from test_filters import FILTERS, IDS
+
+K_BAD = 7
+
+
+class NegativeR:
+    """A duck-typed linear position measurement whose R is -1e-3 I (an injected fault)."""
+
+    def __init__(self, base):
+        self.base = base
+        self.R = -1e-3 * np.eye(base.dim)
+        self.dim = base.dim
+        self.noise_factor = base.noise_factor
+
+    def h(self, x):
+        return self.base.h(x)
+
+    def jacobian(self, x):
+        return self.base.jacobian(x)
+
+    def residual(self, a, b):
+        return self.base.residual(a, b)
+
+    def average(self, values, weights):
+        return self.base.average(values, weights)
+
+
+def _faulty_models(meas, K):
+    return [NegativeR(meas) if k == K_BAD else meas for k in range(K)]
+
+
+@pytest.mark.parametrize("filt", FILTERS, ids=IDS)
+def test_posterior_not_positive_definite_is_reported_at_its_step(filt, linear_problem):
+    """Fails on the old code: KF/EKF returned a negative variance unreported, sigma-point filters reported K_BAD+1."""
+    dyn, meas, x0, P0, zs = linear_problem
+    K = zs.shape[1]
+    track = m.run(m.SingleModel(filt, dyn, None), filt.init(x0, P0), list(np.swapaxes(zs, 0, 1)),
+                  measurement_models=_faulty_models(meas, K))
+    assert track.diverged_step.tolist() == [K_BAD] * x0.shape[0]
+    assert (track.divergence_cause == Failure.COVARIANCE).all()
+    assert np.isfinite(track.mean[:, :K_BAD]).all() and np.isnan(track.mean[:, K_BAD]).all()
+    # no negative variance is ever returned
+    var = np.diagonal(track.cov, axis1=-2, axis2=-1)
+    assert not (var < 0).any()
+
+
+@pytest.mark.parametrize("layer", ["strong-tracking", "adaptive", "bootstrap"])
+def test_layers_report_the_injected_fault_at_its_step(layer, linear_problem):
+    dyn, meas, x0, P0, zs = linear_problem
+    K = zs.shape[1]
+    base = m.SigmaPointFilter(m.Cubature())
+    filt = {"strong-tracking": StrongTracking(base), "adaptive": InnovationAdaptive(base, window=20),
+            "bootstrap": ObservationBootstrap(base, n_boot=2)}[layer]
+    extra = {"noise": np.random.default_rng(0).standard_normal((x0.shape[0], K, 2, 2))} if layer == "bootstrap" else {}
+    track = m.run(m.SingleModel(filt, dyn, None), filt.init(x0, P0, **extra), list(np.swapaxes(zs, 0, 1)),
+                  measurement_models=_faulty_models(meas, K))
+    assert track.diverged_step.tolist() == [K_BAD] * x0.shape[0]
+    assert (track.divergence_cause == Failure.COVARIANCE).all()
+
+
+def test_imm_reports_a_mode_failure_at_its_step(linear_problem):
+    dyn, meas, x0, P0, zs = linear_problem
+    K = zs.shape[1]
+    filt = m.SigmaPointFilter(m.Unscented())
+    imm = m.IMM(filt, [dyn, models.constant_velocity(1.0, 20.0)], None, [[0.95, 0.05], [0.05, 0.95]])
+    track = m.run(imm, imm.init(x0, P0), list(np.swapaxes(zs, 0, 1)), measurement_models=_faulty_models(meas, K))
+    assert track.diverged_step.tolist() == [K_BAD] * x0.shape[0]
+    assert (track.divergence_cause == Failure.COVARIANCE).all()
+
+
+def test_imm_likelihood_underflow_is_reported_as_such(linear_problem):
+    """A 1e300 measurement: every mode's log-likelihood is -inf, the mode probabilities 0/0.  The old code
+    reported "covariance no longer positive definite"."""
+    dyn, meas, x0, P0, zs = linear_problem
+    zs = zs.copy()
+    zs[1, 4] = 1e300
+    imm = m.IMM(m.KalmanFilter(), [dyn, models.constant_velocity(1.0, 20.0)], meas, [[0.95, 0.05], [0.05, 0.95]])
+    track = m.run(imm, imm.init(x0, P0), zs)
+    assert track.diverged_step.tolist() == [-1, 4, -1]
+    assert track.divergence_cause.tolist() == [0, Failure.LIKELIHOOD, 0]
+    assert "likelihood" in track.divergence_report("IMM")[0]
+    with pytest.raises(FilterDivergence, match="IMM: run 1 diverged at step 4 .*likelihood underflowed"):
+        m.run(imm, imm.init(x0, P0), zs, on_divergence="raise")
+
+
+def test_single_model_divergence_message_names_the_filter(linear_problem):
+    """The old message started with an empty name (SingleModel.name defaulted to "")."""
+    dyn, meas, x0, P0, zs = linear_problem
+    filt = m.SigmaPointFilter(m.Cubature())
+    state = filt.init(x0, P0)
+    state = state._replace(cov=-state.cov)
+    with pytest.raises(FilterDivergence, match=r"^cubature3: run 0 diverged at step 0 \(covariance no longer positive"):
+        m.run(m.SingleModel(filt, dyn, meas), state, zs, on_divergence="raise")
+
+
+def test_fused_covariance_stays_positive_semidefinite_under_cancellation():
+    """Components far from the first one and close to each other: the old form, sum w (P + y y^T) - c c^T with
+    y, c ~ 1e8, cancelled ~1e16 * eps ~ 2 against a true spread of ~1e-6 and returned a negative variance.
+    Exact answer: P + w1 w2 (x2 - x3)^2 with x2 - x3 = 1e-3, i.e. 1e-6 + 0.25e-6."""
+    means = np.array([[[0.0, 0.0], [1e8, 1e8], [1e8 + 1e-3, 1e8 + 1e-3]]])
+    covs = np.broadcast_to(1e-6 * np.eye(2), (1, 3, 2, 2))
+    wt = np.array([[[0.0, 0.5, 0.5]]])
+    centre = wt @ means
+    out = combine_covariances(wt, means, covs, centre)[0, 0]
+    # exact: the centre itself is rounded (ulp of 1e8 ~ 1.5e-8), which moves the spread by <= 2 * 1.5e-8 * 5e-4
+    expected = 1e-6 * np.eye(2) + 0.25e-6 * np.ones((2, 2))
+    np.testing.assert_allclose(out, expected, rtol=0, atol=3e-11)
+    assert np.linalg.eigvalsh(out).min() > 0
+
+
+@pytest.mark.parametrize("layer", ["strong-tracking", "adaptive", "bootstrap"])
+def test_layers_accept_a_measurement_dimension_that_changes_per_step(layer, linear_problem):
+    """The satellites in view change: the layers restart their innovation statistics instead of crashing
+    (old code: a shape error ended the whole run()).  With the dimension fixed the layer is unchanged."""
+    dyn, meas, x0, P0, zs = linear_problem
+    K = zs.shape[1]
+    base = m.SigmaPointFilter(m.Cubature())
+    filt = {"strong-tracking": StrongTracking(base), "adaptive": InnovationAdaptive(base, window=3, inflate_only=True),
+            "bootstrap": ObservationBootstrap(base, n_boot=2)}[layer]
+    x_only = models.LinearMeasurement(meas.H[:1].copy(), meas.R[:1, :1].copy())
+    models_k = [x_only if 8 <= k < 12 else meas for k in range(K)]
+    zs_k = [zs[:, k, :1] if 8 <= k < 12 else zs[:, k] for k in range(K)]
+    extra = {"noise": np.random.default_rng(0).standard_normal((x0.shape[0], K, 2, 2))} if layer == "bootstrap" else {}
+    track = m.run(m.SingleModel(filt, dyn, None), filt.init(x0, P0, **extra), zs_k, measurement_models=models_k)
+    assert not track.diverged.any()
+    fixed = m.run(m.SingleModel(filt, dyn, meas), filt.init(x0, P0, **extra), zs)
+    np.testing.assert_array_equal(track.mean[:, :8], fixed.mean[:, :8])
+    # the same inside an IMM
+    imm = m.IMM(filt, [dyn, models.constant_velocity(1.0, 20.0)], None, [[0.95, 0.05], [0.05, 0.95]])
+    track = m.run(imm, imm.init(x0, P0, **extra), zs_k, measurement_models=models_k)
+    assert not track.diverged.any()
+
+
+def test_strong_tracking_restarts_its_innovation_average_when_the_dimension_changes(linear_problem):
+    """Eq. 17 restarts (V = v v^T) for a measurement set of another dimension; the old code broadcast the 2x2
+    average against the 1x1 outer product and carried a wrong-sized V on silently."""
+    dyn, meas, x0, P0, zs = linear_problem
+    st = StrongTracking(m.SigmaPointFilter(m.Cubature()))
+    state = st.update(st.predict(st.init(x0, P0), dyn), zs[:, 0], meas)[0]
+    assert state.V.shape == (x0.shape[0], 2, 2)
+    x_only = models.LinearMeasurement(meas.H[:1].copy(), meas.R[:1, :1].copy())
+    pred_state = st.predict(state, dyn)
+    new, info = st.update(pred_state, zs[:, 1, :1], x_only)
+    assert new.V.shape == (x0.shape[0], 1, 1)
+    np.testing.assert_array_equal(new.V, info.innovation[:, :, None] * info.innovation[:, None, :])
