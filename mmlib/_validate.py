@@ -179,3 +179,82 @@ def check_positive_int(value, name: str, minimum: int = 1) -> int:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < minimum:
         raise ValueError(f"{name}: expected an integer >= {minimum}, got {value!r}")
     return int(value)
+
+
+def check_finite_runs(arr: np.ndarray, name: str, valid: np.ndarray) -> np.ndarray:
+    """``arr`` (run axis first) finite in every run where the boolean mask ``valid`` is True; the other
+    runs (diverged, excluded by the caller) may hold anything.  The message gives the first bad index
+    in the caller's own indexing."""
+    bad = ~np.isfinite(arr)
+    bad &= np.reshape(valid, (-1,) + (1,) * (arr.ndim - 1))
+    if np.any(bad):
+        at = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(f"{name}: contains NaN or infinite values in a run marked valid "
+                         f"(first at index {at}); mark diverged runs invalid instead")
+    return arr
+
+
+def check_covariance_stack(value, name: str, dim: int | None = None) -> np.ndarray:
+    """Symmetric positive-definite matrices of shape (..., n, n), any number of leading axes (e.g. runs
+    and steps); symmetry to ``RTOL`` of each matrix's largest entry, definiteness by the smallest
+    eigenvalue > 0.  The message gives the index of the first offending matrix."""
+    arr = check_finite(as_float_array(value, name), name)
+    if arr.ndim < 2 or arr.shape[-1] != arr.shape[-2]:
+        raise ValueError(f"{name}: expected square covariances of shape (..., n, n), got {arr.shape}")
+    if dim is not None and arr.shape[-1] != dim:
+        raise ValueError(f"{name}: expected {dim}x{dim} covariances, got shape {arr.shape}")
+    lead = arr.shape[:-2]
+    flat = arr.reshape((-1,) + arr.shape[-2:])
+    if flat.shape[0] == 0:
+        return arr
+    scale = np.maximum(np.max(np.abs(flat), axis=(-2, -1)), np.finfo(float).tiny)
+    asym = np.max(np.abs(flat - np.swapaxes(flat, -1, -2)), axis=(-2, -1)) > RTOL * scale
+    if np.any(asym):
+        at = tuple(int(i) for i in np.unravel_index(int(np.argmax(asym)), lead))
+        raise ValueError(f"{name}: covariance at index {at} is not symmetric")
+    eig_min = np.linalg.eigvalsh(flat)[:, 0]
+    if np.any(eig_min <= 0.0):
+        i = int(np.argmax(eig_min <= 0.0))
+        at = tuple(int(j) for j in np.unravel_index(i, lead))
+        raise ValueError(f"{name}: covariance at index {at} is not positive definite; "
+                         f"smallest eigenvalue {float(eig_min[i]):.3g}")
+    return arr
+
+
+def check_semidefinite_stack(value, name: str, dim: int | None = None) -> np.ndarray:
+    """Symmetric positive *semi*-definite matrices (..., n, n), any leading axes (e.g. per-mode or
+    per-run process noise, where a zero block is legitimate).  Symmetry to ``RTOL`` of each matrix's
+    largest entry; definiteness: smallest eigenvalue >= -RTOL * largest entry (the floor of
+    :func:`check_covariance` with ``semidefinite=True``).  Tested by one batched Cholesky of
+    ``Q + RTOL * scale * I`` (3-20x cheaper than eigenvalues, measured, so it can run at every step);
+    eigenvalues are computed only when that fails, to decide and to report the first bad index."""
+    arr = check_finite(as_float_array(value, name), name)
+    if arr.ndim < 2 or arr.shape[-1] != arr.shape[-2]:
+        raise ValueError(f"{name}: expected square covariances of shape (..., n, n), got {arr.shape}")
+    if dim is not None and arr.shape[-1] != dim:
+        raise ValueError(f"{name}: expected {dim}x{dim} covariances, got shape {arr.shape}")
+    lead, n = arr.shape[:-2], arr.shape[-1]
+    flat = arr.reshape((-1, n, n))
+    if flat.shape[0] == 0:
+        return arr
+    N = flat.shape[0]
+    scale = np.maximum(np.abs(flat).reshape(N, -1).max(axis=1), np.finfo(float).tiny)   # (reshape: ~5x faster)
+    asym = np.abs(flat - np.swapaxes(flat, -1, -2)).reshape(N, -1).max(axis=1) > RTOL * scale
+    if np.any(asym):
+        at = tuple(int(i) for i in np.unravel_index(int(np.argmax(asym)), lead))
+        raise ValueError(f"{name}: covariance at index {at} is not symmetric")
+    try:
+        shifted = flat.copy()
+        shifted.reshape(N, -1)[:, ::n + 1] += (RTOL * scale)[:, None]
+        np.linalg.cholesky(shifted)
+        return arr
+    except np.linalg.LinAlgError:
+        pass
+    eig_min = np.linalg.eigvalsh(flat)[:, 0]
+    bad = eig_min < -RTOL * scale
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        at = tuple(int(j) for j in np.unravel_index(i, lead))
+        raise ValueError(f"{name}: covariance at index {at} is not positive semi-definite; "
+                         f"smallest eigenvalue {float(eig_min[i]):.3g}")
+    return arr

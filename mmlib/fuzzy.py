@@ -21,14 +21,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import as_float_array, check_finite
+from ._validate import as_float_array, check_finite, check_scalar
+from .linalg import matmul_rows
 
 
 @dataclass(frozen=True)
 class Trapezoid:
     r"""Trapezoidal membership function: 0 below ``a``, rising to 1 at ``b``, 1 up to ``c``,
     falling to 0 at ``d``.  ``a = b = -inf`` gives a left shoulder, ``c = d = inf`` a right
-    shoulder, ``b = c`` a triangle."""
+    shoulder, ``b = c`` a triangle.
+
+    ``name`` a string; ``a``-``d`` real numbers (in the input's units) with ``a <= b <= c <= d``;
+    infinities only as shoulders (``a = -inf`` exactly when ``b = -inf``, ``d = inf`` exactly when
+    ``c = inf``), so that every set is non-zero somewhere."""
 
     name: str
     a: float
@@ -37,11 +42,23 @@ class Trapezoid:
     d: float
 
     def __post_init__(self):
-        if not (self.a <= self.b <= self.c <= self.d) or any(map(math.isnan, (self.a, self.b, self.c, self.d))):
-            raise ValueError(f"{self.name}: expected a <= b <= c <= d, got {(self.a, self.b, self.c, self.d)}")
+        if not isinstance(self.name, str):
+            raise ValueError(f"name: expected a string, got {type(self.name).__name__}")
+        a, b, c, d = (check_scalar(getattr(self, k), k, finite=False) for k in "abcd")
+        if not a <= b <= c <= d:
+            raise ValueError(f"a, b, c, d: expected a <= b <= c <= d for set {self.name!r}, got {(a, b, c, d)}")
+        if (a == -math.inf) != (b == -math.inf):
+            raise ValueError(f"b: a left shoulder (set {self.name!r}) needs a = b = -inf, got a={a}, b={b}")
+        if (d == math.inf) != (c == math.inf):
+            raise ValueError(f"c: a right shoulder (set {self.name!r}) needs c = d = inf, got c={c}, d={d}")
+        if b == math.inf or c == -math.inf:
+            raise ValueError(f"{'b' if b == math.inf else 'c'}: set {self.name!r} would be zero for every finite "
+                             f"input, got {(a, b, c, d)}")
+        for k, v in zip("abcd", (a, b, c, d)):
+            object.__setattr__(self, k, v)
 
     def __call__(self, x):
-        x = np.asarray(x, dtype=float)
+        x = check_finite(as_float_array(x, "x"), "x")
         with np.errstate(invalid="ignore", divide="ignore"):
             up = np.ones_like(x) if self.a == -math.inf else (
                 (x >= self.b).astype(float) if self.b == self.a else (x - self.a) / (self.b - self.a))
@@ -54,10 +71,21 @@ def ramp_sets(names, breakpoints) -> tuple:
     """Sets forming a partition of unity on the real line -- a left shoulder, triangles, a right
     shoulder -- with ``breakpoints[i]`` the point where set i reaches 1 (the end of the left
     shoulder, the triangles' peaks, the start of the right shoulder).  E.g. names (N, M, L) with
-    breakpoints (1, 2, 4): N is 1 up to 1 and 0 from 2; M peaks at 2; L is 0 up to 2 and 1 from 4."""
-    names, bp = tuple(names), [float(b) for b in breakpoints]
-    if len(bp) != len(names) or len(names) < 2 or any(b1 <= b0 for b0, b1 in zip(bp, bp[1:])):
+    breakpoints (1, 2, 4): N is 1 up to 1 and 0 from 2; M peaks at 2; L is 0 up to 2 and 1 from 4.
+
+    ``names``: at least two strings; ``breakpoints``: one finite value per name (in the input's
+    units), strictly increasing."""
+    if not hasattr(names, "__iter__"):
+        raise ValueError(f"names: expected a sequence of set names (strings), got {names!r}")
+    names = tuple(names)
+    if not all(isinstance(nm, str) for nm in names):
+        raise ValueError(f"names: expected a sequence of set names (strings), got {names!r}")
+    if len(names) < 2:
+        raise ValueError(f"names: expected at least two set names, got {names!r}")
+    bp = check_finite(as_float_array(breakpoints, "breakpoints"), "breakpoints")
+    if bp.shape != (len(names),) or np.any(np.diff(bp) <= 0):
         raise ValueError(f"breakpoints: expected {len(names)} increasing values, got {breakpoints!r}")
+    bp = [float(b) for b in bp]
     out = []
     for i, nm in enumerate(names):
         a = -math.inf if i == 0 else bp[i - 1]
@@ -82,13 +110,33 @@ class TakagiSugeno:
     output_names: tuple = ()
 
     def __post_init__(self):
-        sets = tuple(tuple(s) for s in self.inputs)
+        if isinstance(self.inputs, (str, bytes)) or not hasattr(self.inputs, "__iter__"):
+            raise ValueError(f"inputs: expected one tuple of membership functions per input, got "
+                             f"{type(self.inputs).__name__}")
+        sets = tuple(self.inputs)
+        if not sets:
+            raise ValueError("inputs: expected at least one input, got none")
+        for i, s in enumerate(sets):
+            if isinstance(s, (str, bytes)) or not hasattr(s, "__iter__"):
+                raise ValueError(f"inputs[{i}]: expected a non-empty tuple of membership functions, got {s!r}")
+        sets = tuple(tuple(s) for s in sets)
+        for i, s in enumerate(sets):
+            if not s:
+                raise ValueError(f"inputs[{i}]: expected a non-empty tuple of membership functions, got none")
+            for j, mf in enumerate(s):
+                if not callable(mf):
+                    raise ValueError(f"inputs[{i}][{j}]: expected a membership function (callable), "
+                                     f"got {type(mf).__name__}")
         cons = check_finite(as_float_array(self.consequents, "consequents"), "consequents")
         grid = tuple(len(s) for s in sets)
-        if cons.ndim != len(grid) + 1 or cons.shape[:-1] != grid:
+        if cons.ndim != len(grid) + 1 or cons.shape[:-1] != grid or cons.shape[-1] < 1:
             raise ValueError(f"consequents: expected shape {grid} + (n_outputs,), got {cons.shape}")
         if self.input_names and len(self.input_names) != len(sets):
             raise ValueError(f"input_names: expected {len(sets)} names, got {self.input_names!r}")
+        if self.output_names and len(self.output_names) != cons.shape[-1]:
+            raise ValueError(f"output_names: expected {cons.shape[-1]} names (one per output), "
+                             f"got {self.output_names!r}")
+        cons = np.array(cons, dtype=float)
         cons.setflags(write=False)
         object.__setattr__(self, "inputs", sets)
         object.__setattr__(self, "consequents", cons)
@@ -119,7 +167,8 @@ class TakagiSugeno:
             b = int(np.argmax(total[:, 0] <= 0))
             raise ValueError(f"x: input {np.asarray(x)[b].tolist()} (row {b}) fires no rule; the fuzzy sets must "
                              "cover every input value")
-        return (wf @ self.consequents.reshape(wf.shape[1], -1)) / total
+        # matmul_rows, not wf @ ...: the same bits for a run whatever the number of runs (one included)
+        return matmul_rows(wf, self.consequents.reshape(wf.shape[1], -1)) / total
 
     def rules(self):
         """Readable rule list: (antecedent set names, consequent vector)."""

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validate import as_float_array, check_covariance, check_finite
+from ._validate import as_float_array, check_covariance, check_finite, check_scalar
 from .models import LinearGaussianDynamics, _psd_factor
 
 SPEED_OF_LIGHT = 299_792_458.0          # m/s
@@ -56,6 +56,9 @@ class CircularOrbitConstellation:
         u = u_0 + n t,\quad \Omega = \Omega_0 - \omega_E t,\quad n = \sqrt{GM/a^3},\\
         s = a\,[\cos u\cos\Omega - \sin u\cos i\sin\Omega,\;
                 \cos u\sin\Omega + \sin u\cos i\cos\Omega,\; \sin u\sin i].
+
+    ``raan``, ``arg_latitude``: (S,), S >= 1, rad; ``inclination`` in [0, pi] rad; ``a`` (m) above the
+    Earth's equatorial radius; ``names``: S strings (default ``S01``, ``S02``, ...).
     """
 
     raan: np.ndarray
@@ -66,15 +69,27 @@ class CircularOrbitConstellation:
 
     def __post_init__(self):
         raan = check_finite(as_float_array(self.raan, "raan"), "raan")
+        if raan.ndim != 1 or raan.shape[0] < 1:
+            raise ValueError(f"raan: expected shape (S,) with S >= 1 satellites, got {raan.shape}")
         u0 = check_finite(as_float_array(self.arg_latitude, "arg_latitude"), "arg_latitude")
-        if raan.ndim != 1 or raan.shape != u0.shape:
+        if raan.shape != u0.shape:
             raise ValueError(f"arg_latitude: expected the shape of raan {raan.shape}, got {u0.shape}")
-        if not self.a > 6_378_137.0:
-            raise ValueError(f"a: orbit radius must exceed the Earth's radius, got {self.a}")
+        inclination = check_scalar(self.inclination, "inclination", low=0.0, high=math.pi)
+        a = check_scalar(self.a, "a")
+        if not a > 6_378_137.0:
+            raise ValueError(f"a: orbit radius (m) must exceed the Earth's radius 6,378,137 m, got {a}")
         object.__setattr__(self, "raan", raan)
         object.__setattr__(self, "arg_latitude", u0)
+        object.__setattr__(self, "inclination", inclination)
+        object.__setattr__(self, "a", a)
+        if isinstance(self.names, str) or not isinstance(self.names, (tuple, list)):
+            raise ValueError(f"names: expected a tuple of {len(raan)} satellite names, got {type(self.names).__name__}")
         if not self.names:
             object.__setattr__(self, "names", tuple(f"S{i + 1:02d}" for i in range(len(raan))))
+        elif len(self.names) != len(raan) or not all(isinstance(nm, str) for nm in self.names):
+            raise ValueError(f"names: expected {len(raan)} satellite names (strings), got {self.names!r}")
+        else:
+            object.__setattr__(self, "names", tuple(self.names))
 
     @property
     def size(self) -> int:
@@ -86,7 +101,7 @@ class CircularOrbitConstellation:
 
     def positions_ecef(self, times) -> np.ndarray:
         """Earth-fixed positions (K, S, 3) at ``times`` (K,) seconds."""
-        t = as_float_array(times, "times").reshape(-1, 1)
+        t = check_finite(as_float_array(times, "times"), "times").reshape(-1, 1)
         u = self.arg_latitude[None, :] + self.mean_motion * t
         om = self.raan[None, :] - EARTH_ROTATION * t
         cu, su, co, so = np.cos(u), np.sin(u), np.cos(om), np.sin(om)
@@ -99,7 +114,11 @@ def nominal_gps24(phasing_deg: float = 15.0, raan0_deg: float = 0.0, u0_deg: flo
     ascension, 4 satellites 90 degrees apart in each, 55 degrees inclination, radius
     26,559.7 km (two-body period within 5 s of half a sidereal day).  Adjacent planes are phased by ``phasing_deg``
     (a Walker 24/6/1 pattern for 15 degrees).  The broadcast GPS constellation has uneven
-    in-plane spacing; this regular pattern keeps 6-12 satellites above a 10-degree mask."""
+    in-plane spacing; this regular pattern keeps 6-12 satellites above a 10-degree mask.  All three
+    arguments are finite angles in degrees."""
+    phasing_deg = check_scalar(phasing_deg, "phasing_deg")
+    raan0_deg = check_scalar(raan0_deg, "raan0_deg")
+    u0_deg = check_scalar(u0_deg, "u0_deg")
     planes, per_plane = 6, 4
     p = np.repeat(np.arange(planes), per_plane)
     s = np.tile(np.arange(per_plane), planes)
@@ -119,10 +138,16 @@ class LocalFrame:
     height: float = 0.0
 
     def __post_init__(self):
-        if not -90.0 <= self.lat <= 90.0:
-            raise ValueError(f"lat: expected degrees in [-90, 90], got {self.lat}")
-        if not -180.0 <= self.lon <= 360.0:
-            raise ValueError(f"lon: expected degrees in [-180, 360], got {self.lon}")
+        object.__setattr__(self, "lat", check_scalar(self.lat, "lat", low=-90.0, high=90.0))
+        object.__setattr__(self, "lon", check_scalar(self.lon, "lon", low=-180.0, high=360.0))
+        object.__setattr__(self, "height", check_scalar(self.height, "height"))
+
+    @staticmethod
+    def _points(value, name: str) -> np.ndarray:
+        arr = check_finite(as_float_array(value, name), name)
+        if arr.ndim < 1 or arr.shape[-1] != 3:
+            raise ValueError(f"{name}: expected points of shape (..., 3) (metres), got {arr.shape}")
+        return arr
 
     @property
     def origin_ecef(self) -> np.ndarray:
@@ -130,15 +155,16 @@ class LocalFrame:
         return np.array(pymap3d.geodetic2ecef(self.lat, self.lon, self.height))
 
     def ecef_to_enu(self, xyz) -> np.ndarray:
-        """ECEF points (..., 3) to ENU (..., 3) in this frame."""
+        """ECEF points (..., 3) to ENU (..., 3) in this frame (metres)."""
         import pymap3d
-        xyz = np.asarray(xyz, dtype=float)
+        xyz = self._points(xyz, "xyz")
         e, n, u = pymap3d.ecef2enu(xyz[..., 0], xyz[..., 1], xyz[..., 2], self.lat, self.lon, self.height)
         return np.stack([np.asarray(e), np.asarray(n), np.asarray(u)], axis=-1)
 
     def enu_to_ecef(self, enu) -> np.ndarray:
+        """ENU points (..., 3) in this frame to ECEF (..., 3) (metres)."""
         import pymap3d
-        enu = np.asarray(enu, dtype=float)
+        enu = self._points(enu, "enu")
         x, y, z = pymap3d.enu2ecef(enu[..., 0], enu[..., 1], enu[..., 2], self.lat, self.lon, self.height)
         return np.stack([np.asarray(x), np.asarray(y), np.asarray(z)], axis=-1)
 
@@ -148,7 +174,9 @@ def elevation(satellites_enu, receiver_enu) -> np.ndarray:
     ENU frame, measured from that frame's horizontal plane.  For a receiver within 25 km of the
     frame's origin the local vertical differs from the frame's by < 0.25 degrees (truth and filter
     share this geometry, so applying the mask in the frame's horizon changes no comparison)."""
-    d = np.asarray(satellites_enu, float) - np.asarray(receiver_enu, float)[..., None, :]
+    sats = LocalFrame._points(satellites_enu, "satellites_enu")
+    rx = LocalFrame._points(receiver_enu, "receiver_enu")
+    d = sats - rx[..., None, :]
     return np.arcsin(d[..., 2] / np.linalg.norm(d, axis=-1))
 
 
@@ -172,6 +200,14 @@ class Pseudoranges:
         if sats.ndim != 2 or sats.shape[1] != 3 or sats.shape[0] < 1:
             raise ValueError(f"satellites: expected shape (m >= 1, 3), got {sats.shape}")
         R = check_covariance(self.R, "R", sats.shape[0])
+        if not isinstance(self.name, str):
+            raise ValueError(f"name: expected a string, got {type(self.name).__name__}")
+        if isinstance(self.names, str) or not isinstance(self.names, (tuple, list)) or (
+                self.names and (len(self.names) != sats.shape[0] or not all(isinstance(nm, str) for nm in self.names))):
+            raise ValueError(f"names: expected () or {sats.shape[0]} satellite names (strings), got {self.names!r}")
+        R = np.array(R, dtype=float)
+        sats = np.array(sats, dtype=float)
+        object.__setattr__(self, "names", tuple(self.names))
         sats.setflags(write=False)
         R.setflags(write=False)
         object.__setattr__(self, "satellites", sats)
@@ -215,17 +251,22 @@ def clock_process_noise(T: float, h0: float, h_minus2: float) -> np.ndarray:
     (Brown & Hwang 1997, Sec. 9.3: :math:`S_f = h_0/2`, :math:`S_g = 2\pi^2 h_{-2}`):
 
     .. math:: Q = c^2\begin{bmatrix} S_f T + S_g T^3/3 & S_g T^2/2\\ S_g T^2/2 & S_g T\end{bmatrix}.
+
+    ``T`` (s) > 0; ``h0`` (s) and ``h_minus2`` (1/s) finite and >= 0.  Shape (2, 2).
     """
-    if not (T > 0 and h0 >= 0 and h_minus2 >= 0):
-        raise ValueError(f"T, h0, h_minus2: expected T > 0 and non-negative h, got {T}, {h0}, {h_minus2}")
+    T = check_scalar(T, "T", positive=True)
+    h0 = check_scalar(h0, "h0", nonnegative=True)
+    h_minus2 = check_scalar(h_minus2, "h_minus2", nonnegative=True)
     sf, sg = h0 / 2.0, 2.0 * math.pi ** 2 * h_minus2
     c2 = SPEED_OF_LIGHT ** 2
     return c2 * np.array([[sf * T + sg * T ** 3 / 3.0, sg * T ** 2 / 2.0], [sg * T ** 2 / 2.0, sg * T]])
 
 
 def clock_dynamics(T: float, h0: float, h_minus2: float) -> LinearGaussianDynamics:
-    """The two-state clock ``[b, d]`` as dynamics: ``F = [[1, T], [0, 1]]``, Q of :func:`clock_process_noise`."""
+    """The two-state clock ``[b, d]`` (m, m/s) as dynamics: ``F = [[1, T], [0, 1]]``, Q of
+    :func:`clock_process_noise` (same arguments)."""
     Q = clock_process_noise(T, h0, h_minus2)
+    T = check_scalar(T, "T", positive=True)
     return LinearGaussianDynamics(np.array([[1.0, T], [0.0, 1.0]]), Q, _psd_factor(Q), "clock")
 
 
@@ -243,15 +284,19 @@ class PVClockNoise:
 
     (continuous white-noise acceleration, Bar-Shalom et al. 2001, Eq. 6.2.2-12).  ``Q(levels)``
     takes any array of levels and returns Q with two trailing axes: an IMM's modes and a
-    per-run adapted level use the same arithmetic, so equal levels give bit-identical Q."""
+    per-run adapted level use the same arithmetic, so equal levels give bit-identical Q.
+
+    ``T``: sampling interval (s, finite, > 0); ``clock`` (2, 2): positive semi-definite clock process
+    noise (m^2, m^2/s, m^2/s^2), e.g. :func:`clock_process_noise`."""
 
     T: float
     clock: np.ndarray
 
     def __post_init__(self):
-        if not self.T > 0:
-            raise ValueError(f"T: sampling interval must be > 0, got {self.T}")
-        check_covariance(self.clock, "clock", 2, semidefinite=True)
+        object.__setattr__(self, "T", check_scalar(self.T, "T", positive=True))
+        clock = np.array(check_covariance(self.clock, "clock", 2, semidefinite=True), dtype=float)
+        clock.setflags(write=False)
+        object.__setattr__(self, "clock", clock)
         q1 = np.array([[self.T ** 3 / 3.0, self.T ** 2 / 2.0], [self.T ** 2 / 2.0, self.T]])
         unit = np.zeros((STATE_DIM, STATE_DIM))
         unit[:6, :6] = np.kron(np.eye(3), q1)
@@ -267,6 +312,10 @@ class PVClockNoise:
         return levels[..., None, None] * self.unit + self.base
 
     def dynamics(self, level: float, name: str = "") -> LinearGaussianDynamics:
-        """The 8-state model with one level: ``x_k = F x_{k-1} + w``, ``w ~ N(0, Q(level))``."""
-        Q = self.Q(float(level))
+        """The 8-state model with one level (m^2/s^3, finite, >= 0): ``x_k = F x_{k-1} + w``,
+        ``w ~ N(0, Q(level))``; ``name`` a string (default ``PV(S_p=level)``)."""
+        level = check_scalar(level, "level", nonnegative=True)
+        if not isinstance(name, str):
+            raise ValueError(f"name: expected a string, got {type(name).__name__}")
+        Q = self.Q(level)
         return LinearGaussianDynamics(_pv_transition(self.T), Q, _psd_factor(Q), name or f"PV(S_p={level:g})")

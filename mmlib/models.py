@@ -17,7 +17,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validate import check_covariance, check_matrix, as_float_array, check_finite
+from ._validate import (RTOL, as_float_array, check_covariance, check_finite, check_has, check_index, check_matrix,
+                        check_positive_int, check_scalar, check_semidefinite_stack)
+from .linalg import matmul_rows
 
 
 TWO_PI = 2.0 * math.pi
@@ -30,8 +32,10 @@ def wrap_angle(a):
 
 
 def _apply_matrix(x, A):
-    """``x @ A.T`` over any leading axes as a single GEMM (x (..., n), A (d, n))."""
-    return (x.reshape(-1, x.shape[-1]) @ A.T).reshape(x.shape[:-1] + (A.shape[0],))
+    """``x @ A.T`` over any leading axes (x (..., n), A (d, n)) by :func:`mmlib.linalg.matmul_rows`:
+    one GEMM for the whole batch, whose rows have the same bits whatever the batch size (one run
+    included, where a plain ``@`` would take BLAS's gemv path)."""
+    return matmul_rows(x, A.T)
 
 
 def _psd_factor(q: np.ndarray) -> np.ndarray:
@@ -43,10 +47,36 @@ def _psd_factor(q: np.ndarray) -> np.ndarray:
         return v * np.sqrt(np.clip(w, 0.0, None))
 
 
+def _check_name(value, name: str = "name") -> str:
+    if not isinstance(value, str):
+        raise ValueError(f"{name}: expected a string, got {type(value).__name__}")
+    return value
+
+
+def _freeze(obj, **arrays) -> None:
+    """Store read-only float64 copies of validated arrays on a frozen dataclass (the caller's arrays are
+    neither aliased nor made read-only)."""
+    for attr, arr in arrays.items():
+        arr = np.array(arr, dtype=float)
+        arr.setflags(write=False)
+        object.__setattr__(obj, attr, arr)
+
+
+def _check_period(T) -> float:
+    return check_scalar(T, "T", positive=True)
+
+
 # --------------------------------------------------------------------------- dynamics
 @dataclass(frozen=True, eq=False)
 class LinearGaussianDynamics:
-    """``x_k = F x_{k-1} + w_k``, ``w_k ~ N(0, Q)``; ``Q = noise_factor @ noise_factor.T``."""
+    """``x_k = F x_{k-1} + w_k``, ``w_k ~ N(0, Q)``; ``Q = noise_factor @ noise_factor.T``.
+
+    ``F`` (n, n): the transition over one sampling interval; ``Q`` (n, n): symmetric positive
+    semi-definite process-noise covariance, in squared state units (SI: m^2, m^2/s^2, ... for the
+    ``[x, vx, y, vy]`` ordering of this module); ``noise_factor`` (n, k), k >= 1, with
+    ``noise_factor @ noise_factor.T == Q`` to ``RTOL`` of Q's largest entry (it draws the truth's noise,
+    Q is what the filters assume: the two must agree); ``name`` a string.  Lists and other array-likes
+    are accepted; the arrays are stored as read-only float64 copies."""
 
     F: np.ndarray
     Q: np.ndarray
@@ -55,11 +85,21 @@ class LinearGaussianDynamics:
     is_linear: bool = field(default=True, init=False)
 
     def __post_init__(self):
-        n = self.F.shape[0]
-        check_matrix(self.F, f"{self.name}.F", (n, n))
-        check_covariance(self.Q, f"{self.name}.Q", n, semidefinite=True)
-        for arr in (self.F, self.Q, self.noise_factor):
-            arr.setflags(write=False)
+        _check_name(self.name)
+        F = check_matrix(self.F, "F")
+        n = F.shape[0]
+        if F.shape != (n, n) or n < 1:
+            raise ValueError(f"F: expected a square (n, n) transition matrix, got shape {F.shape}")
+        Q = check_covariance(self.Q, "Q", n, semidefinite=True)
+        L = check_matrix(self.noise_factor, "noise_factor")
+        if L.shape[0] != n or L.shape[1] < 1:
+            raise ValueError(f"noise_factor: expected shape ({n}, k >= 1) for a {n}-state model, got {L.shape}")
+        scale = max(float(np.max(np.abs(Q))), np.finfo(float).tiny)
+        mismatch = float(np.max(np.abs(L @ L.T - Q)))
+        if not mismatch <= RTOL * scale:
+            raise ValueError(f"noise_factor: noise_factor @ noise_factor.T differs from Q by {mismatch:.3g} "
+                             f"(largest entry of Q {scale:.3g}); the factor must reproduce Q")
+        _freeze(self, F=F, Q=Q, noise_factor=L)
 
     @property
     def dim(self) -> int:
@@ -72,19 +112,25 @@ class LinearGaussianDynamics:
         return np.broadcast_to(self.F, x.shape[:-1] + self.F.shape)
 
     def with_noise(self, Q) -> "LinearGaussianDynamics":
-        """Same transition with another process-noise covariance (e.g. adapted online)."""
+        """Same transition with another process-noise covariance ``Q`` (n, n), symmetric positive
+        semi-definite (e.g. adapted online)."""
         q = check_covariance(Q, "Q", self.dim, semidefinite=True)
         return LinearGaussianDynamics(self.F.copy(), q.copy(), _psd_factor(q), self.name)
 
 
 def from_noise_gain(F, G, q, name: str = "linear") -> LinearGaussianDynamics:
-    """Dynamics with ``Q = G q G^T`` (``q`` may be a scalar for isotropic noise)."""
+    """Dynamics with ``Q = G q G^T``: ``F`` (n, n) transition, ``G`` (n, k) noise gain, ``q`` (k, k)
+    positive semi-definite covariance of the k noise inputs (e.g. acceleration, (m/s^2)^2), or a
+    scalar >= 0 for isotropic noise ``q I``; ``name`` a string."""
+    _check_name(name)
     F = check_matrix(F, "F")
+    if F.shape[0] != F.shape[1] or F.shape[0] < 1:
+        raise ValueError(f"F: expected a square (n, n) transition matrix, got shape {F.shape}")
     G = check_matrix(G, "G")
-    if G.shape[0] != F.shape[0]:
-        raise ValueError(f"G: expected {F.shape[0]} rows (state dimension), got shape {G.shape}")
+    if G.shape[0] != F.shape[0] or G.shape[1] < 1:
+        raise ValueError(f"G: expected shape ({F.shape[0]}, k >= 1) (rows = state dimension), got shape {G.shape}")
     q = as_float_array(q, "q")
-    q = q * np.eye(G.shape[1]) if q.ndim == 0 else q
+    q = check_scalar(q, "q", nonnegative=True) * np.eye(G.shape[1]) if q.ndim == 0 else q
     q = check_covariance(q, "q", G.shape[1], semidefinite=True)
     Q = G @ q @ G.T
     return LinearGaussianDynamics(F, 0.5 * (Q + Q.T), G @ _psd_factor(q), name)
@@ -93,27 +139,47 @@ def from_noise_gain(F, G, q, name: str = "linear") -> LinearGaussianDynamics:
 def acceleration_noise_gain(T: float, order: int = 2, axes: int = 2) -> np.ndarray:
     r"""Discrete white-noise gain per axis (Bar-Shalom, Li & Kirubarajan 2001, Sec. 6.3.2):
     ``[T^2/2, T]^T`` for order 2 (CV), ``[T^2/2, T, 1]^T`` for order 3 (CA), block-diagonal over axes.
-    For order 2, two axes this is the ``G`` of Zhu et al. 2016 (Sec. 4)."""
+    For order 2, two axes this is the ``G`` of Zhu et al. 2016 (Sec. 4).
+
+    ``T`` sampling interval (s, > 0); ``order`` 2 or 3; ``axes`` >= 1.  Shape (order * axes, axes)."""
+    T = _check_period(T)
+    order = check_positive_int(order, "order")
+    if order not in (2, 3):
+        raise ValueError(f"order: expected 2 (constant velocity) or 3 (constant acceleration), got {order}")
+    axes = check_positive_int(axes, "axes")
     block = {2: [[T * T / 2.0], [T]], 3: [[T * T / 2.0], [T], [1.0]]}[order]
     return np.kron(np.eye(axes), np.array(block))
 
 
 def constant_velocity(T: float, q, G=None) -> LinearGaussianDynamics:
+    """Constant velocity, state ``[x, vx, y, vy]`` (m, m/s): ``T`` sampling interval (s, > 0), ``q``
+    acceleration-noise variance ((m/s^2)^2, scalar or (k, k)), ``G`` (4, k) noise gain (default
+    :func:`acceleration_noise_gain`)."""
+    T = _check_period(T)
     F = np.kron(np.eye(2), np.array([[1.0, T], [0.0, 1.0]]))
     return from_noise_gain(F, acceleration_noise_gain(T) if G is None else G, q, "CV")
 
 
 def constant_acceleration(T: float, q, G=None) -> LinearGaussianDynamics:
+    """Constant acceleration, state ``[x, vx, ax, y, vy, ay]`` (m, m/s, m/s^2): ``T`` sampling interval
+    (s, > 0), ``q`` noise variance (scalar or (k, k)), ``G`` (6, k) noise gain (default
+    :func:`acceleration_noise_gain` of order 3)."""
+    T = _check_period(T)
     F1 = np.array([[1.0, T, T * T / 2.0], [0.0, 1.0, T], [0.0, 0.0, 1.0]])
     F = np.kron(np.eye(2), F1)
     return from_noise_gain(F, acceleration_noise_gain(T, 3) if G is None else G, q, "CA")
 
 
 def coordinated_turn_matrix(T: float, omega: float) -> np.ndarray:
-    r"""Coordinated turn with known rate ``omega`` (rad/s, positive = counter-clockwise),
-    state ``[x, vx, y, vy]`` (Zhu et al. 2016, Eq. 61; Bar-Shalom et al. 2001, Eq. 11.7.1-4).
+    r"""Coordinated turn with known rate ``omega`` (rad/s, finite, positive = counter-clockwise) over
+    ``T`` seconds (> 0), state ``[x, vx, y, vy]`` (m, m/s); shape (4, 4)
+    (Zhu et al. 2016, Eq. 61; Bar-Shalom et al. 2001, Eq. 11.7.1-4).
     ``omega -> 0`` gives the constant-velocity matrix."""
+    T = _check_period(T)
+    omega = check_scalar(omega, "omega")
     wt = omega * T
+    if not math.isfinite(wt):
+        raise ValueError(f"omega: turn angle omega * T overflows (omega={omega!r} rad/s, T={T!r} s)")
     if abs(wt) < 1e-12:
         return np.kron(np.eye(2), np.array([[1.0, T], [0.0, 1.0]]))
     s, c = math.sin(wt), math.cos(wt)
@@ -126,15 +192,21 @@ def coordinated_turn_matrix(T: float, omega: float) -> np.ndarray:
 
 
 def coordinated_turn(T: float, omega: float, q, G=None) -> LinearGaussianDynamics:
-    return from_noise_gain(coordinated_turn_matrix(T, omega),
-                           acceleration_noise_gain(T) if G is None else G, q,
+    """Coordinated turn at the known rate ``omega`` (rad/s) of :func:`coordinated_turn_matrix`, state
+    ``[x, vx, y, vy]``; ``T`` (s, > 0), ``q`` and ``G`` as in :func:`constant_velocity`."""
+    F = coordinated_turn_matrix(T, omega)
+    omega = check_scalar(omega, "omega")
+    return from_noise_gain(F, acceleration_noise_gain(T) if G is None else G, q,
                            f"CT({math.degrees(omega):+.3g} deg/s)")
 
 
 # --------------------------------------------------------------------------- measurements
 @dataclass(frozen=True, eq=False)
 class LinearMeasurement:
-    """``z = H x + v``, ``v ~ N(0, R)``."""
+    """``z = H x + v``, ``v ~ N(0, R)``: ``H`` (m, n), m, n >= 1, maps the state to the measurement;
+    ``R`` (m, m) symmetric positive definite, in squared measurement units (e.g. m^2 for positions);
+    ``name`` a string.  Lists and other array-likes are accepted; the arrays are stored as read-only
+    float64 copies."""
 
     H: np.ndarray
     R: np.ndarray
@@ -142,10 +214,12 @@ class LinearMeasurement:
     is_linear: bool = field(default=True, init=False)
 
     def __post_init__(self):
+        _check_name(self.name)
         H = check_matrix(self.H, "H")
-        check_covariance(self.R, "R", H.shape[0])
-        for arr in (self.H, self.R):
-            arr.setflags(write=False)
+        if H.shape[0] < 1 or H.shape[1] < 1:
+            raise ValueError(f"H: expected shape (m >= 1, n >= 1), got {H.shape}")
+        R = check_covariance(self.R, "R", H.shape[0])
+        _freeze(self, H=H, R=R)
 
     @property
     def dim(self) -> int:
@@ -172,17 +246,45 @@ class LinearMeasurement:
 def position_indices(state_dim: int) -> tuple:
     """Indices of x and y in the state ordering of this module: (0, 2) for [x, vx, y, vy],
     (0, 3) for [x, vx, ax, y, vy, ay]."""
+    state_dim = check_positive_int(state_dim, "state_dim")
     if state_dim not in (4, 6):
         raise ValueError(f"state_dim: expected 4 (CV/CT) or 6 (CA), got {state_dim!r}")
     return (0, state_dim // 2)
 
 
+def _check_position_index(value, name: str = "position_index", size: int | None = None,
+                          length: int | None = None) -> tuple:
+    """Distinct non-negative integer state indices (each < ``size`` if given), ``length`` of them if given."""
+    if isinstance(value, (str, bytes)) or np.ndim(value) != 1:
+        raise ValueError(f"{name}: expected a sequence of integer state indices, got {value!r}")
+    idx = tuple(value)
+    if length is not None and len(idx) != length:
+        raise ValueError(f"{name}: expected {length} state indices, got {len(idx)} ({value!r})")
+    if not idx:
+        raise ValueError(f"{name}: expected at least one state index, got none")
+    for i in idx:
+        if isinstance(i, (bool, np.bool_)) or not isinstance(i, (int, np.integer)) or i < 0:
+            raise ValueError(f"{name}: expected non-negative integer state indices, got {value!r}")
+        if size is not None:
+            check_index(i, name, size)
+    if len(set(int(i) for i in idx)) != len(idx):
+        raise ValueError(f"{name}: repeated state index in {value!r}")
+    return tuple(int(i) for i in idx)
+
+
 def position_measurement(R, state_dim: int = 4, position_index=None) -> LinearMeasurement:
-    """Linear x-y position measurement (Zhu et al. 2016, Eq. 62)."""
-    position_index = position_indices(state_dim) if position_index is None else tuple(position_index)
+    """Linear x-y position measurement (Zhu et al. 2016, Eq. 62): ``H`` picks the state components
+    ``position_index`` (default: x and y of :func:`position_indices`) of a ``state_dim``-state;
+    ``R`` (m^2): an (m, m) covariance or the m variances, m = number of indices."""
+    state_dim = check_positive_int(state_dim, "state_dim")
+    if position_index is None:
+        position_index = position_indices(state_dim)
+    else:
+        position_index = _check_position_index(position_index, "position_index", state_dim)
     H = np.zeros((len(position_index), state_dim))
     H[np.arange(len(position_index)), list(position_index)] = 1.0
-    R = check_covariance(np.diag(R) if np.ndim(R) == 1 else R, "R", H.shape[0])
+    R = as_float_array(R, "R")
+    R = check_covariance(np.diag(R) if R.ndim == 1 else R, "R", H.shape[0])
     return LinearMeasurement(H, R, "position")
 
 
@@ -191,7 +293,13 @@ class RangeBearing:
     r"""2-D radar: :math:`z = [\sqrt{\Delta x^2+\Delta y^2},\ \mathrm{atan2}(\Delta y, \Delta x)]^T + v`,
     :math:`\Delta = p - p_{\rm sensor}`.  Bearing residuals are wrapped to :math:`(-\pi, \pi]`
     and the mean of sigma-point bearings is taken relative to the first point, so that
-    targets near the :math:`\pm\pi` cut are averaged correctly."""
+    targets near the :math:`\pm\pi` cut are averaged correctly.
+
+    ``R`` (2, 2): covariance of (range, bearing) noise, symmetric positive definite, units
+    (m^2, m rad, rad^2); ``sensor`` (2,): the sensor's (x, y) position (m); ``position_index``: the
+    two distinct state indices of x and y (e.g. (0, 2) for ``[x, vx, y, vy]``; their range within the
+    state is checked by :func:`range_bearing`, which knows the state dimension); ``name`` a string.
+    Lists and other array-likes are accepted; arrays are stored as read-only float64 copies."""
 
     R: np.ndarray
     sensor: np.ndarray = field(default_factory=lambda: np.zeros(2))
@@ -200,10 +308,13 @@ class RangeBearing:
     is_linear: bool = field(default=False, init=False)
 
     def __post_init__(self):
-        check_covariance(self.R, "R", 2)
-        check_finite(as_float_array(self.sensor, "sensor"), "sensor")
-        for arr in (self.R,):
-            arr.setflags(write=False)
+        _check_name(self.name)
+        R = check_covariance(self.R, "R", 2)
+        sensor = check_finite(as_float_array(self.sensor, "sensor"), "sensor")
+        if sensor.shape != (2,):
+            raise ValueError(f"sensor: expected the sensor's (x, y) position, shape (2,), got shape {sensor.shape}")
+        object.__setattr__(self, "position_index", _check_position_index(self.position_index, length=2))
+        _freeze(self, R=R, sensor=sensor)
 
     dim = 2
 
@@ -248,19 +359,53 @@ class StackedDynamics:
     sigma points (..., r, p, n).  Linear models are stacked into one ``F`` (r, n, n),
     so an IMM runs all its mode filters in one batched call; nonlinear models are
     evaluated mode by mode.  ``Q`` is (r, n, n), or any shape broadcasting against
-    (..., r, n, n) (e.g. per-run adapted noise)."""
+    (..., r, n, n) (e.g. per-run adapted noise): symmetric positive semi-definite, finite, in squared
+    state units; it is checked on construction, so also at every :meth:`with_noise` (per step).
+    ``F``, if given, is (r, n, n) and equals the models' own ``F`` (all models linear)."""
 
     models: tuple
     Q: np.ndarray
     F: np.ndarray | None = None
 
     @staticmethod
-    def of(models) -> "StackedDynamics":
+    def _check_models(models) -> tuple:
+        if isinstance(models, (str, bytes, np.ndarray)) or not hasattr(models, "__iter__"):
+            raise ValueError(f"models: expected a sequence of dynamics models, got {type(models).__name__}")
         models = tuple(models)
+        if not models:
+            raise ValueError("models: expected at least one dynamics model, got none")
+        for j, m in enumerate(models):
+            check_has(m, f"models[{j}]", "a dynamics model", ("dim", "Q", "transition", "jacobian"))
         dims = {m.dim for m in models}
         if len(dims) != 1:
             raise ValueError(f"models: all modes must share one state dimension, got {sorted(dims)}")
-        Q = np.stack([np.asarray(m.Q) for m in models])
+        return models
+
+    def __post_init__(self):
+        models = self._check_models(self.models)
+        r, n = len(models), models[0].dim
+        Q = check_semidefinite_stack(self.Q, "Q", n)
+        if Q.ndim >= 3 and Q.shape[-3] not in (1, r):
+            raise ValueError(f"Q: expected shape ({r}, {n}, {n}) or (..., {r}, {n}, {n}) (one covariance per mode), "
+                             f"got {Q.shape}")
+        F = self.F
+        if F is not None:
+            F = check_finite(as_float_array(F, "F"), "F")
+            if F.shape != (r, n, n):
+                raise ValueError(f"F: expected shape ({r}, {n}, {n}) (one transition per mode), got {F.shape}")
+            for j, m in enumerate(models):
+                if not getattr(m, "is_linear", False) or not np.array_equal(F[j], m.F):
+                    raise ValueError(f"F: mode {j} differs from the transition matrix of models[{j}] "
+                                     "(F is the stack of the linear models' own F)")
+        object.__setattr__(self, "models", models)
+        object.__setattr__(self, "Q", Q)
+        object.__setattr__(self, "F", F)
+
+    @staticmethod
+    def of(models) -> "StackedDynamics":
+        """Stack dynamics models (each with ``dim``, ``Q``, ``transition``, ``jacobian``; one state dimension)."""
+        models = StackedDynamics._check_models(models)
+        Q = np.stack([as_float_array(m.Q, f"models[{j}].Q") for j, m in enumerate(models)])
         F = np.stack([m.F for m in models]) if all(getattr(m, "is_linear", False) for m in models) else None
         return StackedDynamics(models, Q, F)
 
@@ -282,33 +427,66 @@ class StackedDynamics:
         return np.stack([m.jacobian(mean[..., j, :]) for j, m in enumerate(self.models)], axis=-3)
 
     def with_noise(self, Q) -> "StackedDynamics":
-        return StackedDynamics(self.models, np.asarray(Q, dtype=float), self.F)
+        """The same modes with process noise ``Q`` ((r, n, n) or (..., r, n, n), e.g. per run and
+        per step); a NaN, asymmetric or indefinite ``Q`` is a ValueError naming ``Q``."""
+        return StackedDynamics(self.models, Q, self.F)
 
 
 def range_bearing(R, state_dim: int = 4, sensor=(0.0, 0.0)) -> "RangeBearing":
-    """Range-bearing radar at ``sensor`` for a state of the given dimension (positions located
-    by :func:`position_indices`; Liu & Wu 2017 Eq. 40, Hu et al. 2017)."""
-    return RangeBearing(np.asarray(R, dtype=float), np.asarray(sensor, dtype=float), position_indices(state_dim))
+    """Range-bearing radar at ``sensor`` ((x, y), m) for a state of dimension ``state_dim`` (4 or 6;
+    positions located by :func:`position_indices`; Liu & Wu 2017 Eq. 40, Hu et al. 2017); ``R``
+    (2, 2) covariance of (range m, bearing rad)."""
+    return RangeBearing(R, sensor, position_indices(state_dim))
 
 
 @dataclass(frozen=True, eq=False)
 class SensorFault:
     """Additive sensor fault (Zhou et al. 2017, Eq. 2): ``z = h(x) + v + delta``, ``delta`` (B, K, m)
-    per run and step.  :meth:`radar` builds the paper's range deviation and bearing drift; use as
+    per run and step, finite, in the measurement's units (m and rad for a range-bearing radar).
+    :meth:`radar` builds the paper's range deviation and bearing drift; use as
     ``simulate(..., measurement_noise_fn=fault.apply(measurement))``."""
 
     delta: np.ndarray
 
+    def __post_init__(self):
+        d = check_finite(as_float_array(self.delta, "delta"), "delta")
+        if d.ndim != 3 or 0 in d.shape:
+            raise ValueError(f"delta: expected shape (B, K, m) (runs, steps, measurement dimension), got {d.shape}")
+        _freeze(self, delta=d)
+
     @staticmethod
     def radar(range_offset, bearing_rate, times) -> "SensorFault":
         """Range deviation ``delta_r`` (m, per run, constant) and bearing drift
-        ``delta_theta_k = rate * t_k`` (rad, rate per run): arrays of shape (B,) or (B, K)."""
-        t = np.asarray(times, float)
-        dr = np.broadcast_to(np.asarray(range_offset, float).reshape(len(range_offset), -1), (len(range_offset), len(t)))
-        rate = np.asarray(bearing_rate, float).reshape(len(bearing_rate), -1)
-        return SensorFault(np.stack([dr, rate * t[None, :]], axis=-1))
+        ``delta_theta_k = rate * t_k`` (rad, rate in rad/s per run): arrays of shape (B,) or (B, K);
+        ``times`` (K,) the measurement times t_k (s)."""
+        t = check_finite(as_float_array(times, "times"), "times")
+        if t.ndim != 1 or t.size < 1:
+            raise ValueError(f"times: expected shape (K,) with K >= 1, got {t.shape}")
+        K = t.shape[0]
+        arrays = {}
+        for name, value in (("range_offset", range_offset), ("bearing_rate", bearing_rate)):
+            a = check_finite(as_float_array(value, name), name)
+            if a.ndim not in (1, 2) or a.shape[0] < 1 or (a.ndim == 2 and a.shape[1] != K):
+                raise ValueError(f"{name}: expected shape (B,) or (B, {K}) (per run, or per run and step), "
+                                 f"got {a.shape}")
+            arrays[name] = a.reshape(a.shape[0], -1)
+        B = arrays["range_offset"].shape[0]
+        if arrays["bearing_rate"].shape[0] != B:
+            raise ValueError(f"bearing_rate: expected {B} runs (as range_offset), got shape {np.shape(bearing_rate)}")
+        dr = np.broadcast_to(arrays["range_offset"], (B, K))
+        return SensorFault(np.stack([dr, arrays["bearing_rate"] * t[None, :]], axis=-1))
 
     def apply(self, measurement):
+        """``noise_fn(truth (B, K, n), v (B, K, m))`` for :func:`mmlib.simulate.simulate`; the measurement
+        model's dimension and the truth's runs and steps must match ``delta``."""
+        check_has(measurement, "measurement", "a measurement model", ("h", "noise_factor", "dim"))
+        if measurement.dim != self.delta.shape[-1]:
+            raise ValueError(f"measurement: dimension {measurement.dim} does not match the fault's "
+                             f"{self.delta.shape[-1]} (delta of shape {self.delta.shape})")
+
         def noise_fn(truth, v):
+            if np.shape(truth)[:-1] != self.delta.shape[:-1]:
+                raise ValueError(f"delta: fault for (runs, steps) {self.delta.shape[:-1]} applied to a truth of "
+                                 f"(runs, steps) {np.shape(truth)[:-1]}")
             return measurement.h(truth) + v @ measurement.noise_factor.T + self.delta
         return noise_fn

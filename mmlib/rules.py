@@ -17,11 +17,14 @@ points with shape ``(..., m, n)`` (any batch axes, point, coordinate).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from functools import lru_cache
 from itertools import combinations
 
 import numpy as np
+
+from ._validate import check_positive_int, check_scalar
+from .linalg import matmul_rows
 
 
 @dataclass(frozen=True)
@@ -67,8 +70,9 @@ class SigmaPointRule:
         n = mean.shape[-1]
         up = self.unit_points(n)
         # one GEMM for the whole batch: (S xi_p)_i = sum_j S_ij xi_pj  (3-4x faster than a
-        # broadcast matmul; bitwise the same per run whatever the batch size -- tested)
-        offsets = (chol.reshape(-1, n) @ up.xi.T).reshape(chol.shape[:-1] + (up.xi.shape[0],))
+        # broadcast matmul; bitwise the same per run whatever the batch size, one run and a
+        # one-dimensional state included: see linalg.matmul_rows -- tested)
+        offsets = matmul_rows(chol, up.xi.T)
         return mean[..., None, :] + np.swapaxes(offsets, -1, -2)
 
     def covariances(self, dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -95,6 +99,9 @@ class Unscented(SigmaPointRule):
     :math:`w^m_0 = \lambda/(n+\lambda)`, :math:`w^c_0 = w^m_0 + 1 - \alpha^2 + \beta`,
     :math:`w_i = 1/(2(n+\lambda))` (Liu & Wu 2017, Eq. 2).  Exact for polynomials
     of degree 3 (and for degree-2 covariances whatever ``beta``).
+
+    ``alpha`` > 0, ``beta`` and ``kappa`` finite real numbers (dimensionless; stored as floats);
+    ``n + lambda > 0`` is checked per dimension in :meth:`unit_points`.
     """
 
     alpha: float = 1.0
@@ -104,11 +111,13 @@ class Unscented(SigmaPointRule):
     degree = 3
 
     def __post_init__(self):
-        if not self.alpha > 0:
-            raise ValueError(f"alpha: must be > 0, got {self.alpha}")
+        object.__setattr__(self, "alpha", check_scalar(self.alpha, "alpha", positive=True))
+        object.__setattr__(self, "beta", check_scalar(self.beta, "beta"))
+        object.__setattr__(self, "kappa", check_scalar(self.kappa, "kappa"))
 
     @lru_cache(maxsize=None)
     def unit_points(self, n: int) -> UnitPoints:
+        n = check_positive_int(n, "n")
         lam = self.alpha ** 2 * (n + self.kappa) - n
         if not n + lam > 0:
             raise ValueError(f"kappa: n + lambda must be > 0 (n={n}, lambda={lam})")
@@ -132,6 +141,7 @@ class Cubature(SigmaPointRule):
 
     @lru_cache(maxsize=None)
     def unit_points(self, n: int) -> UnitPoints:
+        n = check_positive_int(n, "n")
         eye = np.eye(n) * math.sqrt(n)
         return _frozen(np.vstack([eye, -eye]), np.full(2 * n, 0.5 / n))
 
@@ -159,6 +169,7 @@ class FifthDegreeCubature(SigmaPointRule):
 
     @lru_cache(maxsize=None)
     def unit_points(self, n: int) -> UnitPoints:
+        n = check_positive_int(n, "n")
         r = math.sqrt(n + 2.0)
         eye = np.eye(n)
         pts = [np.zeros(n)]
@@ -175,33 +186,49 @@ class FifthDegreeCubature(SigmaPointRule):
 
 
 def regular_simplex(n: int) -> np.ndarray:
-    r"""Vertices :math:`a_1..a_{n+1}` of a regular n-simplex on the unit sphere, (n+1, n).
+    r"""Vertices :math:`a_1..a_{n+1}` of a regular n-simplex on the unit sphere, (n+1, n): row
+    ``j - 1`` is :math:`a_j`, ``n >= 1``.
 
-    Construction (Wang, Feng & Tse 2014, Eq. 9): the centred standard basis of
-    :math:`\mathbb R^{n+1}`, :math:`e_j - \mathbf 1/(n+1)`, scaled to unit length
-    and expressed in an orthonormal basis of the hyperplane :math:`\sum x = 0`.
-    Properties (tested): unit norm, :math:`a_i^T a_j = -1/n` for ``i != j``,
-    :math:`\sum_j a_j = 0` and :math:`\sum_j a_j a_j^T = (n+1)/n\, I`.
+    The closed form of Wang, Feng & Tse 2014 (IEEE SPL 21(1):43-46, the simplex of the spherical
+    simplex-radial rule), :math:`a_j = [a_{j,1}, \dots, a_{j,n}]^T`:
+
+    .. math::
+        a_{j,i} = \begin{cases}
+            -\sqrt{\dfrac{n+1}{n\,(n-i+2)(n-i+1)}}, & i < j,\\[4pt]
+            \sqrt{\dfrac{(n+1)(n-j+1)}{n\,(n-j+2)}}, & i = j,\\[4pt]
+            0, & i > j,
+        \end{cases}
+        \qquad j = 1, \dots, n+1,\quad i = 1, \dots, n,
+
+    so :math:`a_1 = e_1` and the vertex matrix is lower triangular apart from its last row.  Every
+    entry is one correctly rounded quotient of integers and one square root, so the vertices are
+    reproducible to the last bit on any IEEE platform (an earlier QR-based construction depended on
+    LAPACK's sign convention and gave :math:`-a_j`).  Properties (tested): unit norm,
+    :math:`a_i^T a_j = -1/n` for ``i != j``, :math:`\sum_j a_j = 0` and
+    :math:`\sum_j a_j a_j^T = (n+1)/n\, I`.
     """
-    centred = np.eye(n + 1) - 1.0 / (n + 1)
-    # Orthonormal basis of the hyperplane: Householder-free, via QR of the centred basis.
-    q, _ = np.linalg.qr(centred[:, :n])
-    verts = centred @ q
-    verts /= np.linalg.norm(verts, axis=1, keepdims=True)
-    return verts
+    n = check_positive_int(n, "n")
+    i = np.arange(1, n + 1, dtype=float)              # coordinate index, columns
+    j = np.arange(1, n + 2, dtype=float)[:, None]     # vertex index, rows
+    below = -np.sqrt((n + 1) / (n * (n - i + 2) * (n - i + 1)))
+    diagonal = np.sqrt((n + 1) * (n - i + 1) / (n * (n - i + 2)))
+    return np.where(i < j, below, np.where(i == j, diagonal, 0.0))
 
 
 @dataclass(frozen=True)
 class SphericalSimplexRadial(SigmaPointRule):
     r"""Third-degree spherical simplex-radial rule (Wang, Feng & Tse 2014, IEEE
     SPL 21(1); Liu & Wu 2017, Eq. 12): ``2n + 2`` points :math:`\pm\sqrt n\,a_j`
-    with :math:`a_j` the vertices of a regular simplex, equal weights ``1/(2n+2)``."""
+    with :math:`a_j` the vertices of the regular simplex of :func:`regular_simplex`, equal weights
+    ``1/(2n+2)``; the points are ordered :math:`+\sqrt n\,a_1, \dots, +\sqrt n\,a_{n+1},
+    -\sqrt n\,a_1, \dots, -\sqrt n\,a_{n+1}`."""
 
     name = "ssr3"
     degree = 3
 
     @lru_cache(maxsize=None)
     def unit_points(self, n: int) -> UnitPoints:
+        n = check_positive_int(n, "n")
         a = regular_simplex(n) * math.sqrt(n)
         return _frozen(np.vstack([a, -a]), np.full(2 * n + 2, 1.0 / (2 * n + 2)))
 
@@ -228,6 +255,9 @@ class CentralDifference(SigmaPointRule):
     the *mean* weights, :math:`\sum_l w_l (Y_l - \bar y)(Y_l - \bar y)^T`.  That is
     exactly the scaled unscented rule with alpha = 1, beta = 0, kappa = h^2 - n (tested);
     the two forms agree on linear maps and differ in the second-order terms.
+
+    ``h``: the half-step in standard deviations (dimensionless), a finite real number > 1 (any real
+    type, e.g. ``np.float32``; stored as a float); ``form``: ``"stirling"`` or ``"weighted"``.
     """
 
     h: float = math.sqrt(3.0)
@@ -236,14 +266,17 @@ class CentralDifference(SigmaPointRule):
     degree = 3
 
     def __post_init__(self):
-        if not (isinstance(self.h, (int, float)) and self.h > 1.0):
-            raise ValueError(f"h: half-step must be > 1, got {self.h!r}")
-        if self.form not in ("stirling", "weighted"):
+        h = check_scalar(self.h, "h")
+        if not h > 1.0:
+            raise ValueError(f"h: half-step must be > 1 (the second-order weight is sqrt(h^2 - 1)), got {h!r}")
+        object.__setattr__(self, "h", h)
+        if not isinstance(self.form, str) or self.form not in ("stirling", "weighted"):
             raise ValueError(f"form: expected 'stirling' (Norgaard et al. 2000) or 'weighted' (Hu et al. 2017), "
                              f"got {self.form!r}")
 
     @lru_cache(maxsize=None)
     def unit_points(self, n: int) -> UnitPoints:
+        n = check_positive_int(n, "n")
         h2 = self.h ** 2
         eye = np.eye(n) * self.h
         xi = np.vstack([np.zeros((1, n)), eye, -eye])
@@ -283,8 +316,18 @@ _RULES = {
 
 
 def rule_by_name(name: str, **params) -> SigmaPointRule:
-    """Look up a rule by its short name (``ukf``, ``ckf``, ``5ckf``, ``ssrckf``, ``cdkf``)."""
-    key = str(name).lower()
+    """Look up a rule by its short name (``ukf``, ``ckf``, ``5ckf``, ``ssrckf``, ``cdkf``, any case);
+    ``params`` are the rule's own parameters (e.g. ``alpha``, ``beta``, ``kappa`` for ``ukf``, ``h`` and
+    ``form`` for ``cdkf``); an unknown parameter is a ValueError naming it."""
+    if not isinstance(name, str):
+        raise ValueError(f"name: expected a rule name (a string), got {type(name).__name__}")
+    key = name.lower()
     if key not in _RULES:
         raise ValueError(f"name: unknown quadrature rule {name!r}; expected one of {sorted(_RULES)}")
-    return _RULES[key](**params)
+    cls = _RULES[key]
+    allowed = sorted(f.name for f in fields(cls))
+    unknown = sorted(set(params) - set(allowed))
+    if unknown:
+        raise ValueError(f"{unknown[0]}: not a parameter of {cls.__name__} (rule {name!r}); "
+                         f"its parameters: {', '.join(allowed) or 'none'}")
+    return cls(**params)

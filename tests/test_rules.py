@@ -77,6 +77,43 @@ def test_regular_simplex(n):
     np.testing.assert_allclose(a.T @ a, (n + 1) / n * np.eye(n), atol=1e-14)
 
 
+def wang_feng_tse_simplex(n):
+    """Closed form of Wang, Feng & Tse 2014 (IEEE SPL 21(1)), entry by entry in exact integer arithmetic
+    up to one rounded quotient and one square root: a_{j,i} = -sqrt((n+1)/(n(n-i+2)(n-i+1))) for i < j,
+    sqrt((n+1)(n-j+1)/(n(n-j+2))) for i = j, 0 for i > j (j = 1..n+1 vertices, i = 1..n coordinates)."""
+    a = np.zeros((n + 1, n))
+    for j in range(1, n + 2):
+        for i in range(1, n + 1):
+            if i < j:
+                a[j - 1, i - 1] = -math.sqrt((n + 1) / (n * (n - i + 2) * (n - i + 1)))
+            elif i == j:
+                a[j - 1, i - 1] = math.sqrt((n + 1) * (n - j + 1) / (n * (n - j + 2)))
+    return a
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 6, 8, 9])
+def test_regular_simplex_is_the_closed_form_of_wang_feng_tse(n):
+    """Pinned orientation (issue 11, section 6): the QR construction gave the negated simplex.  Every
+    entry lies in [-1, 1] and is one correctly rounded quotient and one square root, so 2 ulps of 1
+    (4.4e-16) bound any difference between two evaluations of the formula."""
+    atol = 2 * np.finfo(float).eps
+    a = rules.regular_simplex(n)
+    ref = wang_feng_tse_simplex(n)
+    np.testing.assert_allclose(a, ref, rtol=0, atol=atol)
+    np.testing.assert_array_equal(a[0], np.eye(n)[0])                      # a_1 = e_1
+    assert np.all(a[np.triu_indices(n + 1, 1, n)] == 0.0)                    # a_{j,i} = 0 for i > j
+    # the properties of a regular simplex on the unit sphere, at floating-point scale (n terms of size <= 1)
+    tol = 4 * n * np.finfo(float).eps
+    np.testing.assert_allclose(np.linalg.norm(a, axis=1), 1.0, rtol=0, atol=tol)
+    gram = a @ a.T
+    np.testing.assert_allclose(gram[~np.eye(n + 1, dtype=bool)], -1.0 / n, rtol=0, atol=tol)
+    np.testing.assert_allclose(a.sum(axis=0), 0.0, rtol=0, atol=tol)
+    # the SSR rule's points are +sqrt(n) a_j then -sqrt(n) a_j, in vertex order
+    up = rules.SphericalSimplexRadial().unit_points(n)
+    np.testing.assert_allclose(up.xi, np.vstack([ref, -ref]) * math.sqrt(n), rtol=0, atol=atol * math.sqrt(n))
+    np.testing.assert_array_equal(up.wm, np.full(2 * n + 2, 1.0 / (2 * n + 2)))
+
+
 @pytest.mark.parametrize("rule", RULES, ids=lambda r: repr(r))
 def test_linear_map_moments_are_exact(rule):
     """Mean, covariance and cross-covariance of y = A x + b, x ~ N(m, P), are exact."""
