@@ -36,7 +36,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from . import linalg
-from ._validate import check_batch_vector, check_covariance
+from ._validate import as_float_array, check_batch_vector, check_covariance
 from .rules import SigmaPointRule, rule_by_name
 
 LOG_2PI = math.log(2.0 * math.pi)
@@ -69,7 +69,7 @@ class UpdateInfo(NamedTuple):
 def gaussian_state(mean, cov) -> GaussianState:
     """Validated initial state: mean (B, n) and cov (B, n, n) or a shared (n, n)."""
     mean = check_batch_vector(mean, "mean")
-    cov_arr = np.asarray(cov, dtype=float)
+    cov_arr = as_float_array(cov, "cov")
     if cov_arr.ndim == 2:
         cov_arr = check_covariance(cov_arr, "cov", mean.shape[1])
         cov_arr = np.broadcast_to(cov_arr, (mean.shape[0],) + cov_arr.shape).copy()

@@ -14,7 +14,8 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from ._validate import as_float_array, check_finite, check_positive_int
+from ._validate import as_float_array, check_finite, check_has, check_index, check_positive_int, check_scalar
+from .linalg import matmul_rows
 from .montecarlo import MonteCarlo, Stream
 
 
@@ -32,17 +33,35 @@ class ManeuverSchedule:
 
     def __post_init__(self):
         check_positive_int(self.n_steps, "n_steps")
+        if isinstance(self.models, (str, bytes)) or not hasattr(self.models, "__len__") or not len(self.models):
+            raise ValueError(f"models: expected a non-empty sequence of dynamics models, got {self.models!r}")
+        for j, model in enumerate(self.models):
+            check_has(model, f"models[{j}]", "a dynamics model", ("transition", "noise_factor", "dim"))
         r = len(self.models)
-        for seg in self.segments:
-            if len(seg) != 3 or not 0 <= seg[2] < r or not seg[0] < seg[1]:
-                raise ValueError(f"segments: bad segment {seg!r} (need (t_start < t_end, model index < {r}))")
-        if not 0 <= self.default < r:
-            raise ValueError(f"default: model index {self.default} outside 0..{r - 1}")
-        if not self.T > 0:
-            raise ValueError(f"T: sampling interval must be > 0, got {self.T}")
-        for jump in self.jumps:
-            if len(jump) != 3 or len(jump[1]) != len(jump[2]):
-                raise ValueError(f"jumps: bad jump {jump!r} (need (t, indices, values) of equal lengths)")
+        n = self.models[0].dim
+        if any(model.dim != n for model in self.models):
+            raise ValueError(f"models: every model must have the state dimension {n}, got "
+                             f"{[model.dim for model in self.models]}")
+        for i, seg in enumerate(self.segments):
+            try:
+                t0, t1 = check_scalar(seg[0], "t_start"), check_scalar(seg[1], "t_end")
+                check_index(seg[2], "model index", r)
+                if len(seg) != 3 or not t0 < t1:
+                    raise ValueError("need t_start < t_end")
+            except (ValueError, TypeError, IndexError) as exc:
+                raise ValueError(f"segments[{i}]: bad segment {seg!r} (need (t_start < t_end, model index < {r}): "
+                                 f"{exc})") from None
+        check_index(self.default, "default", r)
+        object.__setattr__(self, "T", check_scalar(self.T, "T", positive=True))    # sampling interval (s)
+        for i, jump in enumerate(self.jumps):
+            try:
+                check_scalar(jump[0], "t")
+                idx = [check_index(j, "state index", n) for j in jump[1]]
+                values = check_finite(as_float_array(jump[2], "values"), "values")
+                if len(jump) != 3 or values.shape != (len(idx),):
+                    raise ValueError("need (t, indices, values) of equal lengths")
+            except (ValueError, TypeError, IndexError) as exc:
+                raise ValueError(f"jumps[{i}]: bad jump {jump!r}: {exc}") from None
 
     def modes(self) -> np.ndarray:
         """Index of the model used for step k = 1..K, shape (K,)."""
@@ -75,7 +94,7 @@ def propagate(schedule: ManeuverSchedule, x0, process_noise=None) -> np.ndarray:
         x = model.transition(x)
         if process_noise is not None:
             L = model.noise_factor
-            x = x + process_noise[:, k, :L.shape[1]] @ L.T
+            x = x + matmul_rows(process_noise[:, k, :L.shape[1]], L.T)      # same bits whatever B
         for t_jump, idx, values in schedule.jumps:
             if abs(times[k] - t_jump) < 1e-9:
                 x[:, list(idx)] = values
@@ -94,6 +113,9 @@ def simulate(schedule: ManeuverSchedule, x0, measurement, mc: MonteCarlo, runs,
     (e.g. sensor faults).
     """
     runs = list(runs)
+    check_has(measurement, "measurement", "a measurement model", ("h", "dim", "noise_factor"))
+    if not isinstance(mc, MonteCarlo):
+        raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
     x0 = check_finite(as_float_array(x0, "x0"), "x0")
     n = schedule.models[0].dim
     if x0.shape not in ((n,), (len(runs), n)):

@@ -104,3 +104,44 @@ def test_track_has_one_diverged_step_per_run():
     """Old code broadcast two runs of measurements over three runs of state and returned 2 diverged steps."""
     track = m.run(m.SingleModel(UKF, CV, POS), UKF.init(X0, P0), Z)
     assert track.diverged_step.shape == (B,) and track.divergence_cause.shape == (B,)
+
+
+def _schedule(**kw):
+    from mmlib.simulate import ManeuverSchedule
+    args = dict(models=[CV], segments=[], default=0, T=1.0, n_steps=K)
+    args.update(kw)
+    return ManeuverSchedule(**args)
+
+
+def _simulate(**kw):
+    from mmlib.simulate import simulate
+    args = dict(schedule=_schedule(), x0=X0[0], measurement=POS, mc=m.MonteCarlo(1, B), runs=range(B))
+    args.update(kw)
+    return simulate(**args)
+
+
+SIM_CASES = {
+    "schedule T = 0": (lambda: _schedule(T=0.0), "T"),
+    "schedule T a string": (lambda: _schedule(T="1"), "T"),
+    "schedule n_steps = 0": (lambda: _schedule(n_steps=0), "n_steps"),
+    "schedule models a string": (lambda: _schedule(models="cv"), "models"),
+    "schedule model not a model": (lambda: _schedule(models=[CV, "ct"]), r"models\[1\]"),
+    "schedule default out of range": (lambda: _schedule(default=1), "default"),
+    "schedule segment model out of range": (lambda: _schedule(segments=[(0, 3, 1)]), r"segments\[0\]"),
+    "schedule segment reversed": (lambda: _schedule(segments=[(3, 1, 0)]), r"segments\[0\]"),
+    "schedule jump index out of range": (lambda: _schedule(jumps=[(2.0, [7], [1.0])]), r"jumps\[0\]"),
+    "schedule jump values NaN": (lambda: _schedule(jumps=[(2.0, [1], [np.nan])]), r"jumps\[0\]"),
+    "simulate measurement a string": (lambda: _simulate(measurement="pos"), "measurement"),
+    "simulate mc not a MonteCarlo": (lambda: _simulate(mc=7), "mc"),
+    "simulate runs beyond n_runs": (lambda: _simulate(runs=range(B + 2)), "run"),
+    "simulate x0 complex": (lambda: _simulate(x0=X0[0] + 1j), "x0"),
+    "simulate x0 wrong length": (lambda: _simulate(x0=X0[0, :3]), "x0"),
+    "filter init cov a string": (lambda: UKF.init(X0, "P"), "cov"),
+}
+
+
+@pytest.mark.parametrize("case", list(SIM_CASES), ids=list(SIM_CASES))
+def test_bad_simulation_input_is_a_value_error_naming_the_argument(case):
+    call, name = SIM_CASES[case]
+    with pytest.raises(ValueError, match=name):
+        call()
