@@ -209,14 +209,13 @@ def check_covariance_stack(value, name: str, dim: int | None = None) -> np.ndarr
         return arr
     scale = np.maximum(np.max(np.abs(flat), axis=(-2, -1)), np.finfo(float).tiny)
     asym = np.max(np.abs(flat - np.swapaxes(flat, -1, -2)), axis=(-2, -1)) > RTOL * scale
+    where = (lambda i: f" at index {tuple(int(j) for j in np.unravel_index(i, lead))}" if lead else "")
     if np.any(asym):
-        at = tuple(int(i) for i in np.unravel_index(int(np.argmax(asym)), lead))
-        raise ValueError(f"{name}: covariance at index {at} is not symmetric")
+        raise ValueError(f"{name}: covariance{where(int(np.argmax(asym)))} is not symmetric")
     eig_min = np.linalg.eigvalsh(flat)[:, 0]
     if np.any(eig_min <= 0.0):
         i = int(np.argmax(eig_min <= 0.0))
-        at = tuple(int(j) for j in np.unravel_index(i, lead))
-        raise ValueError(f"{name}: covariance at index {at} is not positive definite; "
+        raise ValueError(f"{name}: covariance{where(i)} is not positive definite; "
                          f"smallest eigenvalue {float(eig_min[i]):.3g}")
     return arr
 

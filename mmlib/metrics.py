@@ -12,6 +12,9 @@ from typing import NamedTuple
 import numpy as np
 from scipy import stats
 
+from ._validate import (as_float_array, check_covariance_stack, check_finite, check_finite_runs, check_index,
+                        check_mask, check_positive_int, check_scalar)
+
 
 class MCValue(NamedTuple):
     value: np.ndarray
@@ -21,13 +24,35 @@ class MCValue(NamedTuple):
 
 
 def _valid(valid, n):
-    return np.ones(n, dtype=bool) if valid is None else np.asarray(valid, dtype=bool)
+    """The ``valid`` argument as a boolean mask of the n runs (None: all runs).  An index list is not a
+    mask: it is rejected, never cast (``[1, 2]`` as booleans would silently drop run 0)."""
+    return np.ones(n, dtype=bool) if valid is None else check_mask(valid, "valid", n)
+
+
+def _runs(value, name: str, valid, ndims=None) -> tuple[np.ndarray, np.ndarray]:
+    """``value`` as a float array with the run axis first (rank in ``ndims`` if given, else >= 1), the
+    ``valid`` mask of its runs, and finiteness checked in the valid runs (diverged runs may hold
+    anything: they are excluded)."""
+    arr = as_float_array(value, name)
+    if (ndims is not None and arr.ndim not in ndims) or arr.ndim < 1:
+        want = " or ".join(f"{d}-D" for d in ndims) if ndims else "at least 1-D (runs first)"
+        raise ValueError(f"{name}: expected an array {want}, got shape {arr.shape}")
+    ok = _valid(valid, arr.shape[0])
+    return check_finite_runs(arr, name, ok), ok
 
 
 def mean_with_se(samples, valid=None) -> MCValue:
-    """Mean over runs (axis 0) and its standard error."""
-    samples = np.asarray(samples, dtype=float)
-    ok = _valid(valid, samples.shape[0])
+    r"""Mean over runs (axis 0) and its standard error, :math:`\bar s` and
+    :math:`\hat\sigma/\sqrt{n}` (sample s.d. with n - 1) over the n valid runs.
+
+    ``samples`` (M, ...) with runs first; ``valid`` None or a boolean mask (M,).  With no valid run the
+    value and standard error are NaN and ``n_runs`` is 0; with one, the standard error is NaN."""
+    samples, ok = _runs(samples, "samples", valid)
+    return _mean_se(samples, ok)
+
+
+def _mean_se(samples: np.ndarray, ok: np.ndarray) -> MCValue:
+    """:func:`mean_with_se` of checked arguments."""
     s = samples[ok]
     n = s.shape[0]
     if n == 0:
@@ -44,7 +69,7 @@ def timing_ratio(times, reference) -> MCValue:
     :math:`\hat\sigma = 1.4826\,\mathrm{MAD}`.  Timings on a shared machine carry occasional large
     disturbances (a repeat several times slower); the median and the MAD keep a few of them from deciding
     a verdict, where a mean and a standard deviation let them flip it between identical runs."""
-    times, reference = np.asarray(times, dtype=float), np.asarray(reference, dtype=float)
+    times, reference = as_float_array(times, "times"), as_float_array(reference, "reference")
     if times.shape != reference.shape or times.ndim != 1 or times.size < 2:
         raise ValueError(f"times, reference: expected two 1-D arrays of the same length >= 2, got shapes "
                          f"{times.shape} and {reference.shape}")
@@ -56,44 +81,111 @@ def timing_ratio(times, reference) -> MCValue:
     return MCValue(np.float64(med), np.float64(np.sqrt(np.pi / 2) * sigma / np.sqrt(r.size)), int(r.size), 0)
 
 
-def rms_with_se(squared_errors, valid=None) -> MCValue:
-    """``sqrt(mean over runs of squared_errors)`` (axis 0), delta-method standard error."""
-    m = mean_with_se(squared_errors, valid)
+def _rms(sq: np.ndarray, ok: np.ndarray) -> MCValue:
+    """Root of the mean over the valid runs of checked, non-negative squared errors ``sq``."""
+    m = _mean_se(sq, ok)
     root = np.sqrt(m.value)
     with np.errstate(divide="ignore", invalid="ignore"):
         se = np.where(root > 0, m.stderr / (2.0 * root), 0.0)
     return MCValue(root, se, m.n_runs, m.n_excluded)
 
 
+def rms_with_se(squared_errors, valid=None) -> MCValue:
+    """``sqrt(mean over runs of squared_errors)`` (axis 0), delta-method standard error;
+    ``squared_errors`` (M, ...) must be >= 0 in the valid runs."""
+    sq, ok = _runs(squared_errors, "squared_errors", valid)
+    if np.any(sq[ok] < 0):
+        raise ValueError("squared_errors: contains negative values in a run marked valid")
+    return _rms(sq, ok)
+
+
 def rmse_over_time(err, valid=None) -> MCValue:
-    r"""Per-step RMSE across runs, :math:`\sqrt{\frac1M\sum_m e_{m,k}^2}` -- ``err`` (M, K[, d]);
-    with a trailing axis d the squared errors are summed over it first (e.g. position
-    error = x and y together, Liu & Wu 2017 Eq. 41)."""
-    sq = np.asarray(err, dtype=float) ** 2
-    return rms_with_se(sq, valid)
+    r"""Per-step RMSE across runs, :math:`\mathrm{RMSE}_k = \sqrt{\frac1M\sum_m \lVert e_{m,k}\rVert^2}`
+    over the M valid runs, in the unit of ``err``.
+
+    ``err`` (M, K): one error per run and step; (M, K, d): the squared errors are summed over the d
+    components first (e.g. position error = x and y together, Liu & Wu 2017 Eq. 41).  Returns
+    ``value`` and ``stderr`` of shape (K,) (delta method, runs as replications)."""
+    e, ok = _runs(err, "err", valid, ndims=(2, 3))
+    sq = e ** 2 if e.ndim == 2 else (e ** 2).sum(axis=-1)
+    return _rms(sq, ok)
 
 
 def rmse_time_averaged(err, valid=None, steps=None) -> MCValue:
     r"""Zhu et al. 2016 Eq. 64 read as
     :math:`\sqrt{\frac{1}{MK}\sum_m\sum_k e_{m,k}^2}` (runs m, steps k) per component.
 
-    ``err`` (M, K) or (M, K, d); the per-run time means are the independent
-    replications for the standard error."""
-    sq = np.asarray(err, dtype=float) ** 2
+    ``err`` (M, K) or (M, K, d) (value and standard error per component: () or (d,)); ``steps``
+    None (all K steps), a slice, a boolean mask (K,) or a sequence of step indices 0..K-1, selecting
+    a non-empty set of steps; the per-run time means are the independent replications for the
+    standard error."""
+    e, ok = _runs(err, "err", valid, ndims=(2, 3))
+    sq = e ** 2
     if steps is not None:
-        sq = sq[:, steps]
-    return rms_with_se(sq.mean(axis=1), valid)
+        sq = sq[:, _steps(steps, e.shape[1])]
+    return _rms(sq.mean(axis=1), ok)
 
 
-def nees(err, cov):
-    """Normalised estimation error squared per run and step: e^T P^-1 e; err (..., n), cov (..., n, n)."""
-    sol = np.linalg.solve(cov, err[..., None])[..., 0]
-    return np.sum(err * sol, axis=-1)
+def _steps(steps, K: int):
+    """The ``steps`` argument as an index into an axis of K steps (non-empty)."""
+    if isinstance(steps, slice):
+        chosen = range(K)[steps]
+        if len(chosen) == 0:
+            raise ValueError(f"steps: the slice {steps} selects none of the {K} steps")
+        return steps
+    arr = np.asarray(steps) if not isinstance(steps, (str, bytes)) else None
+    if arr is not None and arr.dtype.kind == "b":
+        mask = check_mask(arr, "steps", K)
+        if not mask.any():
+            raise ValueError("steps: the mask selects no step")
+        return mask
+    if arr is None or arr.ndim != 1 or arr.size == 0:
+        raise ValueError(f"steps: expected a slice, a boolean mask of length {K} or a non-empty sequence of "
+                         f"step indices, got {steps!r}")
+    return np.array([check_index(i, "steps", K) for i in arr.tolist()], dtype=int)
+
+
+def nees(err, cov, valid=None):
+    r"""Normalised estimation error squared :math:`\epsilon = e^T P^{-1} e` (dimensionless; chi-square
+    with n degrees of freedom for a consistent filter), per leading index, e.g. per run and step.
+
+    ``err`` (..., n) estimate minus truth, ``cov`` (..., n, n) the filter's covariances, symmetric
+    positive definite (a covariance that is not would give a meaningless, possibly negative, NEES:
+    it is rejected).  ``valid`` None or a boolean mask over the first axis (runs): the entries of the
+    other runs (diverged) are NaN and their errors and covariances are not checked."""
+    e = as_float_array(err, "err")
+    P = as_float_array(cov, "cov")
+    if e.ndim < 1 or e.shape[-1] == 0:
+        raise ValueError(f"err: expected errors of shape (..., n) with n >= 1, got shape {e.shape}")
+    if P.shape != e.shape + e.shape[-1:]:
+        raise ValueError(f"cov: expected shape {e.shape + e.shape[-1:]} (err's shape {e.shape} plus n), "
+                         f"got {P.shape}")
+    if valid is None:
+        check_finite(e, "err")
+        check_covariance_stack(P, "cov")
+        sol = np.linalg.solve(P, e[..., None])[..., 0]
+        return np.sum(e * sol, axis=-1)
+    if e.ndim < 2:
+        raise ValueError(f"valid: needs err with a run axis first, shape (M, ..., n), got {e.shape}")
+    ok = _valid(valid, e.shape[0])
+    check_finite_runs(e, "err", ok)
+    if not ok.all():          # the excluded runs are not checked: stand-ins that pass, NaN in the result
+        e, P = np.where(ok.reshape((-1,) + (1,) * (e.ndim - 1)), e, 0.0), P.copy()
+        P[~ok] = np.eye(e.shape[-1])
+    out = nees(e, P)
+    out[~ok] = np.nan
+    return out
 
 
 def chi2_band(dof: int, n_runs: int, level: float = 0.95):
-    """Two-sided acceptance band for the run-average of a chi-square(dof) statistic over n_runs runs
-    (Bar-Shalom et al. 2001, Sec. 5.4.2)."""
+    r"""Two-sided acceptance band for the run-average of a chi-square(dof) statistic over n_runs runs
+    (Bar-Shalom et al. 2001, Sec. 5.4.2): :math:`[\chi^2_{Mn}((1-\alpha)/2),\ \chi^2_{Mn}((1+\alpha)/2)]/M`
+    with n = ``dof`` (integer >= 1), M = ``n_runs`` (integer >= 1), :math:`\alpha` = ``level`` in (0, 1)."""
+    dof = check_positive_int(dof, "dof")
+    n_runs = check_positive_int(n_runs, "n_runs")
+    level = check_scalar(level, "level", positive=True)
+    if not level < 1.0:
+        raise ValueError(f"level: expected a probability in (0, 1), got {level!r}")
     lo, hi = stats.chi2.ppf([(1 - level) / 2, (1 + level) / 2], dof * n_runs)
     return lo / n_runs, hi / n_runs
 
@@ -103,8 +195,9 @@ def armse(err, valid=None) -> MCValue:
     :math:`\sqrt{\frac1N\sum_k \mathrm{RMSE}^2(k)}` with
     :math:`\mathrm{RMSE}^2(k) = \frac1M\sum_m \lVert e_{m,k}\rVert^2` -- ``err`` (M, K, d), the
     squared errors summed over the d components (x and y) first."""
-    sq = (np.asarray(err, dtype=float) ** 2).sum(axis=-1)
-    return rms_with_se(sq.mean(axis=1), valid)
+    e, ok = _runs(err, "err", valid, ndims=(3,))
+    sq = (e ** 2).sum(axis=-1)
+    return _rms(sq.mean(axis=1), ok)
 
 
 def mean_rmse_over_time(err, valid=None) -> MCValue:
@@ -113,8 +206,7 @@ def mean_rmse_over_time(err, valid=None) -> MCValue:
 
     Standard error by the delta method with per-run influence values
     :math:`u_r = \frac1K\sum_k e_{r,k}^2 / (2\sqrt{m_k})` (runs are the independent replications)."""
-    e = np.asarray(err, dtype=float)
-    ok = _valid(valid, e.shape[0])
+    e, ok = _runs(err, "err", valid, ndims=(2,))
     if not ok.any():
         return MCValue(np.nan, np.nan, 0, int((~ok).sum()))
     sq = e[ok] ** 2
@@ -128,9 +220,13 @@ def mean_rmse_over_time(err, valid=None) -> MCValue:
 
 def jackknife(statistic, samples, valid=None) -> MCValue:
     """Delete-one-run jackknife standard error of ``statistic(samples)`` (samples: runs first);
-    for statistics without a simple closed-form error, e.g. the s.d. over time of a per-step RMSE."""
-    s = np.asarray(samples, dtype=float)
-    ok = _valid(valid, s.shape[0])
+    for statistics without a simple closed-form error, e.g. the s.d. over time of a per-step RMSE.
+
+    ``statistic`` maps an array of runs (n, ...) to a real number; ``samples`` (M, ...) runs first;
+    ``valid`` None or a boolean mask (M,)."""
+    if not callable(statistic):
+        raise ValueError(f"statistic: expected a function of the samples, got {type(statistic).__name__}")
+    s, ok = _runs(samples, "samples", valid)
     s = s[ok]
     n = s.shape[0]
     if n == 0:

@@ -20,7 +20,7 @@ from enum import IntEnum
 
 import numpy as np
 
-from ._validate import check_positive_int
+from ._validate import check_index, check_positive_int
 
 
 class Stream(IntEnum):
@@ -31,28 +31,55 @@ class Stream(IntEnum):
     FAULT = 4
 
 
+def check_stream(value, name: str = "stream") -> Stream:
+    """A :class:`Stream` member, or an integer (Python or numpy) equal to one's value; booleans, floats
+    and other values are rejected."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
+            or int(value) not in Stream._value2member_map_:
+        raise ValueError(f"{name}: expected a Stream ({', '.join(f'{m.name}={m.value}' for m in Stream)}), "
+                         f"got {value!r}")
+    return Stream(int(value))
+
+
 @dataclass(frozen=True)
 class MonteCarlo:
+    """``n_runs`` runs (integer >= 1) of the root seed ``root_seed`` (integer >= 0); numpy integers are
+    accepted and stored as Python ints, booleans and floats rejected."""
+
     root_seed: int
     n_runs: int
 
     def __post_init__(self):
-        check_positive_int(self.root_seed, "root_seed", minimum=0)
-        check_positive_int(self.n_runs, "n_runs")
+        object.__setattr__(self, "root_seed", check_positive_int(self.root_seed, "root_seed", minimum=0))
+        object.__setattr__(self, "n_runs", check_positive_int(self.n_runs, "n_runs"))
 
     def generator(self, run: int, stream: Stream) -> np.random.Generator:
-        if not 0 <= run < self.n_runs:
-            raise ValueError(f"run: index {run} outside 0..{self.n_runs - 1}")
-        return np.random.default_rng(np.random.SeedSequence(self.root_seed, spawn_key=(int(run), int(stream))))
+        """The generator of run ``run`` (integer index 0..n_runs-1) for purpose ``stream``."""
+        run = check_index(run, "run", self.n_runs)
+        stream = check_stream(stream)
+        return np.random.default_rng(np.random.SeedSequence(self.root_seed, spawn_key=(run, int(stream))))
+
+    def check_runs(self, runs, name: str = "runs") -> list:
+        """``runs`` (a range, or a sequence or 1-D integer array of run indices 0..n_runs-1) as a list of ints."""
+        if isinstance(runs, (str, bytes)) or not hasattr(runs, "__len__"):
+            raise ValueError(f"{name}: expected a range or sequence of run indices, got {type(runs).__name__}")
+        if isinstance(runs, np.ndarray) and runs.ndim != 1:
+            raise ValueError(f"{name}: expected a 1-D sequence of run indices, got shape {runs.shape}")
+        return [check_index(r, name, self.n_runs) for r in runs]
 
     def standard_normal(self, runs, stream: Stream, shape) -> np.ndarray:
-        """Per-run standard normals stacked to ``(len(runs), *shape)``."""
-        shape = tuple(shape)
+        """Per-run standard normals stacked to ``(len(runs), *shape)``: row i from run ``runs[i]``'s
+        generator for ``stream``; ``shape`` a sequence of integers >= 0."""
+        runs = self.check_runs(runs)
+        stream = check_stream(stream)
+        if isinstance(shape, (str, bytes)) or not hasattr(shape, "__iter__"):
+            raise ValueError(f"shape: expected a sequence of integers >= 0, got {shape!r}")
+        shape = tuple(check_positive_int(d, "shape", minimum=0) for d in shape)
         return np.stack([self.generator(r, stream).standard_normal(shape) for r in runs]) \
             if len(runs) else np.zeros((0,) + shape)
 
     def chunks(self, chunk_size: int | None = None):
-        """Consecutive run-index ranges covering all runs."""
+        """Consecutive run-index ranges covering all runs, ``chunk_size`` (integer >= 1, None: all) runs each."""
         size = self.n_runs if chunk_size is None else check_positive_int(chunk_size, "chunk_size")
         return [range(a, min(a + size, self.n_runs)) for a in range(0, self.n_runs, size)]
 

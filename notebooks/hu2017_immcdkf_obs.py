@@ -441,8 +441,11 @@ prov = report.provenance(root_seed=nb.seed, n_runs=nb.n_runs, profile=nb.profile
                          extra={"paper_citation": paper.CITATION, "timing_runs": nb.timing_runs,
                                 "timing_repeats": nb.timing_repeats, "mmlib": mmlib.__version__,
                                 "multiverse_runs": nb.mv_runs, "multiverse_design": nb.mv_design})
+# digest of the headline's per-run numbers over the first smoke-size runs (the same runs in every profile):
+# tests/tolerance/test_results.py recomputes it in the smoke profile and compares it with the committed one exactly
+digest = evaluation.run_digest(res.runs, min(nb.n_runs, PROFILES["smoke"]["n_runs"]))
 report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows, claims=claims.as_list(),
-                     deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures,
+                     deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures, digest=digest,
                      multiverse=mv.as_dict(), headline_universe_matches=same_as_headline,
                      coincidence_max_position_difference_vs_IMMCDKF_km=coincide,
                      nonlinearity_index={"median": float(np.median(nl_index)), "max": float(nl_index.max())},

@@ -459,8 +459,11 @@ prov = report.provenance(root_seed=nb.seed, n_runs=nb.n_runs, profile=nb.profile
                          extra={"paper_citation": paper.CITATION, "oracle_runs": mc_oracle.n_runs,
                                 "multiverse_runs": mv.n_runs, "multiverse_design": mv.design.kind,
                                 "mmlib": mmlib.__version__})
+# digest of the headline's per-run numbers over the first smoke-size runs (the same runs in every profile):
+# tests/tolerance/test_results.py recomputes it in the smoke profile and compares it with the committed one exactly
+digest = evaluation.run_digest(res, min(nb.n_runs, PROFILES["smoke"]["n_runs"]))
 report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows, claims=claims.as_list(),
-                     deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures,
+                     deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures, digest=digest,
                      multiverse=mv.as_dict(), diverged_runs=diverged, oracle_schedules=oracle_json,
                      ukf_minus_ekf_max_m=ukf_ekf, satellites_in_view=[int(n_vis.min()), int(n_vis.max())])
 counts_v = {v: sum(r.verdict.startswith(v) for r in rows) for v in report.VERDICTS}

@@ -52,7 +52,7 @@ from scipy import stats
 import mmlib
 from mmlib import metrics, report
 from mmlib.montecarlo import MonteCarlo
-from mmlib.experiment import run_multiverse, views
+from mmlib.experiment import evaluation, run_multiverse, views
 from mmlib.scenarios import zhou2017 as paper
 from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                          shade_intervals, value_pm)
@@ -388,7 +388,10 @@ display(Markdown("\n".join(lines)))
 # %%
 prov = report.provenance(root_seed=nb.seed, n_runs=nb.n_runs, profile=nb.profile,
                          extra={"paper_citation": paper.CITATION, "mmlib": mmlib.__version__})
-report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows + variant_rows,
+# digest of the headline's per-run numbers over the first smoke-size runs (the same runs in every profile):
+# tests/tolerance/test_results.py recomputes it in the smoke profile and compares it with the committed one exactly
+digest = evaluation.run_digest(head, min(nb.n_runs, PROFILES["smoke"]["n_runs"]))
+report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows + variant_rows, digest=digest,
                      claims=claims.as_list(), deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures,
                      multiverse=mv.as_dict(), diverged_runs={"case 2 (as printed)": div2}, nees_case1=nees1,
                      synthetic_analogue=analogue)

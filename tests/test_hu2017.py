@@ -35,6 +35,7 @@ def test_bootstrapping_is_over_confident(headline):
     nees = {}
     for alg in ("IMMCDKF", "IMMCDKF-OBS"):
         tr = run(est[alg], init[alg], z)
+        assert not tr.diverged.any()
         nees[alg] = metrics.nees(tr.mean - truth[:, 1:], tr.cov).mean()
     assert nees["IMMCDKF"] < 8.0                 # consistent-ish (4 = ideal)
     assert nees["IMMCDKF-OBS"] > 10 * nees["IMMCDKF"]

@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import gc
+import hashlib
 import time
+from collections.abc import Mapping
 from typing import Callable, NamedTuple
 
 import numpy as np
 
 from .. import metrics
+from .._validate import as_float_array, check_finite, check_finite_runs, check_index, check_positive_int
 from ..estimation import run, select_runs
 from ..montecarlo import MonteCarlo, Progress
 from ..simulate import simulate
@@ -29,9 +32,55 @@ class RunSet(NamedTuple):
         return self.diverged_step < 0
 
 
+def _check_mapping(value, name: str, what: str, nonempty: bool = True) -> Mapping:
+    if not isinstance(value, Mapping):
+        raise ValueError(f"{name}: expected a dict of {what}, got {type(value).__name__}")
+    if nonempty and not value:
+        raise ValueError(f"{name}: expected at least one entry ({what}), got an empty dict")
+    return value
+
+
+def _check_callable(value, name: str, what: str, optional: bool = False):
+    if (value is None and not optional) or (value is not None and not callable(value)):
+        raise ValueError(f"{name}: expected {what}, got {type(value).__name__}")
+    return value
+
+
+def _check_runset(value, name: str) -> RunSet:
+    if not isinstance(value, RunSet):
+        raise ValueError(f"{name}: expected a RunSet (from evaluate), got {type(value).__name__}")
+    return value
+
+
+def _check_name(value, name: str, known) -> str:
+    if not isinstance(value, str) or value not in known:
+        raise ValueError(f"{name}: unknown estimator {value!r}; known: {list(known)}")
+    return value
+
+
+def _components(components, n: int, name: str = "components") -> list:
+    """``components``: one state index 0..n-1 or a non-empty sequence of distinct ones, as a list."""
+    if isinstance(components, (int, np.integer)) and not isinstance(components, (bool, np.bool_)):
+        return [check_index(components, name, n)]
+    if isinstance(components, (str, bytes)) or not hasattr(components, "__iter__"):
+        raise ValueError(f"{name}: expected a state index or a sequence of them, got {components!r}")
+    idx = [check_index(c, name, n) for c in components]
+    if not idx or len(set(idx)) != len(idx):
+        raise ValueError(f"{name}: expected a non-empty sequence of distinct state indices, got {components!r}")
+    return idx
+
+
 def select(estimators: dict, names=None) -> dict:
     """The estimators named in ``names`` (all if None), in that order."""
-    return dict(estimators) if names is None else {k: estimators[k] for k in names}
+    _check_mapping(estimators, "estimators", "estimators by name", nonempty=False)
+    if names is None:
+        return dict(estimators)
+    if isinstance(names, (str, bytes)) or not hasattr(names, "__iter__"):
+        raise ValueError(f"names: expected a sequence of estimator names, got {names!r}")
+    names = list(names)
+    if len(set(names)) != len(names):
+        raise ValueError(f"names: repeated estimator names in {names}")
+    return {k: estimators[_check_name(k, "names", estimators)] for k in names}
 
 
 def make_batches(mc: MonteCarlo, schedule, measurement, x0, estimators: dict, init_state: Callable, *,
@@ -39,13 +88,27 @@ def make_batches(mc: MonteCarlo, schedule, measurement, x0, estimators: dict, in
     """The ``make_batch(runs)`` every scenario needs: simulate truth and measurements for the runs
     (optionally with a sensor fault ``fault(runs) -> SensorFault``), start every filter from
     ``start(runs)`` (default: the true x0) and initialise each estimator with
-    ``init_state(estimator, start, runs)``.  Returns ``runs -> (truth, measurements, {name: state})``."""
-    x0 = np.asarray(x0, dtype=float)
+    ``init_state(estimator, start, runs)``.  Returns ``runs -> (truth, measurements, {name: state})``.
+
+    ``x0`` (n,) the true initial state; ``start(runs)`` must return (len(runs), n)."""
+    if not isinstance(mc, MonteCarlo):
+        raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
+    x0 = check_finite(as_float_array(x0, "x0"), "x0")
+    if x0.ndim != 1 or x0.size == 0:
+        raise ValueError(f"x0: expected a state vector of shape (n,), got shape {x0.shape}")
+    _check_mapping(estimators, "estimators", "estimators by name", nonempty=False)   # none: truth only
+    _check_callable(init_state, "init_state", "a function (estimator, start, runs) -> state")
+    _check_callable(fault, "fault", "None or a function runs -> SensorFault", optional=True)
+    _check_callable(start, "start", "None or a function runs -> (B, n) start means", optional=True)
+    if not isinstance(process_noise, (bool, np.bool_)):
+        raise ValueError(f"process_noise: expected True or False, got {process_noise!r}")
 
     def make_batch(runs):
         noise_fn = None if fault is None else fault(runs).apply(measurement)
         sc = simulate(schedule, x0, measurement, mc, runs, process_noise=process_noise, measurement_noise_fn=noise_fn)
         m0 = np.tile(x0, (len(runs), 1)) if start is None else start(runs)
+        if np.shape(m0) != (len(runs), x0.size):
+            raise ValueError(f"start: returned shape {np.shape(m0)}, expected {(len(runs), x0.size)} (runs, n)")
         return sc.truth, sc.measurements, {n: init_state(e, m0, runs) for n, e in estimators.items()}
 
     return make_batch
@@ -60,6 +123,10 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
     :func:`mmlib.estimation.run`) the measurements are a list of K arrays (B, m_k).
     Returns ``{name: RunSet}``.
     """
+    _check_mapping(estimators, "estimators", "estimators by name")
+    _check_callable(make_batch, "make_batch", "a function runs -> (truth, measurements, init)")
+    if not isinstance(mc, MonteCarlo):
+        raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
     out = {name: {"err": [], "mu": [], "div": [], "diag": []} for name in estimators}
     first = {}
     bar = Progress(label or "Monte Carlo", mc.n_runs, enabled=progress)
@@ -82,20 +149,42 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
 
 
 def paired_mse_difference(a: RunSet, b: RunSet, components):
-    """Mean over runs of (time-averaged squared error of a minus that of b), with its standard
+    r"""Mean over runs of (time-averaged squared error of a minus that of b), with its standard
     error; ``components`` is one state index or a tuple whose squared errors are summed (e.g. x
-    and y for a position error).  Runs diverged in either estimator are excluded."""
-    idx = [components] if np.isscalar(components) else list(components)
+    and y for a position error).  Runs diverged in either estimator are excluded and counted.
+
+    :math:`d_m = \frac1K\sum_k \sum_{i} (e^a_{m,k,i})^2 - (e^b_{m,k,i})^2` over the runs m valid in both;
+    returns the mean of :math:`d_m` and its standard error (unit: squared unit of the components)."""
+    _check_runset(a, "a")
+    _check_runset(b, "b")
+    if a.errors.ndim != 3 or a.errors.shape != b.errors.shape:
+        raise ValueError(f"a, b: expected errors of the same shape (N, K, n) (the same runs), got "
+                         f"{a.errors.shape} and {b.errors.shape}")
+    idx = _components(components, a.errors.shape[-1])
     ok = a.valid & b.valid
-    da = (a.errors[ok][..., idx] ** 2).sum(axis=-1).mean(axis=1)
-    db = (b.errors[ok][..., idx] ** 2).sum(axis=-1).mean(axis=1)
-    return metrics.mean_with_se(da - db)
+    check_finite_runs(a.errors[..., idx], "a.errors", ok)
+    check_finite_runs(b.errors[..., idx], "b.errors", ok)
+    ea, eb = a.errors[ok][..., idx], b.errors[ok][..., idx]
+    d = np.zeros(ok.shape)
+    d[ok] = (ea ** 2).sum(axis=-1).mean(axis=1) - (eb ** 2).sum(axis=-1).mean(axis=1)
+    return metrics.mean_with_se(d, ok)
 
 
 def better_claim(results: dict, a: str, b: str, quantities) -> tuple[str, str]:
     """Verdict and evidence for "a is more accurate than b" over ``quantities`` = [(label, components)],
     from paired differences on common random numbers (:func:`mmlib.report.claim_verdict`)."""
     from ..report import claim_verdict, combine_claim_verdicts
+    _check_mapping(results, "results", "RunSets by estimator name")
+    _check_name(a, "a", results)
+    _check_name(b, "b", results)
+    if a == b:
+        raise ValueError(f"b: compares {a!r} with itself")
+    if isinstance(quantities, (str, bytes)) or not hasattr(quantities, "__iter__"):
+        raise ValueError(f"quantities: expected a sequence of (label, components) pairs, got {quantities!r}")
+    quantities = list(quantities)
+    if not quantities or not all(isinstance(q, (tuple, list)) and len(q) == 2 and isinstance(q[0], str)
+                                 for q in quantities):
+        raise ValueError(f"quantities: expected a non-empty sequence of (label, components) pairs, got {quantities!r}")
     parts = []
     for label, comp in quantities:
         d = paired_mse_difference(results[a], results[b], comp)
@@ -104,7 +193,8 @@ def better_claim(results: dict, a: str, b: str, quantities) -> tuple[str, str]:
         parts.append((label, float(d.value), float(d.stderr), ref,
                       claim_verdict(float(d.value), float(d.stderr), -1, reference=ref)))
     verdict = combine_claim_verdicts(f"{v} ({lab})" for lab, _, _, _, v in parts)
-    evidence = "; ".join(f"{lab}: Δ(mean squared error) = {v:.3g} ± {se:.2g} ({100 * v / r:+.2g} %)"
+    evidence = "; ".join(f"{lab}: Δ(mean squared error) = {v:.3g} ± {se:.2g} "
+                         f"({f'{100 * v / r:+.2g} %' if r > 0 else 'reference 0'})"
                          for lab, v, se, r, _ in parts)
     return verdict, evidence
 
@@ -123,12 +213,22 @@ def time_algorithms(estimators: dict, init: dict, measurements, *, repeats: int 
     (B = 1, the papers' way); the repeat's one-at-a-time value is the fastest of these runs -- every run
     does the same work, so the fastest is the least disturbed measurement of it.  Batched: all runs of
     ``measurements`` in one call, once per repeat."""
+    _check_mapping(estimators, "estimators", "estimators by name")
+    _check_mapping(init, "init", "initial states by estimator name")
+    for a in estimators:
+        if a not in init:
+            raise ValueError(f"init: lacks the initial state of estimator {a!r}")
+    measurements = check_finite(as_float_array(measurements, "measurements"), "measurements")
+    if measurements.ndim != 3 or measurements.shape[0] == 0:
+        raise ValueError(f"measurements: expected shape (B, K, m) with B >= 1 runs, got {measurements.shape}")
     n = measurements.shape[0]
     per_repeat = n if per_repeat is None else per_repeat
-    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 2:
+    if isinstance(repeats, (bool, np.bool_)) or not isinstance(repeats, (int, np.integer)) or repeats < 2:
         raise ValueError(f"repeats: expected an integer >= 2 (a standard error needs two), got {repeats!r}")
-    if isinstance(per_repeat, bool) or not isinstance(per_repeat, int) or not 1 <= per_repeat <= n:
+    if isinstance(per_repeat, (bool, np.bool_)) or not isinstance(per_repeat, (int, np.integer)) \
+            or not 1 <= per_repeat <= n:
         raise ValueError(f"per_repeat: expected an integer from 1 to the {n} runs of measurements, got {per_repeat!r}")
+    repeats, per_repeat = int(repeats), int(per_repeat)
     names = list(estimators)
     single = {a: np.empty((repeats, per_repeat)) for a in names}
     batched = {a: np.empty(repeats) for a in names}
@@ -156,6 +256,74 @@ def time_algorithms(estimators: dict, init: dict, measurements, *, repeats: int 
 
 def first_runs(rs: RunSet, n: int) -> RunSet:
     """The first ``n`` runs of a RunSet: the same numbers a run over ``n`` runs gives (the streams
-    are per run and the filters batch-size invariant), without recomputing them."""
+    are per run and the filters batch-size invariant), without recomputing them.  ``n``: integer from 1
+    to the runs of ``rs``."""
+    _check_runset(rs, "rs")
+    n = check_positive_int(n, "n")
+    if n > rs.errors.shape[0]:
+        raise ValueError(f"n: {n} runs asked of a RunSet of {rs.errors.shape[0]} runs")
     cut = (lambda a: None if a is None else a[:n])
     return RunSet(rs.errors[:n], cut(rs.mode_probabilities), rs.diverged_step[:n], rs.example_mean, cut(rs.diagnostics))
+
+
+#: Tag hashed first by :func:`run_digest`; change it whenever what is hashed changes.
+DIGEST_VERSION = "mmlib-run-digest-1"
+
+
+def _flat_runsets(results, name: str, prefix: str = "") -> dict:
+    """``{name: RunSet}``, nested dicts flattened to ``"outer / inner"`` names."""
+    _check_mapping(results, name, "RunSets by estimator name (or dicts of them)")
+    out = {}
+    for key, value in results.items():
+        if not isinstance(key, str):
+            raise ValueError(f"{name}: expected estimator names as strings, got {key!r}")
+        full = f"{prefix}{key}"
+        if isinstance(value, Mapping):
+            out.update(_flat_runsets(value, name, f"{full} / "))
+        elif isinstance(value, RunSet):
+            out[full] = value
+        else:
+            raise ValueError(f"{name}: entry {full!r} is a {type(value).__name__}, expected a RunSet or a dict")
+    return out
+
+
+def run_digest(results, n_runs: int) -> dict:
+    r"""Fingerprint of the per-run numbers of the first ``n_runs`` runs of an evaluation, for proving that
+    committed results come from the committed code (``tests/tolerance/test_results.py``).
+
+    ``results``: ``{name: RunSet}`` as :func:`evaluate` returns, or a dict of such dicts (e.g. per case;
+    names flattened to ``"case / name"``); ``n_runs``: integer from 1 to the runs of every RunSet.
+    Per run the streams are fixed (:mod:`mmlib.montecarlo`) and the filters give a run the same bits in
+    any batch of two or more runs, so the digest of the first n runs is the same for an evaluation of
+    n runs and of any N > n runs, whatever the chunking.
+
+    ``sha256`` is the SHA-256 of, for each name in sorted order: the name, then for ``errors`` (N, K, n),
+    ``diverged_step`` (N,), ``mode_probabilities`` (N, K, r) and ``diagnostics`` (N, K, d) (the last two
+    when present) restricted to the first n runs, the field name, the shape and the float64 bytes
+    (C order, every NaN written as the one canonical NaN: NaN sign and payload bits are not results).
+    Beside it, for a readable mismatch message, per name: ``mean_squared_error`` (mean over the valid
+    runs among the first n, the K steps and the n components of the squared error, in the squared unit
+    of the state; None if no run is valid) and ``diverged`` (runs among the first n that diverged)."""
+    flat = _flat_runsets(results, "results")
+    n_runs = check_positive_int(n_runs, "n_runs")
+    h = hashlib.sha256(DIGEST_VERSION.encode())
+    mse, diverged = {}, {}
+    for name in sorted(flat):
+        rs = flat[name]
+        if rs.errors.shape[0] < n_runs:
+            raise ValueError(f"n_runs: {n_runs} runs asked, but {name!r} has only {rs.errors.shape[0]}")
+        h.update(b"\0name\0" + name.encode())
+        for field in ("errors", "diverged_step", "mode_probabilities", "diagnostics"):
+            value = getattr(rs, field)
+            if value is None:
+                continue
+            arr = np.ascontiguousarray(np.asarray(value)[:n_runs], dtype=np.float64)
+            arr = np.where(np.isnan(arr), np.nan, arr)
+            h.update(f"\0{field}{arr.shape}\0".encode())
+            h.update(arr.tobytes())
+        ok = rs.valid[:n_runs]
+        diverged[name] = int((~ok).sum())
+        m = float(np.mean(rs.errors[:n_runs][ok] ** 2)) if ok.any() else None
+        mse[name] = m if m is not None and np.isfinite(m) else None
+    return {"version": DIGEST_VERSION, "n_runs": n_runs, "algorithms": sorted(flat), "sha256": h.hexdigest(),
+            "mean_squared_error": mse, "diverged": diverged}

@@ -637,7 +637,7 @@ def nees_case1(reading, mc: MonteCarlo, n: int = 50) -> dict:
     out = {}
     for alg in ("IMM-UKF", "CPIMM-UKF"):
         tr = estimation.run(est[alg], init[alg], z)
-        out[alg] = float(metrics.nees(tr.mean - truth[:, 1:], tr.cov)[~tr.diverged].mean())
+        out[alg] = float(metrics.nees(tr.mean - truth[:, 1:], tr.cov, valid=~tr.diverged)[~tr.diverged].mean())
     return out
 
 

@@ -53,6 +53,46 @@ def test_results_contract(paper):
     assert full["provenance"]["n_runs"] == PAPERS[paper]
 
 
+def _digest_table(smoke: dict, full: dict) -> str:
+    """Per algorithm: mean squared error and diverged runs of the digested runs, smoke beside committed."""
+    names = sorted(set(smoke.get("algorithms", [])) | set(full.get("algorithms", [])))
+    fmt = (lambda d, k, a: "--" if d.get(k, {}).get(a) is None else f"{d[k][a]:.17g}" if k != "diverged"
+           else str(d[k][a]))
+    lines = [f"  {'estimator':<28} {'MSE (smoke, this code)':>24} {'MSE (committed)':>24}  diverged (smoke/committed)"]
+    lines += [f"  {a:<28} {fmt(smoke, 'mean_squared_error', a):>24} {fmt(full, 'mean_squared_error', a):>24}  "
+              f"{fmt(smoke, 'diverged', a)}/{fmt(full, 'diverged', a)}" for a in names]
+    return "\n".join(lines)
+
+
+@pytest.mark.parametrize("paper", sorted(PAPERS))
+def test_committed_results_reproduced_bit_for_bit(paper):
+    """The committed results come from the committed code: the digest of the headline's per-run numbers
+    over the first smoke-size runs (:func:`mmlib.experiment.evaluation.run_digest`), which the smoke run
+    of ``make test`` recomputes, equals the digest stored in ``data/results/<paper>.json`` exactly.
+    A smoke run is an exact prefix of the full run (per-run random streams), so no tolerance applies: any
+    change to the numbers -- a filter, a model, the random streams -- shows here."""
+    smoke, full = load(paper, "smoke"), load(paper, "full")
+    committed, rebuilt = f"data/results/{paper}.json", f"build/smoke/data/results/{paper}.json"
+    regenerate = ("A deliberate numerical change requires regenerating the committed outputs ('make figures') "
+                  "and committing them in the same commit as the code change.")
+    if "digest" not in smoke:
+        pytest.fail(f"{rebuilt} has no 'digest': the smoke run predates the digest; run 'make test' again")
+    if "digest" not in full:
+        pytest.fail(f"{committed} has no 'digest' of its per-run numbers, so it cannot be proven to come from "
+                    f"this code: it was written by an older notebook. {regenerate}")
+    s, f = smoke["digest"], full["digest"]
+    assert s["n_runs"] == smoke["provenance"]["n_runs"], \
+        f"{rebuilt}: the digest covers {s['n_runs']} runs, the smoke profile made {smoke['provenance']['n_runs']}"
+    keys = ("version", "n_runs", "algorithms", "sha256")
+    if tuple(s.get(k) for k in keys) != tuple(f.get(k) for k in keys):
+        pytest.fail(
+            f"{paper}: the per-run numbers of the first {s['n_runs']} runs recomputed by this code ({rebuilt}) "
+            f"differ from those of the committed results ({committed}):\n"
+            f"  sha256 {s['sha256']} (this code) vs {f.get('sha256')} (committed); runs {s['n_runs']} vs "
+            f"{f.get('n_runs')}; version {s['version']} vs {f.get('version')}\n{_digest_table(s, f)}\n"
+            f"The committed outputs are stale or were produced by other code. {regenerate}")
+
+
 @pytest.mark.parametrize("paper", sorted(PAPERS))
 def test_smoke_within_monte_carlo_error_of_committed_full(paper):
     s_rows, f_rows = monte_carlo_rows(load(paper, "smoke")), monte_carlo_rows(load(paper, "full"))
