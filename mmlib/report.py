@@ -121,7 +121,11 @@ def claim_verdict(difference: float, stderr: float, expected_sign: int, referenc
     """Verdict on a claim "A < B" (``expected_sign=-1``) or "A > B" (``+1``) from a paired
     difference A - B with its standard error: 'holds' if the difference has the expected sign
     and is at least 3 standard errors from 0, 'contradicted' if it has the opposite sign
-    by at least 3 standard errors, 'no detectable difference' otherwise."""
+    by at least 3 standard errors, 'no detectable difference' otherwise; 'not comparable' when the
+    difference or its standard error is not a finite number (fewer than two runs valid in both
+    algorithms: nothing was compared, which must not read as "no difference")."""
+    if not (math.isfinite(difference) and math.isfinite(stderr)):
+        return "not comparable"
     if stderr == 0.0 and difference == 0.0:
         return "no detectable difference (identical)"
     z = difference / stderr if stderr > 0 else math.copysign(math.inf, difference)
@@ -188,9 +192,11 @@ def combine_claim_verdicts(verdicts) -> str:
     kinds = [v.split(" (")[0] for v in verdicts]
     for v, k in zip(verdicts, kinds):
         if k not in ("holds", "contradicted", "no detectable difference", "holds, but negligible",
-                     "contradicted, but negligible"):
+                     "contradicted, but negligible", "not comparable"):
             raise ValueError(f"verdicts: {v!r} is not a part verdict of claim_verdict")
     detail = "; ".join(verdicts)
+    if any(k == "not comparable" for k in kinds):
+        return f"{NOT_ASSESSABLE}: too few runs valid in both algorithms; {detail}"
     if all(k == "holds" for k in kinds):
         return HOLDS
     if any(k == "holds" for k in kinds):

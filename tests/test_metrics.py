@@ -166,3 +166,13 @@ def test_nees_valid_mask_skips_diverged_runs():
         metrics.nees(E3, P)                       # unmasked: the garbage is reported, with its index
     with pytest.raises(ValueError, match=r"^cov: covariance at index \(2, 3\) is not positive definite"):
         metrics.nees(E3, NOT_PD)
+
+
+@pytest.mark.parametrize("difference, stderr", [(float("nan"), float("nan")), (-1.0, float("nan")),
+                                                (float("nan"), 0.1)])
+def test_a_claim_with_nothing_compared_is_not_assessable(difference, stderr):
+    """Old code: a NaN standard error (fewer than two valid runs) gave z = copysign(inf, difference), i.e.
+    'holds' or 'contradicted' from nothing."""
+    from mmlib import report
+    assert report.claim_verdict(difference, stderr, -1) == "not comparable"
+    assert report.paired_claim(difference, stderr, -1).startswith(report.NOT_ASSESSABLE)
