@@ -160,3 +160,17 @@ def test_strong_tracking_restarts_its_innovation_average_when_the_dimension_chan
     new, info = st.update(pred_state, zs[:, 1, :1], x_only)
     assert new.V.shape == (x0.shape[0], 1, 1)
     np.testing.assert_array_equal(new.V, info.innovation[:, :, None] * info.innovation[:, None, :])
+
+
+def test_evaluation_keeps_the_step_and_cause_of_every_divergence(linear_problem):
+    from mmlib.experiment.evaluation import evaluate
+    dyn, meas, x0, P0, zs = linear_problem
+    zs = zs.copy()
+    zs[1, 4] = 1e300
+    imm = m.IMM(m.KalmanFilter(), [dyn, models.constant_velocity(1.0, 20.0)], meas, [[0.95, 0.05], [0.05, 0.95]])
+    truth = np.zeros((3, zs.shape[1] + 1, 4))
+    res = evaluate({"IMM": imm}, lambda runs: (truth[list(runs)], zs[list(runs)], {"IMM": imm.init(x0[list(runs)], P0)}),
+                   m.MonteCarlo(0, 3), chunk_size=2, progress=False)["IMM"]
+    assert res.diverged_step.tolist() == [-1, 4, -1]
+    assert res.divergence_cause.tolist() == [0, Failure.LIKELIHOOD, 0]
+    assert res.divergence_summary().startswith("1 of 3 runs diverged (step 4; every mode's likelihood underflowed")

@@ -26,10 +26,27 @@ class RunSet(NamedTuple):
     diverged_step: np.ndarray        # (N,)
     example_mean: np.ndarray         # (K, n) estimate of the first run (for trajectory plots)
     diagnostics: object = None       # (N, K, d) per-step diagnostics of adaptive estimators, or None
+    divergence_cause: object = None  # (N,) mmlib.estimation.Failure codes (0: not diverged), or None
 
     @property
     def valid(self) -> np.ndarray:
         return self.diverged_step < 0
+
+    def divergence_summary(self) -> str:
+        """How many runs diverged, at which steps and why, e.g. ``"3 of 100 runs diverged (steps 12, 40, 41;
+        covariance no longer positive definite)"``; ``""`` if none did."""
+        from ..estimation import FAILURE_CAUSES, Failure
+        bad = np.flatnonzero(~self.valid)
+        if not bad.size:
+            return ""
+        steps = sorted(int(k) for k in self.diverged_step[bad])
+        shown = ", ".join(str(k) for k in steps[:8]) + (", ..." if len(steps) > 8 else "")
+        codes = (np.full(bad.size, int(Failure.NONFINITE)) if self.divergence_cause is None
+                 else self.divergence_cause[bad])
+        causes = "; ".join(f"{FAILURE_CAUSES[Failure(int(c))]}" + (f" ({int((codes == c).sum())})" if
+                                                                   len(set(codes.tolist())) > 1 else "")
+                           for c in sorted(set(codes.tolist())))
+        return f"{bad.size} of {self.diverged_step.size} runs diverged (step{'s' if bad.size > 1 else ''} {shown}; {causes})"
 
 
 def _check_mapping(value, name: str, what: str, nonempty: bool = True) -> Mapping:
@@ -127,7 +144,7 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
     _check_callable(make_batch, "make_batch", "a function runs -> (truth, measurements, init)")
     if not isinstance(mc, MonteCarlo):
         raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
-    out = {name: {"err": [], "mu": [], "div": [], "diag": []} for name in estimators}
+    out = {name: {"err": [], "mu": [], "div": [], "diag": [], "cause": []} for name in estimators}
     first = {}
     bar = Progress(label or "Monte Carlo", mc.n_runs, enabled=progress)
     for runs in mc.chunks(chunk_size):
@@ -136,6 +153,7 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
             track = run(est, init[name], z, keep_cov=False, measurement_models=measurement_models)
             out[name]["err"].append(track.mean - truth[:, 1:])
             out[name]["div"].append(track.diverged_step)
+            out[name]["cause"].append(track.divergence_cause)
             if track.mode_probabilities is not None:
                 out[name]["mu"].append(track.mode_probabilities)
             if track.diagnostics is not None:
@@ -145,7 +163,8 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
         bar.advance(len(runs))
     return {name: RunSet(np.concatenate(d["err"]), np.concatenate(d["mu"]) if d["mu"] else None,
                          np.concatenate(d["div"]), first[name],
-                         np.concatenate(d["diag"]) if d["diag"] else None) for name, d in out.items()}
+                         np.concatenate(d["diag"]) if d["diag"] else None, np.concatenate(d["cause"]))
+            for name, d in out.items()}
 
 
 def paired_mse_difference(a: RunSet, b: RunSet, components):
@@ -263,11 +282,12 @@ def first_runs(rs: RunSet, n: int) -> RunSet:
     if n > rs.errors.shape[0]:
         raise ValueError(f"n: {n} runs asked of a RunSet of {rs.errors.shape[0]} runs")
     cut = (lambda a: None if a is None else a[:n])
-    return RunSet(rs.errors[:n], cut(rs.mode_probabilities), rs.diverged_step[:n], rs.example_mean, cut(rs.diagnostics))
+    return RunSet(rs.errors[:n], cut(rs.mode_probabilities), rs.diverged_step[:n], rs.example_mean, cut(rs.diagnostics),
+                  cut(rs.divergence_cause))
 
 
 #: Tag hashed first by :func:`run_digest`; change it whenever what is hashed changes.
-DIGEST_VERSION = "mmlib-run-digest-1"
+DIGEST_VERSION = "mmlib-run-digest-2"
 
 
 def _flat_runsets(results, name: str, prefix: str = "") -> dict:
@@ -298,8 +318,8 @@ def run_digest(results, n_runs: int) -> dict:
     n runs and of any N > n runs, whatever the chunking.
 
     ``sha256`` is the SHA-256 of, for each name in sorted order: the name, then for ``errors`` (N, K, n),
-    ``diverged_step`` (N,), ``mode_probabilities`` (N, K, r) and ``diagnostics`` (N, K, d) (the last two
-    when present) restricted to the first n runs, the field name, the shape and the float64 bytes
+    ``diverged_step`` (N,), ``divergence_cause`` (N,), ``mode_probabilities`` (N, K, r) and ``diagnostics``
+    (N, K, d) (the last three when present) restricted to the first n runs, the field name, the shape and the float64 bytes
     (C order, every NaN written as the one canonical NaN: NaN sign and payload bits are not results).
     Beside it, for a readable mismatch message, per name: ``mean_squared_error`` (mean over the valid
     runs among the first n, the K steps and the n components of the squared error, in the squared unit
@@ -313,7 +333,7 @@ def run_digest(results, n_runs: int) -> dict:
         if rs.errors.shape[0] < n_runs:
             raise ValueError(f"n_runs: {n_runs} runs asked, but {name!r} has only {rs.errors.shape[0]}")
         h.update(b"\0name\0" + name.encode())
-        for field in ("errors", "diverged_step", "mode_probabilities", "diagnostics"):
+        for field in ("errors", "diverged_step", "divergence_cause", "mode_probabilities", "diagnostics"):
             value = getattr(rs, field)
             if value is None:
                 continue
