@@ -347,6 +347,9 @@ class IMM:
         _check_state(state.modes, "state", ("mean", "cov"), self.stacked.dim, "IMM mode-filter state")
         measurement = _check_measurement_model(_measurement_model(self.measurement, measurement))
         z = _check_measurement(z, measurement.dim, batch=state.mode_probabilities.shape[0])
+        if dynamics is not None:
+            check_has(dynamics, "dynamics", "stacked mode dynamics (mmlib.models.StackedDynamics)",
+                      ("transition", "jacobian", "Q"))
         c, w = mixing_weights(state.mode_probabilities, self.transition)
         modes = state.modes
         mixed_means, mixed_covs = self.mixing(modes.mean, modes.cov, w)
