@@ -2,14 +2,19 @@
 #   make figures                  full-fidelity figures, tables and executed notebooks
 #   make test                     unit tests + smoke profile of every notebook + tolerance tests
 # Also: make figures PROFILE=smoke (writes under build/smoke/), make bench, make clean
+# One paper, other settings: make figures PAPER=zhu2016 N_RUNS=500 SEED=7
+#   (PAPER: one or more paper names; any N_RUNS or SEED sends the outputs to build/custom/<profile>-<settings>/,
+#    never over the committed ones); make recover finishes an interrupted promotion and removes leftovers
 
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 PROFILE ?= full
+# passed through to tools/run_notebooks.py: the papers to run (default all) and notebook parameter overrides
+RUN_ARGS = $(if $(N_RUNS),-p N_RUNS=$(N_RUNS)) $(if $(SEED),-p SEED=$(SEED)) $(PAPER)
 
-.PHONY: figures test unit smoke bench clean venv
+.PHONY: figures test unit smoke bench clean venv recover
 
 venv: $(STAMP)
 
@@ -22,10 +27,13 @@ $(STAMP): requirements.lock pyproject.toml
 	@touch $(STAMP)
 
 figures: $(STAMP)
-	$(PY) tools/run_notebooks.py --profile $(PROFILE)
+	$(PY) tools/run_notebooks.py --profile $(PROFILE) $(RUN_ARGS)
 
 smoke: $(STAMP)
-	$(PY) tools/run_notebooks.py --profile smoke
+	$(PY) tools/run_notebooks.py --profile smoke $(RUN_ARGS)
+
+recover: $(STAMP)
+	$(PY) tools/run_notebooks.py --recover
 
 unit: $(STAMP)
 	$(PY) -m pytest -q tests --ignore=tests/tolerance
@@ -38,4 +46,6 @@ bench: $(STAMP)
 	$(PY) bench/imm_ukf.py
 
 clean:
+	@# an interrupted promotion of the committed outputs is journaled under build/: finish it before deleting
+	@if [ -x $(PY) ]; then $(PY) tools/run_notebooks.py --recover; fi
 	rm -rf build

@@ -1,6 +1,11 @@
 #!/usr/bin/env python
 """Render reports/<paper>.md from data/results/<paper>.json: the paper-versus-replication
-tables, claim verdicts, deviations and embedded figures, readable without Jupyter."""
+tables, claim verdicts, deviations and embedded figures, readable without Jupyter; and reports/README.md,
+the cross-paper summary.
+
+The notebook runner (tools/run_notebooks.py) calls :func:`paper_reports` to render a paper's reports into its
+staging folder, so that they are promoted together with the paper's results; run this script by hand only to
+re-render every report from the results already in place."""
 from __future__ import annotations
 
 import argparse
@@ -105,16 +110,29 @@ def render_index(docs) -> str:
     return "\n".join(lines) + "\n"
 
 
+def load_results(root: Path, skip: str | None = None) -> list[dict]:
+    """Every results document under ``root/data/results`` (sorted by file name), except paper ``skip``."""
+    docs = [json.loads(path.read_text()) for path in sorted((root / "data" / "results").glob("*.json"))]
+    return [d for d in docs if d["paper"] != skip]
+
+
+def paper_reports(doc: dict, others: list[dict], root: Path) -> dict[str, str]:
+    """The report files a paper owns, ``{path relative to root: text}``: ``reports/<paper>.md`` and the cross-paper
+    ``reports/README.md``, rendered from ``doc`` and the other papers' current results ``others``.  Figure links
+    are relative to ``root/reports``, where the files are promoted, whatever folder they are written to first."""
+    docs = sorted([doc, *others], key=lambda d: d["paper"])
+    return {f"reports/{doc['paper']}.md": render(doc, root, root / "reports"),
+            "reports/README.md": render_index(docs)}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--root", default=str(REPO), help="folder holding data/results and figures")
     args = ap.parse_args(argv)
     root = Path(args.root).resolve()
     out_dir = root / "reports"
-    docs = []
-    for path in sorted((root / "data" / "results").glob("*.json")):
-        doc = json.loads(path.read_text())
-        docs.append(doc)
+    docs = load_results(root)
+    for doc in docs:
         target = out_dir / f"{doc['paper']}.md"
         atomic_write_text(target, render(doc, root, out_dir))
         print(f"report: {target.relative_to(REPO) if target.is_relative_to(REPO) else target}")

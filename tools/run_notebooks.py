@@ -1,136 +1,520 @@
 #!/usr/bin/env python
-"""Execute the paper notebooks headlessly with papermill.
+"""Execute the paper notebooks headlessly with papermill, and promote each paper's outputs all at once.
 
-Each notebook (jupytext percent source in notebooks/*.py) is converted to
-.ipynb, executed with the ``mmlib`` kernel into a fresh *staging* folder, and
-only if every cell succeeds are its outputs promoted into place:
+Each notebook (jupytext percent source in notebooks/*.py; give a paper name such as ``zhu2016``, a notebook name,
+or a path; default: all of them) is converted to .ipynb and executed with the ``mmlib`` kernel into a fresh
+*staging* folder.  Where the outputs of a run are promoted to:
 
-* profile ``full``:  figures/<paper>/, data/results/<paper>.json, notebooks/executed/<name>.ipynb,
-  and reports/<paper>.md rendered from the results
-* profile ``smoke``: the same layout under build/smoke/
+* profile ``full``, no ``-p``:  the committed outputs -- data/results/<paper>.json, figures/<paper>/,
+  notebooks/executed/<name>.ipynb, reports/<paper>.md and reports/README.md
+* profile ``smoke``, no ``-p``: the same files under build/smoke/ (executed notebooks in build/smoke/executed/)
+* any ``-p NAME=VALUE``:        build/custom/<profile>-<NAME=VALUE...>/, laid out like build/smoke/.  A run with
+  other settings is never written over the committed outputs (nor over the smoke outputs the tolerance tests read).
 
-Promotion renames whole folders/files (``os.replace``), so a failed or
-interrupted run never leaves a half-written results file or figure that looks
-current.  On failure the script names the notebook and the cell and exits 1.
+Every argument is checked before anything runs: ``-p`` names a parameter the notebook declares, with a value the
+notebooks accept (the rules of ``mmlib.scenarios.presentation.NotebookRun``: e.g. at least two Monte Carlo runs,
+since a standard error needs two); a bad one is an error naming it (exit status 2).
+
+Promotion is all-or-nothing per paper.  Only if every cell succeeds are the paper's reports rendered into its
+staging folder too (the cross-paper README from the new results and the other papers' current ones), all staged
+files made durable, and a journal written listing every move; then each current file is moved aside into the
+staging folder, each new one moved into place, and the journal and staging folder removed.  A run killed at any
+point leaves either no journal (the old outputs are untouched) or a complete journal: every invocation starts by
+finishing such a promotion (``--recover`` does only that) and removing leftover staging folders and temporary files,
+so what is on disk is entirely the old or entirely the new outputs of each paper.
+
+A failed notebook is named with its cell (exit status 1); nothing of it is promoted, and its partial executed
+notebook is kept for inspection under <build folder>/failed/.
 """
 from __future__ import annotations
 
 import argparse
 import ast
+import contextlib
+import hashlib
+import inspect
+import json
 import logging
 import os
+import re
 import shutil
+import signal
 import sys
+import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
 KERNEL = "mmlib"
+JOURNAL = "journal.json"
+PROFILES = ("full", "smoke")
+# parameters the runner sets itself, and what to use instead
+RUNNER_SET = {"PROFILE": "use --profile", "OUTPUT_ROOT": "outputs go to the folder the runner chooses"}
+FAULT_ENV, PAUSE_ENV = "RUN_NOTEBOOKS_FAULT", "RUN_NOTEBOOKS_PAUSE"
+FAULT_EXIT = 99
 
 
-def sanitize(executed: Path, staging: Path, final_root: Path) -> None:
+class UsageError(Exception):
+    """A bad argument; the message names it.  Raised before anything runs or is written."""
+
+
+class NotebookFailed(Exception):
+    """A notebook failed to execute or wrote outputs that cannot be promoted; nothing of it was promoted."""
+
+
+# ----------------------------------------------------------------------------------------------- where outputs go
+@dataclass(frozen=True)
+class Layout:
+    """Where one invocation reads and writes: ``root`` holds notebooks/ (the repository, or a test's copy),
+    ``out`` receives the promoted outputs, ``work`` holds converted/, staging/ and failed/."""
+    root: Path
+    out: Path
+    work: Path
+    executed_dir: str   # folder of executed notebooks, relative to ``out``
+
+    def show(self, path: Path) -> str:
+        """``path`` relative to the root, for messages."""
+        return str(path.relative_to(self.root)) if path.is_relative_to(self.root) else str(path)
+
+    @property
+    def destination(self) -> str:
+        """Where the outputs go, for messages."""
+        return "the committed outputs" if self.out == self.root else f"{self.show(self.out)}/"
+
+
+def custom_name(profile: str, params: dict) -> str:
+    """Folder name of a run with overridden parameters: the profile and every NAME=VALUE, sorted, file-name safe."""
+    name = "-".join([profile, *(f"{k}={params[k]}" for k in sorted(params))])
+    name = re.sub(r"[^A-Za-z0-9._=+-]", "_", name)
+    return name if len(name) <= 100 else f"{name[:80]}-{hashlib.sha256(name.encode()).hexdigest()[:12]}"
+
+
+def layout_for(root: Path, profile: str, params: dict) -> Layout:
+    """The committed layout for a plain full run, build/<profile>/ for a plain smoke run, build/custom/... for any
+    run with -p overrides (so that overridden settings can never replace the committed or smoke outputs)."""
+    if params:
+        folder = root / "build" / "custom" / custom_name(profile, params)
+        return Layout(root, folder, folder, "executed")
+    if profile == "full":
+        return Layout(root, root, root / "build" / "full", "notebooks/executed")
+    return Layout(root, root / "build" / profile, root / "build" / profile, "executed")
+
+
+# -------------------------------------------------------------------------------------------- checking arguments
+def parse_params(items: list[str]) -> dict:
+    """``-p NAME=VALUE`` items as a dict; values are Python literals where they parse as one, else strings."""
+    params = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key.isidentifier():
+            raise UsageError(f"-p {item!r}: expected NAME=VALUE")
+        if key in params:
+            raise UsageError(f"-p {key}: given twice")
+        if key in RUNNER_SET:
+            raise UsageError(f"-p {key}: set by the runner ({RUNNER_SET[key]})")
+        try:
+            params[key] = ast.literal_eval(text)
+        except (ValueError, SyntaxError):
+            params[key] = text
+    return params
+
+
+def known_notebooks(root: Path) -> dict[str, list[Path]]:
+    """Notebook sources by the names that select them: the file stem and the paper name before its first '_'."""
+    names: dict[str, list[Path]] = {}
+    for src in sorted((root / "notebooks").glob("*.py")):
+        names.setdefault(src.stem, []).append(src)
+        if "_" in src.stem:
+            names.setdefault(src.stem.split("_")[0], []).append(src)
+    return names
+
+
+def resolve_notebooks(root: Path, names: list[str]) -> list[Path]:
+    """Notebook sources for the command-line names (paper name, notebook name or path); all of them if none."""
+    known = known_notebooks(root)
+    if not names:
+        sources = sorted({src for srcs in known.values() for src in srcs})
+        if not sources:
+            raise UsageError(f"no notebook sources (*.py) under {root / 'notebooks'}")
+        return sources
+    sources = []
+    for name in names:
+        if name.endswith(".py") or os.sep in name:
+            src = Path(name).resolve()
+            if not src.is_file():
+                raise UsageError(f"notebook {name!r}: no such file")
+        elif len(known.get(name, [])) == 1:
+            src = known[name][0]
+        elif name in known:
+            raise UsageError(f"notebook {name!r}: ambiguous, matches {', '.join(s.stem for s in known[name])}")
+        else:
+            papers = sorted(k for k in known if "_" not in k)
+            raise UsageError(f"notebook {name!r}: unknown; known papers: {', '.join(papers) or 'none'} "
+                             f"(or give a notebook name or the path of a notebook source)")
+        if src not in sources:
+            sources.append(src)
+    return sources
+
+
+def convert(src: Path, target: Path) -> Path:
+    """The jupytext source as an .ipynb at ``target`` (kernel ``mmlib`` unless the source names one)."""
+    import jupytext
+    nb = jupytext.read(src)
+    nb.metadata.setdefault("kernelspec", {"name": KERNEL, "language": "python", "display_name": KERNEL})
+    target.parent.mkdir(parents=True, exist_ok=True)
+    jupytext.write(nb, target)
+    return target
+
+
+def declared_parameters(src: Path) -> dict[str, str]:
+    """The parameters a notebook declares in its ``parameters`` cell, {name: default as written}."""
+    import papermill as pm
+    with tempfile.TemporaryDirectory() as tmp:
+        info = pm.inspect_notebook(str(convert(src, Path(tmp) / f"{src.stem}.ipynb")))
+    return {name: p["default"] for name, p in info.items()}
+
+
+def check_values(params: dict, declared: dict[str, str], profile: str) -> None:
+    """Reject values the notebook would reject, with the notebooks' own rules (``NotebookRun`` validates every
+    shared parameter; written once there), before any notebook runs; plus the rule NotebookRun lacks:
+    True/False for a parameter whose default is a boolean."""
+    if not params:
+        return
+    from mmlib.scenarios.presentation import NotebookRun
+    accepted = inspect.signature(NotebookRun).parameters
+    shared = {k: v for k, v in params.items() if k in accepted}
+    try:
+        NotebookRun("probe", 0, {profile: dict(n_runs=2, timing_runs=1, timing_repeats=1)}, PROFILE=profile,
+                    **shared)
+    except ValueError as exc:
+        raise UsageError(f"-p {exc}") from None
+    for key, value in params.items():
+        if declared[key] in ("True", "False") and not isinstance(value, bool):
+            raise UsageError(f"-p {key}: expected True or False, got {value!r}")
+
+
+def check_notebook(src: Path, params: dict, profile: str, layout: Layout) -> None:
+    """The notebook declares the parameters the runner sets and every ``-p`` one, and accepts their values."""
+    declared = declared_parameters(src)
+    where = layout.show(src)
+    missing = [k for k in RUNNER_SET if k not in declared]
+    if missing:
+        raise UsageError(f"{where}: declares no {' or '.join(missing)} parameter, so its outputs could not be "
+                         f"staged; its parameters cell must declare {' and '.join(RUNNER_SET)}")
+    for key in params:
+        if key not in declared:
+            raise UsageError(f"{where}: -p {key}: not a parameter of this notebook; it declares "
+                             f"{', '.join(k for k in declared if k not in RUNNER_SET)}")
+    try:
+        check_values(params, declared, profile)
+    except UsageError as exc:
+        raise UsageError(f"{where}: {exc}") from None
+
+
+# ------------------------------------------------------------------------------------------------ fault injection
+_reached: dict[str, int] = {}
+
+
+def checkpoint(stage: str) -> None:
+    """Fault-injection hook for the crash tests; does nothing unless asked.  ``RUN_NOTEBOOKS_FAULT=<stage>[#n]``
+    makes the runner exit at once (``os._exit``, no clean-up) the n-th time (default: first) it reaches ``stage``;
+    ``RUN_NOTEBOOKS_PAUSE`` makes it print ``paused at <stage>#n`` and wait there for a signal (a test's SIGKILL).
+    Stages: executed, staged, journal, rename (every move of a promotion), promoted, journal-removed."""
+    n = _reached[stage] = _reached.get(stage, 0) + 1
+    here = (f"{stage}#{n}",) + ((stage,) if n == 1 else ())
+    if os.environ.get(FAULT_ENV) in here:
+        print(f"fault injection: exiting at {stage}#{n}", flush=True)
+        os._exit(FAULT_EXIT)
+    if os.environ.get(PAUSE_ENV) in here:
+        print(f"fault injection: paused at {stage}#{n}", flush=True)
+        while True:
+            signal.pause()
+
+
+# ------------------------------------------------------------------------------------------- durable file moves
+def fsync_dir(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def fsync_tree(path: Path) -> None:
+    """Flush every file and folder under ``path`` to disk (staged outputs must survive a crash once journaled)."""
+    for folder, _, files in os.walk(path):
+        for name in files:
+            fd = os.open(Path(folder, name), os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+        fsync_dir(Path(folder))
+
+
+def write_durably(path: Path, text: str) -> None:
+    """Write ``path`` whole or not at all, and flushed: a temporary file, fsync, rename, fsync of the folder."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "w") as fh:
+        fh.write(text)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+    fsync_dir(path.parent)
+
+
+def move(src: Path, dst: Path) -> None:
+    """Rename a file or folder (same file system, atomic), then reach the ``rename`` checkpoint."""
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    os.replace(src, dst)
+    checkpoint("rename")
+
+
+# ------------------------------------------------------------------------------------ journaled promotion, recovery
+def owned_paths(layout: Layout, paper: str, name: str) -> list[str]:
+    """Every output a paper owns, relative to the output folder."""
+    return [f"data/results/{paper}.json", f"figures/{paper}", f"{layout.executed_dir}/{name}.ipynb",
+            f"reports/{paper}.md", "reports/README.md"]
+
+
+def write_journal(staging: Path, layout: Layout, paper: str, name: str) -> None:
+    """The commit point of a promotion: a durable list of the paper's outputs and whether a new one is staged
+    (an output the new run did not produce, e.g. a figures folder, is removed).  Written only once every staged
+    file is on disk, so that an interrupted promotion can always be finished."""
+    entries = [{"path": rel, "staged": (staging / rel).exists()} for rel in owned_paths(layout, paper, name)]
+    journal = {"out": os.path.relpath(layout.out, layout.root), "paper": paper, "entries": entries}
+    write_durably(staging / JOURNAL, json.dumps(journal, indent=1) + "\n")
+    checkpoint("journal")
+
+
+def settle(entry: dict, staging: Path, out: Path) -> None:
+    """Bring one journal entry to its new state; idempotent, so a promotion killed anywhere can be rerun.  The
+    current output is moved aside into staging/.backup/ (unless the new one is already in place), then the new one
+    moved in.  While the staged file exists, the output in place is still the old one."""
+    final, new, backup = out / entry["path"], staging / entry["path"], staging / ".backup" / entry["path"]
+    if entry["staged"] and not os.path.lexists(new):
+        return                                  # already moved in
+    if os.path.lexists(final):
+        move(final, backup)
+    if entry["staged"]:
+        move(new, final)
+
+
+def finish_promotion(staging: Path, root: Path) -> str:
+    """Carry out (or finish) the journaled promotion of ``staging``, then delete the journal, the moved-aside old
+    outputs and the staging folder.  Returns the paper's name."""
+    journal = json.loads((staging / JOURNAL).read_text())
+    out = (root / journal["out"]).resolve()
+    for entry in journal["entries"]:
+        settle(entry, staging, out)
+    for folder in {(out / e["path"]).parent for e in journal["entries"]}:
+        if folder.is_dir():
+            fsync_dir(folder)
+    checkpoint("promoted")
+    (staging / JOURNAL).unlink()
+    fsync_dir(staging)
+    checkpoint("journal-removed")
+    shutil.rmtree(staging)
+    return journal["paper"]
+
+
+def output_roots(root: Path) -> list[Path]:
+    return [root, root / "build" / "smoke", *sorted((root / "build" / "custom").glob("*"))]
+
+
+# leftovers of atomic writes and of the former promotion scheme, relative to an output folder
+STALE = ("figures/.*.old", "figures/*/.*", "data/results/.*.tmp", "reports/.*.tmp")
+
+
+def recover(root: Path) -> list[str]:
+    """Finish every journaled promotion an interrupted run left under ``root``, and remove leftover staging
+    folders (no journal: the old outputs were never touched) and temporary files.  Returns what was done."""
+    done = []
+    build = root / "build"
+    for staging in sorted([*build.glob("*/staging/*"), *build.glob("custom/*/staging/*")]):
+        if (staging / JOURNAL).exists():
+            paper = finish_promotion(staging, root)
+            done.append(f"finished the interrupted promotion of {paper} ({staging.relative_to(root)})")
+        else:
+            shutil.rmtree(staging)
+            done.append(f"removed the leftover staging folder {staging.relative_to(root)}")
+    for out in output_roots(root):
+        for pattern in STALE:
+            for path in out.glob(pattern):
+                shutil.rmtree(path) if path.is_dir() and not path.is_symlink() else path.unlink()
+                done.append(f"removed the leftover temporary {path.relative_to(root)}")
+    return done
+
+
+@contextlib.contextmanager
+def runner_lock(root: Path):
+    """One runner at a time per root: recovery removes staging folders, which must not be another run's."""
+    import fcntl
+    path = root / "build" / ".run_notebooks.lock"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a") as fh:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            print(f"waiting for another run_notebooks.py to finish ({path})", flush=True)
+            fcntl.flock(fh, fcntl.LOCK_EX)
+        yield
+
+
+# ---------------------------------------------------------------------------------------------- running a notebook
+def sanitize(executed: Path, staging: Path, final_root: Path, root: Path = REPO) -> None:
     """Strip machine-local paths from an executed notebook before it is promoted: the staging folder
     becomes the folder the outputs are promoted to, and every path inside the repository becomes
     relative to it (papermill's metadata, the injected parameters, printed output paths)."""
     text = executed.read_text()
     text = text.replace(str(staging), str(final_root))
-    text = text.replace(str(REPO) + "/", "").replace(str(REPO), ".")
+    for base in dict.fromkeys([root, REPO]):
+        text = text.replace(str(base) + "/", "").replace(str(base), ".")
     executed.write_text(text)
 
 
-def promote(staging: Path, final_root: Path, executed: Path, name: str) -> list[str]:
-    moved = []
-    for fig_dir in sorted((staging / "figures").glob("*")):
-        target = final_root / "figures" / fig_dir.name
-        target.parent.mkdir(parents=True, exist_ok=True)
-        old = target.with_name(f".{target.name}.old")
-        if old.exists():
-            shutil.rmtree(old)
-        if target.exists():
-            os.replace(target, old)
-        os.replace(fig_dir, target)
-        if old.exists():
-            shutil.rmtree(old)
-        moved.append(str(target.relative_to(REPO)))
-    for res in sorted((staging / "data" / "results").glob("*.json")):
-        target = final_root / "data" / "results" / res.name
-        target.parent.mkdir(parents=True, exist_ok=True)
-        os.replace(res, target)
-        moved.append(str(target.relative_to(REPO)))
-    target = final_root / ("notebooks/executed" if final_root == REPO else "executed") / f"{name}.ipynb"
-    target.parent.mkdir(parents=True, exist_ok=True)
-    os.replace(executed, target)
-    moved.append(str(target.relative_to(REPO)))
-    return moved
+def execute(src: Path, staging: Path, layout: Layout, profile: str, params: dict, timeout: int) -> Path:
+    """Run the notebook with its outputs directed to ``staging``; returns the executed notebook (in ``staging``,
+    where the promotion expects it).  Raises NotebookFailed naming the notebook and the cell."""
+    import papermill as pm
+    from papermill.exceptions import PapermillExecutionError
+    nb_in = convert(src, layout.work / "converted" / f"{src.stem}.ipynb")
+    executed = staging / layout.executed_dir / f"{src.stem}.ipynb"
+    executed.parent.mkdir(parents=True)
+    try:
+        pm.execute_notebook(str(nb_in), str(executed), kernel_name=KERNEL,
+                            parameters={**params, "PROFILE": profile, "OUTPUT_ROOT": str(staging)},
+                            cwd=str(layout.root / "notebooks"), execution_timeout=timeout,
+                            progress_bar=False, log_output=False, stdout_file=sys.stdout, stderr_file=sys.stderr)
+    except PapermillExecutionError as exc:
+        raise NotebookFailed(f"cell {exc.cell_index} (execution count {exc.exec_count}): {exc.ename}: "
+                             f"{exc.evalue}") from None
+    except Exception as exc:  # kernel death, timeout, missing kernel
+        raise NotebookFailed(f"{type(exc).__name__}: {exc}") from None
+    checkpoint("executed")
+    return executed
+
+
+def staged_paper(staging: Path) -> str:
+    """The paper whose outputs the notebook staged: exactly one results file, figures for that paper only."""
+    results = sorted((staging / "data" / "results").glob("*.json"))
+    if len(results) != 1:
+        raise NotebookFailed(f"wrote {len(results)} results files ({', '.join(p.name for p in results) or 'none'});"
+                             f" expected exactly one, data/results/<paper>.json")
+    paper = results[0].stem
+    doc_paper = json.loads(results[0].read_text()).get("paper")
+    if doc_paper != paper:
+        raise NotebookFailed(f"data/results/{paper}.json names paper {doc_paper!r}")
+    others = [p.name for p in (staging / "figures").glob("*") if p.name != paper]
+    if others:
+        raise NotebookFailed(f"wrote figures for {', '.join(others)}, not for its paper {paper}")
+    return paper
+
+
+def stage_reports(staging: Path, layout: Layout, paper: str) -> None:
+    """Render the paper's report and the cross-paper README into staging, from the new results and the other
+    papers' current ones, so that they are promoted together with the results they describe."""
+    import make_report
+    doc = json.loads((staging / "data" / "results" / f"{paper}.json").read_text())
+    try:
+        reports = make_report.paper_reports(doc, make_report.load_results(layout.out, skip=paper), layout.out)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise NotebookFailed(f"could not render the reports: {type(exc).__name__}: {exc}") from None
+    for rel, text in reports.items():
+        (staging / rel).parent.mkdir(parents=True, exist_ok=True)
+        (staging / rel).write_text(text)
+
+
+def run_one(src: Path, layout: Layout, profile: str, params: dict, timeout: int) -> list[str]:
+    """Execute one notebook and promote its outputs all at once; returns the promoted paths.  On failure keeps the
+    partial executed notebook under <work>/failed/, promotes nothing and raises NotebookFailed."""
+    staging = layout.work / "staging" / src.stem
+    failed = layout.work / "failed" / f"{src.stem}.ipynb"
+    staging.mkdir(parents=True)
+    try:
+        executed = execute(src, staging, layout, profile, params, timeout)
+        sanitize(executed, staging, layout.out, layout.root)
+        paper = staged_paper(staging)
+        stage_reports(staging, layout, paper)
+    except NotebookFailed:
+        partial = staging / layout.executed_dir / f"{src.stem}.ipynb"
+        if partial.exists():
+            failed.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(partial, failed)
+        shutil.rmtree(staging)
+        raise
+    fsync_tree(staging)
+    checkpoint("staged")
+    write_journal(staging, layout, paper, src.stem)
+    finish_promotion(staging, layout.root)
+    failed.unlink(missing_ok=True)
+    return [layout.show(layout.out / rel) for rel in owned_paths(layout, paper, src.stem)]
+
+
+def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, timeout: int) -> int:
+    """Run the notebooks in turn, each promoted as soon as it succeeds; stop at the first failure (exit 1)."""
+    t_all = time.perf_counter()
+    for i, src in enumerate(sources, 1):
+        print(f"[{i}/{len(sources)}] {src.stem}: executing (profile={profile}, kernel={KERNEL})", flush=True)
+        t0 = time.perf_counter()
+        try:
+            moved = run_one(src, layout, profile, params, timeout)
+        except NotebookFailed as exc:
+            failed = layout.work / "failed" / f"{src.stem}.ipynb"
+            kept = f"  partial output kept for inspection: {layout.show(failed)}\n" if failed.exists() else ""
+            print(f"\nFAILED: notebook {layout.show(src)}, {exc}\n{kept}"
+                  f"  nothing of it was promoted; its outputs in {layout.destination} are untouched.",
+                  file=sys.stderr)
+            return 1
+        print(f"[{i}/{len(sources)}] {src.stem}: done in {time.perf_counter() - t0:.1f} s -> " + ", ".join(moved),
+              flush=True)
+    print(f"all {len(sources)} notebook(s) done in {time.perf_counter() - t_all:.1f} s (profile={profile}, "
+          f"outputs: {layout.destination})")
+    return 0
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--profile", default="full", choices=["full", "smoke"])
-    ap.add_argument("--timeout", type=int, default=900, help="seconds per cell")
+    ap.add_argument("--profile", default="full", choices=PROFILES)
+    ap.add_argument("--timeout", type=int, default=900, help="seconds per cell (positive)")
     ap.add_argument("-p", "--param", action="append", default=[], metavar="NAME=VALUE",
-                    help="extra notebook parameter (value parsed as Python literal, else string)")
-    ap.add_argument("notebooks", nargs="*", help="notebook sources (default: notebooks/*.py)")
+                    help="notebook parameter (value parsed as Python literal, else string); "
+                         "outputs then go to build/custom/<profile>-<NAME=VALUE...>/")
+    ap.add_argument("--root", default=str(REPO),
+                    help="repository root holding notebooks/ and receiving the outputs (default: this repository)")
+    ap.add_argument("--recover", action="store_true",
+                    help="only finish an interrupted promotion and remove leftovers (every run does this first)")
+    ap.add_argument("notebooks", nargs="*", help="paper names (zhu2016), notebook names or paths (default: all)")
     args = ap.parse_args(argv)
-    extra = {}
-    for item in args.param:
-        if "=" not in item:
-            ap.error(f"--param: expected NAME=VALUE, got {item!r}")
-        key, value = item.split("=", 1)
-        try:
-            extra[key] = ast.literal_eval(value)
-        except (ValueError, SyntaxError):
-            extra[key] = value
-
-    import jupytext
-    import papermill as pm
-    from papermill.exceptions import PapermillExecutionError
-
+    root = Path(args.root).resolve()
+    try:
+        if not (root / "notebooks").is_dir():
+            raise UsageError(f"--root {args.root}: no notebooks/ folder there")
+        if args.timeout <= 0:
+            raise UsageError(f"--timeout: expected a positive number of seconds, got {args.timeout}")
+        if args.recover and (args.notebooks or args.param):
+            raise UsageError("--recover: takes no notebooks and no -p parameters")
+        params = parse_params(args.param)
+        layout = layout_for(root, args.profile, params)
+        sources = [] if args.recover else resolve_notebooks(root, args.notebooks)
+        for src in sources:
+            check_notebook(src, params, args.profile, layout)
+    except UsageError as exc:
+        print(f"run_notebooks.py: error: {exc}\n  nothing was run or written.", file=sys.stderr)
+        return 2
     logging.basicConfig(level=logging.WARNING, format="%(message)s")
-    sources = [Path(p).resolve() for p in args.notebooks] or sorted((REPO / "notebooks").glob("*.py"))
-    if not sources:
-        print("no notebooks found", file=sys.stderr)
-        return 1
-    build = REPO / "build" / args.profile
-    final_root = REPO if args.profile == "full" else build
-    t_all = time.perf_counter()
-    for i, src in enumerate(sources, 1):
-        name = src.stem
-        staging = build / "staging" / name
-        if staging.exists():
-            shutil.rmtree(staging)
-        staging.mkdir(parents=True)
-        nb_in = build / "converted" / f"{name}.ipynb"
-        nb_in.parent.mkdir(parents=True, exist_ok=True)
-        jupytext.write(jupytext.read(src), nb_in)
-        executed = staging / f"{name}.ipynb"
-        print(f"[{i}/{len(sources)}] {name}: executing (profile={args.profile}, kernel={KERNEL})", flush=True)
-        t0 = time.perf_counter()
-        try:
-            pm.execute_notebook(str(nb_in), str(executed), kernel_name=KERNEL,
-                                parameters={**extra, "PROFILE": args.profile, "OUTPUT_ROOT": str(staging)},
-                                cwd=str(REPO / "notebooks"), execution_timeout=args.timeout,
-                                progress_bar=False, log_output=False, stdout_file=sys.stdout,
-                                stderr_file=sys.stderr)
-        except PapermillExecutionError as exc:
-            print(f"\nFAILED: notebook {src.relative_to(REPO)}, cell {exc.cell_index} "
-                  f"(execution count {exc.exec_count}): {exc.ename}: {exc.evalue}\n"
-                  f"  partial output kept for inspection: {executed.relative_to(REPO)}\n"
-                  f"  nothing was promoted; committed outputs are untouched.", file=sys.stderr)
-            return 1
-        except Exception as exc:  # kernel death, timeout, missing kernel
-            print(f"\nFAILED: notebook {src.relative_to(REPO)}: {type(exc).__name__}: {exc}\n"
-                  f"  nothing was promoted.", file=sys.stderr)
-            return 1
-        sanitize(executed, staging, final_root)
-        moved = promote(staging, final_root, executed, name)
-        shutil.rmtree(staging, ignore_errors=True)
-        print(f"[{i}/{len(sources)}] {name}: done in {time.perf_counter() - t0:.1f} s -> " + ", ".join(moved),
-              flush=True)
-    import make_report
-    make_report.main(["--root", str(final_root)])
-    print(f"all {len(sources)} notebook(s) done in {time.perf_counter() - t_all:.1f} s (profile={args.profile})")
-    return 0
+    with runner_lock(root):
+        for note in recover(root):
+            print(f"recovery: {note}", flush=True)
+        if args.recover:
+            return 0
+        if params:
+            print(f"parameters {params} override the profile: outputs go to {layout.destination} "
+                  f"(never over the committed or smoke outputs)", flush=True)
+        return run_all(sources, layout, args.profile, params, args.timeout)
 
 
 if __name__ == "__main__":

@@ -21,6 +21,10 @@ def shade_intervals(ax, intervals, label="true maneuver", color="0.9"):
         ax.axvspan(a, b, color=color, zorder=0, label=label if i == 0 else None)
 
 
+#: Least value of each integer notebook parameter (two runs for a standard error).
+PARAMETER_MINIMUM = {"N_RUNS": 2, "SEED": 0, "N_TIMING_RUNS": 1, "WORKERS": 1, "MULTIVERSE_RUNS": 2}
+
+
 class NotebookRun:
     """Validated notebook parameters and output locations, shared by every paper notebook.
 
@@ -32,11 +36,12 @@ class NotebookRun:
         from pathlib import Path
         if PROFILE not in profiles:
             raise ValueError(f"PROFILE: expected one of {sorted(profiles)}, got {PROFILE!r}")
+        # the least value of each integer parameter: a standard error needs at least two Monte Carlo runs
         for name, value in (("N_RUNS", N_RUNS), ("SEED", SEED), ("N_TIMING_RUNS", N_TIMING_RUNS),
                             ("WORKERS", WORKERS), ("MULTIVERSE_RUNS", MULTIVERSE_RUNS)):
-            if value is not None and (isinstance(value, bool) or not isinstance(value, int)
-                                      or value < (0 if name == "SEED" else 1)):
-                raise ValueError(f"{name}: expected a positive integer or None, got {value!r}")
+            least = PARAMETER_MINIMUM[name]
+            if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < least):
+                raise ValueError(f"{name}: expected an integer >= {least} or None, got {value!r}")
         if MULTIVERSE_DESIGN not in (None, "auto", "full", "fractional", "star"):
             raise ValueError(f"MULTIVERSE_DESIGN: expected None, 'auto', 'full', 'fractional' or 'star', "
                              f"got {MULTIVERSE_DESIGN!r}")

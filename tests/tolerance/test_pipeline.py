@@ -4,6 +4,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parents[2]
 
 
@@ -11,17 +13,25 @@ def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest() if path.exists() else ""
 
 
-def test_bad_notebook_parameter_names_notebook_cell_and_parameter():
+@pytest.mark.parametrize("param, notebook, messages", [
+    ("N_RUNS=-3", str(REPO / "notebooks" / "zhu2016_imm5ckf.py"), ["-p N_RUNS: expected", "got -3"]),
+    ("N_RUNS=1", "zhu2016", ["-p N_RUNS: expected", "got 1"]),
+    ("NRUNS=5", "zhu2016", ["-p NRUNS: not a parameter of this notebook; it declares N_RUNS, SEED"]),
+])
+def test_bad_notebook_parameter_is_rejected_up_front_naming_notebook_and_parameter(param, notebook, messages):
+    """A paper notebook's bad parameter is rejected before it runs (the runner applies the notebooks' own checks),
+    and nothing is promoted."""
     smoke_results = REPO / "build" / "smoke" / "data" / "results" / "zhu2016.json"
     committed = REPO / "data" / "results" / "zhu2016.json"
     before = (_digest(smoke_results), _digest(committed))
     proc = subprocess.run([sys.executable, str(REPO / "tools" / "run_notebooks.py"), "--profile", "smoke",
-                           "-p", "N_RUNS=-3", str(REPO / "notebooks" / "zhu2016_imm5ckf.py")],
-                          capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 1
-    assert "FAILED: notebook notebooks/zhu2016_imm5ckf.py, cell" in proc.stderr
-    assert "N_RUNS: expected a positive integer" in proc.stderr
+                           "-p", param, notebook], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2
+    assert f"run_notebooks.py: error: notebooks/zhu2016_imm5ckf.py: {messages[0]}" in proc.stderr
+    assert all(m in proc.stderr for m in messages)
+    assert "executing" not in proc.stdout
     assert (_digest(smoke_results), _digest(committed)) == before      # nothing promoted
+    assert not (REPO / "build" / "custom" / f"smoke-{param}").exists()
 
 
 def test_executed_notebooks_hold_no_machine_local_path():
