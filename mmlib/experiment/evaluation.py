@@ -314,7 +314,7 @@ def run_digest(results, n_runs: int) -> dict:
     ``results``: ``{name: RunSet}`` as :func:`evaluate` returns, or a dict of such dicts (e.g. per case;
     names flattened to ``"case / name"``); ``n_runs``: integer from 1 to the runs of every RunSet.
     Per run the streams are fixed (:mod:`mmlib.montecarlo`) and the filters give a run the same bits in
-    any batch of two or more runs, so the digest of the first n runs is the same for an evaluation of
+    any batch, one run included (tests/test_batch_independence.py), so the digest of the first n runs is the same for an evaluation of
     n runs and of any N > n runs, whatever the chunking.
 
     ``sha256`` is the SHA-256 of, for each name in sorted order: the name, then for ``errors`` (N, K, n),
