@@ -128,6 +128,7 @@ headline = paper.summarise(res, nb.n_runs)
 results = res.runs
 diverged = headline["diverged"]
 print("diverged runs:", diverged)
+print(evaluation.divergence_report(results))       # the step at which each diverged and why
 t = res.times
 mode2 = [((setup.mode2_steps[0] - 1) * setup.T, setup.mode2_steps[1] * setup.T)]
 

@@ -94,6 +94,7 @@ summary = paper.summarise(headline, nb.n_runs)
 ex1, ex2 = headline.runs["Example 1"], {case: headline.runs[case] for case in ("Case 1", "Case 2")}
 print(f"headline reading: {nb.n_runs} runs, Example 1 and both cases of Example 2 in {time.perf_counter() - t0:.1f} s; "
       f"diverged runs: { {k: v for k, v in summary['diverged'].items() if v} or 'none'}")
+print(evaluation.divergence_report(headline.runs))  # the step at which each diverged and why
 rows = paper.table_rows(summary)
 display(Markdown(rows_table([r for r in rows if r.item == "Table 1"])))
 

@@ -199,6 +199,7 @@ headline = paper.assess(res, nb.n_runs)          # the headline universe's value
 diverged = {a: int((~r.valid).sum()) for a, r in res.items()}
 ekf_verdict, ukf_ekf = paper.ekf_claim(res)
 print(f"diverged runs: {diverged}")
+print(evaluation.divergence_report(res))           # the step at which each diverged and why
 print(f"largest |UKF - EKF| position difference over all runs and epochs: {ukf_ekf:.2e} m")
 
 # %% [markdown]

@@ -194,6 +194,7 @@ print("time-averaged NEES over the first 50 runs (4 = consistent):", {k: round(v
 # %%
 div2 = {k: int((~r.valid).sum()) for k, r in res2.items()}
 print("Case 2, diverged runs (as printed):", div2)
+print(evaluation.divergence_report(res2))          # the step at which each diverged and why
 inflate_only = paper.SPACE.with_headline(**{"Z-12": "inflate-only"})
 alt2 = paper.evaluate_reading(inflate_only, mc)["case 2"]
 variant_rows = paper.table_rows("Table 3 (inflate-only NAUKF, not in the paper)", alt2, (("IMM-NAUKF", "IMM-NAUKF"),

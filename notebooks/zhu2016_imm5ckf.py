@@ -115,6 +115,7 @@ display(Markdown(markdown_table(["algorithm", "max |estimate − IMM-KF estimate
                                  for k, v in coincide["max_abs_estimate_difference_vs_IMM_KF"].items()])))
 diverged = {name: int((~rs.valid).sum()) for name, rs in results.items()}
 print("diverged runs per estimator:", diverged)
+print(evaluation.divergence_report(results))       # the step at which each diverged and why
 
 # %% [markdown]
 # ## Table 1 — RMSE (Eq. 64) and run time

@@ -174,3 +174,6 @@ def test_evaluation_keeps_the_step_and_cause_of_every_divergence(linear_problem)
     assert res.diverged_step.tolist() == [-1, 4, -1]
     assert res.divergence_cause.tolist() == [0, Failure.LIKELIHOOD, 0]
     assert res.divergence_summary().startswith("1 of 3 runs diverged (step 4; every mode's likelihood underflowed")
+    from mmlib.experiment.evaluation import divergence_report
+    assert divergence_report({"case": {"IMM": res}}).startswith("case / IMM: 1 of 3 runs diverged (step 4;")
+    assert divergence_report({"IMM": res._replace(diverged_step=np.full(3, -1))}) == "no run diverged"

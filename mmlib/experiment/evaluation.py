@@ -290,6 +290,14 @@ def first_runs(rs: RunSet, n: int) -> RunSet:
 DIGEST_VERSION = "mmlib-run-digest-2"
 
 
+def divergence_report(results) -> str:
+    """One line per estimator with diverged runs, ``name: n of N runs diverged (steps ...; cause)``, from
+    ``{name: RunSet}`` (or dicts of them, names flattened to ``"outer / inner"``); ``"no run diverged"``."""
+    lines = [f"{name}: {rs.divergence_summary()}" for name, rs in _flat_runsets(results, "results").items()
+             if not rs.valid.all()]
+    return "\n".join(lines) if lines else "no run diverged"
+
+
 def _flat_runsets(results, name: str, prefix: str = "") -> dict:
     """``{name: RunSet}``, nested dicts flattened to ``"outer / inner"`` names."""
     _check_mapping(results, name, "RunSets by estimator name (or dicts of them)")
