@@ -177,3 +177,10 @@ def test_evaluation_keeps_the_step_and_cause_of_every_divergence(linear_problem)
     from mmlib.experiment.evaluation import divergence_report
     assert divergence_report({"case": {"IMM": res}}).startswith("case / IMM: 1 of 3 runs diverged (step 4;")
     assert divergence_report({"IMM": res._replace(diverged_step=np.full(3, -1))}) == "no run diverged"
+
+
+def test_divergence_summary_counts_runs_sharing_a_step():
+    from mmlib.experiment.evaluation import RunSet
+    rs = RunSet(np.zeros((5, 3, 1)), None, np.array([2, -1, 2, 0, -1]), np.zeros((3, 1)),
+                divergence_cause=np.array([1, 0, 1, 1, 0], dtype=np.int8))
+    assert rs.divergence_summary() == "3 of 5 runs diverged (steps 0, 2 ×2; covariance no longer positive definite)"

@@ -33,20 +33,22 @@ class RunSet(NamedTuple):
         return self.diverged_step < 0
 
     def divergence_summary(self) -> str:
-        """How many runs diverged, at which steps and why, e.g. ``"3 of 100 runs diverged (steps 12, 40, 41;
-        covariance no longer positive definite)"``; ``""`` if none did."""
+        """How many runs diverged, at which steps (with a count where several runs share one) and why, e.g.
+        ``"4 of 100 runs diverged (steps 12, 40 ×2, 41; covariance no longer positive definite)"``; ``""`` if none
+        did."""
         from ..estimation import FAILURE_CAUSES, Failure
         bad = np.flatnonzero(~self.valid)
         if not bad.size:
             return ""
-        steps = sorted(int(k) for k in self.diverged_step[bad])
-        shown = ", ".join(str(k) for k in steps[:8]) + (", ..." if len(steps) > 8 else "")
+        steps, counts = np.unique(self.diverged_step[bad], return_counts=True)
+        shown = ", ".join(f"{int(k)}" + (f" ×{int(c)}" if c > 1 else "") for k, c in zip(steps[:8], counts[:8])) \
+            + (", ..." if steps.size > 8 else "")
         codes = (np.full(bad.size, int(Failure.NONFINITE)) if self.divergence_cause is None
                  else self.divergence_cause[bad])
         causes = "; ".join(f"{FAILURE_CAUSES[Failure(int(c))]}" + (f" ({int((codes == c).sum())})" if
                                                                    len(set(codes.tolist())) > 1 else "")
                            for c in sorted(set(codes.tolist())))
-        return f"{bad.size} of {self.diverged_step.size} runs diverged (step{'s' if bad.size > 1 else ''} {shown}; {causes})"
+        return f"{bad.size} of {self.diverged_step.size} runs diverged (step{'s' if steps.size > 1 else ''} {shown}; {causes})"
 
 
 def _check_mapping(value, name: str, what: str, nonempty: bool = True) -> Mapping:
