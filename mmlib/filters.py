@@ -51,11 +51,15 @@ class GaussianState(NamedTuple):
 
 class MeasurementPrediction(NamedTuple):
     """Predicted measurement ``z_pred`` (B, m), innovation covariance ``S`` (B, m, m)
-    (including R) and state-measurement cross-covariance ``Pxz`` (B, n, m)."""
+    (including R) and state-measurement cross-covariance ``Pxz`` (B, n, m).  ``H`` (B, m, n): the
+    measurement Jacobian when the prediction is a linearisation, :math:`S = HPH^T + R` and
+    :math:`P_{xz} = PH^T` exactly (EKF/KF); it selects the Joseph-form covariance update.  A layer
+    that changes S builds a new prediction without H (the Joseph form would then be wrong)."""
 
     z_pred: np.ndarray
     S: np.ndarray
     Pxz: np.ndarray
+    H: Any = None
 
 
 class UpdateInfo(NamedTuple):
@@ -96,9 +100,13 @@ def kalman_update(state, pred: MeasurementPrediction, z: np.ndarray, measurement
     working precision, tolerance zero) is diverged *at this step*: its mean, covariance and
     log-likelihood become NaN and ``UpdateInfo.failed`` is True.  Without the check a
     KF/EKF could return a negative variance silently, and a sigma-point filter would only
-    fail at the next step's sigma points (one step late).  The Joseph form was not chosen:
-    it needs an explicit H, which sigma-point filters do not have, and its statistically
-    linearised version is algebraically the same expression as :math:`P - AA^T`.
+    fail at the next step's sigma points (one step late).
+
+    **Joseph form where H exists** (``pred.H``, the EKF/KF): :math:`P^+ = (I - KH)P(I - KH)^T + KRK^T`
+    (Bar-Shalom et al. 2001, Eq. 5.2.3-18), a sum of positive semi-definite terms, so it stays positive
+    definite where :math:`P - KSK^T` loses the small eigenvalues to cancellation (e.g. a prior of
+    1e10 m² measured with R = 1e-6 m²).  Sigma-point filters have no H (their statistically linearised
+    Joseph form needs :math:`S - P_{xz}^T P^{-1} P_{xz}`, the same cancellation) and use :math:`P - AA^T`.
     """
     nu = measurement.residual(z, pred.z_pred)
     chol_s, s_failed = linalg.cholesky(pred.S)
@@ -106,13 +114,18 @@ def kalman_update(state, pred: MeasurementPrediction, z: np.ndarray, measurement
     a = pred.Pxz @ np.swapaxes(linv, -1, -2)                         # (..., n, m)
     e = (linv @ nu[..., None])[..., 0]                               # (..., m)
     mean = state.mean + (a @ e[..., None])[..., 0]
-    cov = linalg.symmetrize(state.cov - a @ np.swapaxes(a, -1, -2))
-    nis = (e * e).sum(axis=-1)
+    if pred.H is None:
+        cov = linalg.symmetrize(state.cov - a @ np.swapaxes(a, -1, -2))
+    else:                                                            # Joseph form
+        gain = a @ linv                                              # K = Pxz S^-1, (..., n, m)
+        i_kh = np.eye(state.mean.shape[-1]) - gain @ pred.H
+        cov = linalg.symmetrize(i_kh @ state.cov @ np.swapaxes(i_kh, -1, -2)
+                                + gain @ measurement.R @ np.swapaxes(gain, -1, -2))
+    with np.errstate(over="ignore"):                                 # a wild measurement: NIS = inf, L = 0
+        nis = (e * e).sum(axis=-1)
     loglik = -0.5 * (nis + linalg.log_det_from_cholesky(chol_s) + nu.shape[-1] * LOG_2PI)
-    _, post_failed = linalg.cholesky(cov)
-    # NaN in, NaN out: a covariance already non-finite (e.g. sigma points of a prediction whose covariance
-    # had no Cholesky factor) has no factor either; LAPACK does not flag NaN, so test it here
-    failed = s_failed | post_failed | ~np.isfinite(cov).all(axis=(-2, -1))
+    _, post_failed = linalg.cholesky(cov)        # non-finite covariances (NaN in, NaN out) fail too
+    failed = s_failed | post_failed
     if failed.any():
         mean = np.where(failed[..., None], np.nan, mean)
         cov = np.where(failed[..., None, None], np.nan, cov)
@@ -151,7 +164,7 @@ class ExtendedKalmanFilter(_FilterBase):
         H = measurement.jacobian(state.mean)
         pxz = state.cov @ np.swapaxes(H, -1, -2)
         S = H @ pxz + measurement.R
-        return MeasurementPrediction(measurement.h(state.mean[..., None, :])[..., 0, :], S, pxz)
+        return MeasurementPrediction(measurement.h(state.mean[..., None, :])[..., 0, :], S, pxz, H)
 
 
 def KalmanFilter(name: str = "KF") -> ExtendedKalmanFilter:

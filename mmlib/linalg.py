@@ -28,11 +28,14 @@ def cholesky(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
     Returns ``(L, failed)`` where ``failed`` is a boolean ``(...)`` mask of the
     matrices that are not (numerically) positive definite; their ``L`` is NaN.
-    Non-finite input gives a non-finite factor (NaN in, NaN out).  The fast path
-    is one LAPACK call for the whole stack.
+    "Positive definite" means LAPACK's ``potrf`` succeeds (every pivot > 0, tolerance
+    zero), judged matrix by matrix whatever else is in the stack.  A non-finite matrix
+    is not positive definite (OpenBLAS does not flag NaN itself: NaN in, NaN out, and the
+    non-finite factor is what marks it).  The fast path is one LAPACK call for the whole stack.
     """
     try:
-        return np.linalg.cholesky(a), np.zeros(a.shape[:-2], dtype=bool)
+        L = np.linalg.cholesky(a)
+        return L, ~np.isfinite(L).all(axis=(-2, -1))
     except np.linalg.LinAlgError:
         pass
     lead = a.shape[:-2]
@@ -41,23 +44,20 @@ def cholesky(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _cholesky_slow(a):
-    finite = np.isfinite(a).all(axis=(-2, -1))
-    # Slow path (only when something already went wrong): find the offenders.
-    failed = ~finite
-    safe = np.where(failed[:, None, None], np.eye(a.shape[-1]), a)
-    eig_min = np.linalg.eigvalsh(safe)[:, 0]
-    failed |= ~(eig_min > 0.0)
-    safe = np.where(failed[:, None, None], np.eye(a.shape[-1]), a)
-    try:
-        out = np.linalg.cholesky(safe)
+    """Per-matrix verdicts for a stack in which LAPACK rejected something: every matrix is judged by LAPACK's
+    own Cholesky (the same test the fast path applies), never by another criterion, so a run's verdict does
+    not depend on the other matrices of its batch.  Non-finite matrices fail (LAPACK does not flag NaN)."""
+    failed = ~np.isfinite(a).all(axis=(-2, -1))
+    out = np.full_like(a, np.nan)
+    ok = np.flatnonzero(~failed)
+    try:                                   # usually the only failures were non-finite (already diverged runs)
+        out[ok] = np.linalg.cholesky(a[ok])
     except np.linalg.LinAlgError:
-        out = np.empty_like(safe)
-        for b in range(a.shape[0]):  # borderline cases that eigvalsh accepts but LAPACK rejects
+        for b in ok:
             try:
-                out[b] = np.linalg.cholesky(safe[b])
+                out[b] = np.linalg.cholesky(a[b])
             except np.linalg.LinAlgError:
                 failed[b] = True
-    out[failed] = np.nan
     return out, failed
 
 

@@ -184,3 +184,49 @@ def test_divergence_summary_counts_runs_sharing_a_step():
     rs = RunSet(np.zeros((5, 3, 1)), None, np.array([2, -1, 2, 0, -1]), np.zeros((3, 1)),
                 divergence_cause=np.array([1, 0, 1, 1, 0], dtype=np.int8))
     assert rs.divergence_summary() == "3 of 5 runs diverged (steps 0, 2 ×2; covariance no longer positive definite)"
+
+
+def _borderline_matrix():
+    """A 4x4 symmetric matrix LAPACK's Cholesky accepts although eigvalsh finds its smallest eigenvalue <= 0
+    (rank 3 plus ~1e-16 I): found by a seeded search, a few draws at most."""
+    rng = np.random.default_rng(0)
+    for _ in range(10_000):
+        v = rng.standard_normal((4, 3))
+        a = v @ v.T + 10 ** rng.uniform(-18, -14) * np.eye(4)
+        a = 0.5 * (a + a.T)
+        try:
+            np.linalg.cholesky(a)
+        except np.linalg.LinAlgError:
+            continue
+        if np.linalg.eigvalsh(a)[0] <= 0:
+            return a
+    pytest.skip("no borderline matrix found with this LAPACK")
+
+
+def test_cholesky_verdict_of_a_matrix_does_not_depend_on_its_neighbours():
+    """The old slow path (taken when any matrix of the stack failed) judged every matrix by eigvalsh instead of
+    LAPACK: a borderline run passed alone and failed next to a diverged one (a batch-size dependence)."""
+    from mmlib import linalg
+    a = _borderline_matrix()
+    alone = linalg.cholesky(a[None])
+    for neighbour in (-np.eye(4), np.full((4, 4), np.nan), np.eye(4)):
+        L, failed = linalg.cholesky(np.stack([a, neighbour]))
+        assert failed[0] == alone[1][0]
+        np.testing.assert_array_equal(L[0], alone[0][0])
+    assert linalg.cholesky(np.stack([a, -np.eye(4)]))[1][1]
+    assert linalg.cholesky(np.full((2, 4, 4), np.nan))[1].all()        # NaN in: failed, whichever path
+
+
+def test_kalman_filter_stays_positive_definite_for_a_vague_prior_and_a_precise_sensor():
+    """P0 = 1e10 I, R = 1e-6 I: P - K S K^T loses the 1e-6 eigenvalues to cancellation (~1e10 * eps = 2e-6) and
+    the old check declared every run diverged at step 0; the Joseph form keeps them (posterior position
+    variance R P/(P + R) ~ 1e-6)."""
+    dyn = models.constant_velocity(1.0, 1.0)
+    meas = models.position_measurement([1e-6, 1e-6])
+    x0 = np.zeros((2, 4))
+    zs = np.random.default_rng(3).standard_normal((2, 5, 2))
+    for filt in (m.KalmanFilter(), m.ExtendedKalmanFilter()):
+        track = m.run(m.SingleModel(filt, dyn, meas), filt.init(x0, 1e10 * np.eye(4)), zs)
+        assert not track.diverged.any()
+        assert np.linalg.eigvalsh(track.cov[:, 0]).min() > 0
+        np.testing.assert_allclose(track.cov[:, 0, 0, 0], 1e-6, rtol=1e-6)
