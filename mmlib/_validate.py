@@ -257,3 +257,33 @@ def check_semidefinite_stack(value, name: str, dim: int | None = None) -> np.nda
         raise ValueError(f"{name}: covariance at index {at} is not positive semi-definite; "
                          f"smallest eigenvalue {float(eig_min[i]):.3g}")
     return arr
+
+
+def check_bool(value, name: str) -> bool:
+    """A flag: True or False (numpy booleans accepted); ``"no"``, 0, 2 and the like are rejected, never read
+    by their truth value."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name}: expected True or False, got {value!r}")
+    return bool(value)
+
+
+def check_name(value, name: str = "name") -> str:
+    """A label: a string."""
+    if not isinstance(value, str):
+        raise ValueError(f"{name}: expected a string, got {value!r}")
+    return value
+
+
+def check_applies(model, name: str, n: int) -> None:
+    """``model.h`` accepts states of dimension ``n`` and returns ``model.dim`` values: probed once on a zero
+    state, so that a measurement model built for another state vector (e.g. a 4-state position sensor on a
+    6-state constant-acceleration model, or position indices beyond the state) is named at construction
+    instead of failing inside a filter with a numpy shape or index error."""
+    try:
+        with np.errstate(all="ignore"):
+            out = np.asarray(model.h(np.zeros((1, n))))
+    except (ValueError, IndexError, TypeError) as exc:
+        raise ValueError(f"{name}: cannot measure a state of dimension {n} ({type(exc).__name__}: {exc})") from None
+    if out.shape != (1, model.dim):
+        raise ValueError(f"{name}: a state of dimension {n} gives measurements of shape {out.shape[1:]}, "
+                         f"expected ({model.dim},)")

@@ -39,7 +39,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ._validate import check_has, check_positive_int, check_scalar
+from ._validate import check_bool, check_has, check_name, check_positive_int, check_scalar
 from .filters import FilterLayer, MeasurementPrediction, kalman_update
 from .linalg import trace
 
@@ -70,6 +70,9 @@ class InnovationAdaptive(FilterLayer):
         check_has(self.base, "base", "a filter", ("init", "predict", "predict_measurement"))
         object.__setattr__(self, "window", check_positive_int(self.window, "window", minimum=2))
         object.__setattr__(self, "psi", check_scalar(self.psi, "psi", low=1.0))   # Eq. 32 coefficient
+        for flag in ("zeta", "include_current", "inflate_only"):
+            check_bool(getattr(self, flag), flag)
+        check_name(self.name)
         if not self.name:
             object.__setattr__(self, "name", ("NA" if self.zeta else "A") + getattr(self.base, "name", "filter"))
 

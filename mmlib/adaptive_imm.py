@@ -29,7 +29,7 @@ from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
-from ._validate import as_float_array
+from ._validate import as_float_array, check_bool, check_name
 from .estimation import IMM, IMMState
 from .fuzzy import TakagiSugeno
 
@@ -37,8 +37,8 @@ from .fuzzy import TakagiSugeno
 def degree_of_divergence(innovation, noise_variance) -> np.ndarray:
     r"""(B, 2): :math:`[\xi/\bar s, \eta/\sqrt{\bar s}]` for innovations (B, m) and a reference variance
     :math:`\bar s` (scalar or (B,))."""
-    nu = np.asarray(innovation, dtype=float)
-    s2 = np.asarray(noise_variance, dtype=float)
+    nu = as_float_array(innovation, "innovation")
+    s2 = as_float_array(noise_variance, "noise_variance")
     if nu.ndim != 2:
         raise ValueError(f"innovation: expected shape (B, m), got {nu.shape}")
     if np.any(~(s2 > 0)):
@@ -62,6 +62,8 @@ class FuzzyNoiseBounds:
     normalise: str = "innovation"
 
     def __post_init__(self):
+        if not isinstance(self.system, TakagiSugeno):
+            raise ValueError(f"system: expected a TakagiSugeno system, got {type(self.system).__name__}")
         if self.system.n_inputs != 2 or self.system.consequents.shape[-1] != 2:
             raise ValueError("system: expected 2 inputs (xi, eta) and 2 outputs (log10 lower, log10 upper)")
         if self.normalise not in ("innovation", "measurement"):
@@ -113,6 +115,8 @@ class NoiseAdaptiveIMM:
             raise ValueError(f"imm: expected an mmlib.estimation.IMM, got {type(self.imm).__name__}")
         if not callable(self.noise):
             raise ValueError(f"noise: expected a callable levels (B, r) -> Q (B, r, n, n), got {type(self.noise).__name__}")
+        check_bool(self.frozen, "frozen")
+        check_name(self.name)
         lv = as_float_array(self.initial_levels, "initial_levels")
         if lv.shape != (self.imm.n_modes,) or np.any(~np.isfinite(lv)) or np.any(lv < 0):
             raise ValueError(f"initial_levels: expected {self.imm.n_modes} finite levels >= 0, got {self.initial_levels!r}")

@@ -37,7 +37,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from . import linalg
-from ._validate import as_float_array, check_choice, check_finite, check_has, check_positive_int, check_scalar
+from ._validate import (as_float_array, check_choice, check_finite, check_has, check_name, check_positive_int,
+                        check_scalar)
 from .filters import FilterLayer, MeasurementPrediction, UpdateInfo, gaussian_state, kalman_update
 
 
@@ -66,6 +67,7 @@ class ObservationBootstrap(FilterLayer):
         object.__setattr__(self, "variance_factor", check_scalar(self.variance_factor, "variance_factor", positive=True))
         check_choice(self.likelihood, "likelihood", ("sum", "product"))
         check_choice(self.covariance, "covariance", ("kalman", "printed"))   # Eq. 20
+        check_name(self.name)
         if not self.name:
             object.__setattr__(self, "name", getattr(self.base, "name", "filter") + "-OBS")
 
@@ -73,8 +75,8 @@ class ObservationBootstrap(FilterLayer):
         """``noise`` (B, K, N, m): pre-drawn standard normals for K steps, N = ``n_boot`` bootstrap
         observations, m >= every step's measurement dimension (a step with m_k < m uses the first m_k)."""
         g = gaussian_state(mean, cov)
+        noise = None if noise is None else check_finite(as_float_array(noise, "noise"), "noise")
         if self.n_boot > 0:
-            noise = None if noise is None else check_finite(as_float_array(noise, "noise"), "noise")
             if noise is None or noise.ndim != 4 or noise.shape[0] != g.mean.shape[0] or noise.shape[2] != self.n_boot \
                     or noise.shape[1] == 0 or noise.shape[3] == 0:
                 raise ValueError(f"noise: expected pre-drawn standard normals of shape (B={g.mean.shape[0]}, K, "

@@ -25,7 +25,7 @@ import numpy as np
 
 from .linalg import matmul_rows
 from .models import StackedDynamics
-from ._validate import (check_finite, as_float_array, check_has,
+from ._validate import (check_finite, as_float_array, check_applies, check_bool, check_has, check_name,
                         check_probabilities, check_transition_matrix)
 
 
@@ -60,8 +60,14 @@ def _check_dynamics(d, name: str = "dynamics"):
     return check_has(d, name, "a dynamics model", DYNAMICS_METHODS)
 
 
-def _check_measurement_model(m, name: str = "measurement"):
-    return None if m is None else check_has(m, name, "a measurement model", MEASUREMENT_METHODS)
+def _check_measurement_model(m, name: str = "measurement", n: int | None = None):
+    """A measurement model (or None); with ``n``, one that measures states of dimension ``n``."""
+    if m is None:
+        return None
+    check_has(m, name, "a measurement model", MEASUREMENT_METHODS)
+    if n is not None:
+        check_applies(m, name, n)
+    return m
 
 
 def batch_size(state) -> int:
@@ -156,7 +162,8 @@ class SingleModel:
     def __post_init__(self):
         _check_filter(self.filter)
         _check_dynamics(self.dynamics)
-        _check_measurement_model(self.measurement)
+        _check_measurement_model(self.measurement, n=self.dynamics.dim)
+        check_name(self.name)
         if not self.name:
             object.__setattr__(self, "name", str(getattr(self.filter, "name", "") or type(self.filter).__name__))
 
@@ -201,7 +208,8 @@ class KnownModeSequence:
         if modes.ndim != 1 or modes.dtype.kind not in "iu" or np.any(modes < 0) or np.any(modes >= len(dyn)):
             raise ValueError(f"modes: expected a 1-D integer array of model indices in 0..{len(dyn) - 1}, "
                              f"got {self.modes!r}")
-        _check_measurement_model(self.measurement)
+        _check_measurement_model(self.measurement, n=dyn[0].dim)
+        check_name(self.name)
         object.__setattr__(self, "dynamics", dyn)
 
     def init(self, mean, cov):
@@ -302,11 +310,14 @@ class IMM:
         dyn = tuple(_check_dynamics(d, f"dynamics[{i}]") for i, d in enumerate(self.dynamics))
         if not dyn:
             raise ValueError("dynamics: an IMM needs at least one mode")
+        if len({d.dim for d in dyn}) != 1:
+            raise ValueError(f"dynamics: every mode must have one state dimension, got {[d.dim for d in dyn]}")
         T = check_transition_matrix(self.transition, "transition")
         if T.shape[0] != len(dyn):
             raise ValueError(f"transition: expected {len(dyn)}x{len(dyn)} for {len(dyn)} modes, got {T.shape}")
         _check_filter(self.filter)
-        _check_measurement_model(self.measurement)
+        _check_measurement_model(self.measurement, n=dyn[0].dim)
+        check_name(self.name)
         if not callable(self.mixing):
             raise ValueError(f"mixing: expected a mixing strategy (callable), got {type(self.mixing).__name__}")
         object.__setattr__(self, "dynamics", dyn)
@@ -349,7 +360,15 @@ class IMM:
         z = _check_measurement(z, measurement.dim, batch=state.mode_probabilities.shape[0])
         if dynamics is not None:
             check_has(dynamics, "dynamics", "stacked mode dynamics (mmlib.models.StackedDynamics)",
-                      ("transition", "jacobian", "Q"))
+                      ("transition", "jacobian", "Q", "dim"))
+            B, r, n = state.modes.mean.shape
+            if dynamics.dim != n:
+                raise ValueError(f"dynamics: state dimension {dynamics.dim}, the IMM's is {n}")
+            try:
+                np.broadcast_shapes(np.shape(dynamics.Q), (B, r, n, n))
+            except ValueError:
+                raise ValueError(f"dynamics: Q of shape {np.shape(dynamics.Q)} does not broadcast to "
+                                 f"({B}, {r}, {n}, {n}) (runs, modes, state, state)") from None
         c, w = mixing_weights(state.mode_probabilities, self.transition)
         modes = state.modes
         mixed_means, mixed_covs = self.mixing(modes.mean, modes.cov, w)
@@ -449,6 +468,7 @@ def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bo
     """
     if on_divergence not in ("record", "raise"):
         raise ValueError(f"on_divergence: expected 'record' or 'raise', got {on_divergence!r}")
+    keep_cov = check_bool(keep_cov, "keep_cov")
     check_has(estimator, "estimator", "an estimator", ("init", "step"))
     if isinstance(state, np.ndarray) or not isinstance(state, tuple):
         raise ValueError(f"state: expected the state returned by estimator.init(), got {type(state).__name__}")

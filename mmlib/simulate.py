@@ -14,7 +14,8 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from ._validate import as_float_array, check_finite, check_has, check_index, check_positive_int, check_scalar
+from ._validate import (as_float_array, check_applies, check_bool, check_finite, check_has, check_index,
+                        check_positive_int, check_scalar)
 from .linalg import matmul_rows
 from .montecarlo import MonteCarlo, Stream
 
@@ -114,6 +115,8 @@ def simulate(schedule: ManeuverSchedule, x0, measurement, mc: MonteCarlo, runs,
     """
     runs = list(runs)
     check_has(measurement, "measurement", "a measurement model", ("h", "dim", "noise_factor"))
+    check_applies(measurement, "measurement", schedule.models[0].dim)
+    process_noise = check_bool(process_noise, "process_noise")
     if not isinstance(mc, MonteCarlo):
         raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
     x0 = check_finite(as_float_array(x0, "x0"), "x0")

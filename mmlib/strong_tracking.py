@@ -31,7 +31,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ._validate import check_choice, check_has, check_scalar
+from ._validate import check_choice, check_has, check_name, check_scalar
 from .filters import FilterLayer, kalman_update
 from .linalg import trace
 
@@ -64,6 +64,7 @@ class StrongTracking(FilterLayer):
         object.__setattr__(self, "beta", check_scalar(self.beta, "beta", low=1.0))       # softening factor
         object.__setattr__(self, "rho", check_scalar(self.rho, "rho", positive=True, high=1.0))   # forgetting
         check_choice(self.form, "form", ("statistical", "jacobian"))
+        check_name(self.name)
         if not self.name:
             object.__setattr__(self, "name", "ST" + getattr(self.base, "name", "filter"))
 

@@ -145,3 +145,56 @@ def test_bad_simulation_input_is_a_value_error_naming_the_argument(case):
     call, name = SIM_CASES[case]
     with pytest.raises(ValueError, match=name):
         call()
+
+
+CA = models.constant_acceleration(1.0, 2.0)
+
+
+def _evaluate(make_batch):
+    from mmlib.experiment.evaluation import evaluate
+    return evaluate({"UKF": m.SingleModel(UKF, CV, POS)}, make_batch, m.MonteCarlo(0, B), progress=False)
+
+
+REVIEW_CASES = {
+    "4-state sensor on 6-state dynamics": (lambda: m.SingleModel(UKF, CA, POS), "measurement"),
+    "IMM sensor for another state size": (lambda: m.IMM(UKF, [CA, CA], POS, TR), "measurement"),
+    "range-bearing indices beyond the state": (
+        lambda: m.SingleModel(UKF, CV, models.RangeBearing(np.diag([1.0, 1e-4]), np.zeros(2), (0, 7))),
+        "measurement"),
+    "simulate sensor for another state size": (lambda: _simulate(measurement=models.position_measurement(
+        [1.0, 1.0], state_dim=6)), "measurement"),
+    "IMM modes of different state sizes": (lambda: m.IMM(UKF, [CV, CA], None, TR), "dynamics"),
+    "IMM step dynamics of another size": (
+        lambda: _imm().step(_imm().init(X0, P0), Z[:, 0], dynamics=m.models.StackedDynamics.of([CA, CA])),
+        "dynamics"),
+    "IMM step per-run Q of the wrong batch": (
+        lambda: _imm().step(_imm().init(X0, P0), Z[:, 0],
+                            dynamics=_imm().stacked.with_noise(np.tile(CV.Q, (B + 1, 2, 1, 1)))), "dynamics"),
+    "run keep_cov not a bool": (lambda: m.run(m.SingleModel(UKF, CV, POS), UKF.init(X0, P0), Z, keep_cov="no"),
+                                "keep_cov"),
+    "simulate process_noise not a bool": (lambda: _simulate(process_noise="no"), "process_noise"),
+    "adaptive flag not a bool": (lambda: InnovationAdaptive(UKF, zeta="no"), "zeta"),
+    "adaptive inflate_only = 2": (lambda: InnovationAdaptive(UKF, inflate_only=2), "inflate_only"),
+    "single model name not a string": (lambda: m.SingleModel(UKF, CV, POS, name=3), "name"),
+    "strong tracking name not a string": (lambda: StrongTracking(UKF, name=3), "name"),
+    "bootstrap noise garbage with n_boot = 0": (
+        lambda: ObservationBootstrap(UKF, n_boot=0).init(X0, P0, noise="garbage"), "noise"),
+    "degree of divergence complex": (
+        lambda: __import__("mmlib.adaptive_imm").adaptive_imm.degree_of_divergence(np.ones((2, 3)) + 1j, 1.0),
+        "innovation"),
+    "fuzzy bounds system a string": (lambda: __import__("mmlib.adaptive_imm").adaptive_imm.FuzzyNoiseBounds("x"),
+                                     "system"),
+    "evaluate make_batch returns garbage": (lambda: _evaluate(lambda runs: 3), "make_batch"),
+    "evaluate init missing an estimator": (
+        lambda: _evaluate(lambda runs: (np.zeros((len(runs), K + 1, 4)), Z[list(runs)], {})), "make_batch"),
+    "evaluate truth of the wrong length": (
+        lambda: _evaluate(lambda runs: (np.zeros((len(runs), K, 4)), Z[list(runs)],
+                                        {"UKF": UKF.init(X0[list(runs)], P0)})), "make_batch"),
+}
+
+
+@pytest.mark.parametrize("case", list(REVIEW_CASES), ids=list(REVIEW_CASES))
+def test_bad_input_found_by_review_is_a_value_error_naming_the_argument(case):
+    call, name = REVIEW_CASES[case]
+    with pytest.raises(ValueError, match=name):
+        call()

@@ -150,7 +150,7 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
     first = {}
     bar = Progress(label or "Monte Carlo", mc.n_runs, enabled=progress)
     for runs in mc.chunks(chunk_size):
-        truth, z, init = make_batch(runs)
+        truth, z, init = _checked_batch(make_batch(runs), runs, estimators)
         for name, est in estimators.items():
             track = run(est, init[name], z, keep_cov=False, measurement_models=measurement_models)
             out[name]["err"].append(track.mean - truth[:, 1:])
@@ -290,6 +290,28 @@ def first_runs(rs: RunSet, n: int) -> RunSet:
 
 #: Tag hashed first by :func:`run_digest`; change it whenever what is hashed changes.
 DIGEST_VERSION = "mmlib-run-digest-2"
+
+
+def _checked_batch(batch, runs, estimators):
+    """``make_batch``'s return value, checked: ``(truth (B, K+1, n), measurements, {name: initial state})``
+    with B = len(runs) and an initial state for every estimator (named errors, not a KeyError or a
+    broadcasting error deep inside a filter)."""
+    if not (isinstance(batch, tuple) and len(batch) == 3):
+        raise ValueError(f"make_batch: expected (truth, measurements, init) for runs {runs!r}, got "
+                         f"{type(batch).__name__}")
+    truth, z, init = batch
+    truth = as_float_array(truth, "make_batch: truth")
+    if truth.ndim != 3 or truth.shape[0] != len(runs):
+        raise ValueError(f"make_batch: truth must have shape ({len(runs)}, K+1, n) for {len(runs)} runs, "
+                         f"got {truth.shape}")
+    steps = len(z) if isinstance(z, list) else (np.shape(z)[1] if np.ndim(z) == 3 else None)
+    if steps is not None and truth.shape[1] != steps + 1:
+        raise ValueError(f"make_batch: truth has {truth.shape[1]} epochs for {steps} measurement steps "
+                         "(expected one more: x_0 and one per step)")
+    if not isinstance(init, Mapping) or any(name not in init for name in estimators):
+        missing = [n for n in estimators if not isinstance(init, Mapping) or n not in init]
+        raise ValueError(f"make_batch: init must hold an initial state for every estimator; missing {missing}")
+    return truth, z, init
 
 
 def divergence_report(results) -> str:
