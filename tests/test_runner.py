@@ -180,6 +180,7 @@ def repo(base, tmp_path) -> Path:
     (["-p", "N_RUNS=3", "-p", "N_RUNS=4"], "-p N_RUNS: given twice"),
     (["gamma2003"], "notebook 'gamma2003': unknown; known papers: alpha2001, beta2002"),
     (["nowhere/gamma.py"], "notebook 'nowhere/gamma.py': no such file"),
+    (["OUTSIDE"], "not a notebook source of this repository"),
     (["--timeout", "0"], "--timeout: expected a positive number of seconds"),
     (["--recover", "alpha2001"], "--recover: takes no notebooks"),
 ])
@@ -188,6 +189,9 @@ def test_bad_argument_is_rejected_by_name_before_anything_runs(runner, base, tmp
     fragments between '*' appear in this order on one line of the error (the value rules' wording is NotebookRun's)."""
     root = tmp_path / "repo"
     shutil.copytree(base, root)
+    outside = tmp_path / "alpha2001_variant.py"          # a notebook source outside root/notebooks/
+    outside.write_text((root / "notebooks" / "alpha2001_fake.py").read_text())
+    args = [str(outside) if a == "OUTSIDE" else a for a in args]
     before = snapshot(root)
     assert runner.main(["--root", str(root), *args]) == 2
     out, err = capsys.readouterr()
@@ -334,6 +338,19 @@ def test_failed_notebook_names_notebook_and_cell_and_promotes_nothing(repo):
     assert {k: v for k, v in after.items() if "/failed/" not in k and "/converted/" not in k} == \
         {k: v for k, v in before.items() if "/converted/" not in k}
     assert [p for p in repo.glob("build/**/staging/*")] == []
+
+
+def test_notebook_writing_another_papers_results_promotes_nothing(repo):
+    """A notebook whose file name says alpha2001 but which writes beta2002's results would replace beta2002's
+    results beside alpha2001's executed notebook: rejected before promotion."""
+    before = snapshot(repo)
+    src = repo / "notebooks" / "alpha2001_fake.py"
+    src.write_text(src.read_text().replace('PAPER, GENERATION = "alpha2001"', 'PAPER, GENERATION = "beta2002"'))
+    proc = run(repo, "alpha2001", check=1)
+    assert "wrote the results of paper 'beta2002', but its file name says 'alpha2001'" in proc.stderr
+    after = snapshot(repo)
+    assert {k: v for k, v in after.items() if not k.startswith("build/") and not k.startswith("notebooks/")} == \
+        {k: v for k, v in before.items() if not k.startswith("build/") and not k.startswith("notebooks/")}
 
 
 # ------------------------------------------------------------------------------------------------------- make

@@ -146,6 +146,11 @@ def resolve_notebooks(root: Path, names: list[str]) -> list[Path]:
             src = Path(name).resolve()
             if not src.is_file():
                 raise UsageError(f"notebook {name!r}: no such file")
+            if src.parent != (root / "notebooks").resolve():
+                # its outputs are named after its paper, its executed notebook after its file: a source from
+                # elsewhere could replace one paper's results beside another notebook's executed copy
+                raise UsageError(f"notebook {name!r}: not a notebook source of this repository "
+                                 f"({root / 'notebooks'}/*.py); copy it there to run it")
         elif len(known.get(name, [])) == 1:
             src = known[name][0]
         elif name in known:
@@ -398,8 +403,9 @@ def execute(src: Path, staging: Path, layout: Layout, profile: str, params: dict
     return executed
 
 
-def staged_paper(staging: Path) -> str:
-    """The paper whose outputs the notebook staged: exactly one results file, figures for that paper only."""
+def staged_paper(staging: Path, src: Path) -> str:
+    """The paper whose outputs the notebook staged: exactly one results file, figures for that paper only, and
+    the paper its file name starts with (``<paper>_<topic>.py``), whose executed notebook it replaces."""
     results = sorted((staging / "data" / "results").glob("*.json"))
     if len(results) != 1:
         raise NotebookFailed(f"wrote {len(results)} results files ({', '.join(p.name for p in results) or 'none'});"
@@ -408,6 +414,9 @@ def staged_paper(staging: Path) -> str:
     doc_paper = json.loads(results[0].read_text()).get("paper")
     if doc_paper != paper:
         raise NotebookFailed(f"data/results/{paper}.json names paper {doc_paper!r}")
+    if src.stem.split("_")[0] != paper:
+        raise NotebookFailed(f"wrote the results of paper {paper!r}, but its file name says "
+                             f"{src.stem.split('_')[0]!r} (<paper>_<topic>.py)")
     others = [p.name for p in (staging / "figures").glob("*") if p.name != paper]
     if others:
         raise NotebookFailed(f"wrote figures for {', '.join(others)}, not for its paper {paper}")
@@ -437,7 +446,7 @@ def run_one(src: Path, layout: Layout, profile: str, params: dict, timeout: int)
     try:
         executed = execute(src, staging, layout, profile, params, timeout)
         sanitize(executed, staging, layout.out, layout.root)
-        paper = staged_paper(staging)
+        paper = staged_paper(staging, src)
         stage_reports(staging, layout, paper)
     except NotebookFailed:
         partial = staging / layout.executed_dir / f"{src.stem}.ipynb"
