@@ -361,3 +361,20 @@ def test_make_figures_passes_paper_runs_and_seed_to_the_runner():
     line = next(li for li in proc.stdout.splitlines() if "run_notebooks.py" in li)
     assert line.split("run_notebooks.py", 1)[1].split() == ["--profile", "full", "-p", "N_RUNS=500", "-p", "SEED=7",
                                                            "zhu2016"]
+
+
+def test_recovery_removes_leftover_temporary_files(repo):
+    """Temporary files of an interrupted write (an old figure folder moved aside, a figure or results file being
+    written atomically, a report being rendered) are removed by the next run; promoted outputs are kept."""
+    leftovers = [repo / "figures" / ".alpha2001.old" / "fig01.png", repo / "figures" / "alpha2001" / ".fig01.x.png",
+                 repo / "data" / "results" / ".alpha2001.json.tmp", repo / "reports" / ".alpha2001.md.tmp"]
+    for path in leftovers:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text("partial")
+    kept = snapshot(repo)
+    proc = run(repo, "--recover", check=0)
+    for path in leftovers:
+        assert not path.exists(), (path, proc.stdout)
+    assert not (repo / "figures" / ".alpha2001.old").exists()
+    assert {k: v for k, v in snapshot(repo).items()} == \
+        {k: v for k, v in kept.items() if not any(k == str(p.relative_to(repo)) for p in leftovers)}
