@@ -170,10 +170,11 @@ def test_paired_difference_counts_excluded_runs_and_keeps_its_value(results):
 
 
 # -- run digest ------------------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("n, n_big, chunk_small, chunk_big", [(5, 12, 250, 3), (4, 9, 2, 250), (6, 14, 3, 2)])
+@pytest.mark.parametrize("n, n_big, chunk_small, chunk_big", [(5, 12, 250, 3), (4, 9, 2, 250), (6, 14, 3, 2),
+                                                           (5, 12, 2, 5)])
 def test_digest_of_first_runs_independent_of_run_count_and_chunking(n, n_big, chunk_small, chunk_big):
-    """A smoke evaluation (n runs) and the first n runs of a larger one (other chunking) give the same digest
-    (every batch holding one of the first n runs has >= 2 runs)."""
+    """A smoke evaluation (n runs) and the first n runs of a larger one (other chunking) give the same digest,
+    one-run chunks included (5 runs in chunks of 2 end with a batch of one)."""
     small_mc, big_mc = MonteCarlo(17, n), MonteCarlo(17, n_big)
     est, mb, _, _ = _problem(small_mc)
     small = evaluation.evaluate(est, mb, small_mc, chunk_size=chunk_small, progress=False)
