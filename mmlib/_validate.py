@@ -281,9 +281,9 @@ def check_applies(model, name: str, n: int) -> None:
     instead of failing inside a filter with a numpy shape or index error."""
     try:
         with np.errstate(all="ignore"):
-            out = np.asarray(model.h(np.zeros((1, n))))
-    except (ValueError, IndexError, TypeError) as exc:
+            out = np.asarray(model.h(np.zeros((1, 1, n))))     # (runs, points, n), as the filters call it
+    except Exception as exc:
         raise ValueError(f"{name}: cannot measure a state of dimension {n} ({type(exc).__name__}: {exc})") from None
-    if out.shape != (1, model.dim):
-        raise ValueError(f"{name}: a state of dimension {n} gives measurements of shape {out.shape[1:]}, "
+    if out.shape != (1, 1, model.dim):
+        raise ValueError(f"{name}: a state of dimension {n} gives measurements of shape {out.shape[2:]}, "
                          f"expected ({model.dim},)")

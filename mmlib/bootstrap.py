@@ -104,7 +104,9 @@ class ObservationBootstrap(FilterLayer):
                 zn, p = z, pred
             else:
                 zn = boot[..., n - 1, :]
-                p = MeasurementPrediction(pred.z_pred, pred.S + (self.variance_factor - 1.0) * measurement.R, pred.Pxz)
+                # S^n = HPH^T + c R exactly where H exists: the Joseph form with the effective noise c R
+                p = MeasurementPrediction(pred.z_pred, pred.S + (self.variance_factor - 1.0) * measurement.R, pred.Pxz,
+                                          pred.H, None if pred.H is None else self.variance_factor * measurement.R)
             post, info = kalman_update(state, p, zn, measurement)
             if n > 0 and self.covariance == "printed":          # Eq. 20 as printed: P_zz, not P_zz^n
                 gain = np.swapaxes(np.linalg.solve(p.S, np.swapaxes(p.Pxz, -1, -2)), -1, -2)

@@ -131,6 +131,14 @@ def _failure_codes(failed):
     return np.where(failed, np.int8(Failure.COVARIANCE), np.int8(Failure.NONE))
 
 
+def _step_measurement(default, override, n: int):
+    """The measurement model of this step: the estimator's own (checked at construction) or a per-step override,
+    checked here to be a measurement model of states of dimension ``n``."""
+    if override is not None and override is not default:
+        return _check_measurement_model(override, n=n)
+    return _measurement_model(default, override)
+
+
 def _measurement_model(default, override):
     model = default if override is None else override
     if model is None:
@@ -174,7 +182,8 @@ class SingleModel:
 
     def step(self, state, z, *, with_cov: bool = True, measurement=None):
         _check_state(state, "state", ("mean", "cov"), self.dynamics.dim)
-        measurement = _check_measurement_model(_measurement_model(self.measurement, measurement))
+        check_bool(with_cov, "with_cov")
+        measurement = _step_measurement(self.measurement, measurement, self.dynamics.dim)
         z = _check_measurement(z, measurement.dim, batch=batch_size(state))
         state = self.filter.predict(state, self.dynamics)
         state, info = self.filter.update(state, z, measurement)
@@ -220,7 +229,8 @@ class KnownModeSequence:
         if not isinstance(state, SwitchingState):
             raise ValueError(f"state: expected the SwitchingState returned by init(), got {type(state).__name__}")
         _check_state(state.filter_state, "state", ("mean", "cov"), self.dynamics[0].dim)
-        measurement = _check_measurement_model(_measurement_model(self.measurement, measurement))
+        check_bool(with_cov, "with_cov")
+        measurement = _step_measurement(self.measurement, measurement, self.dynamics[0].dim)
         z = _check_measurement(z, measurement.dim, batch=batch_size(state.filter_state))
         if state.step >= len(self.modes):
             raise ValueError(f"z: step {state.step} beyond the {len(self.modes)} known modes")
@@ -256,6 +266,9 @@ class MomentMixing:
     implement the same call."""
 
     name: str = "moment"
+
+    def __post_init__(self):
+        check_name(self.name)
 
     def __call__(self, means, covs, w):
         wt = np.swapaxes(w, -1, -2)                                   # (B, j, i)
@@ -356,7 +369,8 @@ class IMM:
         if not isinstance(state, IMMState):
             raise ValueError(f"state: expected the IMMState returned by init(), got {type(state).__name__}")
         _check_state(state.modes, "state", ("mean", "cov"), self.stacked.dim, "IMM mode-filter state")
-        measurement = _check_measurement_model(_measurement_model(self.measurement, measurement))
+        check_bool(with_cov, "with_cov")
+        measurement = _step_measurement(self.measurement, measurement, self.stacked.dim)
         z = _check_measurement(z, measurement.dim, batch=state.mode_probabilities.shape[0])
         if dynamics is not None:
             check_has(dynamics, "dynamics", "stacked mode dynamics (mmlib.models.StackedDynamics)",
@@ -364,11 +378,15 @@ class IMM:
             B, r, n = state.modes.mean.shape
             if dynamics.dim != n:
                 raise ValueError(f"dynamics: state dimension {dynamics.dim}, the IMM's is {n}")
+            if len(getattr(dynamics, "models", ())) != r:
+                raise ValueError(f"dynamics: {len(getattr(dynamics, 'models', ()))} mode models for an IMM of {r} modes")
             try:
-                np.broadcast_shapes(np.shape(dynamics.Q), (B, r, n, n))
+                fits = np.broadcast_shapes(np.shape(dynamics.Q), (B, r, n, n)) == (B, r, n, n)
             except ValueError:
+                fits = False
+            if not fits:
                 raise ValueError(f"dynamics: Q of shape {np.shape(dynamics.Q)} does not broadcast to "
-                                 f"({B}, {r}, {n}, {n}) (runs, modes, state, state)") from None
+                                 f"({B}, {r}, {n}, {n}) (runs, modes, state, state)")
         c, w = mixing_weights(state.mode_probabilities, self.transition)
         modes = state.modes
         mixed_means, mixed_covs = self.mixing(modes.mean, modes.cov, w)

@@ -36,7 +36,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from . import linalg
-from ._validate import as_float_array, check_batch_vector, check_covariance
+from ._validate import as_float_array, check_batch_vector, check_covariance, check_name
 from .rules import SigmaPointRule, rule_by_name
 
 LOG_2PI = math.log(2.0 * math.pi)
@@ -60,6 +60,7 @@ class MeasurementPrediction(NamedTuple):
     S: np.ndarray
     Pxz: np.ndarray
     H: Any = None
+    R: Any = None               # the measurement noise in S = HPH^T + R when it is not measurement.R
 
 
 class UpdateInfo(NamedTuple):
@@ -120,7 +121,7 @@ def kalman_update(state, pred: MeasurementPrediction, z: np.ndarray, measurement
         gain = a @ linv                                              # K = Pxz S^-1, (..., n, m)
         i_kh = np.eye(state.mean.shape[-1]) - gain @ pred.H
         cov = linalg.symmetrize(i_kh @ state.cov @ np.swapaxes(i_kh, -1, -2)
-                                + gain @ measurement.R @ np.swapaxes(gain, -1, -2))
+                                + gain @ (measurement.R if pred.R is None else pred.R) @ np.swapaxes(gain, -1, -2))
     with np.errstate(over="ignore"):                                 # a wild measurement: NIS = inf, L = 0
         nis = (e * e).sum(axis=-1)
     loglik = -0.5 * (nis + linalg.log_det_from_cholesky(chol_s) + nu.shape[-1] * LOG_2PI)
@@ -153,6 +154,9 @@ class ExtendedKalmanFilter(_FilterBase):
     (Bar-Shalom et al. 2001, Sec. 10.3).  On linear models this is exactly the Kalman filter."""
 
     name: str = "EKF"
+
+    def __post_init__(self):
+        check_name(self.name)
 
     def predict(self, state, dynamics):
         F = dynamics.jacobian(state.mean)
@@ -191,6 +195,7 @@ class SigmaPointFilter(_FilterBase):
     def __post_init__(self):
         if not isinstance(self.rule, SigmaPointRule):
             raise ValueError(f"rule: expected a SigmaPointRule, got {type(self.rule).__name__}")
+        check_name(self.name)
         if not self.name:
             object.__setattr__(self, "name", self.rule.name)
 

@@ -35,7 +35,7 @@ def cholesky(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """
     try:
         L = np.linalg.cholesky(a)
-        return L, ~np.isfinite(L).all(axis=(-2, -1))
+        return L, ~(np.isfinite(L).all(axis=(-2, -1)) & np.isfinite(a).all(axis=(-2, -1)))
     except np.linalg.LinAlgError:
         pass
     lead = a.shape[:-2]

@@ -198,3 +198,73 @@ def test_bad_input_found_by_review_is_a_value_error_naming_the_argument(case):
     call, name = REVIEW_CASES[case]
     with pytest.raises(ValueError, match=name):
         call()
+
+
+def _x_indexed_model():
+    """A valid duck-typed model written for the (runs, points, n) inputs the filters pass (x[:, :, i])."""
+    class XY:
+        dim, R, noise_factor = 2, np.eye(2), np.eye(2)
+
+        def h(self, x):
+            return np.stack([x[:, :, 0], x[:, :, 2]], axis=-1)
+
+        def jacobian(self, x):
+            return POS.jacobian(x)
+
+        def residual(self, a, b):
+            return a - b
+
+        def average(self, values, weights):
+            return weights @ values
+    return XY()
+
+
+SECOND_REVIEW_CASES = {
+    "step override for another state size": (
+        lambda: m.SingleModel(UKF, CV, POS).step(UKF.init(X0, P0), Z[:, 0],
+                                                 measurement=models.position_measurement([1.0, 1.0], state_dim=6)),
+        "measurement"),
+    "IMM step override for another state size": (
+        lambda: _imm().step(_imm().init(X0, P0), Z[:, 0],
+                            measurement=models.RangeBearing(np.diag([1.0, 1e-4]), np.zeros(2), (0, 7))),
+        "measurement"),
+    "run per-step model indices beyond the state": (
+        lambda: m.run(m.SingleModel(UKF, CV, None), UKF.init(X0, P0), [Z[:, 0]],
+                      measurement_models=[models.RangeBearing(np.diag([1.0, 1e-4]), np.zeros(2), (0, 7))]),
+        "measurement"),
+    "IMM step dynamics with another number of modes": (
+        lambda: _imm().step(_imm().init(X0, P0), Z[:, 0], dynamics=m.models.StackedDynamics.of([CV, CV, CV])),
+        "dynamics"),
+    "IMM step Q with an extra leading axis": (
+        lambda: _imm().step(_imm().init(X0, P0), Z[:, 0],
+                            dynamics=_imm().stacked.with_noise(np.tile(CV.Q, (1, B, 2, 1, 1)))), "dynamics"),
+    "step with_cov not a bool": (lambda: m.SingleModel(UKF, CV, POS).step(UKF.init(X0, P0), Z[:, 0], with_cov="no"),
+                                 "with_cov"),
+    "EKF name not a string": (lambda: m.ExtendedKalmanFilter(name=3), "name"),
+    "sigma-point filter name bytes": (lambda: m.SigmaPointFilter(m.Unscented(), name=b"x"), "name"),
+    "moment mixing name not a string": (lambda: m.estimation.MomentMixing(name=3), "name"),
+    "evaluate progress not a bool": (
+        lambda: __import__("mmlib.experiment.evaluation").experiment.evaluation.evaluate(
+            {"UKF": m.SingleModel(UKF, CV, POS)}, lambda runs: None, m.MonteCarlo(0, B), progress="no"), "progress"),
+    "evaluate truth of another state size": (
+        lambda: _evaluate(lambda runs: (np.zeros((len(runs), K + 1, 6)), Z[list(runs)],
+                                        {"UKF": UKF.init(X0[list(runs)], P0)})), "make_batch"),
+}
+
+
+@pytest.mark.parametrize("case", list(SECOND_REVIEW_CASES), ids=list(SECOND_REVIEW_CASES))
+def test_bad_input_found_by_second_review_is_a_value_error_naming_the_argument(case):
+    call, name = SECOND_REVIEW_CASES[case]
+    with pytest.raises(ValueError, match=name):
+        call()
+
+
+def test_valid_inputs_the_checks_must_not_reject():
+    """A model written for (runs, points, n) inputs, a make_batch returning a list, per-run nested-list
+    measurements: all valid, all accepted."""
+    model = _x_indexed_model()
+    track = m.run(m.SingleModel(UKF, CV, model), UKF.init(X0, P0), Z)
+    assert not track.diverged.any()
+    res = _evaluate(lambda runs: [np.zeros((len(runs), K + 1, 4)), Z[list(runs)].tolist(),
+                                  {"UKF": UKF.init(X0[list(runs)], P0)}])
+    assert res["UKF"].errors.shape == (B, K, 4)

@@ -230,3 +230,25 @@ def test_kalman_filter_stays_positive_definite_for_a_vague_prior_and_a_precise_s
         assert not track.diverged.any()
         assert np.linalg.eigvalsh(track.cov[:, 0]).min() > 0
         np.testing.assert_allclose(track.cov[:, 0, 0, 0], 1e-6, rtol=1e-6)
+
+
+def test_cholesky_verdict_on_nan_above_the_diagonal_does_not_depend_on_neighbours():
+    """LAPACK reads the lower triangle only: a NaN above it passed alone and failed next to a failing matrix."""
+    from mmlib import linalg
+    a = np.eye(3)
+    a[0, 2] = np.nan
+    assert linalg.cholesky(a[None])[1].tolist() == [True]
+    assert linalg.cholesky(np.stack([a, -np.eye(3)]))[1].tolist() == [True, True]
+
+
+def test_bootstrap_members_keep_the_joseph_form_over_an_ekf():
+    """S^n = H P H^T + c R holds exactly for the bootstrap members of an EKF: with the Joseph form and the
+    effective noise c R, a vague prior measured precisely is not declared diverged."""
+    dyn = models.constant_velocity(1.0, 1.0)
+    meas = models.position_measurement([1e-6, 1e-6])
+    x0 = np.zeros((2, 4))
+    zs = np.random.default_rng(3).standard_normal((2, 4, 2))
+    filt = ObservationBootstrap(m.ExtendedKalmanFilter(), n_boot=2)
+    noise = np.random.default_rng(4).standard_normal((2, 4, 2, 2))
+    track = m.run(m.SingleModel(filt, dyn, meas), filt.init(x0, 1e11 * np.eye(4), noise=noise), zs)
+    assert not track.diverged.any()

@@ -11,7 +11,8 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from .. import metrics
-from .._validate import as_float_array, check_finite, check_finite_runs, check_index, check_positive_int
+from .._validate import (as_float_array, check_bool, check_finite, check_finite_runs, check_index,
+                         check_positive_int)
 from ..estimation import run, select_runs
 from ..montecarlo import MonteCarlo, Progress
 from ..simulate import simulate
@@ -144,15 +145,19 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
     """
     _check_mapping(estimators, "estimators", "estimators by name")
     _check_callable(make_batch, "make_batch", "a function runs -> (truth, measurements, init)")
+    check_bool(progress, "progress")
     if not isinstance(mc, MonteCarlo):
         raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
     out = {name: {"err": [], "mu": [], "div": [], "diag": [], "cause": []} for name in estimators}
     first = {}
     bar = Progress(label or "Monte Carlo", mc.n_runs, enabled=progress)
     for runs in mc.chunks(chunk_size):
-        truth, z, init = _checked_batch(make_batch(runs), runs, estimators)
+        truth, z, init = _checked_batch(make_batch(runs), runs, estimators, measurement_models is not None)
         for name, est in estimators.items():
             track = run(est, init[name], z, keep_cov=False, measurement_models=measurement_models)
+            if track.mean.shape[-1] != truth.shape[-1]:
+                raise ValueError(f"make_batch: truth of state dimension {truth.shape[-1]}, but {name!r} estimates "
+                                 f"{track.mean.shape[-1]}")
             out[name]["err"].append(track.mean - truth[:, 1:])
             out[name]["div"].append(track.diverged_step)
             out[name]["cause"].append(track.divergence_cause)
@@ -292,11 +297,12 @@ def first_runs(rs: RunSet, n: int) -> RunSet:
 DIGEST_VERSION = "mmlib-run-digest-2"
 
 
-def _checked_batch(batch, runs, estimators):
+def _checked_batch(batch, runs, estimators, per_step: bool):
     """``make_batch``'s return value, checked: ``(truth (B, K+1, n), measurements, {name: initial state})``
-    with B = len(runs) and an initial state for every estimator (named errors, not a KeyError or a
-    broadcasting error deep inside a filter)."""
-    if not (isinstance(batch, tuple) and len(batch) == 3):
+    with B = len(runs), K steps of measurements ((B, K, m), or a sequence of K arrays (B, m_k) when
+    ``per_step``) and an initial state for every estimator (named errors, not a KeyError or a broadcasting
+    error deep inside a filter)."""
+    if isinstance(batch, (str, bytes)) or not (isinstance(batch, (tuple, list)) and len(batch) == 3):
         raise ValueError(f"make_batch: expected (truth, measurements, init) for runs {runs!r}, got "
                          f"{type(batch).__name__}")
     truth, z, init = batch
@@ -304,8 +310,14 @@ def _checked_batch(batch, runs, estimators):
     if truth.ndim != 3 or truth.shape[0] != len(runs):
         raise ValueError(f"make_batch: truth must have shape ({len(runs)}, K+1, n) for {len(runs)} runs, "
                          f"got {truth.shape}")
-    steps = len(z) if isinstance(z, list) else (np.shape(z)[1] if np.ndim(z) == 3 else None)
-    if steps is not None and truth.shape[1] != steps + 1:
+    if per_step:
+        steps = len(z)
+    else:
+        z_arr = as_float_array(z, "make_batch: measurements")
+        if z_arr.ndim != 3 or z_arr.shape[0] != len(runs):
+            raise ValueError(f"make_batch: measurements must have shape ({len(runs)}, K, m), got {z_arr.shape}")
+        steps = z_arr.shape[1]
+    if truth.shape[1] != steps + 1:
         raise ValueError(f"make_batch: truth has {truth.shape[1]} epochs for {steps} measurement steps "
                          "(expected one more: x_0 and one per step)")
     if not isinstance(init, Mapping) or any(name not in init for name in estimators):

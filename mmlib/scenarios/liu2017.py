@@ -50,9 +50,9 @@ TABLE2_COMPLEXITY = {"SSRCKF": "O((2n+2)^3)", "STF": "O(n^2)", "STUKF": "O((2n+1
                      "STSSRCKF": "O((2n+2)^3)"}
 #: Per time step with n = 6, m = 2 (counted from mmlib/filters.py and mmlib/strong_tracking.py, which follow
 #: Eqs. 20-36): points, n x n Cholesky factorisations, evaluations of f, evaluations of h (when lambda > 1),
-#: other n x n x n operations (n x n matrix products or linear solves: the EKF's F P F^T, the statistical
-#: fading factor's (P^l)^-1 P_xz of Eqs. 18-19).
-TABLE2_COUNTS = {"SSRCKF": (14, 2, 14, 14, 0), "STF": (0, 0, 1, 1, 2), "STUKF": (13, 3, 13, 26, 1),
+#: other n x n x n operations (n x n matrix products or linear solves: the EKF's F P F^T and its Joseph-form
+#: covariance update (I - KH) P (I - KH)^T, the statistical fading factor's (P^l)^-1 P_xz of Eqs. 18-19).
+TABLE2_COUNTS = {"SSRCKF": (14, 2, 14, 14, 0), "STF": (0, 0, 1, 1, 4), "STUKF": (13, 3, 13, 26, 1),
                  "STCKF": (12, 3, 12, 24, 1), "STSSRCKF": (14, 3, 14, 28, 1)}
 TABLE2_N = 6
 TABLE3 = {
