@@ -29,13 +29,18 @@ def cholesky(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Returns ``(L, failed)`` where ``failed`` is a boolean ``(...)`` mask of the
     matrices that are not (numerically) positive definite; their ``L`` is NaN.
     "Positive definite" means LAPACK's ``potrf`` succeeds (every pivot > 0, tolerance
-    zero), judged matrix by matrix whatever else is in the stack.  A non-finite matrix
-    is not positive definite (OpenBLAS does not flag NaN itself: NaN in, NaN out, and the
-    non-finite factor is what marks it).  The fast path is one LAPACK call for the whole stack.
+    zero), judged matrix by matrix whatever else is in the stack.  Only the lower triangle
+    is read (LAPACK's convention; the library's covariances are symmetric).  A matrix whose
+    lower triangle is not finite is not positive definite: OpenBLAS does not flag NaN itself,
+    but a NaN or infinity there always reaches the factor's diagonal (a NaN propagates down
+    the rows through the divisions by the pivots; an infinite diagonal entry is a pivot; an
+    infinite entry below it makes a later pivot's radicand -inf, which LAPACK rejects), so
+    the diagonal of the factor is what is checked.  The fast path is one LAPACK call for the
+    whole stack.
     """
     try:
         L = np.linalg.cholesky(a)
-        return L, ~(np.isfinite(L).all(axis=(-2, -1)) & np.isfinite(a).all(axis=(-2, -1)))
+        return L, _nonfinite_diagonal(L)
     except np.linalg.LinAlgError:
         pass
     lead = a.shape[:-2]
@@ -43,11 +48,15 @@ def cholesky(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return out.reshape(a.shape), failed.reshape(lead)
 
 
+def _nonfinite_diagonal(L):
+    return ~np.isfinite(np.diagonal(L, axis1=-2, axis2=-1)).all(axis=-1)
+
+
 def _cholesky_slow(a):
     """Per-matrix verdicts for a stack in which LAPACK rejected something: every matrix is judged by LAPACK's
-    own Cholesky (the same test the fast path applies), never by another criterion, so a run's verdict does
-    not depend on the other matrices of its batch.  Non-finite matrices fail (LAPACK does not flag NaN)."""
-    failed = ~np.isfinite(a).all(axis=(-2, -1))
+    own Cholesky (the same test as the fast path), never by another criterion, so a run's verdict does not
+    depend on the other matrices of its batch."""
+    failed = ~np.isfinite(np.tril(a)).all(axis=(-2, -1))
     out = np.full_like(a, np.nan)
     ok = np.flatnonzero(~failed)
     try:                                   # usually the only failures were non-finite (already diverged runs)
@@ -58,6 +67,8 @@ def _cholesky_slow(a):
                 out[b] = np.linalg.cholesky(a[b])
             except np.linalg.LinAlgError:
                 failed[b] = True
+    failed |= _nonfinite_diagonal(out)
+    out[failed] = np.nan
     return out, failed
 
 

@@ -232,13 +232,19 @@ def test_kalman_filter_stays_positive_definite_for_a_vague_prior_and_a_precise_s
         np.testing.assert_allclose(track.cov[:, 0, 0, 0], 1e-6, rtol=1e-6)
 
 
-def test_cholesky_verdict_on_nan_above_the_diagonal_does_not_depend_on_neighbours():
-    """LAPACK reads the lower triangle only: a NaN above it passed alone and failed next to a failing matrix."""
+@pytest.mark.parametrize("where, value, fails", [((0, 2), np.nan, False), ((2, 0), np.nan, True),
+                                                 ((1, 1), np.inf, True), ((2, 1), np.inf, True),
+                                                 ((0, 0), np.nan, True), ((2, 2), -np.inf, True)])
+def test_cholesky_verdict_on_non_finite_entries_does_not_depend_on_neighbours(where, value, fails):
+    """Only the lower triangle is read (LAPACK's convention): a non-finite entry there fails, one above the
+    diagonal is ignored, on the fast path (alone) and on the slow path (next to a failing matrix) alike; the
+    old code judged the slow path by the whole matrix."""
     from mmlib import linalg
-    a = np.eye(3)
-    a[0, 2] = np.nan
-    assert linalg.cholesky(a[None])[1].tolist() == [True]
-    assert linalg.cholesky(np.stack([a, -np.eye(3)]))[1].tolist() == [True, True]
+    a = 2 * np.eye(3)
+    a[where] = value
+    assert linalg.cholesky(a[None])[1].tolist() == [fails]
+    assert linalg.cholesky(np.stack([a, -np.eye(3)]))[1].tolist() == [fails, True]
+    assert linalg.cholesky(np.stack([a, np.eye(3)]))[1].tolist() == [fails, False]
 
 
 def test_bootstrap_members_keep_the_joseph_form_over_an_ekf():
