@@ -126,27 +126,63 @@ def check_batch_vector(value, name: str, dim: int | None = None) -> np.ndarray:
     return arr
 
 
-def check_covariance(value, name: str, dim: int | None = None, *, batch: bool = False,
+def check_covariance(value, name: str, dim: int | None = None, *, batch: bool = False, stack: bool = False,
                      semidefinite: bool = False) -> np.ndarray:
-    """Symmetric positive-(semi)definite matrix (n, n), or a batch (B, n, n) if ``batch``."""
+    r"""Symmetric positive-(semi)definite matrix (n, n); a batch (B, n, n) if ``batch``; any leading axes
+    (..., n, n) (e.g. runs and steps, or runs and modes) if ``stack``.
+
+    Symmetry to ``RTOL`` of each matrix's largest entry.  Definiteness by LAPACK's Cholesky, the test the
+    filters apply (:func:`mmlib.linalg.cholesky`); ``semidefinite``: the Cholesky of
+    :math:`A + \mathrm{RTOL}\,\max|A|\,I`, i.e. smallest eigenvalue >= -RTOL x the largest entry (a zero
+    block, e.g. a zero noise level, is legitimate).  One batched call, cheap enough for every step;
+    eigenvalues are computed only to decide a semi-definite failure and to report the first offending
+    matrix (its index among the leading axes)."""
     arr = check_finite(as_float_array(value, name), name)
-    want = 3 if batch else 2
-    if arr.ndim != want or arr.shape[-1] != arr.shape[-2]:
-        form = "(B, n, n)" if batch else "(n, n)"
+    if stack:
+        ok_rank, form = arr.ndim >= 2, "(..., n, n)"
+    else:
+        ok_rank, form = arr.ndim == (3 if batch else 2), "(B, n, n)" if batch else "(n, n)"
+    if not ok_rank or arr.shape[-1] != arr.shape[-2]:
         raise ValueError(f"{name}: expected a square covariance of shape {form}, got {arr.shape}")
     if dim is not None and arr.shape[-1] != dim:
         raise ValueError(f"{name}: expected {dim}x{dim} covariance, got shape {arr.shape}")
-    scale = np.maximum(np.max(np.abs(arr), axis=(-2, -1), keepdims=True), np.finfo(float).tiny)
-    if np.any(np.abs(arr - np.swapaxes(arr, -1, -2)) > RTOL * scale):
-        raise ValueError(f"{name}: covariance is not symmetric")
-    eig_min = np.linalg.eigvalsh(arr)[..., 0]
-    floor = -RTOL * scale[..., 0, 0] if semidefinite else 0.0
-    bad = eig_min < floor if semidefinite else eig_min <= 0.0
+    lead, n = arr.shape[:-2], arr.shape[-1]
+    flat = arr.reshape((-1, n, n))
+    N = flat.shape[0]
+    if N == 0:
+        return arr
+    where = (lambda i: f" at index {tuple(int(j) for j in np.unravel_index(i, lead))}" if lead else "")
+    scale = np.maximum(np.abs(flat).reshape(N, -1).max(axis=1), np.finfo(float).tiny)   # (reshape: ~5x faster)
+    asym = np.abs(flat - np.swapaxes(flat, -1, -2)).reshape(N, -1).max(axis=1) > RTOL * scale
+    if np.any(asym):
+        raise ValueError(f"{name}: covariance{where(int(np.argmax(asym)))} is not symmetric")
+    test = flat
+    if semidefinite:
+        test = flat.copy()
+        test.reshape(N, -1)[:, ::n + 1] += (RTOL * scale)[:, None]
+    try:
+        np.linalg.cholesky(test)
+        return arr
+    except np.linalg.LinAlgError:
+        pass
+    eig_min = np.linalg.eigvalsh(flat)[:, 0]
+    if semidefinite:
+        bad = eig_min < -RTOL * scale
+    else:                       # judged matrix by matrix by LAPACK, as the filters judge it
+        bad = np.array([not _has_cholesky(a) for a in flat])
     if np.any(bad):
-        where = f" (batch index {int(np.argmax(np.atleast_1d(bad)))})" if batch else ""
+        i = int(np.argmax(bad))
         kind = "positive semi-definite" if semidefinite else "positive definite"
-        raise ValueError(f"{name}: covariance is not {kind}{where}; smallest eigenvalue {float(np.min(eig_min)):.3g}")
+        raise ValueError(f"{name}: covariance{where(i)} is not {kind}; smallest eigenvalue {float(eig_min[i]):.3g}")
     return arr
+
+
+def _has_cholesky(a: np.ndarray) -> bool:
+    try:
+        np.linalg.cholesky(a)
+        return True
+    except np.linalg.LinAlgError:
+        return False
 
 
 def check_probabilities(value, name: str, *, axis: int = -1, total: bool = True) -> np.ndarray:
@@ -191,71 +227,6 @@ def check_finite_runs(arr: np.ndarray, name: str, valid: np.ndarray) -> np.ndarr
         at = tuple(int(i) for i in np.argwhere(bad)[0])
         raise ValueError(f"{name}: contains NaN or infinite values in a run marked valid "
                          f"(first at index {at}); mark diverged runs invalid instead")
-    return arr
-
-
-def check_covariance_stack(value, name: str, dim: int | None = None) -> np.ndarray:
-    """Symmetric positive-definite matrices of shape (..., n, n), any number of leading axes (e.g. runs
-    and steps); symmetry to ``RTOL`` of each matrix's largest entry, definiteness by the smallest
-    eigenvalue > 0.  The message gives the index of the first offending matrix."""
-    arr = check_finite(as_float_array(value, name), name)
-    if arr.ndim < 2 or arr.shape[-1] != arr.shape[-2]:
-        raise ValueError(f"{name}: expected square covariances of shape (..., n, n), got {arr.shape}")
-    if dim is not None and arr.shape[-1] != dim:
-        raise ValueError(f"{name}: expected {dim}x{dim} covariances, got shape {arr.shape}")
-    lead = arr.shape[:-2]
-    flat = arr.reshape((-1,) + arr.shape[-2:])
-    if flat.shape[0] == 0:
-        return arr
-    scale = np.maximum(np.max(np.abs(flat), axis=(-2, -1)), np.finfo(float).tiny)
-    asym = np.max(np.abs(flat - np.swapaxes(flat, -1, -2)), axis=(-2, -1)) > RTOL * scale
-    where = (lambda i: f" at index {tuple(int(j) for j in np.unravel_index(i, lead))}" if lead else "")
-    if np.any(asym):
-        raise ValueError(f"{name}: covariance{where(int(np.argmax(asym)))} is not symmetric")
-    eig_min = np.linalg.eigvalsh(flat)[:, 0]
-    if np.any(eig_min <= 0.0):
-        i = int(np.argmax(eig_min <= 0.0))
-        raise ValueError(f"{name}: covariance{where(i)} is not positive definite; "
-                         f"smallest eigenvalue {float(eig_min[i]):.3g}")
-    return arr
-
-
-def check_semidefinite_stack(value, name: str, dim: int | None = None) -> np.ndarray:
-    """Symmetric positive *semi*-definite matrices (..., n, n), any leading axes (e.g. per-mode or
-    per-run process noise, where a zero block is legitimate).  Symmetry to ``RTOL`` of each matrix's
-    largest entry; definiteness: smallest eigenvalue >= -RTOL * largest entry (the floor of
-    :func:`check_covariance` with ``semidefinite=True``).  Tested by one batched Cholesky of
-    ``Q + RTOL * scale * I`` (3-20x cheaper than eigenvalues, measured, so it can run at every step);
-    eigenvalues are computed only when that fails, to decide and to report the first bad index."""
-    arr = check_finite(as_float_array(value, name), name)
-    if arr.ndim < 2 or arr.shape[-1] != arr.shape[-2]:
-        raise ValueError(f"{name}: expected square covariances of shape (..., n, n), got {arr.shape}")
-    if dim is not None and arr.shape[-1] != dim:
-        raise ValueError(f"{name}: expected {dim}x{dim} covariances, got shape {arr.shape}")
-    lead, n = arr.shape[:-2], arr.shape[-1]
-    flat = arr.reshape((-1, n, n))
-    if flat.shape[0] == 0:
-        return arr
-    N = flat.shape[0]
-    scale = np.maximum(np.abs(flat).reshape(N, -1).max(axis=1), np.finfo(float).tiny)   # (reshape: ~5x faster)
-    asym = np.abs(flat - np.swapaxes(flat, -1, -2)).reshape(N, -1).max(axis=1) > RTOL * scale
-    if np.any(asym):
-        at = tuple(int(i) for i in np.unravel_index(int(np.argmax(asym)), lead))
-        raise ValueError(f"{name}: covariance at index {at} is not symmetric")
-    try:
-        shifted = flat.copy()
-        shifted.reshape(N, -1)[:, ::n + 1] += (RTOL * scale)[:, None]
-        np.linalg.cholesky(shifted)
-        return arr
-    except np.linalg.LinAlgError:
-        pass
-    eig_min = np.linalg.eigvalsh(flat)[:, 0]
-    bad = eig_min < -RTOL * scale
-    if np.any(bad):
-        i = int(np.argmax(bad))
-        at = tuple(int(j) for j in np.unravel_index(i, lead))
-        raise ValueError(f"{name}: covariance at index {at} is not positive semi-definite; "
-                         f"smallest eigenvalue {float(eig_min[i]):.3g}")
     return arr
 
 

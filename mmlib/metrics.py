@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import stats
 
-from ._validate import (as_float_array, check_covariance_stack, check_finite, check_finite_runs, check_index,
+from ._validate import (as_float_array, check_covariance, check_finite, check_finite_runs, check_index,
                         check_mask, check_positive_int, check_scalar)
 
 
@@ -162,7 +162,7 @@ def nees(err, cov, valid=None):
                          f"got {P.shape}")
     if valid is None:
         check_finite(e, "err")
-        check_covariance_stack(P, "cov")
+        check_covariance(P, "cov", stack=True)
         sol = np.linalg.solve(P, e[..., None])[..., 0]
         return np.sum(e * sol, axis=-1)
     if e.ndim < 2:

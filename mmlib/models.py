@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._validate import (RTOL, as_float_array, check_covariance, check_finite, check_has, check_index, check_matrix,
-                        check_positive_int, check_scalar, check_semidefinite_stack)
+                        check_positive_int, check_scalar)
 from .linalg import matmul_rows
 
 
@@ -384,7 +384,7 @@ class StackedDynamics:
     def __post_init__(self):
         models = self._check_models(self.models)
         r, n = len(models), models[0].dim
-        Q = check_semidefinite_stack(self.Q, "Q", n)
+        Q = check_covariance(self.Q, "Q", n, stack=True, semidefinite=True)
         if Q.ndim >= 3 and Q.shape[-3] not in (1, r):
             raise ValueError(f"Q: expected shape ({r}, {n}, {n}) or (..., {r}, {n}, {n}) (one covariance per mode), "
                              f"got {Q.shape}")
