@@ -119,10 +119,9 @@ def check_matrix(value, name: str, shape: tuple[int, int] | None = None) -> np.n
 def check_batch_vector(value, name: str, dim: int | None = None) -> np.ndarray:
     """A batch of vectors, shape (B, dim)."""
     arr = check_finite(as_float_array(value, name), name)
-    if arr.ndim != 2:
-        raise ValueError(f"{name}: expected shape (B, n) (batch of vectors), got {arr.shape}")
-    if dim is not None and arr.shape[1] != dim:
-        raise ValueError(f"{name}: expected vectors of length {dim}, got shape {arr.shape}")
+    if arr.ndim != 2 or (dim is not None and arr.shape[1] != dim):
+        raise ValueError(f"{name}: expected shape (B, {'n' if dim is None else dim}) (a batch of vectors), "
+                         f"got {arr.shape}")
     return arr
 
 

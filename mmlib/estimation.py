@@ -25,7 +25,7 @@ import numpy as np
 
 from .linalg import matmul_rows
 from .models import StackedDynamics
-from ._validate import (check_finite, as_float_array, check_applies, check_bool, check_has, check_name,
+from ._validate import (check_finite, as_float_array, check_applies, check_batch_vector, check_bool, check_has, check_name,
                         check_probabilities, check_transition_matrix)
 
 
@@ -148,12 +148,10 @@ def _measurement_model(default, override):
 
 
 def _check_measurement(z, dim: int, name: str = "z", batch: int | None = None) -> np.ndarray:
-    z = as_float_array(z, name)
-    if z.ndim != 2 or z.shape[1] != dim:
-        raise ValueError(f"{name}: expected shape ({'B' if batch is None else batch}, {dim}), got {z.shape}")
+    z = check_batch_vector(z, name, dim)
     if batch is not None and z.shape[0] != batch:
         raise ValueError(f"{name}: {z.shape[0]} runs of measurements for a state of {batch} runs")
-    return check_finite(z, name)
+    return z
 
 
 # --------------------------------------------------------------------------- single model
@@ -439,12 +437,27 @@ class Track(NamedTuple):
     def diverged(self) -> np.ndarray:
         return self.diverged_step >= 0
 
-    def divergence_report(self, name: str = "estimator") -> list[str]:
-        """One line per diverged run: ``name: run r diverged at step k (cause)``."""
-        causes = self.divergence_cause if self.divergence_cause is not None else \
-            np.full(self.diverged_step.shape, int(Failure.NONFINITE))
-        return [f"{name}: run {int(r)} diverged at step {int(self.diverged_step[r])} "
-                f"({FAILURE_CAUSES[Failure(int(causes[r]))]})" for r in np.flatnonzero(self.diverged_step >= 0)]
+    def divergence_summary(self) -> str:
+        """How many runs diverged, at which steps and why (:func:`summarise_divergence`)."""
+        return summarise_divergence(self.diverged_step, self.divergence_cause)
+
+
+def summarise_divergence(diverged_step, cause=None) -> str:
+    """``"4 of 100 runs diverged (steps 12, 40 ×2, 41; covariance no longer positive definite)"`` from the
+    per-run ``diverged_step`` (-1: did not) and :class:`Failure` codes ``cause`` (None: unknown, read as
+    overflow); ``""`` if no run diverged.  The one formatting of divergences (Track, RunSet, reports)."""
+    diverged_step = np.asarray(diverged_step)
+    bad = np.flatnonzero(diverged_step >= 0)
+    if not bad.size:
+        return ""
+    steps, counts = np.unique(diverged_step[bad], return_counts=True)
+    shown = ", ".join(f"{int(k)}" + (f" ×{int(c)}" if c > 1 else "") for k, c in zip(steps[:8], counts[:8])) \
+        + (", ..." if steps.size > 8 else "")
+    codes = np.full(bad.size, int(Failure.NONFINITE)) if cause is None else np.asarray(cause)[bad]
+    kinds = sorted(set(codes.tolist()))
+    causes = "; ".join(FAILURE_CAUSES[Failure(int(c))] + (f" ({int((codes == c).sum())})" if len(kinds) > 1 else "")
+                       for c in kinds)
+    return f"{bad.size} of {diverged_step.size} runs diverged (step{'s' if steps.size > 1 else ''} {shown}; {causes})"
 
 
 class FilterDivergence(RuntimeError):

@@ -78,6 +78,20 @@ class MonteCarlo:
         return np.stack([self.generator(r, stream).standard_normal(shape) for r in runs]) \
             if len(runs) else np.zeros((0,) + shape)
 
+    def gaussian(self, runs, stream: Stream, mean, cov) -> np.ndarray:
+        r"""Per-run draws from :math:`N(\text{mean}, \text{cov})`, shape ``(len(runs), n)``:
+        :math:`\text{mean} + L w` with :math:`LL^T = \text{cov}` (Cholesky) and ``w`` the run's standard normals
+        of ``stream`` (e.g. a sampled initial estimate, :attr:`Stream.INITIAL`).  ``mean`` (n,) or
+        (len(runs), n); the product is the same for a run in any batch, one run included."""
+        from ._validate import as_float_array, check_covariance
+        from .linalg import matmul_rows
+        cov = check_covariance(cov, "cov")
+        mean = as_float_array(mean, "mean")
+        if mean.shape[-1:] != cov.shape[:1]:
+            raise ValueError(f"mean: expected vectors of length {cov.shape[0]} (cov's), got shape {mean.shape}")
+        w = self.standard_normal(runs, stream, (cov.shape[0],))
+        return mean + matmul_rows(w, np.linalg.cholesky(cov).T)
+
     def chunks(self, chunk_size: int | None = None):
         """Consecutive run-index ranges covering all runs, ``chunk_size`` (integer >= 1, None: all) runs each."""
         size = self.n_runs if chunk_size is None else check_positive_int(chunk_size, "chunk_size")

@@ -283,18 +283,29 @@ def _jsonable(obj):
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
 
 
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write via a temporary file in the same folder and ``os.replace``: never half-written."""
+def atomic_write_text(path: Path, text: str, *, durable: bool = False) -> None:
+    """Write via a temporary file in the same folder and ``os.replace``: never half-written.  ``durable``:
+    also flushed to disk (the file before the rename, the folder after it), so that it survives a crash
+    once this returns (the notebook runner's promotion journal)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "w") as fh:
             fh.write(text)
+            if durable:
+                fh.flush()
+                os.fsync(fh.fileno())
         os.replace(tmp, path)
     except BaseException:
         os.unlink(tmp)
         raise
+    if durable:
+        dir_fd = os.open(path.parent, os.O_RDONLY)
+        try:
+            os.fsync(dir_fd)
+        finally:
+            os.close(dir_fd)
 
 
 def write_results(path, *, paper: str, provenance: dict, rows, **sections) -> dict:

@@ -4,6 +4,12 @@ import pytest
 from mmlib import models
 
 
+def raises_naming(name: str):
+    """``pytest.raises`` for the library's bad-input contract: a ValueError whose message starts with the
+    argument the caller wrote, ``"<name>: ..."`` (``name`` is a regular expression)."""
+    return pytest.raises(ValueError, match=rf"^{name}: ")
+
+
 def textbook_kf(x0, P0, F, Q, H, R, zs):
     """Independent reference: the closed-form Kalman filter, one run at a time, explicit inverse."""
     x, P = np.array(x0, float), np.array(P0, float)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from mmlib import fuzzy, gnss, models, rules
+from conftest import raises_naming
 
 
 def _cv():
@@ -166,7 +167,7 @@ BAD = {
 @pytest.mark.parametrize("case", list(BAD), ids=list(BAD))
 def test_bad_input_is_a_value_error_naming_the_argument(case):
     arg, call = BAD[case]
-    with pytest.raises(ValueError, match=rf"^{re.escape(arg)}:"):
+    with raises_naming(re.escape(arg)):
         call()
 
 

@@ -95,7 +95,7 @@ def test_imm_likelihood_underflow_is_reported_as_such(linear_problem):
     track = m.run(imm, imm.init(x0, P0), zs)
     assert track.diverged_step.tolist() == [-1, 4, -1]
     assert track.divergence_cause.tolist() == [0, Failure.LIKELIHOOD, 0]
-    assert "likelihood" in track.divergence_report("IMM")[0]
+    assert track.divergence_summary().startswith("1 of 3 runs diverged (step 4; every mode's likelihood underflowed")
     with pytest.raises(FilterDivergence, match="IMM: run 1 diverged at step 4 .*likelihood underflowed"):
         m.run(imm, imm.init(x0, P0), zs, on_divergence="raise")
 

@@ -8,6 +8,7 @@ from mmlib import models
 from mmlib.experiment import evaluation
 from mmlib.montecarlo import MonteCarlo, Stream
 from mmlib.simulate import ManeuverSchedule
+from conftest import raises_naming
 
 T, K = 1.0, 15
 P0 = np.diag([10.0, 4.0, 10.0, 4.0])
@@ -65,7 +66,7 @@ MC_BAD = {   # (call, argument); "(passes today)" marks cases the code before th
 @pytest.mark.parametrize("case", sorted(MC_BAD))
 def test_montecarlo_bad_input_names_the_argument(case):
     call, name = MC_BAD[case]
-    with pytest.raises(ValueError, match=rf"^{name}: "):
+    with raises_naming(name):
         call()
 
 
@@ -149,7 +150,7 @@ EVAL_BAD = {   # (call, argument); "(passes today)" marks cases the code before 
 @pytest.mark.parametrize("case", sorted(EVAL_BAD))
 def test_evaluation_bad_input_names_the_argument(ctx, case):
     call, name = EVAL_BAD[case]
-    with pytest.raises(ValueError, match=rf"^{name}: "):
+    with raises_naming(name):
         call(ctx)
 
 
@@ -243,5 +244,5 @@ def test_digest_summary_numbers(results):
     (lambda r: (r, True), "n_runs"),
 ])
 def test_digest_bad_input(results, args, name):
-    with pytest.raises(ValueError, match=rf"^{name}: "):
+    with raises_naming(name):
         evaluation.run_digest(*args(results))

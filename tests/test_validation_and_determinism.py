@@ -179,3 +179,25 @@ def test_timing_ratio_is_robust_to_a_few_disturbed_repeats():
     for bad_args in ((t, ref[:5]), (t[:1], ref[:1]), (t, -ref)):
         with pytest.raises(ValueError, match="times, reference"):
             metrics.timing_ratio(*bad_args)
+
+
+def test_gaussian_draws_have_the_asked_moments_and_do_not_depend_on_the_batch():
+    """MonteCarlo.gaussian: 4000 draws of N(m, C); sample mean within 4 s.e. (sqrt(C_ii / 4000)), sample
+    covariance within 4 s.e. of a covariance estimate (sqrt((C_ij^2 + C_ii C_jj) / 4000)); run 3 drawn alone
+    has the bits it has among 5."""
+    import mmlib
+    from mmlib.montecarlo import Stream
+    mc = mmlib.MonteCarlo(11, 4000)
+    mean = np.array([1.0, -2.0, 3.0])
+    A = np.array([[2.0, 0.0, 0.0], [0.5, 1.0, 0.0], [-0.3, 0.2, 0.5]])
+    cov = A @ A.T
+    x = mc.gaussian(range(4000), Stream.INITIAL, mean, cov)
+    assert np.all(np.abs(x.mean(axis=0) - mean) < 4 * np.sqrt(np.diag(cov) / 4000))
+    se = np.sqrt((cov ** 2 + np.outer(np.diag(cov), np.diag(cov))) / 4000)
+    assert np.all(np.abs(np.cov(x.T) - cov) < 4 * se)
+    np.testing.assert_array_equal(mc.gaussian([3], Stream.INITIAL, mean, cov)[0],
+                                  mc.gaussian(range(5), Stream.INITIAL, mean, cov)[3])
+    with pytest.raises(ValueError, match="^mean: "):
+        mc.gaussian(range(3), Stream.INITIAL, mean[:2], cov)
+    with pytest.raises(ValueError, match="^cov: "):
+        mc.gaussian(range(3), Stream.INITIAL, mean, -cov)

@@ -260,17 +260,6 @@ def fsync_tree(path: Path) -> None:
         fsync_dir(Path(folder))
 
 
-def write_durably(path: Path, text: str) -> None:
-    """Write ``path`` whole or not at all, and flushed: a temporary file, fsync, rename, fsync of the folder."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    with open(tmp, "w") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-    fsync_dir(path.parent)
-
-
 def move(src: Path, dst: Path) -> None:
     """Rename a file or folder (same file system, atomic), then reach the ``rename`` checkpoint."""
     dst.parent.mkdir(parents=True, exist_ok=True)
@@ -291,7 +280,8 @@ def write_journal(staging: Path, layout: Layout, paper: str, name: str) -> None:
     file is on disk, so that an interrupted promotion can always be finished."""
     entries = [{"path": rel, "staged": (staging / rel).exists()} for rel in owned_paths(layout, paper, name)]
     journal = {"out": os.path.relpath(layout.out, layout.root), "paper": paper, "entries": entries}
-    write_durably(staging / JOURNAL, json.dumps(journal, indent=1) + "\n")
+    from mmlib.report import atomic_write_text
+    atomic_write_text(staging / JOURNAL, json.dumps(journal, indent=1) + "\n", durable=True)
     checkpoint("journal")
 
 

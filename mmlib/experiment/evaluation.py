@@ -13,7 +13,7 @@ import numpy as np
 from .. import metrics
 from .._validate import (as_float_array, check_bool, check_finite, check_finite_runs, check_index,
                          check_positive_int)
-from ..estimation import run, select_runs
+from ..estimation import run, select_runs, summarise_divergence
 from ..montecarlo import MonteCarlo, Progress
 from ..simulate import simulate
 
@@ -34,22 +34,8 @@ class RunSet(NamedTuple):
         return self.diverged_step < 0
 
     def divergence_summary(self) -> str:
-        """How many runs diverged, at which steps (with a count where several runs share one) and why, e.g.
-        ``"4 of 100 runs diverged (steps 12, 40 ×2, 41; covariance no longer positive definite)"``; ``""`` if none
-        did."""
-        from ..estimation import FAILURE_CAUSES, Failure
-        bad = np.flatnonzero(~self.valid)
-        if not bad.size:
-            return ""
-        steps, counts = np.unique(self.diverged_step[bad], return_counts=True)
-        shown = ", ".join(f"{int(k)}" + (f" ×{int(c)}" if c > 1 else "") for k, c in zip(steps[:8], counts[:8])) \
-            + (", ..." if steps.size > 8 else "")
-        codes = (np.full(bad.size, int(Failure.NONFINITE)) if self.divergence_cause is None
-                 else self.divergence_cause[bad])
-        causes = "; ".join(f"{FAILURE_CAUSES[Failure(int(c))]}" + (f" ({int((codes == c).sum())})" if
-                                                                   len(set(codes.tolist())) > 1 else "")
-                           for c in sorted(set(codes.tolist())))
-        return f"{bad.size} of {self.diverged_step.size} runs diverged (step{'s' if steps.size > 1 else ''} {shown}; {causes})"
+        """How many runs diverged, at which steps and why (:func:`mmlib.estimation.summarise_divergence`)."""
+        return summarise_divergence(self.diverged_step, self.divergence_cause)
 
 
 def _check_mapping(value, name: str, what: str, nonempty: bool = True) -> Mapping:

@@ -346,10 +346,9 @@ def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
     P0 = np.diag(np.square(setup.P0_sd))
 
     def start(runs):
-        m0 = np.tile(x0, (len(runs), 1))
         if setup.samples_initial_estimate:
-            m0 = m0 + mc.standard_normal(runs, Stream.INITIAL, (6,)) * np.array(setup.P0_sd)
-        return m0
+            return mc.gaussian(runs, Stream.INITIAL, x0, P0)
+        return np.tile(x0, (len(runs), 1))
 
     make_batch = evaluation.make_batches(mc, schedule, radar, x0, estimators, lambda est, m0, runs: est.init(m0, P0),
                                          process_noise=setup.truth_process_noise, start=start)

@@ -28,7 +28,6 @@ from ..adaptive_imm import FuzzyNoiseBounds, NoiseAdaptiveIMM, WindowedNoiseAdap
 from ..estimation import IMM, SingleModel
 from ..filters import ExtendedKalmanFilter, SigmaPointFilter
 from ..fuzzy import TakagiSugeno, ramp_sets
-from ..linalg import matmul_rows
 from ..montecarlo import MonteCarlo, Stream
 from ..rules import Unscented
 from ..simulate import ManeuverSchedule, propagate
@@ -361,8 +360,7 @@ def make_batch_fn(ex: Experiment, mc: MonteCarlo):
         truth[:, :, list(gnss.CLOCK_INDEX)] = clock_truth
         v = mc.standard_normal(runs, Stream.MEASUREMENT, (K, n_sat)) * s.sigma_pr
         z = [model.h(truth[:, k + 1]) + v[:, k, ex.sky.visible[k]] for k, model in enumerate(ex.measurement_models)]
-        # matmul_rows: a run's start has the same bits whatever the batch (one run included)
-        x0 = truth[:, 0] + matmul_rows(mc.standard_normal(runs, Stream.INITIAL, (gnss.STATE_DIM,)), np.sqrt(P0))
+        x0 = mc.gaussian(runs, Stream.INITIAL, truth[:, 0], P0)
         init = {}
         for name, e in ex.estimators.items():
             init[name] = e.init(x0, P0, s.mu0) if isinstance(e, (IMM, NoiseAdaptiveIMM)) else e.init(x0, P0)

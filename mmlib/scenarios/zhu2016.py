@@ -29,7 +29,6 @@ import numpy as np
 from .. import metrics, models, report
 from ..estimation import IMM, KnownModeSequence, SingleModel
 from ..filters import ExtendedKalmanFilter, SigmaPointFilter
-from ..linalg import matmul_rows
 from ..montecarlo import MonteCarlo, Stream
 from ..rules import Cubature, FifthDegreeCubature, Unscented
 from ..simulate import ManeuverSchedule
@@ -279,8 +278,7 @@ def make_batch_fn(setup: Setup, mc: MonteCarlo):
 
     def start(runs):
         if setup.initial_estimate == "sampled":
-            # matmul_rows: a run's start has the same bits whatever the batch (one run included)
-            return x0 + matmul_rows(mc.standard_normal(runs, Stream.INITIAL, (4,)), np.linalg.cholesky(P0).T)
+            return mc.gaussian(runs, Stream.INITIAL, x0, P0)
         return np.tile(x0, (len(runs), 1))
 
     def init_state(est, m0, runs):
