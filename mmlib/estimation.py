@@ -23,6 +23,7 @@ from typing import Any, NamedTuple, Sequence
 
 import numpy as np
 
+from . import linalg
 from .linalg import matmul_rows
 from .models import StackedDynamics
 from ._validate import (check_finite, as_float_array, check_applies, check_batch_vector, check_bool, check_has, check_name,
@@ -37,6 +38,10 @@ class Failure(IntEnum):
     LIKELIHOOD = 2      # every mode's likelihood underflowed to zero: the mode probabilities are undefined
     NONFINITE = 3       # the estimate became non-finite otherwise (overflow)
 
+
+# the codes as numpy scalars: an IntEnum member as a numpy operand costs ~40 us (numpy probes it for
+# array interfaces through Enum.__getattr__), once per step in the hot loop
+_NONE, _COVARIANCE, _LIKELIHOOD, _NONFINITE = (np.int8(f) for f in Failure)
 
 #: Human-readable cause of each :class:`Failure`.
 FAILURE_CAUSES = {
@@ -128,7 +133,7 @@ def _failure_codes(failed):
     failed = np.asarray(failed)
     if failed.ndim > 1:
         failed = failed.any(axis=tuple(range(1, failed.ndim)))
-    return np.where(failed, np.int8(Failure.COVARIANCE), np.int8(Failure.NONE))
+    return np.where(failed, _COVARIANCE, _NONE)
 
 
 def _step_measurement(default, override, n: int):
@@ -275,19 +280,42 @@ class MomentMixing:
 
 
 def combine_covariances(wt, means, covs, centres):
-    r""":math:`\sum_i w_{ji}[P_i + (x_i - c_j)(x_i - c_j)^T]` for every j.
+    r""":math:`\sum_i w_{ji}[P_i + (x_i - c_j)(x_i - c_j)^T]` for every j (:func:`mmlib.linalg.combine_covariances`).
 
     ``wt`` (B, J, I), ``means`` (B, I, n), ``covs`` (B, I, n, n), ``centres`` (B, J, n)."""
-    B, J, I = wt.shape
-    n = means.shape[-1]
-    # Deviations from each centre, d_ji = x_i - c_j: every term w_ji [P_i + d_ji d_ji^T] is positive
-    # semi-definite, so the sum stays so to round-off (no subtraction of c c^T, which can cancel and
-    # give a negative variance).  Every product is per run (batch-size independent).
-    pooled = (wt @ covs.reshape(B, I, n * n)).reshape(B, J, n, n)
-    d = means[:, None, :, :] - centres[:, :, None, :]                  # (B, J, I, n)
-    wd = wt[..., :, None] * d                                          # (B, J, I, n)
-    spread = pooled + np.swapaxes(wd, -1, -2) @ d                      # (B, J, n, n)
-    return 0.5 * (spread + np.swapaxes(spread, -1, -2))
+    return linalg.combine_covariances(wt, means, covs, centres)
+
+
+def imm_output(loglik, c, means, covs, nu, S, with_cov: bool = True):
+    r"""The end of an IMM cycle (Zhu et al. 2016, Eqs. 57-59): mode probabilities :math:`\mu_j \propto c_j L_j`
+    (in logs, about the largest term), the log marginal likelihood :math:`\log p(z_k | z_{1:k-1}) =
+    \log\sum_j c_j L_j`, the fused estimate :math:`\sum_j \mu_j x_j` with (if ``with_cov``, else None) its
+    covariance :math:`\sum_j \mu_j[P_j + (x_j - \hat x)(x_j - \hat x)^T]`, and the innovation against the
+    predicted measurement of the mixture prior, :math:`z - \sum_j c_j \hat z_j = \sum_j c_j \nu_j`, with its
+    predicted covariance :math:`\sum_j c_j[S_j + (\nu_j - \nu)(\nu_j - \nu)^T]` (as :math:`\hat z_j - \hat z = \nu - \nu_j`).
+
+    ``loglik``, ``c`` (B, r); ``means`` (B, r, n); ``covs`` (B, r, n, n); ``nu`` (B, r, m); ``S`` (B, r, m, m).
+    Returns ``(mu, marginal, underflow, mean, cov, innovation, innovation_cov)``; ``underflow`` (B,): every
+    mode's likelihood underflowed (:math:`\log L_j = -\infty` for all j), the run's ``mu`` is then NaN.
+    Compiled when :func:`mmlib.linalg.kernel` is numba (:func:`mmlib.linalg.imm_output`)."""
+    if linalg.kernel() == "numba":
+        return linalg.imm_output(loglik, c, means, covs, nu, S, with_cov)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        logpost = loglik + np.log(c)                                  # (B, r)
+        top = np.max(logpost, axis=1, keepdims=True)
+        post = np.exp(logpost - top)
+        total = post.sum(axis=1, keepdims=True)
+        mu = post / total
+        marginal = (top + np.log(total))[:, 0]                        # log p(z_k | z_1:k-1)
+    underflow = (top[:, 0] == -np.inf)
+    if underflow.any():
+        mu = np.where(underflow[:, None], np.nan, mu)
+    fused_mean = (mu[:, None, :] @ means)[:, 0]
+    fused_cov = (combine_covariances(mu[:, None, :], means, covs, fused_mean[:, None, :])[:, 0]
+                 if with_cov else None)
+    innovation = (c[:, :, None] * nu).sum(axis=1)
+    innovation_cov = combine_covariances(c[:, None, :], nu, S, innovation[:, None, :])[:, 0]
+    return mu, marginal, underflow, fused_mean, fused_cov, innovation, innovation_cov
 
 
 class IMMState(NamedTuple):
@@ -385,35 +413,25 @@ class IMM:
             if not fits:
                 raise ValueError(f"dynamics: Q of shape {np.shape(dynamics.Q)} does not broadcast to "
                                  f"({B}, {r}, {n}, {n}) (runs, modes, state, state)")
-        c, w = mixing_weights(state.mode_probabilities, self.transition)
         modes = state.modes
-        mixed_means, mixed_covs = self.mixing(modes.mean, modes.cov, w)
+        if type(self.mixing) is MomentMixing and linalg.kernel() == "numba":
+            c, mixed_means, mixed_covs = linalg.imm_mix(state.mode_probabilities, self.transition, modes.mean,
+                                                        modes.cov)
+        else:
+            c, w = mixing_weights(state.mode_probabilities, self.transition)
+            mixed_means, mixed_covs = self.mixing(modes.mean, modes.cov, w)
         modes = modes._replace(mean=mixed_means, cov=mixed_covs)
         modes = self.filter.predict(modes, self.stacked if dynamics is None else dynamics)
         modes, info = self.filter.update(modes, z[:, None, :], measurement)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            logpost = info.loglik + np.log(c)                         # (B, r)
-            top = np.max(logpost, axis=1, keepdims=True)
-            post = np.exp(logpost - top)
-            total = post.sum(axis=1, keepdims=True)
-            mu = post / total
-            marginal = (top + np.log(total))[:, 0]                    # log p(z_k | z_1:k-1)
+        mu, marginal, underflow, fused_mean, fused_cov, innovation, innovation_cov = imm_output(
+            info.loglik, c, modes.mean, modes.cov, info.innovation, info.S, with_cov)
         failure = _failure_codes(getattr(info, "failed", None))
         # every mode's likelihood underflowed (log L_j = -inf for all j, e.g. a wild measurement): the
         # posterior mode probabilities are 0/0, undefined.  Diverged, with that cause, never patched.
-        underflow = (top[:, 0] == -np.inf)
         if underflow.any():
             if failure is None:
                 failure = np.zeros(mu.shape[0], dtype=np.int8)
-            failure = np.where(underflow & (failure == Failure.NONE), np.int8(Failure.LIKELIHOOD), failure)
-            mu = np.where(underflow[:, None], np.nan, mu)
-        fused_mean = (mu[:, None, :] @ modes.mean)[:, 0]
-        fused_cov = (combine_covariances(mu[:, None, :], modes.mean, modes.cov, fused_mean[:, None, :])[:, 0]
-                     if with_cov else None)
-        # innovation against the predicted measurement of the mixture prior: z - sum_j c_j zhat_j, and its
-        # predicted covariance (zhat_j - zhat = innovation - nu_j, so the spread term uses the innovations)
-        innovation = (c[:, :, None] * info.innovation).sum(axis=1)
-        innovation_cov = combine_covariances(c[:, None, :], info.innovation, info.S, innovation[:, None, :])[:, 0]
+            failure = np.where(underflow & (failure == _NONE), _LIKELIHOOD, failure)
         return IMMState(modes, mu), Estimate(fused_mean, fused_cov, mu, marginal, innovation,
                                              innovation_cov=innovation_cov, failure=failure)
 
@@ -528,10 +546,10 @@ def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bo
         state, est = (estimator.step(state, z_k, with_cov=keep_cov) if model_k is None
                       else estimator.step(state, z_k, with_cov=keep_cov, measurement=model_k))
         failure = np.zeros(B, dtype=np.int8) if est.failure is None else est.failure
-        bad = (~np.isfinite(est.mean).all(axis=1) | (failure != Failure.NONE)) & (diverged_step < 0)
+        bad = (~np.isfinite(est.mean).all(axis=1) | (failure != _NONE)) & (diverged_step < 0)
         if bad.any():
             diverged_step[bad] = k
-            cause[bad] = np.where(failure[bad] != Failure.NONE, failure[bad], np.int8(Failure.NONFINITE))
+            cause[bad] = np.where(failure[bad] != _NONE, failure[bad], _NONFINITE)
             if on_divergence == "raise":
                 r = int(np.argmax(bad))
                 raise FilterDivergence(f"{name}: run {r} diverged at step {k} "

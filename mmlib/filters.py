@@ -110,26 +110,10 @@ def kalman_update(state, pred: MeasurementPrediction, z: np.ndarray, measurement
     Joseph form needs :math:`S - P_{xz}^T P^{-1} P_{xz}`, the same cancellation) and use :math:`P - AA^T`.
     """
     nu = measurement.residual(z, pred.z_pred)
-    chol_s, s_failed = linalg.cholesky(pred.S)
-    linv = linalg.tril_inverse(chol_s)
-    a = pred.Pxz @ np.swapaxes(linv, -1, -2)                         # (..., n, m)
-    e = (linv @ nu[..., None])[..., 0]                               # (..., m)
-    mean = state.mean + (a @ e[..., None])[..., 0]
-    if pred.H is None:
-        cov = linalg.symmetrize(state.cov - a @ np.swapaxes(a, -1, -2))
-    else:                                                            # Joseph form
-        gain = a @ linv                                              # K = Pxz S^-1, (..., n, m)
-        i_kh = np.eye(state.mean.shape[-1]) - gain @ pred.H
-        cov = linalg.symmetrize(i_kh @ state.cov @ np.swapaxes(i_kh, -1, -2)
-                                + gain @ (measurement.R if pred.R is None else pred.R) @ np.swapaxes(gain, -1, -2))
-    with np.errstate(over="ignore"):                                 # a wild measurement: NIS = inf, L = 0
-        nis = (e * e).sum(axis=-1)
-    loglik = -0.5 * (nis + linalg.log_det_from_cholesky(chol_s) + nu.shape[-1] * LOG_2PI)
-    _, post_failed = linalg.cholesky(cov)        # non-finite covariances (NaN in, NaN out) fail too
-    failed = s_failed | post_failed
+    R = None if pred.H is None else (measurement.R if pred.R is None else pred.R)
+    mean, cov, nis, logdet, failed = linalg.kalman_moments(state.mean, state.cov, nu, pred.S, pred.Pxz, pred.H, R)
+    loglik = -0.5 * (nis + logdet + nu.shape[-1] * LOG_2PI)
     if failed.any():
-        mean = np.where(failed[..., None], np.nan, mean)
-        cov = np.where(failed[..., None, None], np.nan, cov)
         loglik = np.where(failed, np.nan, loglik)
     return state._replace(mean=mean, cov=cov), UpdateInfo(nu, pred.S, loglik, nis, failed)
 
@@ -200,25 +184,41 @@ class SigmaPointFilter(_FilterBase):
             object.__setattr__(self, "name", self.rule.name)
 
     def _points(self, state):
-        chol, _failed = linalg.cholesky(state.cov)
-        return self.rule.points(state.mean, chol)
+        """The rule's sigma points from the state's Cholesky factor (NaN for a run whose P is not PD)."""
+        X, _failed = linalg.sigma_points(state.mean, state.cov, self.rule.unit_points(state.mean.shape[-1]).xi)
+        return X
 
     def predict(self, state, dynamics):
+        if self._fused() and getattr(dynamics, "is_linear", False):
+            mean, cov = linalg.sigma_point_predict_linear(state.mean, state.cov,
+                                                          self.rule.unit_points(state.mean.shape[-1]),
+                                                          dynamics.F, dynamics.Q)
+            return state._replace(mean=mean, cov=cov)
         X = self._points(state)
         Y = dynamics.transition(X)
         wm = self.rule.unit_points(state.mean.shape[-1]).wm
-        mean = wm @ Y
-        cov = self.rule.covariance(X - state.mean[..., None, :], Y - mean[..., None, :]) + dynamics.Q
+        mean = linalg.weighted_mean(Y, wm)
+        cov = self.rule.covariance(X - state.mean[..., None, :], Y - mean[..., None, :], add=dynamics.Q)
         return state._replace(mean=mean, cov=cov)
+
+    def _fused(self) -> bool:
+        """Whether the compiled fused kernels apply: numba selected and a rule whose covariances are
+        weighted sums of outer products (every rule but the Stirling central differences)."""
+        return linalg.kernel() == "numba" and self.rule.weighted_moments
 
     def predict_measurement(self, state, measurement):
         X = self._points(state)
         Z = measurement.h(X)
-        wm = self.rule.unit_points(state.mean.shape[-1]).wm
+        up = self.rule.unit_points(state.mean.shape[-1])
+        angular = getattr(measurement, "angular", None)
+        if angular is not None and self._fused():
+            z_pred, S, pxz = linalg.measurement_moments(X, state.mean, Z, up, angular, measurement.R)
+            return MeasurementPrediction(z_pred, S, pxz)
+        wm = up.wm
         z_pred = measurement.average(Z, wm)
         dz = measurement.residual(Z, z_pred[..., None, :])
-        pzz, pxz = self.rule.covariances(X - state.mean[..., None, :], dz)
-        return MeasurementPrediction(z_pred, pzz + measurement.R, pxz)
+        pzz, pxz = self.rule.covariances(X - state.mean[..., None, :], dz, add=measurement.R)
+        return MeasurementPrediction(z_pred, pzz, pxz)
 
 
 class FilterLayer:

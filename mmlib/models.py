@@ -19,7 +19,7 @@ import numpy as np
 
 from ._validate import (RTOL, as_float_array, check_covariance, check_finite, check_has, check_index, check_matrix,
                         check_positive_int, check_scalar)
-from .linalg import matmul_rows
+from .linalg import _compiled as _compiled_kernels, matmul_rows
 
 
 TWO_PI = 2.0 * math.pi
@@ -235,6 +235,11 @@ class LinearMeasurement:
     def jacobian(self, x):
         return np.broadcast_to(self.H, x.shape[:-1] + self.H.shape)
 
+    @property
+    def angular(self) -> tuple:
+        """Which components are angles (residuals wrapped): none."""
+        return (False,) * self.dim
+
     def residual(self, a, b):
         return a - b
 
@@ -317,6 +322,9 @@ class RangeBearing:
         _freeze(self, R=R, sensor=sensor)
 
     dim = 2
+    #: which components are angles: the bearing (its residuals are wrapped to (-pi, pi], its average is
+    #: taken about a reference point); the compiled kernels of mmlib.linalg read this
+    angular = (False, True)
 
     @property
     def noise_factor(self) -> np.ndarray:
@@ -324,6 +332,10 @@ class RangeBearing:
 
     def h(self, x):
         i, j = self.position_index
+        k = _compiled_kernels()
+        if k is not None and max(i, j) < x.shape[-1]:     # (out of range: numpy's IndexError below)
+            flat = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, x.shape[-1])
+            return k.range_bearing(flat, i, j, float(self.sensor[0]), float(self.sensor[1])).reshape(x.shape[:-1] + (2,))
         dx = x[..., i] - self.sensor[0]
         dy = x[..., j] - self.sensor[1]
         return np.stack([np.hypot(dx, dy), np.arctan2(dy, dx)], axis=-1)
@@ -412,6 +424,11 @@ class StackedDynamics:
     @property
     def dim(self) -> int:
         return self.models[0].dim
+
+    @property
+    def is_linear(self) -> bool:
+        """All modes linear (then ``F`` is their stack)."""
+        return self.F is not None
 
     def transition(self, points):
         if self.F is not None:

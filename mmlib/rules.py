@@ -24,7 +24,7 @@ from itertools import combinations
 import numpy as np
 
 from ._validate import check_positive_int, check_scalar
-from .linalg import matmul_rows
+from .linalg import matmul_rows, weighted_covariances
 
 
 @dataclass(frozen=True)
@@ -57,6 +57,9 @@ class SigmaPointRule:
 
     name = "rule"
     degree = 3
+    #: True when the rule's covariances are the weighted outer products of :meth:`covariances` (the
+    #: compiled kernels of :mod:`mmlib.linalg` implement that form; a rule that overrides it says False)
+    weighted_moments = True
 
     def unit_points(self, n: int) -> UnitPoints:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -69,26 +72,21 @@ class SigmaPointRule:
         """Sigma points ``m + S xi_i``: mean (..., n), chol (..., n, n) -> (..., m, n)."""
         n = mean.shape[-1]
         up = self.unit_points(n)
-        # one GEMM for the whole batch: (S xi_p)_i = sum_j S_ij xi_pj  (3-4x faster than a
-        # broadcast matmul; bitwise the same per run whatever the batch size, one run and a
-        # one-dimensional state included: see linalg.matmul_rows -- tested)
+        # one product for the whole batch: (S xi_p)_i = sum_j S_ij xi_pj, bitwise the same per run
+        # whatever the batch size, one run and a one-dimensional state included (linalg.matmul_rows)
         offsets = matmul_rows(chol, up.xi.T)
         return mean[..., None, :] + np.swapaxes(offsets, -1, -2)
 
-    def covariances(self, dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        r"""``(P_yy, P_xy)`` from deviations ``dx = X_i - m`` (B, m, n) and
+    def covariances(self, dx: np.ndarray, dy: np.ndarray, add=None) -> tuple[np.ndarray, np.ndarray]:
+        r"""``(P_yy + add, P_xy)`` from deviations ``dx = X_i - m`` (..., m, n) and
         ``dy = Y_i - \bar y`` (..., m, d):  :math:`\sum_i w^c_i dy_i dy_i^T` and
-        :math:`\sum_i w^c_i dx_i dy_i^T`."""
-        up = self.unit_points(dx.shape[-1])
-        wdy = dy * up.wc[:, None]
-        both = np.swapaxes(np.concatenate([dy, dx], axis=-1), -1, -2) @ wdy   # one matmul
-        d = dy.shape[-1]
-        return both[..., :d, :], both[..., d:, :]
+        :math:`\sum_i w^c_i dx_i dy_i^T` (:func:`mmlib.linalg.weighted_covariances`); ``add`` (e.g. the
+        noise R) broadcasts against (..., d, d)."""
+        return weighted_covariances(dy, self.unit_points(dx.shape[-1]).wc, dx, add)
 
-    def covariance(self, dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
-        """Only ``P_yy`` (prediction step); ``dx`` is needed by rules that pair points."""
-        up = self.unit_points(dx.shape[-1])
-        return np.swapaxes(dy, -1, -2) @ (dy * up.wc[:, None])
+    def covariance(self, dx: np.ndarray, dy: np.ndarray, add=None) -> np.ndarray:
+        """Only ``P_yy + add`` (prediction step, ``add`` e.g. the noise Q); ``dx`` is needed by rules that pair points."""
+        return weighted_covariances(dy, self.unit_points(dx.shape[-1]).wc, None, add)[0]
 
 
 @dataclass(frozen=True)
@@ -285,14 +283,18 @@ class CentralDifference(SigmaPointRule):
         # Stirling form: wc unused (see covariances); weighted form: wc = wm (Hu et al. Eqs. 7, 10, 11)
         return _frozen(xi, wm, wm.copy() if self.form == "weighted" else np.full(2 * n + 1, np.nan))
 
-    def covariance(self, dx, dy):
-        if self.form == "weighted":
-            return SigmaPointRule.covariance(self, dx, dy)
-        return self.covariances(dx, dy)[0]
+    @property
+    def weighted_moments(self) -> bool:
+        return self.form == "weighted"
 
-    def covariances(self, dx, dy):
+    def covariance(self, dx, dy, add=None):
         if self.form == "weighted":
-            return SigmaPointRule.covariances(self, dx, dy)
+            return SigmaPointRule.covariance(self, dx, dy, add)
+        return self.covariances(dx, dy, add)[0]
+
+    def covariances(self, dx, dy, add=None):
+        if self.form == "weighted":
+            return SigmaPointRule.covariances(self, dx, dy, add)
         n = dx.shape[-1]
         h = self.h
         d0 = dy[..., :1, :]
@@ -303,7 +305,7 @@ class CentralDifference(SigmaPointRule):
         pyy = at @ a + np.swapaxes(b, -1, -2) @ b
         s = dx[..., 1:n + 1, :] / h                                   # rows are s_j^T
         pxy = np.swapaxes(s, -1, -2) @ a
-        return pyy, pxy
+        return (pyy if add is None else pyy + add), pxy
 
 
 _RULES = {

@@ -1,0 +1,215 @@
+"""The compiled kernels (numba, :mod:`mmlib._kernels`) against the numpy reference path (issue 12).
+
+Both paths implement the same mathematics; they sum in different orders (BLAS/LAPACK vs index order), so
+they agree to round-off, not bit for bit:
+
+* one kernel call on well-conditioned random operands: a few ulp per term, ``RTOL_ONE_CALL = 1e-13``
+  relative to the output's scale (n <= 9 terms per sum, condition numbers <= 1e2 here);
+* whole filter runs of every paper: the differences of one step propagate through the recursion, amplified
+  by the covariance's condition number (up to ~1e5 in liu2017's scenario), and mode probabilities
+  ``mu ~ exp(log L)`` turn a relative round-off of a log-likelihood of magnitude |log L| (up to ~1e3 for an
+  unlikely mode) into that much absolute difference: eps * K * cond(P) * |log L| ~ 2.2e-16 * 45 * 1e5 *
+  1e3 ~ 1e-6, hence ``RTOL_RUN = 1e-6`` of each field's scale per run; the divergence step and cause of
+  every run must be equal.
+
+Failure semantics (which matrices are not positive definite) are the same decision in both paths
+(LAPACK's ``potrf`` test); each path gives a run the same bits in any batch and any blocking.
+"""
+from __future__ import annotations
+
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mmlib import linalg
+from mmlib.estimation import combine_covariances, imm_output, mixing_weights
+
+sys.path.insert(0, str(Path(__file__).parent))
+import test_batch_independence as tbi      # noqa: E402  (the cases: every estimator of every paper)
+
+RTOL_ONE_CALL = 1e-13
+RTOL_RUN = 1e-6
+
+pytest.importorskip("numba")
+
+
+def _spd(rng, N, n, cond=10.0):
+    A = rng.standard_normal((N, n, n))
+    return A @ np.swapaxes(A, -1, -2) + np.eye(n) * (n / cond) + np.eye(n) * 0.1
+
+
+def _both(fn, *args, **kwargs):
+    out = {}
+    for k in linalg.KERNELS:
+        with linalg.use_kernel(k):
+            out[k] = fn(*args, **kwargs)
+    return out["numba"], out["numpy"]
+
+
+def _close(a, b, rtol, label=""):
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.shape == b.shape, (label, a.shape, b.shape)
+    if a.dtype == bool or b.dtype == bool:                  # failure masks: the same decision
+        assert np.array_equal(a, b), f"{label}: differs"
+        return
+    assert np.array_equal(np.isnan(a), np.isnan(b)), f"{label}: NaN in one path only"
+    scale = np.nanmax(np.abs(b)) if np.isfinite(b).any() else 1.0
+    err = np.nanmax(np.abs(a - b)) if np.isfinite(b).any() else 0.0
+    assert err <= rtol * max(scale, 1e-300), f"{label}: max difference {err:.3g} > {rtol:g} x scale {scale:.3g}"
+
+
+# ---------------------------------------------------------------------------------------------- one kernel at a time
+def test_every_kernel_matches_the_numpy_path_on_random_operands():
+    rng = np.random.default_rng(7)
+    B, r, n, m, M = 37, 3, 4, 2, 9
+    P = _spd(rng, B * r, n).reshape(B, r, n, n)
+    mean = rng.standard_normal((B, r, n)) * 10.0
+    xi = np.vstack([np.zeros((1, n)), 1.7 * np.eye(n), -1.7 * np.eye(n)])
+    w = rng.uniform(0.05, 0.2, M)
+    for got, ref in zip(*_both(linalg.cholesky, P)):
+        _close(got, ref, RTOL_ONE_CALL, "cholesky")
+    for got, ref in zip(*_both(linalg.sigma_points, mean, P, xi)):
+        _close(got, ref, RTOL_ONE_CALL, "sigma_points")
+    Y = rng.standard_normal((B, r, M, n))
+    _close(*_both(linalg.weighted_mean, Y, w), RTOL_ONE_CALL, "weighted_mean")
+    dz = rng.standard_normal((B, r, M, m))
+    R = np.diag([2.0, 0.5])
+    for got, ref in zip(*_both(linalg.weighted_covariances, dz, w, Y, R)):
+        _close(got, ref, RTOL_ONE_CALL, "weighted_covariances")
+    got, ref = _both(linalg.weighted_covariances, Y, w, None, P)
+    _close(got[0], ref[0], RTOL_ONE_CALL, "weighted_covariances (no cross term)")
+    assert got[1] is None and ref[1] is None
+    S = _spd(rng, B * r, m).reshape(B, r, m, m)
+    Pxz = rng.standard_normal((B, r, n, m)) * 0.3
+    nu = rng.standard_normal((B, r, m))
+    for got, ref in zip(*_both(linalg.kalman_moments, mean, P, nu, S, Pxz)):
+        _close(got, ref, RTOL_ONE_CALL, "kalman_moments")
+    H = rng.standard_normal((B, r, m, n)) * 0.2
+    for got, ref in zip(*_both(linalg.kalman_moments, mean, P, nu, S, Pxz, H, R)):
+        _close(got, ref, RTOL_ONE_CALL, "kalman_moments (Joseph)")
+    wt = rng.dirichlet(np.ones(r), size=(B, r))
+    for got, ref in zip(*_both(combine_covariances, wt, mean, P, rng.standard_normal((B, r, n)))):
+        _close(got, ref, RTOL_ONE_CALL, "combine_covariances")
+    mu = rng.dirichlet(np.ones(r), size=B)
+    T = np.array([[0.9, 0.05, 0.05], [0.1, 0.8, 0.1], [0.0, 0.3, 0.7]])
+    loglik = rng.normal(-5.0, 3.0, (B, r))
+    c, _ = mixing_weights(mu, T)
+    for got, ref in zip(*_both(imm_output, loglik, c, mean, P, nu, S, True)):
+        _close(got, ref, RTOL_ONE_CALL, "imm_output")
+
+
+def test_fused_steps_equal_the_generic_composition():
+    """The fused kernels (sigma-point prediction through linear dynamics, measurement moments, IMM
+    interaction) give what the generic numpy composition gives."""
+    from mmlib import IMM, SigmaPointFilter, Unscented, models
+    from mmlib.filters import GaussianState
+    rng = np.random.default_rng(3)
+    B, n = 23, 4
+    dyn = [models.constant_velocity(1.0, 1.0), models.coordinated_turn(1.0, 0.05, 1.0)]
+    radar = models.RangeBearing(np.diag([100.0, 1e-4]))
+    imm = IMM(SigmaPointFilter(Unscented(1.0, 2.0, 0.0)), dyn, radar, np.array([[0.9, 0.1], [0.2, 0.8]]))
+    P = _spd(rng, B * 2, n, cond=5.0).reshape(B, 2, n, n) * 100.0
+    state = GaussianState(rng.standard_normal((B, 2, n)) * 100.0 + np.array([2e4, 10.0, 1e4, 5.0]), P)
+    got, ref = _both(imm.filter.predict, state, imm.stacked)
+    _close(got.mean, ref.mean, RTOL_ONE_CALL, "predict mean")
+    _close(got.cov, ref.cov, RTOL_ONE_CALL, "predict cov")
+    got, ref = _both(imm.filter.predict_measurement, state, radar)
+    for g, r_, f in zip(got, ref, got._fields):
+        if g is not None:
+            _close(g, r_, RTOL_ONE_CALL, f"predict_measurement {f}")
+    mu = rng.dirichlet(np.ones(2), size=B)
+    st = imm.init(state.mean[:, 0], P[:, 0], mode_probabilities=mu)
+    st = st._replace(modes=state)
+    z = radar.h(state.mean[:, 0]) + rng.standard_normal((B, 2)) * np.array([10.0, 1e-2])
+    (s1, e1), (s2, e2) = _both(imm.step, st, z)
+    for f in ("mean", "cov", "mode_probabilities", "loglik", "innovation", "innovation_cov"):
+        _close(getattr(e1, f), getattr(e2, f), 1e-12, f"imm.step {f}")
+
+
+@pytest.mark.parametrize("bad", ["negative pivot", "NaN", "inf on the diagonal", "inf below", "semidefinite"])
+def test_not_positive_definite_is_the_same_decision_in_both_paths(bad):
+    rng = np.random.default_rng(5)
+    A = _spd(rng, 6, 3)
+    X = A.copy()
+    if bad == "negative pivot":
+        X[2] = np.diag([1.0, -1.0, 1.0])
+    elif bad == "NaN":
+        X[2, 1, 0] = np.nan
+    elif bad == "inf on the diagonal":
+        X[2, 1, 1] = np.inf
+    elif bad == "inf below":
+        X[2, 2, 0] = -np.inf
+    else:
+        X[2] = np.ones((3, 3))
+    (L1, f1), (L2, f2) = _both(linalg.cholesky, X)
+    assert f1.tolist() == f2.tolist() == [False, False, True, False, False, False]
+    assert np.isnan(L1[2]).all() and np.isnan(L2[2]).all()
+    (X1, g1), (X2, g2) = _both(linalg.sigma_points, np.zeros((6, 3)), X, np.eye(3))
+    assert g1.tolist() == g2.tolist() == f1.tolist() and np.isnan(X1[2]).all() and np.isnan(X2[2]).all()
+
+
+# ---------------------------------------------------------------------------------------------- every paper
+@pytest.mark.parametrize("case_id", list(tbi.CASES))
+def test_every_estimator_of_every_paper_agrees_across_kernels(case_id):
+    """Every filter, layer and IMM of every paper's headline (and the reading variants that reach other code
+    paths), run by both paths on the same 6 runs: estimates, covariances, mode probabilities and
+    diagnostics within ``RTOL_RUN`` of each field's scale; the same runs diverge at the same steps for the
+    same causes."""
+    case = tbi.CASES[case_id]()
+    truth, z, init = case.batch(6)
+    for name in case.estimators:
+        got, ref = _both(case.run, name, init, z)
+        assert got.diverged_step.tolist() == ref.diverged_step.tolist(), name
+        assert got.divergence_cause.tolist() == ref.divergence_cause.tolist(), name
+        for field in ("mean", "cov", "mode_probabilities", "diagnostics"):
+            a, b = getattr(got, field), getattr(ref, field)
+            assert (a is None) == (b is None), (name, field)
+            if a is None:
+                continue
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                for run_ in range(a.shape[0]):
+                    _close(a[run_], b[run_], RTOL_RUN, f"{case_id} {name}.{field} run {run_}")
+
+
+# ---------------------------------------------------------------------------------------------- blocking, selection
+def test_blocking_does_not_change_a_bit(monkeypatch):
+    """Kernel calls split a large stack into blocks (for the cache): every run gets the bits of an unblocked
+    call, with operands periodic over the runs (one Q per mode) included."""
+    case = tbi.CASES["zhou2017 case 1"]()
+    truth, z, init = case.batch(40)
+    with linalg.use_kernel("numba"):
+        ref = {name: case.run(name, init, z) for name in case.estimators}
+        monkeypatch.setattr(linalg, "BLOCK", 4)
+        for name in case.estimators:
+            got = case.run(name, init, z)
+            for field in ("mean", "cov", "mode_probabilities", "diverged_step"):
+                a, b = getattr(got, field), getattr(ref[name], field)
+                if a is not None:
+                    assert np.array_equal(a, b, equal_nan=True), (name, field)
+
+
+def test_kernel_selection(monkeypatch):
+    monkeypatch.setenv("MMLIB_KERNEL", "fortran")
+    with pytest.raises(ValueError, match="^MMLIB_KERNEL: "):
+        linalg._initial_kernel()
+    monkeypatch.setenv("MMLIB_KERNEL", "numpy")
+    assert linalg._initial_kernel() == "numpy"
+    with pytest.raises(ValueError, match="^name: "):
+        linalg.set_kernel("cuda")
+    before = linalg.kernel()
+    with linalg.use_kernel("numpy"):
+        assert linalg.kernel() == "numpy"
+    assert linalg.kernel() == before
+
+
+def test_a_shape_mismatch_is_an_error_not_a_silent_read():
+    """The compiled kernels do not check bounds; their wrapper does, so inconsistent operands fail loudly."""
+    with linalg.use_kernel("numba"):
+        with pytest.raises(ValueError, match="matmul_rows"):
+            linalg.matmul_rows(np.ones((3, 6)), np.ones((4, 2)))
+        with pytest.raises(ValueError, match="sigma_points"):
+            linalg.sigma_points(np.zeros((2, 3)), np.broadcast_to(np.eye(4), (2, 4, 4)), np.eye(3))
