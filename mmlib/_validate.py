@@ -159,29 +159,17 @@ def check_covariance(value, name: str, dim: int | None = None, *, batch: bool = 
     if semidefinite:
         test = flat.copy()
         test.reshape(N, -1)[:, ::n + 1] += (RTOL * scale)[:, None]
-    try:
-        np.linalg.cholesky(test)
+    from .linalg import cholesky           # the filters' own test, matrix by matrix (compiled when selected)
+    _, failed = cholesky(test)
+    if not failed.any():
         return arr
-    except np.linalg.LinAlgError:
-        pass
     eig_min = np.linalg.eigvalsh(flat)[:, 0]
-    if semidefinite:
-        bad = eig_min < -RTOL * scale
-    else:                       # judged matrix by matrix by LAPACK, as the filters judge it
-        bad = np.array([not _has_cholesky(a) for a in flat])
+    bad = eig_min < -RTOL * scale if semidefinite else failed
     if np.any(bad):
         i = int(np.argmax(bad))
         kind = "positive semi-definite" if semidefinite else "positive definite"
         raise ValueError(f"{name}: covariance{where(i)} is not {kind}; smallest eigenvalue {float(eig_min[i]):.3g}")
     return arr
-
-
-def _has_cholesky(a: np.ndarray) -> bool:
-    try:
-        np.linalg.cholesky(a)
-        return True
-    except np.linalg.LinAlgError:
-        return False
 
 
 def check_probabilities(value, name: str, *, axis: int = -1, total: bool = True) -> np.ndarray:

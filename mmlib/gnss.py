@@ -221,6 +221,11 @@ class Pseudoranges:
     def noise_factor(self) -> np.ndarray:
         return np.linalg.cholesky(self.R)
 
+    @property
+    def angular(self) -> tuple:
+        """Which components are angles (residuals wrapped): none."""
+        return (False,) * self.dim
+
     def _line_of_sight(self, x):
         p = x[..., list(POSITION_INDEX)]                               # (..., 3)
         d = self.satellites - p[..., None, :]                          # (..., m, 3)
