@@ -255,9 +255,18 @@ def git_commit(repo: Path | None = None) -> str:
         return "unknown"
 
 
+def _version(package: str):
+    try:
+        from importlib.metadata import version
+        return version(package)
+    except Exception:          # noqa: BLE001 -- not installed: recorded as None
+        return None
+
+
 def provenance(*, root_seed: int, n_runs: int, profile: str, extra: dict | None = None) -> dict:
     import matplotlib
     import scipy
+    from .linalg import kernel
     info = {
         "git_commit": git_commit(Path(__file__).resolve().parent.parent),
         "root_seed": int(root_seed),
@@ -265,7 +274,8 @@ def provenance(*, root_seed: int, n_runs: int, profile: str, extra: dict | None 
         "profile": profile,
         "python": sys.version.split()[0],
         "packages": {"numpy": np.__version__, "scipy": scipy.__version__,
-                     "matplotlib": matplotlib.__version__},
+                     "matplotlib": matplotlib.__version__, "numba": _version("numba")},
+        "kernel": kernel(),
     }
     info.update(extra or {})
     return info
