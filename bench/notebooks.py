@@ -1,0 +1,86 @@
+"""Wall times of the committed executed notebooks (``notebooks/executed/*.ipynb``), from papermill's
+metadata: the notebook's start and end times and each cell's ``metadata.papermill.duration``.
+
+Per paper: the wall time (papermill's ``duration``, end - start, kernel start-up included), its
+*headline* part (the cells before the first code cell that calls ``run_multiverse(``: set-up, the
+headline reading's Monte Carlo evaluation, figures, claims) and its *multiverse* part (that cell and
+every later one: the reading-space universes and their tables and figures); the rest of the wall
+time is papermill's own (kernel start, between cells).  These are the times of the run that produced
+the committed notebooks, not of this benchmark's run.
+"""
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+MULTIVERSE_CALL = "run_multiverse("
+CACHE_LINE = re.compile(r"(\d+)/(\d+) universes from the cache")
+
+
+def _text(outputs) -> str:
+    parts = []
+    for o in outputs or ():
+        t = o.get("text") if "text" in o else o.get("data", {}).get("text/plain", "")
+        parts.append("".join(t) if isinstance(t, list) else str(t or ""))
+    return "".join(parts)
+
+
+def notebook_time(path: Path) -> dict:
+    """The times of one executed notebook (see the module docstring)."""
+    nb = json.loads(Path(path).read_text())
+    pm = nb.get("metadata", {}).get("papermill", {})
+    durations, split, cached = [], None, 0
+    for cell in nb.get("cells", []):
+        src = "".join(cell.get("source", ""))
+        if split is None and cell.get("cell_type") == "code" and MULTIVERSE_CALL in src:
+            split = len(durations)
+            cached = sum(int(m.group(1)) for m in CACHE_LINE.finditer(_text(cell.get("outputs"))))
+        durations.append(float(cell.get("metadata", {}).get("papermill", {}).get("duration") or 0.0))
+    cells = sum(durations)
+    head = sum(durations[:split]) if split is not None else cells
+    return {
+        "notebook": str(Path(path).name),
+        "start_time": pm.get("start_time"), "end_time": pm.get("end_time"),
+        "wall_s": pm.get("duration"),
+        "cells_s": cells,
+        "headline_s": head,
+        "multiverse_s": cells - head if split is not None else None,
+        "papermill_overhead_s": (pm.get("duration") - cells) if pm.get("duration") is not None else None,
+        "multiverse_first_cell": split,
+        "universes_from_cache": cached if split is not None else None,
+        "parameters": pm.get("parameters"),
+    }
+
+
+def notebook_times(executed_dir: Path, results_dir: Path | None = None) -> dict:
+    """Every ``*.ipynb`` of ``executed_dir``, keyed by paper (the file name up to its first ``_``), with the
+    git commit recorded in the paper's results file (``results_dir/<paper>.json``) when there is one; and
+    the sums over the papers."""
+    papers = {}
+    for path in sorted(Path(executed_dir).glob("*.ipynb")):
+        paper = path.stem.split("_")[0]
+        t = notebook_time(path)
+        res = Path(results_dir) / f"{paper}.json" if results_dir is not None else None
+        if res is not None and res.exists():
+            t["results_git_commit"] = json.loads(res.read_text()).get("provenance", {}).get("git_commit")
+        papers[paper] = t
+
+    def total(key):
+        vals = [t[key] for t in papers.values()]
+        return None if any(v is None for v in vals) else sum(vals)
+    starts = [t["start_time"] for t in papers.values() if t["start_time"]]
+    ends = [t["end_time"] for t in papers.values() if t["end_time"]]
+    return {
+        "what": "wall times of the run that produced the committed executed notebooks (notebooks/executed/), "
+                "read from papermill's metadata; not times of this benchmark's run. headline = the cells before "
+                "the first code cell calling run_multiverse( ; multiverse = that cell and all later ones; "
+                "papermill_overhead = wall - sum of the cells (kernel start-up). The multiverse's universes run in "
+                "a pool of $WORKERS processes (default: the usable cores) with one BLAS thread each; the "
+                "notebooks do not record the worker count. universes_from_cache: universes read from the "
+                "multiverse cache instead of computed (0: all computed).",
+        "papers": papers,
+        "sum": {"wall_s": total("wall_s"), "headline_s": total("headline_s"), "multiverse_s": total("multiverse_s"),
+                "cells_s": total("cells_s"), "papermill_overhead_s": total("papermill_overhead_s")},
+        "first_start": min(starts) if starts else None, "last_end": max(ends) if ends else None,
+    }
