@@ -46,6 +46,11 @@ def _inner2(a, N):
     over the flattened (runs, modes) axes, e.g. one Q per mode)."""
     P, p = a.shape
     out = np.empty((p, N))
+    if P == N:                      # (the common case: no modulo, writes contiguous along the runs)
+        for i in range(p):
+            for b in range(N):
+                out[i, b] = a[b, i]
+        return out
     for b in range(N):
         for i in range(p):
             out[i, b] = a[b % P, i]
@@ -57,6 +62,12 @@ def _inner3(a, N):
     """(P, p, q) -> (p, q, N), run b taking matrix b % P (see :func:`_inner2`)."""
     P, p, q = a.shape
     out = np.empty((p, q, N))
+    if P == N:
+        for i in range(p):
+            for j in range(q):
+                for b in range(N):
+                    out[i, j, b] = a[b, i, j]
+        return out
     for b in range(N):
         src = b % P
         for i in range(p):
@@ -70,8 +81,8 @@ def _outer2(a):
     """(p, N) -> (N, p)."""
     p, N = a.shape
     out = np.empty((N, p))
-    for b in range(N):
-        for i in range(p):
+    for i in range(p):
+        for b in range(N):
             out[b, i] = a[i, b]
     return out
 
@@ -81,9 +92,9 @@ def _outer3(a):
     """(p, q, N) -> (N, p, q)."""
     p, q, N = a.shape
     out = np.empty((N, p, q))
-    for b in range(N):
-        for i in range(p):
-            for j in range(q):
+    for i in range(p):
+        for j in range(q):
+            for b in range(N):
                 out[b, i, j] = a[i, j, b]
     return out
 
@@ -204,10 +215,11 @@ def sigma_points(mean, cov, xi):
     X = np.empty((M, n, N))
     _points(_inner2(mean, N), L, xi, X)
     out = np.empty((N, M, n))
-    for b in range(N):
-        for p in range(M):
-            for i in range(n):
-                out[b, p, i] = X[p, i, b] if not failed[b] else np.nan
+    for p in range(M):
+        for i in range(n):
+            for b in range(N):
+                out[b, p, i] = X[p, i, b]
+    _nan_rows3(out, failed)
     return out, failed
 
 
@@ -243,9 +255,9 @@ def _inner_points(Y):
     """(N, M, d) -> (M, d, N)."""
     N, M, d = Y.shape
     out = np.empty((M, d, N))
-    for b in range(N):
-        for p in range(M):
-            for i in range(d):
+    for p in range(M):
+        for i in range(d):
+            for b in range(N):
                 out[p, i, b] = Y[b, p, i]
     return out
 
@@ -432,9 +444,9 @@ def _inner_stack(a):
     """(B, J, p) -> (J, p, B)."""
     B, J, p = a.shape
     out = np.empty((J, p, B))
-    for b in range(B):
-        for j in range(J):
-            for i in range(p):
+    for j in range(J):
+        for i in range(p):
+            for b in range(B):
                 out[j, i, b] = a[b, j, i]
     return out
 
@@ -444,10 +456,10 @@ def _inner_stack4(a):
     """(B, J, p, q) -> (J, p, q, B)."""
     B, J, p, q = a.shape
     out = np.empty((J, p, q, B))
-    for b in range(B):
-        for j in range(J):
-            for i in range(p):
-                for k in range(q):
+    for j in range(J):
+        for i in range(p):
+            for k in range(q):
+                for b in range(B):
                     out[j, i, k, b] = a[b, j, i, k]
     return out
 
@@ -457,10 +469,10 @@ def _outer_stack4(a):
     """(J, p, q, B) -> (B, J, p, q)."""
     J, p, q, B = a.shape
     out = np.empty((B, J, p, q))
-    for b in range(B):
-        for j in range(J):
-            for i in range(p):
-                for k in range(q):
+    for j in range(J):
+        for i in range(p):
+            for k in range(q):
+                for b in range(B):
                     out[b, j, i, k] = a[j, i, k, b]
     return out
 
@@ -604,9 +616,9 @@ def _outer_stack3(a):
     """(J, p, B) -> (B, J, p)."""
     J, p, B = a.shape
     out = np.empty((B, J, p))
-    for b in range(B):
-        for j in range(J):
-            for i in range(p):
+    for j in range(J):
+        for i in range(p):
+            for b in range(B):
                 out[b, j, i] = a[j, i, b]
     return out
 
