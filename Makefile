@@ -3,6 +3,7 @@
 #   make test                     unit tests + smoke profile of every notebook + tolerance tests
 # Also: make figures PROFILE=smoke (writes under build/smoke/), make bench, make clean
 # One paper, other settings: make figures PAPER=zhu2016 N_RUNS=500 SEED=7
+# Where it runs (outputs unchanged): make figures WORKERS=1, make figures SCHEDULER=tcp://host:8786 (Dask)
 #   (PAPER: one or more paper names; any N_RUNS or SEED sends the outputs to build/custom/<profile>-<settings>/,
 #    never over the committed ones); make recover finishes an interrupted promotion and removes leftovers
 
@@ -13,6 +14,10 @@ STAMP := $(VENV)/.installed-stamp
 PROFILE ?= full
 # passed through to tools/run_notebooks.py: the papers to run (default all) and notebook parameter overrides
 RUN_ARGS = $(if $(N_RUNS),-p N_RUNS=$(N_RUNS)) $(if $(SEED),-p SEED=$(SEED)) $(PAPER)
+# execution settings (never change a result, so never send the outputs to build/custom/): WORKERS=n worker
+# processes in all (a WORKERS environment variable is read by the runner itself), SCHEDULER=tcp://host:8786 a Dask
+# scheduler receiving the Monte Carlo chunks and universes (the kernels see it as MMLIB_SCHEDULER)
+EXEC_ARGS = $(if $(filter command line,$(origin WORKERS)),--workers $(WORKERS)) $(if $(SCHEDULER),--scheduler $(SCHEDULER))
 
 .PHONY: figures test unit smoke bench clean venv recover
 
@@ -27,10 +32,10 @@ $(STAMP): requirements.lock pyproject.toml
 	@touch $(STAMP)
 
 figures: $(STAMP)
-	$(PY) tools/run_notebooks.py --profile $(PROFILE) $(RUN_ARGS)
+	$(PY) tools/run_notebooks.py --profile $(PROFILE) $(EXEC_ARGS) $(RUN_ARGS)
 
 smoke: $(STAMP)
-	$(PY) tools/run_notebooks.py --profile smoke $(RUN_ARGS)
+	$(PY) tools/run_notebooks.py --profile smoke $(EXEC_ARGS) $(RUN_ARGS)
 
 recover: $(STAMP)
 	$(PY) tools/run_notebooks.py --recover
@@ -39,9 +44,12 @@ unit: $(STAMP)
 	$(PY) -m pytest -q tests --ignore=tests/tolerance
 
 test: $(STAMP)
-	$(PY) tools/run_notebooks.py --profile smoke
+	$(PY) tools/run_notebooks.py --profile smoke $(EXEC_ARGS)
 	$(PY) -m pytest -q tests
 
+# The benchmark report (data/bench/: imm_ukf.json, scaling.json, scaling.png, notebooks.json), single-threaded:
+# the script sets OMP/OPENBLAS/MKL/BLIS/NUMBA_NUM_THREADS to BENCH_THREADS (default 1) before numpy loads.
+# Options: BENCH_REPEATS (interleaved repeats per library, default 5), BENCH_MAX_RUNS (largest size, default 100000)
 bench: $(STAMP)
 	$(PY) bench/imm_ukf.py
 

@@ -16,6 +16,7 @@ from .._validate import (as_float_array, check_bool, check_finite, check_finite_
 from ..estimation import run, select_runs, summarise_divergence
 from ..montecarlo import MonteCarlo, Progress
 from ..simulate import simulate
+from .executors import run_tasks
 
 
 
@@ -121,43 +122,56 @@ def make_batches(mc: MonteCarlo, schedule, measurement, x0, estimators: dict, in
 
 
 def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_size: int = 250,
-             label: str = "", progress: bool = True, measurement_models=None) -> dict:
+             label: str = "", progress: bool = True, measurement_models=None, workers: int | None = None,
+             executor=None) -> dict:
     """Run every estimator on the same runs (common random numbers), chunk by chunk.
 
     ``make_batch(runs)`` returns ``(truth (B, K+1, n), measurements (B, K, m),
     init: dict name -> initial state)``; with ``measurement_models`` (one per step, see
     :func:`mmlib.estimation.run`) the measurements are a list of K arrays (B, m_k).
     Returns ``{name: RunSet}``.
-    """
+
+    The runs are cut into chunks of ``chunk_size`` (integer >= 1) consecutive runs, and the chunks run in
+    parallel where :func:`mmlib.experiment.executors.run_tasks` puts them: ``executor`` if given (any
+    ``concurrent.futures.Executor``, not shut down here), else the Dask cluster of ``$MMLIB_SCHEDULER`` if set,
+    else ``workers`` local processes (integer >= 1; default ``$WORKERS``, else every core); one chunk, one worker,
+    or a call from inside a task (a universe of ``run_grid``) runs in this process.  The chunks depend on
+    ``chunk_size`` only, the results are concatenated in chunk order and the filters give a run the same bits in
+    any batch, so the numbers are bit for bit those of a serial run, whatever the workers, executor or chunk size.
+    ``estimators``, ``make_batch`` and ``measurement_models`` are sent to the workers with cloudpickle (closures
+    and notebook functions are fine).  ``progress`` prints a line per finished chunk."""
     _check_mapping(estimators, "estimators", "estimators by name")
     _check_callable(make_batch, "make_batch", "a function runs -> (truth, measurements, init)")
     check_bool(progress, "progress")
     if not isinstance(mc, MonteCarlo):
         raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
-    out = {name: {"err": [], "mu": [], "div": [], "diag": [], "cause": []} for name in estimators}
-    first = {}
+    chunks = mc.chunks(chunk_size)
     bar = Progress(label or "Monte Carlo", mc.n_runs, enabled=progress)
-    for runs in mc.chunks(chunk_size):
-        truth, z, init = _checked_batch(make_batch(runs), runs, estimators, measurement_models is not None)
-        for name, est in estimators.items():
-            track = run(est, init[name], z, keep_cov=False, measurement_models=measurement_models)
-            if track.mean.shape[-1] != truth.shape[-1]:
-                raise ValueError(f"make_batch: truth of state dimension {truth.shape[-1]}, but {name!r} estimates "
-                                 f"{track.mean.shape[-1]}")
-            out[name]["err"].append(track.mean - truth[:, 1:])
-            out[name]["div"].append(track.diverged_step)
-            out[name]["cause"].append(track.divergence_cause)
-            if track.mode_probabilities is not None:
-                out[name]["mu"].append(track.mode_probabilities)
-            if track.diagnostics is not None:
-                out[name]["diag"].append(track.diagnostics)
-            if name not in first:
-                first[name] = track.mean[0]
-        bar.advance(len(runs))
-    return {name: RunSet(np.concatenate(d["err"]), np.concatenate(d["mu"]) if d["mu"] else None,
-                         np.concatenate(d["div"]), first[name],
-                         np.concatenate(d["diag"]) if d["diag"] else None, np.concatenate(d["cause"]))
-            for name, d in out.items()}
+    parts = run_tasks(_evaluate_chunk, [(runs,) for runs in chunks],
+                      shared=(estimators, make_batch, measurement_models), workers=workers, executor=executor,
+                      on_result=lambda i, _: bar.advance(len(chunks[i])))
+    out = {}
+    for name in estimators:
+        per = [part[name] for part in parts]
+        cat = (lambda field: np.concatenate([p[field] for p in per]) if per[0][field] is not None else None)
+        out[name] = RunSet(cat("err"), cat("mu"), cat("div"), per[0]["first"], cat("diag"), cat("cause"))
+    return out
+
+
+def _evaluate_chunk(estimators: dict, make_batch: Callable, measurement_models, runs) -> dict:
+    """One chunk of :func:`evaluate` (a task, possibly in a worker process): ``{name: {"err", "mu", "div",
+    "diag", "cause", "first"}}`` for the runs ``runs`` (a range of run indices), ``mu``/``diag`` None when the
+    estimator has none; ``first`` is the estimate of the chunk's first run."""
+    truth, z, init = _checked_batch(make_batch(runs), runs, estimators, measurement_models is not None)
+    out = {}
+    for name, est in estimators.items():
+        track = run(est, init[name], z, keep_cov=False, measurement_models=measurement_models)
+        if track.mean.shape[-1] != truth.shape[-1]:
+            raise ValueError(f"make_batch: truth of state dimension {truth.shape[-1]}, but {name!r} estimates "
+                             f"{track.mean.shape[-1]}")
+        out[name] = {"err": track.mean - truth[:, 1:], "mu": track.mode_probabilities, "div": track.diverged_step,
+                     "diag": track.diagnostics, "cause": track.divergence_cause, "first": track.mean[0]}
+    return out
 
 
 def paired_mse_difference(a: RunSet, b: RunSet, components):
@@ -353,7 +367,9 @@ def run_digest(results, n_runs: int) -> dict:
     (C order, every NaN written as the one canonical NaN: NaN sign and payload bits are not results).
     Beside it, for a readable mismatch message, per name: ``mean_squared_error`` (mean over the valid
     runs among the first n, the K steps and the n components of the squared error, in the squared unit
-    of the state; None if no run is valid) and ``diverged`` (runs among the first n that diverged)."""
+    of the state; None if no run is valid) and ``diverged`` (runs among the first n that diverged); ``kernel``:
+    the implementation that computed them (:func:`mmlib.linalg.kernel`: the compiled and numpy paths agree to
+    round-off, not bit for bit, so digests compare only within one kernel)."""
     flat = _flat_runsets(results, "results")
     n_runs = check_positive_int(n_runs, "n_runs")
     h = hashlib.sha256(DIGEST_VERSION.encode())
@@ -375,5 +391,6 @@ def run_digest(results, n_runs: int) -> dict:
         diverged[name] = int((~ok).sum())
         m = float(np.mean(rs.errors[:n_runs][ok] ** 2)) if ok.any() else None
         mse[name] = m if m is not None and np.isfinite(m) else None
+    from ..linalg import kernel
     return {"version": DIGEST_VERSION, "n_runs": n_runs, "algorithms": sorted(flat), "sha256": h.hexdigest(),
-            "mean_squared_error": mse, "diverged": diverged}
+            "mean_squared_error": mse, "diverged": diverged, "kernel": kernel()}

@@ -1,15 +1,15 @@
 """The grid runner: every universe of a design as an independent Monte Carlo job.
 
-A *job* is a module-level function ``job(reading, n_runs, seed) -> dict`` (picklable, so
-that worker processes can run it); every job uses the paper's one root seed and the
+A *job* is a function ``job(reading, n_runs, seed) -> dict`` (sent to the workers with
+cloudpickle; a module-level function keeps its cache key stable); every job uses the paper's one root seed and the
 per-run streams of :mod:`mmlib.montecarlo`, so universes share common random numbers
 and a universe's numbers do not depend on which worker ran it, in which order, or
 whether it came from the cache.
 
-Jobs run in parallel worker processes (``concurrent.futures.ProcessPoolExecutor``,
-one per local core by default, BLAS threads held to one per worker); any
-``concurrent.futures.Executor`` can be passed instead (e.g. a Dask client's
-``get_executor()``).  Results are cached on disk as JSON under a key of (paper, job,
+Jobs run where :mod:`mmlib.experiment.executors` puts them: this process's pool of
+spawned worker processes (one per local core by default, ``$WORKERS`` to choose, BLAS
+threads held to one per worker), the Dask cluster of ``$MMLIB_SCHEDULER``, or any
+``concurrent.futures.Executor`` passed in.  Results are cached on disk as JSON under a key of (paper, job,
 reading, algorithms, runs, seed, the hash of mmlib's source): re-running after an edit
 that leaves ``mmlib/`` alone (a notebook's prose, say) recomputes nothing, and any edit
 of the library recomputes everything.
@@ -20,7 +20,6 @@ import concurrent.futures as cf
 import functools
 import hashlib
 import json
-import multiprocessing
 import os
 import sys
 import time
@@ -28,8 +27,8 @@ from pathlib import Path
 from typing import Callable, Mapping
 
 from .._validate import check_positive_int
-
-BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
+# default_workers lived here: kept importable from this module
+from .executors import default_workers, run_tasks, worker_count  # noqa: F401
 
 
 #: modules that only render results (tables, figures): editing them cannot change a universe's numbers
@@ -102,28 +101,6 @@ def _run_job(job, reading, n_runs, seed):
     return job(dict(reading), n_runs, seed)
 
 
-def default_workers() -> int:
-    """``$WORKERS`` if set, else the number of cores this process may use."""
-    env = os.environ.get("WORKERS", "").strip()
-    if env:
-        if not env.isdigit() or int(env) < 1:
-            raise ValueError(f"WORKERS: expected a positive integer (number of worker processes), got {env!r}")
-        return int(env)
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-
-
-class _SerialExecutor(cf.Executor):
-    """Runs each job at submission, in this process (``workers=1``)."""
-
-    def submit(self, fn, *args, **kwargs):
-        fut = cf.Future()
-        try:
-            fut.set_result(fn(*args, **kwargs))
-        except BaseException as exc:  # noqa: BLE001 -- re-raised by Future.result()
-            fut.set_exception(exc)
-        return fut
-
-
 def run_grid(job: Callable, readings, *, paper: str, algorithms, n_runs: int, seed: int,
              executor: cf.Executor | None = None, workers: int | None = None,
              cache_dir: str | Path | None = None, use_cache: bool = True,
@@ -131,9 +108,11 @@ def run_grid(job: Callable, readings, *, paper: str, algorithms, n_runs: int, se
     """Run ``job(reading, n_runs, seed)`` for every reading; results in the order of ``readings``.
 
     ``executor``: any ``concurrent.futures.Executor`` (it is not shut down here); by default
-    a process pool of ``workers`` processes (``default_workers()``), or this process when
-    ``workers == 1``.  ``cache_dir``: where results are kept (``default_cache_dir()``);
-    ``use_cache=False`` neither reads nor writes it.  ``progress``: True prints one line per
+    the Dask cluster of ``$MMLIB_SCHEDULER`` if set, else this process's pool of ``workers``
+    local processes (integer >= 1; default ``$WORKERS``, else every core), or this process
+    when ``workers == 1`` or one universe is to be computed (:func:`executors.run_tasks`);
+    the results do not depend on where the jobs ran.  ``cache_dir``: where results are kept
+    (``default_cache_dir()``); ``use_cache=False`` neither reads nor writes it.  ``progress``: True prints one line per
     universe to stderr, a callable receives that line, False is silent.
     """
     readings = [dict(r) for r in readings]
@@ -141,8 +120,9 @@ def run_grid(job: Callable, readings, *, paper: str, algorithms, n_runs: int, se
     check_positive_int(seed, "seed", minimum=0)
     if not callable(job):
         raise ValueError(f"job: expected a callable job(reading, n_runs, seed), got {job!r}")
-    if workers is not None:
-        check_positive_int(workers, "workers")
+    worker_count(workers)               # a bad workers or $WORKERS is an error even when all is cached
+    if executor is not None and not callable(getattr(executor, "submit", None)):
+        raise ValueError(f"executor: expected a concurrent.futures.Executor, got {type(executor).__name__}")
     algorithms = list(algorithms)
     cache = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     say = (lambda line: print(line, file=sys.stderr, flush=True)) if progress is True else (progress or None)
@@ -163,44 +143,27 @@ def run_grid(job: Callable, readings, *, paper: str, algorithms, n_runs: int, se
         say(f"  [{tag}] {n_cached}/{len(readings)} universes from the cache ({cache / paper})")
     if not todo:
         return results
-    own = executor is None
-    n_workers = workers or default_workers()
-    saved_env = {}
-    if own and n_workers > 1:
-        for var in BLAS_THREAD_VARIABLES:            # inherited by the spawned workers
-            saved_env[var] = os.environ.get(var)
-            os.environ[var] = "1"
-        executor = cf.ProcessPoolExecutor(max_workers=min(n_workers, len(todo)),
-                                          mp_context=multiprocessing.get_context("spawn"))
-    elif own:
-        executor = _SerialExecutor()
     t0 = time.perf_counter()
-    try:
-        futures = {executor.submit(_run_job, job, readings[i], n_runs, seed): i for i in todo}
-        done = 0
-        for fut in cf.as_completed(futures):
-            i = futures[fut]
-            res = fut.result()
-            if not isinstance(res, dict):
-                raise ValueError(f"job: {job_name(job)} returned {type(res).__name__}, expected a dict")
-            results[i] = json.loads(json.dumps(res, allow_nan=False))   # the same form as from the cache
-            if any(k not in results[i] for k in RESULT_KEYS):
-                raise ValueError(f"job: {job_name(job)} returned a dict without {RESULT_KEYS} "
-                                 f"(build it with multiverse.universe_result)")
-            if use_cache:
-                _write_json_atomic(cache / paper / f"{keys[i]}.json", {"key": key_docs[i], "result": results[i]})
-            done += 1
-            if say:
-                div = res.get("diverged") or {}
-                ndiv = sum(div.values()) if isinstance(div, dict) else 0
-                say(f"  [{tag}] universe {done}/{len(todo)} done ({time.perf_counter() - t0:.1f} s): "
-                    f"{json.dumps(readings[i], sort_keys=False)}" + (f"; diverged runs {div}" if ndiv else ""))
-    finally:
-        if own:
-            executor.shutdown(wait=True, cancel_futures=True)
-        for var, value in saved_env.items():
-            if value is None:
-                os.environ.pop(var, None)
-            else:
-                os.environ[var] = value
+    done = 0
+
+    def finished(k, res):
+        nonlocal done
+        i = todo[k]
+        if not isinstance(res, dict):
+            raise ValueError(f"job: {job_name(job)} returned {type(res).__name__}, expected a dict")
+        results[i] = json.loads(json.dumps(res, allow_nan=False))   # the same form as from the cache
+        if any(key not in results[i] for key in RESULT_KEYS):
+            raise ValueError(f"job: {job_name(job)} returned a dict without {RESULT_KEYS} "
+                             f"(build it with multiverse.universe_result)")
+        if use_cache:
+            _write_json_atomic(cache / paper / f"{keys[i]}.json", {"key": key_docs[i], "result": results[i]})
+        done += 1
+        if say:
+            div = res.get("diverged") or {}
+            ndiv = sum(div.values()) if isinstance(div, dict) else 0
+            say(f"  [{tag}] universe {done}/{len(todo)} done ({time.perf_counter() - t0:.1f} s): "
+                f"{json.dumps(readings[i], sort_keys=False)}" + (f"; diverged runs {div}" if ndiv else ""))
+
+    run_tasks(_run_job, [(readings[i], n_runs, seed) for i in todo], shared=(job,), workers=workers,
+              executor=executor, on_result=finished)
     return results

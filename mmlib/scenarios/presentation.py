@@ -56,7 +56,7 @@ class NotebookRun:
         # the reading-space multiverse: Monte Carlo runs per universe and design (profile defaults)
         self.mv_runs = MULTIVERSE_RUNS or cfg.get("mv_runs", self.n_runs)
         self.mv_design = MULTIVERSE_DESIGN or cfg.get("mv_design", "auto")
-        from ..experiment.grid import default_workers
+        from ..experiment.executors import default_workers
         self.workers = WORKERS or default_workers()
         cwd = Path.cwd().resolve()
         self.root = Path(OUTPUT_ROOT) if OUTPUT_ROOT else (cwd.parent if cwd.name == "notebooks" else cwd)

@@ -1,0 +1,115 @@
+"""The notebook runner's execution settings and parallel notebooks: WORKERS and SCHEDULER reach the kernels'
+environment without sending the outputs to build/custom/; independent notebooks execute at the same time while each
+paper's promotion stays whole (one at a time, so the last cross-paper README describes every paper); bad settings are
+rejected by name before anything runs.  Uses the throw-away roots and fake notebooks of tests/test_runner.py."""
+from __future__ import annotations
+
+import re
+import socket
+import subprocess
+import time
+
+from test_runner import (REPO, assert_no_leftovers, assert_whole, base, generations, repo, run,  # noqa: F401
+                         runner, sigkill, snapshot, start_until)
+
+from mmlib.experiment import executors
+
+ENV_CELL = '''
+# %%
+import os
+print("kernel env: WORKERS=" + os.environ.get("WORKERS", "") + " MMLIB_SCHEDULER=" + os.environ.get("MMLIB_SCHEDULER", ""))
+'''
+
+
+def report_environment(root) -> None:
+    """Make every fake notebook print the execution settings its kernel sees."""
+    for src in (root / "notebooks").glob("*.py"):
+        src.write_text(src.read_text() + ENV_CELL)
+
+
+def test_make_passes_workers_and_scheduler_as_execution_settings():
+    proc = subprocess.run(["make", "-n", "-C", str(REPO), "figures", "PAPER=zhu2016", "WORKERS=1",
+                           "SCHEDULER=tcp://host:8786"], capture_output=True, text=True, timeout=60, check=True)
+    line = next(li for li in proc.stdout.splitlines() if "run_notebooks.py" in li)
+    assert line.split("run_notebooks.py", 1)[1].split() == ["--profile", "full", "--workers", "1", "--scheduler",
+                                                           "tcp://host:8786", "zhu2016"]
+
+
+def test_parallel_plan_divides_the_workers_among_the_notebooks_at_once(runner):
+    """(notebooks at once, WORKERS of each kernel): the split measured best on 2 cores is 2 notebooks with 1 each."""
+    assert runner.parallel_plan(2, 5) == (2, 1)
+    assert runner.parallel_plan(1, 5) == (1, 1)
+    assert runner.parallel_plan(4, 1) == (1, 4)
+    assert runner.parallel_plan(8, 5) == (5, 2)
+    assert runner.parallel_plan(6, 2) == (2, 3)
+
+
+def test_notebooks_execute_at_once_and_each_promotion_is_whole(repo):
+    report_environment(repo)
+    proc = run(repo, "--workers", "2", check=0)
+    lines = proc.stdout.splitlines()
+    assert "execution: 2 worker(s): 2 notebook(s) at a time, WORKERS=1 in each" in lines
+    for stem in ("alpha2001_fake", "beta2002_fake"):
+        assert sum(bool(re.fullmatch(rf"\[\d/2\] {stem}: executing .*", ln)) for ln in lines) == 1
+        assert sum(bool(re.fullmatch(rf"\[\d/2\] {stem}: done in \d+\.\d s -> .*", ln)) for ln in lines) == 1
+        assert f"[{stem}] kernel env: WORKERS=1 MMLIB_SCHEDULER=" in lines       # prefixed, in its environment
+    first_done = next(i for i, ln in enumerate(lines) if ": done in " in ln)
+    assert sum(": executing " in ln for ln in lines[:first_done]) == 2          # both started before either ended
+    assert_whole(repo, alpha2001="new", beta2002="new")                         # the last README has both papers
+    assert_no_leftovers(repo)
+
+
+def test_workers_never_send_the_outputs_to_custom(repo):
+    report_environment(repo)
+    proc = run(repo, "-p", "WORKERS=3", "alpha2001", check=0)
+    assert "kernel env: WORKERS=3 " in proc.stdout and "build/custom" not in proc.stdout
+    assert not (repo / "build" / "custom").exists()
+    assert_whole(repo, alpha2001="new", beta2002="old")
+
+
+def test_a_failure_stops_no_running_notebook_and_promotes_nothing_of_itself(repo):
+    proc = run(repo, "--workers", "2", env={"FAKE_NOTEBOOK_FAILS": "alpha2001"}, check=1)
+    assert "FAILED: notebook notebooks/alpha2001_fake.py, cell" in proc.stderr
+    assert_whole(repo, alpha2001="old", beta2002="new")      # beta's README carries alpha's current (old) line
+
+
+def test_killed_during_parallel_promotion_leaves_each_paper_whole(repo):
+    """Killed with one paper's promotion journaled while the other notebook runs or waits for its turn: recovery
+    finishes the one journaled promotion (there is never more than one) and abandons the other."""
+    sigkill(start_until(repo, "fault injection: paused at journal", "--workers", "2",
+                        env={"RUN_NOTEBOOKS_PAUSE": "journal"}))
+    run(repo, "--recover", check=0)
+    gens = {paper: set(generations(repo, paper).values()) for paper in ("alpha2001", "beta2002")}
+    assert sorted(map(sorted, gens.values())) == [["new"], ["old"]], gens
+    assert_no_leftovers(repo)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_bad_execution_settings_are_rejected_by_name_before_anything_runs(runner, repo, capsys, monkeypatch):
+    monkeypatch.setattr(executors, "SCHEDULER_TIMEOUT", 3.0)
+    address = f"tcp://127.0.0.1:{free_port()}"
+    before = snapshot(repo)
+    cases = [(["--workers", "0"], {}, "--workers: expected a positive integer (number of worker processes), got '0'"),
+             (["--workers", "two"], {}, "--workers: expected a positive integer"),
+             (["--workers", "-1"], {}, "--workers: expected a positive integer"),
+             ([], {"WORKERS": "1.5"}, "WORKERS: expected a positive integer (number of worker processes), got '1.5'"),
+             (["-p", "WORKERS=0"], {}, "-p WORKERS: expected an integer >= 1 or None, got 0"),
+             (["--workers", "2", "-p", "WORKERS=3"], {}, "--workers 2 and -p WORKERS=3 disagree"),
+             (["--scheduler", address], {}, f"--scheduler {address}: no Dask scheduler answered at {address} "
+                                            f"within 3 s")]
+    for args, env, message in cases:
+        for key, value in env.items():
+            monkeypatch.setenv(key, value)
+        t0 = time.monotonic()
+        assert runner.main(["--root", str(repo), *args, "alpha2001"]) == 2, args
+        assert time.monotonic() - t0 < 3.0 + 5.0
+        out, err = capsys.readouterr()
+        assert message in err and "nothing was run or written" in err and "executing" not in out, (args, err)
+        for key in env:
+            monkeypatch.delenv(key)
+    assert snapshot(repo) == before
