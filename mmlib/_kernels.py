@@ -700,3 +700,43 @@ def imm_output(loglik, c, means, covs, nu, S, with_cov):
         cov_out = np.empty((B, 0, 0))
     return (mu, marginal, underflow, _outer_stack3(fused)[:, 0], cov_out, _outer_stack3(innov)[:, 0],
             _outer_stack4(icov)[:, 0])
+
+
+@njit(**_OPTS)
+def congruence(A, P, add):
+    r"""The linearised moments of the EKF: :math:`A P A^T + \mathrm{add}` and :math:`P A^T` for a stack:
+    A (N, d, n) (a Jacobian), P (N, n, n), add (N, d, d) (the noise Q or R) -> ``((N, d, d), (N, n, d))``;
+    :math:`APA^T` is computed as :math:`A(PA^T)` and symmetrised as the numpy path's sum is not."""
+    N = P.shape[0]                          # (A and add may be periodic over the runs)
+    d, n = A.shape[1], A.shape[2]
+    Ab = _inner3(A, N)
+    Pb = _inner3(P, N)
+    PAt = np.zeros((n, d, N))
+    for i in range(n):
+        for j in range(d):
+            for k in range(n):
+                for b in range(N):
+                    PAt[i, j, b] += Pb[i, k, b] * Ab[j, k, b]
+    S = _inner3(add, N)
+    for i in range(d):
+        for j in range(d):
+            for k in range(n):
+                for b in range(N):
+                    S[i, j, b] += Ab[i, k, b] * PAt[k, j, b]
+    return _outer3(S), _outer3(PAt)
+
+
+@njit(**_OPTS)
+def linear_predict(mean, cov, F, Q):
+    r"""The Kalman filter's time update through linear dynamics, fused: :math:`(F m, F P F^T + Q)` with
+    :math:`FPF^T = F(PF^T)` (as :func:`congruence`): mean (N, n), cov (N, n, n), F (N, n, n), Q (N, n, n)."""
+    N, n = mean.shape
+    Fb = _inner3(F, N)
+    mb = _inner2(mean, N)
+    out = np.zeros((n, N))
+    for i in range(n):
+        for k in range(n):
+            for b in range(N):
+                out[i, b] += Fb[i, k, b] * mb[k, b]
+    S, _ = congruence(F, cov, Q)
+    return _outer2(out), S

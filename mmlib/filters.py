@@ -143,15 +143,17 @@ class ExtendedKalmanFilter(_FilterBase):
         check_name(self.name)
 
     def predict(self, state, dynamics):
+        if linalg.kernel() == "numba" and getattr(dynamics, "is_linear", False):
+            mean, cov = linalg.linear_predict(state.mean, state.cov, dynamics.F, dynamics.Q)
+            return state._replace(mean=mean, cov=cov)
         F = dynamics.jacobian(state.mean)
-        cov = F @ state.cov @ np.swapaxes(F, -1, -2) + dynamics.Q
+        cov, _ = linalg.congruence(F, state.cov, dynamics.Q)
         mean = dynamics.transition(state.mean[..., None, :])[..., 0, :]
         return state._replace(mean=mean, cov=cov)
 
     def predict_measurement(self, state, measurement):
         H = measurement.jacobian(state.mean)
-        pxz = state.cov @ np.swapaxes(H, -1, -2)
-        S = H @ pxz + measurement.R
+        S, pxz = linalg.congruence(H, state.cov, measurement.R)
         return MeasurementPrediction(measurement.h(state.mean[..., None, :])[..., 0, :], S, pxz, H)
 
 

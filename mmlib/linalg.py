@@ -117,6 +117,8 @@ _SHAPES = {
     "sigma_point_predict_linear": ("N n", "N n n", "M n", "M", "M", "N n n", "N n n"),
     "measurement_moments": ("N M n", "N n", "N M m", "M", "M", "m", "N m m"),
     "imm_mix": ("N r", "r r", "N r n", "N r n n"),
+    "congruence": ("N d n", "N n n", "N d d"),
+    "linear_predict": ("N n", "N n n", "N n n", "N n n"),
     "imm_output": ("N r", "N r", "N r n", "N r n n", "N r m", "N r m m", None),
 }
 _CHECKED: set = set()
@@ -509,3 +511,28 @@ def imm_output(loglik, c, means, covs, nu, S, with_cov: bool):
     mu, marginal, underflow, mean, cov, innovation, innovation_cov = _call("imm_output", loglik.shape[0],
         _stack(loglik, 1), _stack(c, 1), _stack(means, 2), _stack(covs, 3), _stack(nu, 2), _stack(S, 3), bool(with_cov))
     return mu, marginal, underflow, mean, (cov if with_cov else None), innovation, innovation_cov
+
+
+def congruence(A, P, add):
+    r"""The EKF's linearised moments ``(A P A^T + add, P A^T)``: ``A`` (..., d, n) (a Jacobian, broadcasting over
+    the stack), ``P`` (..., n, n), ``add`` broadcasting against (..., d, d) (the noise Q or R).  The same
+    products as the numpy path's ``A @ P @ A^T + add`` and ``P @ A^T``, compiled when :func:`kernel` is numba."""
+    lead = P.shape[:-2]
+    d, n = A.shape[-2], A.shape[-1]
+    k = _compiled()
+    if k is not None:
+        flat = _stack(P, 2)
+        S, PAt = _call("congruence", flat.shape[0], _periodic(A, 2, lead), flat, _periodic(add, 2, lead))
+        return S.reshape(lead + (d, d)), PAt.reshape(lead + (n, d))
+    PAt = P @ np.swapaxes(A, -1, -2)
+    return A @ PAt + add, PAt
+
+
+def linear_predict(mean, cov, F, Q):
+    r"""Time update through linear dynamics fused (compiled kernel only): ``(F m, F P F^T + Q)`` for ``mean``
+    (..., n), ``cov`` (..., n, n) and ``F``, ``Q`` broadcasting against (..., n, n) (e.g. one per mode)."""
+    lead = mean.shape[:-1]
+    n = mean.shape[-1]
+    flat = _stack(mean, 1)
+    m, c = _call("linear_predict", flat.shape[0], flat, _stack(cov, 2, lead), _periodic(F, 2, lead), _periodic(Q, 2, lead))
+    return m.reshape(lead + (n,)), c.reshape(lead + (n, n))

@@ -90,6 +90,8 @@ def test_every_kernel_matches_the_numpy_path_on_random_operands():
     H = rng.standard_normal((B, r, m, n)) * 0.2
     for got, ref in zip(*_both(linalg.kalman_moments, mean, P, nu, S, Pxz, H, R)):
         _close(got, ref, RTOL_ONE_CALL, "kalman_moments (Joseph)")
+    for got, ref in zip(*_both(linalg.congruence, H, P, R)):
+        _close(got, ref, RTOL_ONE_CALL, "congruence")
     wt = rng.dirichlet(np.ones(r), size=(B, r))
     for got, ref in zip(*_both(combine_covariances, wt, mean, P, rng.standard_normal((B, r, n)))):
         _close(got, ref, RTOL_ONE_CALL, "combine_covariances")
@@ -116,6 +118,10 @@ def test_fused_steps_equal_the_generic_composition():
     got, ref = _both(imm.filter.predict, state, imm.stacked)
     _close(got.mean, ref.mean, RTOL_ONE_CALL, "predict mean")
     _close(got.cov, ref.cov, RTOL_ONE_CALL, "predict cov")
+    from mmlib import ExtendedKalmanFilter
+    got, ref = _both(ExtendedKalmanFilter().predict, state, imm.stacked)
+    _close(got.mean, ref.mean, RTOL_ONE_CALL, "EKF predict mean")
+    _close(got.cov, ref.cov, RTOL_ONE_CALL, "EKF predict cov")
     got, ref = _both(imm.filter.predict_measurement, state, radar)
     for g, r_, f in zip(got, ref, got._fields):
         if g is not None:
