@@ -5,7 +5,7 @@ operation ran at the rate of a large matrix product; ``measured / floor`` says h
 implementation is from the arithmetic.
 
 **What is counted.**  The arithmetic of the equations mmlib implements for this job (the
-docstrings of :mod:`mmlib.estimation` and :mod:`mmlib.filters`), in mmlib's formulation -- the
+docstrings of :mod:`mmlib.core.estimation` and :mod:`mmlib.core.filters`), in mmlib's formulation -- the
 positive-semi-definite moment combination of the mixing, the Cholesky-factor form of the Kalman
 update, the angle-aware mean of range-bearing predictions -- evaluated *densely*, each matrix
 expression as a dense product of its full operands (no use of the zeros of ``F``, of the
@@ -35,7 +35,7 @@ import time
 #: (2 products, 1 sum, 1 sqrt) and one atan2.
 RANGE_BEARING_H_FLOPS = 7
 
-#: Wrapping one angle to (-pi, pi]: ``a + 2 pi floor((pi - a) / 2 pi)`` (mmlib.models.wrap_angle).
+#: Wrapping one angle to (-pi, pi]: ``a + 2 pi floor((pi - a) / 2 pi)`` (mmlib.core.models.wrap_angle).
 WRAP_FLOPS = 5
 
 
@@ -53,7 +53,7 @@ def cholesky_flops(n: int) -> int:
 
 
 def tril_inverse_flops(m: int) -> int:
-    r"""Inverse of an ``m x m`` lower-triangular factor by forward substitution (mmlib.linalg.tril_inverse):
+    r"""Inverse of an ``m x m`` lower-triangular factor by forward substitution (mmlib.core.linalg.tril_inverse):
     ``m`` reciprocals of the diagonal, and for entry (i, j), i > j, ``i - j`` products, ``i - j - 1`` sums
     and one product by the reciprocal: :math:`m + \sum_{i>j} 2(i-j) = m + (m^3 - m)/3`."""
     return m + (m ** 3 - m) // 3
@@ -84,7 +84,7 @@ def imm_ukf_flops(n: int = 4, m: int = 2, r: int = 3, *, h_flops: int = RANGE_BE
         "mixing weights": r * r + r * (r - 1) + r * r,
         # 2. x0_j = sum_i mu_i|j x_i
         "mixed means": r * n * dot(r),
-        # 3. P0_j = sum_i mu_i|j P_i + sum_i (mu_i|j d_ji) d_ji^T, d_ji = x_i - x0_j (mmlib.estimation.combine_covariances)
+        # 3. P0_j = sum_i mu_i|j P_i + sum_i (mu_i|j d_ji) d_ji^T, d_ji = x_i - x0_j (mmlib.core.estimation.combine_covariances)
         "mixed covariances": r * r * n + r * r * n + 2 * r * n * n * dot(r) + r * n * n,
         # 4.-7. time update of each mode: factor, points, transition F X_i, mean and covariance (+ Q)
         "predict: Cholesky": r * cholesky_flops(n),
@@ -97,7 +97,7 @@ def imm_ukf_flops(n: int = 4, m: int = 2, r: int = 3, *, h_flops: int = RANGE_BE
         "measurement prediction: h": r * p * h_flops,
         "measurement prediction: moments": r * (average + p * residual + p * n + p * m
                                                 + m * m * dot(p) + n * m * dot(p) + m * m),
-        # 12. Kalman update of each mode (mmlib.filters.kalman_update): nu, S = L L^T, L^-1, A = Pxz L^-T,
+        # 12. Kalman update of each mode (mmlib.core.filters.kalman_update): nu, S = L L^T, L^-1, A = Pxz L^-T,
         #     e = L^-1 nu, x + A e, P - A A^T, NIS e^T e, log-likelihood -(NIS + 2 sum log L_ii + m log 2 pi)/2
         "update": r * (residual + cholesky_flops(m) + tril_inverse_flops(m) + n * m * dot(m) + m * dot(m)
                        + n * dot(m) + n + n * n * dot(m) + n * n + dot(m) + (m + (m - 1) + 1) + 3),

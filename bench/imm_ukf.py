@@ -41,8 +41,8 @@ from typing import NamedTuple          # noqa: E402
 import numpy as np                     # noqa: E402
 
 import mmlib                           # noqa: E402
-from mmlib import models               # noqa: E402
-from mmlib.simulate import ManeuverSchedule, simulate  # noqa: E402
+from mmlib.core import models  # noqa: E402
+from mmlib.experiment.simulate import ManeuverSchedule, simulate  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "data" / "bench"
@@ -118,9 +118,9 @@ def mmlib_run(n_runs: int, n_steps: int = K, *, chunk: int = CHUNK, ukf=UKF,
 
 
 def filterpy_run(n_runs: int, n_steps: int = K) -> Estimates:
-    """The job in FilterPy 2.0 (``IMMEstimator`` of ``UnscentedKalmanFilter``, mmlib.crosscheck), one run
+    """The job in FilterPy 2.0 (``IMMEstimator`` of ``UnscentedKalmanFilter``, bench.crosscheck), one run
     at a time on the same measurements; the filter loop (construction included) is timed."""
-    from mmlib.crosscheck import filterpy_imm_ukf
+    from bench.crosscheck import filterpy_imm_ukf
 
     dyn, radar, sched, mc, x0, P0, transition = problem(n_runs, n_steps)
     z_all = simulate(sched, x0, radar, mc, range(n_runs)).measurements
@@ -217,7 +217,7 @@ def _env_int(name: str, default: int) -> int:
 def main(argv=None) -> int:
     from bench import notebooks, scaling
     from bench.provenance import provenance
-    from mmlib.report import atomic_write_text
+    from mmlib.experiment.report import atomic_write_text
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=_env_int("BENCH_REPEATS", 5),

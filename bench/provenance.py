@@ -83,7 +83,7 @@ def provenance() -> dict:
     import numpy as np
 
     import mmlib
-    from mmlib.report import git_commit
+    from mmlib.experiment.report import git_commit
 
     packages = {"numpy": np.__version__}
     for name in ("scipy", "numba", "filterpy", "matplotlib"):
@@ -92,7 +92,7 @@ def provenance() -> dict:
         except ImportError:
             packages[name] = None
     try:
-        from mmlib import linalg
+        from mmlib.core import linalg
         kernel = linalg.kernel() if hasattr(linalg, "kernel") else "numpy"
     except Exception:                       # noqa: BLE001 -- provenance must not fail the report
         kernel = None

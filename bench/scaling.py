@@ -134,7 +134,7 @@ def figure(doc: dict, out_dir: Path) -> list:
     import matplotlib.pyplot as plt
 
     from bench.imm_ukf import K, TARGETS
-    from mmlib.report import save_figure
+    from mmlib.experiment.report import save_figure
 
     pts = doc["points"]
     runs = [p["runs"] for p in pts]

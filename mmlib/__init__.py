@@ -8,18 +8,19 @@ Kalman update) -> layers over any filter (``strong_tracking``, ``adaptive``,
 (deterministic per-run streams); ``metrics`` (errors with standard errors);
 ``report`` (verdict rule, results contract); ``scenarios`` (one module per paper).
 """
-from . import (adaptive, bootstrap, estimation, filters, linalg, metrics, mixing, models, montecarlo, report, rules,
-               simulate, strong_tracking)
-from .adaptive import InnovationAdaptive
-from .bootstrap import ObservationBootstrap
-from .mixing import CubatureMixing
-from .strong_tracking import StrongTracking
-from .estimation import IMM, MomentMixing, SingleModel, Track, run
-from .filters import (ExtendedKalmanFilter, GaussianState, KalmanFilter, SigmaPointFilter,
-                      filter_by_name, kalman_update)
-from .montecarlo import MonteCarlo, Stream
-from .rules import (CentralDifference, Cubature, FifthDegreeCubature, SphericalSimplexRadial,
-                    Unscented, rule_by_name)
+from mmlib.core.layers import adaptive, bootstrap, strong_tracking
+from mmlib.core import estimation, filters, linalg, mixing, models, rules
+from mmlib.experiment import metrics, montecarlo, report, simulate
+from mmlib.core.layers.adaptive import InnovationAdaptive
+from mmlib.core.layers.bootstrap import ObservationBootstrap
+from mmlib.core.mixing import CubatureMixing
+from mmlib.core.layers.strong_tracking import StrongTracking
+from mmlib.core.estimation import IMM, MomentMixing, SingleModel, Track, run
+from mmlib.core.filters import (ExtendedKalmanFilter, GaussianState, KalmanFilter, SigmaPointFilter, filter_by_name,
+                                kalman_update)
+from mmlib.experiment.montecarlo import MonteCarlo, Stream
+from mmlib.core.rules import (CentralDifference, Cubature, FifthDegreeCubature, SphericalSimplexRadial, Unscented,
+                              rule_by_name)
 
 __version__ = "0.1.0"
 

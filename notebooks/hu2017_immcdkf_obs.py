@@ -19,9 +19,9 @@
 # (the measurement plus fresh noise), updates once per copy and fuses the results as independent estimates. It
 # compares IMMUKF, IMMEKF, IMMCKF, IMMCDKF and IMMCDKF-OBS on a two-mode coordinated-turn target seen by a radar:
 # mode probabilities (Figs. 1–5), RMSE (Figs. 6–7) and Table 1. In `mmlib` the CDKF is a quadrature rule of the generic
-# filter and the bootstrapping is one layer (`mmlib/bootstrap.py`) over any mode filter.
+# filter and the bootstrapping is one layer (`mmlib/core/layers/bootstrap.py`) over any mode filter.
 #
-# **Verdict rule** (`mmlib/report.py`): *reproduced* within 3 combined standard errors; *inconclusive* when within
+# **Verdict rule** (`mmlib/experiment/report.py`): *reproduced* within 3 combined standard errors; *inconclusive* when within
 # 3 standard errors but those are wider than 25 % of the printed value (never counted as a reproduction);
 # *qualitatively reproduced* within 25 %; *not reproduced* otherwise; *not replicable* when method or data are not
 # published. Claims are judged
@@ -53,12 +53,12 @@ import numpy as np
 from IPython.display import Markdown, display
 
 import mmlib
-from mmlib import metrics, report
-from mmlib.montecarlo import MonteCarlo
+from mmlib.experiment import metrics, report
+from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment import evaluation, run_multiverse, views
-from mmlib.scenarios import hu2017 as paper
-from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
-                                         shade_intervals, value_pm)
+from mmlib.papers import hu2017 as paper
+from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
+                                       shade_intervals, value_pm)
 
 # full: the paper's 100 runs, also in each of the multiverse's universes (the covering design of all factors,
 #       ~0.35 CPU-s per universe); smoke: 20 runs, the star design (headline + each option alone) at the same

@@ -17,13 +17,13 @@
 # The paper puts the strong-tracking fading factor of Zhou & Frank on top of the spherical simplex-radial CKF and
 # compares SSRCKF, STF (EKF-based), STUKF, STCKF and STSSRCKF on a constant-acceleration target seen by a
 # range-bearing radar: Figures 1–3 and Table 1 (Example 1, high maneuver), Table 2 (complexity and time), Table 3
-# (Example 2, medium and weak maneuvers). In `mmlib` strong tracking is one layer (`mmlib/strong_tracking.py`) that
+# (Example 2, medium and weak maneuvers). In `mmlib` strong tracking is one layer (`mmlib/core/layers/strong_tracking.py`) that
 # any filter can wear, so the four ST filters are configurations of one layer over four base filters.
 #
-# **Verdict rule** (`mmlib/report.py`): *reproduced* within 3 combined standard errors (ours, the paper's estimated
+# **Verdict rule** (`mmlib/experiment/report.py`): *reproduced* within 3 combined standard errors (ours, the paper's estimated
 # from its run count, half a unit of the last printed digit); *qualitatively reproduced* within 25 %;
 # *not reproduced* otherwise; *not replicable* when method or data are not published. Claims are judged on paired
-# differences over common random numbers, in the claim vocabulary of `mmlib.report` (holds / partly / contradicted /
+# differences over common random numbers, in the claim vocabulary of `mmlib.experiment.report` (holds / partly / contradicted /
 # not supported / not assessable).
 #
 # The paper is ambiguous in several places (time line, process noise, truth noise, UKF κ, initial estimate). Each
@@ -49,12 +49,12 @@ import numpy as np
 from IPython.display import Markdown, display
 
 import mmlib
-from mmlib import metrics, report
-from mmlib.montecarlo import MonteCarlo
+from mmlib.experiment import metrics, report
+from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment import evaluation, run_multiverse, views
-from mmlib.scenarios import liu2017 as paper
-from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
-                                         shade_intervals, value_pm)
+from mmlib.papers import liu2017 as paper
+from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
+                                       shade_intervals, value_pm)
 
 # full: the paper's 200 runs, and the multiverse's fractional design (20 universes) at 200 runs each
 # (~5 CPU-s per universe measured with time.process_time(), ~55 s on two workers);
@@ -154,7 +154,7 @@ nb.show(fig, "extra_nonlinearity_index", "(not in the paper)",
 # ## Table 2 — computational complexity and time
 #
 # Per time step, with state dimension n = 6 and measurement dimension 2, each filter does (counted from
-# `mmlib/filters.py` and `mmlib/strong_tracking.py`, which follow the paper's Eqs. 20–36) the operations below.
+# `mmlib/core/filters.py` and `mmlib/core/layers/strong_tracking.py`, which follow the paper's Eqs. 20–36) the operations below.
 # Times are measured in repeats, all filters interleaved within each repeat; the ratio to SSRCKF is formed per
 # repeat and judged by the verdict rule with its standard error over the repeats.
 
@@ -192,7 +192,7 @@ display(Markdown(rows_table([r for r in rows if r.item.startswith("Table 3")])))
 # %% [markdown]
 # ## Claims of the abstract and conclusions
 #
-# Every verdict comes from paired differences on common random numbers (`mmlib.report`). The paper never defines
+# Every verdict comes from paired differences on common random numbers (`mmlib.experiment.report`). The paper never defines
 # robustness; we judge it operationally (stated with the two robustness claims below): the position error after
 # the abrupt change in each of the three maneuvers, and divergence counts where any run diverges.
 

@@ -31,11 +31,11 @@
 # which readings support it.
 #
 # **Library pieces** (all in `mmlib`): the constellation, frames (via `pymap3d`), pseudoranges and clock model in
-# `mmlib/gnss.py`; zero-order Takagi–Sugeno inference in `mmlib/fuzzy.py`; the FLAS and the IMM whose modes' noise
-# levels are set online in `mmlib/adaptive_imm.py`; the measurement model changes every epoch with the satellites in
+# `mmlib/core/gnss.py`; zero-order Takagi–Sugeno inference in `mmlib/core/fuzzy.py`; the FLAS and the IMM whose modes' noise
+# levels are set online in `mmlib/core/layers/adaptive_imm.py`; the measurement model changes every epoch with the satellites in
 # view (`run(..., measurement_models=...)`).
 #
-# **Verdict rule** (`mmlib/report.py`): *reproduced* within 3 combined standard errors; *inconclusive* when within
+# **Verdict rule** (`mmlib/experiment/report.py`): *reproduced* within 3 combined standard errors; *inconclusive* when within
 # them but 3 s.e. exceed 25 % of the printed value; *qualitatively reproduced* within 25 %; *not reproduced*
 # otherwise; *not replicable* when method or data are not published. Claims are judged on paired differences over
 # common random numbers.
@@ -59,12 +59,12 @@ import numpy as np
 from IPython.display import Markdown, display
 
 import mmlib
-from mmlib import metrics, report
+from mmlib.experiment import metrics, report
 from mmlib.experiment import evaluation, run_multiverse, views
-from mmlib.scenarios import tseng2011 as paper
-from mmlib.montecarlo import MonteCarlo
-from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
-                                         shade_intervals, value_pm)
+from mmlib.papers import tseng2011 as paper
+from mmlib.experiment.montecarlo import MonteCarlo
+from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
+                                       shade_intervals, value_pm)
 
 # full: the headline at 100 runs, the oracle reference at 50, the multiverse's fractional design at
 # paper.MV_RUNS = 25 runs per universe (the budget; standard errors are shown throughout);
@@ -161,7 +161,7 @@ nb.show(fig, "reconstruction_trajectory_satellites",
 # one-decade band of process noise along the plain IMM's two-decade range: the band's position is the larger of the
 # two inputs' levels — either sign of divergence raises the noise — and the fuzzy bounds never leave the IMM's
 # range, so the comparison with the IMM is fair. Output = product-weighted average of the rule consequents, in
-# $\log_{10} S_p$. The inference is `mmlib/fuzzy.py` (~20 lines of numpy evaluated for all runs at once):
+# $\log_{10} S_p$. The inference is `mmlib/core/fuzzy.py` (~20 lines of numpy evaluated for all runs at once):
 # scikit-fuzzy is built for Mamdani inference and simpful evaluates one input vector per call, which would put a
 # Python loop over runs inside the filter loop.
 
@@ -277,7 +277,7 @@ nb.show(fig, "reconstruction_mode_probabilities_bounds",
 # %% [markdown]
 # ## Table — East/North position RMS errors
 #
-# Every row carries a replicated value and is judged by the one verdict rule (`mmlib/report.py`). The absolute RMS
+# Every row carries a replicated value and is judged by the one verdict rule (`mmlib/experiment/report.py`). The absolute RMS
 # errors belong to a reconstructed set-up (Section 4 was lost: T-14), so their verdict says how far this
 # reconstruction lies from the printed numbers, not whether the paper's set-up would give them. The relative
 # improvements, $100\,(1 - \mathrm{RMS}_a/\mathrm{RMS}_b)$, on common random numbers with jackknife standard errors,
@@ -322,7 +322,7 @@ print(f"best oracle ({best}): reduction vs IMMUKF East {value_pm(best_red['East'
 # %% [markdown]
 # ## Claims of the abstract and conclusions
 #
-# Verdicts in the claim vocabulary of `mmlib/report.py`, combined from part verdicts: paired differences on common
+# Verdicts in the claim vocabulary of `mmlib/experiment/report.py`, combined from part verdicts: paired differences on common
 # random numbers (the direction, per axis) and the reduction rows (the claimed size, per axis: it holds where the
 # number rule finds the printed reduction reproduced or within 25 %, and is otherwise the paired test of
 # replicated − printed, so a reduction smaller than printed by 3 s.e. contradicts the claimed size). Whether a

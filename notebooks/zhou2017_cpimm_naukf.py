@@ -18,10 +18,10 @@
 # **NAUKF** adapts the UKF's innovation covariance to sensor faults (Eqs. 27–39). The paper reports a 1-D example
 # (Section 2.3, Table 1, Fig. 2), simulations without and with sensor faults (Section 4.1, Tables 2–3, Figs. 4–10)
 # and two field experiments whose data were never published (Section 4.2, Tables 4–5). In `mmlib` CPIMM is a mixing
-# strategy of the IMM combinator (`mmlib/mixing.py`) and NAUKF a layer over any sigma-point filter
-# (`mmlib/adaptive.py`).
+# strategy of the IMM combinator (`mmlib/core/mixing.py`) and NAUKF a layer over any sigma-point filter
+# (`mmlib/core/layers/adaptive.py`).
 #
-# **Verdict rule** (`mmlib/report.py`): *reproduced* within 3 combined standard errors; *qualitatively reproduced*
+# **Verdict rule** (`mmlib/experiment/report.py`): *reproduced* within 3 combined standard errors; *qualitatively reproduced*
 # within 25 %; *not reproduced* otherwise; *not replicable* when method or data are not published. Claims get
 # *holds / partly / contradicted / not supported / not assessable* from paired differences on common random numbers.
 #
@@ -50,12 +50,12 @@ from IPython.display import Markdown, display
 from scipy import stats
 
 import mmlib
-from mmlib import metrics, report
-from mmlib.montecarlo import MonteCarlo
+from mmlib.experiment import metrics, report
+from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment import evaluation, run_multiverse, views
-from mmlib.scenarios import zhou2017 as paper
-from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
-                                         shade_intervals, value_pm)
+from mmlib.papers import zhou2017 as paper
+from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
+                                       shade_intervals, value_pm)
 
 # full: the paper's 100 runs for the headline and for every universe of the design (the full product of the nine
 # factors, 1152 universes, exceeds the budget, so the design is the stated fractional design of paper.SPACE: 37
@@ -140,7 +140,7 @@ turns = [(a, b) for a, b, _ in case1.turns]
 #
 # CPIMM's interaction, evaluated literally (Eqs. 14–19, `CubatureMixing`), returns the mixed mean of the standard IMM
 # and the covariance $\sum_i \mu_{i|j}^2 P_i$ — without the spread of the mode means and shrunk by $\mu^2 \le \mu$
-# (proved in `mmlib/mixing.py`, tested in `tests/test_mixing_adaptive.py`). It makes each mode filter start from a
+# (proved in `mmlib/core/mixing.py`, tested in `tests/test_mixing_adaptive.py`). It makes each mode filter start from a
 # smaller covariance than the mixture it is meant to approximate.
 
 # %%

@@ -21,9 +21,9 @@
 # *headline* reading of the paper, and then runs the paper's whole *reading space*: every combination of the declared
 # readings of its ambiguities (a multiverse), to show which results depend on how the paper is read.
 # The algorithms live in `mmlib`; the set-up, its numbered deviations, the reading space and the one-universe
-# evaluation live in `mmlib/scenarios/zhu2016.py`.
+# evaluation live in `mmlib/papers/zhu2016.py`.
 #
-# **Verdict rule** (one rule for the whole repository, `mmlib/report.py`): a printed value is *reproduced* if it
+# **Verdict rule** (one rule for the whole repository, `mmlib/experiment/report.py`): a printed value is *reproduced* if it
 # lies within 3 combined standard errors of ours (our Monte Carlo error, the paper's estimated from its run count,
 # and half a unit of its last printed digit), unless those 3 standard errors are wider than 25 % of it, when it is
 # *inconclusive* (never counted as reproduced); *qualitatively reproduced* if not within 3 standard errors, but within
@@ -50,12 +50,12 @@ import numpy as np
 from IPython.display import Markdown, display
 
 import mmlib
-from mmlib import metrics, report
-from mmlib.montecarlo import MonteCarlo
+from mmlib.experiment import metrics, report
+from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment import evaluation, run_multiverse, views
-from mmlib.scenarios import zhu2016 as paper
-from mmlib.scenarios.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
-                                         shade_intervals, value_pm)
+from mmlib.papers import zhu2016 as paper
+from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
+                                       shade_intervals, value_pm)
 
 # full: the headline at the paper's 100 runs; the multiverse (192 universes) at 40 runs per universe, which keeps it
 # within its share of the 10-minute budget of all five papers (0.34 CPU-s per universe, 65 CPU-s in all, about 35 s
@@ -303,7 +303,7 @@ show(fig, "extra_nees_consistency", "(not in the paper)",
 # Accuracy claims are tested on paired differences of mean squared error over common random numbers; "switches more
 # quickly" on the probability given to the true mode in the 10 steps after each of the four switches; the timing claim
 # on the ratio of run times minus one, with the standard error of the repeated timings. Every verdict is in the claim
-# vocabulary of `mmlib/report.py`. The accuracy, switching, divergence and floor claims come from the same function
+# vocabulary of `mmlib/experiment/report.py`. The accuracy, switching, divergence and floor claims come from the same function
 # (`paper.judge_claims`) that judges them in every universe of the reading space below.
 
 # %%

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from mmlib import models
+from mmlib.core import models
 
 
 def raises_naming(name: str):

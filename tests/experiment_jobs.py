@@ -2,10 +2,10 @@
 spawned worker processes of the grid runner, hence a module of its own)."""
 import numpy as np
 
-from mmlib import metrics
+from mmlib.experiment import metrics
 from mmlib.experiment import Factor, Option, PublishedNumber, ReadingSpace, universe_result
-from mmlib.montecarlo import MonteCarlo, Stream
-from mmlib.report import Claims, paired_claim
+from mmlib.experiment.montecarlo import MonteCarlo, Stream
+from mmlib.experiment.report import Claims, paired_claim
 
 SPACE = ReadingSpace("toy", (
     Factor("A", "bias", (Option("zero", "no bias", "Sec. 1", {"bias": 0.0}),

@@ -1,13 +1,14 @@
 """Estimators, their states and the layers: every bad input is a ValueError naming the argument the caller
 wrote (never an AttributeError, an IndexError, a numpy broadcasting error or a silently wrong result)."""
+import importlib
 import numpy as np
 import pytest
 
 import mmlib as m
-from mmlib import models
-from mmlib.adaptive import InnovationAdaptive
-from mmlib.bootstrap import ObservationBootstrap
-from mmlib.strong_tracking import StrongTracking
+from mmlib.core import models
+from mmlib.core.layers.adaptive import InnovationAdaptive
+from mmlib.core.layers.bootstrap import ObservationBootstrap
+from mmlib.core.layers.strong_tracking import StrongTracking
 from conftest import raises_naming
 
 B, K = 3, 6
@@ -101,14 +102,14 @@ def test_track_has_one_diverged_step_per_run():
 
 
 def _schedule(**kw):
-    from mmlib.simulate import ManeuverSchedule
+    from mmlib.experiment.simulate import ManeuverSchedule
     args = dict(models=[CV], segments=[], default=0, T=1.0, n_steps=K)
     args.update(kw)
     return ManeuverSchedule(**args)
 
 
 def _simulate(**kw):
-    from mmlib.simulate import simulate
+    from mmlib.experiment.simulate import simulate
     args = dict(schedule=_schedule(), x0=X0[0], measurement=POS, mc=m.MonteCarlo(1, B), runs=range(B))
     args.update(kw)
     return simulate(**args)
@@ -167,9 +168,9 @@ REVIEW_CASES = {
     "bootstrap noise garbage with n_boot = 0": (
         lambda: ObservationBootstrap(UKF, n_boot=0).init(X0, P0, noise="garbage"), "noise"),
     "degree of divergence complex": (
-        lambda: __import__("mmlib.adaptive_imm").adaptive_imm.degree_of_divergence(np.ones((2, 3)) + 1j, 1.0),
+        lambda: importlib.import_module("mmlib.core.layers.adaptive_imm").degree_of_divergence(np.ones((2, 3)) + 1j, 1.0),
         "innovation"),
-    "fuzzy bounds system a string": (lambda: __import__("mmlib.adaptive_imm").adaptive_imm.FuzzyNoiseBounds("x"),
+    "fuzzy bounds system a string": (lambda: importlib.import_module("mmlib.papers.tseng2011").FuzzyNoiseBounds("x"),
                                      "system"),
     "evaluate make_batch returns garbage": (lambda: _evaluate(lambda runs: 3), "make_batch"),
     "evaluate init missing an estimator": (
@@ -224,7 +225,7 @@ SECOND_REVIEW_CASES = {
     "sigma-point filter name bytes": (lambda: m.SigmaPointFilter(m.Unscented(), name=b"x"), "name"),
     "moment mixing name not a string": (lambda: m.estimation.MomentMixing(name=3), "name"),
     "evaluate progress not a bool": (
-        lambda: __import__("mmlib.experiment.evaluation").experiment.evaluation.evaluate(
+        lambda: importlib.import_module("mmlib.experiment.evaluation").evaluate(
             {"UKF": m.SingleModel(UKF, CV, POS)}, lambda runs: None, m.MonteCarlo(0, B), progress="no"), "progress"),
     "evaluate truth of another state size": (
         lambda: _evaluate(lambda runs: (np.zeros((len(runs), K + 1, 6)), Z[list(runs)],

@@ -1,6 +1,6 @@
 """A run's numbers do not depend on the batch it is in (issue 11, section 3).
 
-Run r of a paper draws its random numbers from its own streams (:mod:`mmlib.montecarlo`), so the
+Run r of a paper draws its random numbers from its own streams (:mod:`mmlib.experiment.montecarlo`), so the
 truth, the measurements and every filter output of run r (which carry its initial state) must be the same *bits*
 whether run r is computed alone (B = 1), with one or two others (B = 2, 3) or in a large chunk
 (B = 64).  Round-off differences are not tolerated: a smoke run must be an exact prefix of the full
@@ -9,7 +9,7 @@ run, and chunking (or a one-run chunk at the end of a Monte Carlo job) must chan
 Every estimator each scenario module builds is checked, on a shortened horizon (a prefix of
 tseng2011's 1800 epochs), together with a few reading variants that reach other code paths
 (Stirling central differences, Eq. 20 as printed, the product likelihood, the bounded NAUKF, the
-windowed fuzzy DOD); plus :func:`mmlib.simulate.simulate` on its own, the Monte Carlo streams, and
+windowed fuzzy DOD); plus :func:`mmlib.experiment.simulate.simulate` on its own, the Monte Carlo streams, and
 :func:`mmlib.experiment.evaluation.evaluate` whatever its chunk size.
 """
 from __future__ import annotations
@@ -21,11 +21,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from mmlib import MonteCarlo, Stream, linalg, models
-from mmlib.estimation import run
+from mmlib import MonteCarlo, Stream
+from mmlib.core import linalg, models
+from mmlib.core.estimation import run
 from mmlib.experiment import evaluation
-from mmlib.simulate import ManeuverSchedule, simulate
-from mmlib.scenarios import hu2017, liu2017, tseng2011, zhou2017, zhu2016
+from mmlib.experiment.simulate import ManeuverSchedule, simulate
+from mmlib.papers import hu2017, liu2017, tseng2011, zhou2017, zhu2016
 
 BATCH_SIZES = (1, 2, 3, 64)
 REFERENCE = 64
@@ -251,7 +252,7 @@ def test_simulate_does_not_depend_on_batch_size(name):
         fn = None
         if fault:
             rng_range = mc.standard_normal(range(B), Stream.FAULT, (2,))
-            fn = models.SensorFault.radar(rng_range[:, 0] * 5.0, np.abs(rng_range[:, 1]) * 1e-3,
+            fn = zhou2017.radar_drift(rng_range[:, 0] * 5.0, np.abs(rng_range[:, 1]) * 1e-3,
                                           schedule.times).apply(measurement)
         return simulate(schedule, x0, measurement, mc, range(B), measurement_noise_fn=fn)
 

@@ -17,9 +17,9 @@ pytest.importorskip("filterpy")
 import mmlib
 from bench.flops import imm_ukf_flops
 from bench.imm_ukf import AGREEMENT_RTOL, MODE_PROBABILITY_ATOL, agreement, problem
-from mmlib import models
-from mmlib.estimation import IMMState
-from mmlib.filters import GaussianState
+from mmlib.core import models
+from mmlib.core.estimation import IMMState
+from mmlib.core.filters import GaussianState
 
 
 # --------------------------------------------------------------------------- agreement with FilterPy

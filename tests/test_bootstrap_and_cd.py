@@ -3,10 +3,10 @@ import numpy as np
 import pytest
 
 import mmlib as m
-from mmlib import models
-from mmlib.bootstrap import ObservationBootstrap
-from mmlib.montecarlo import Stream
-from mmlib.simulate import ManeuverSchedule, simulate
+from mmlib.core import models
+from mmlib.core.layers.bootstrap import ObservationBootstrap
+from mmlib.experiment.montecarlo import Stream
+from mmlib.experiment.simulate import ManeuverSchedule, simulate
 
 
 @pytest.fixture(scope="module")

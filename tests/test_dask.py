@@ -19,7 +19,7 @@ import pytest
 pytest.importorskip("distributed", reason="the optional dask extra is not installed")
 
 from mmlib.experiment import evaluation, executors, grid, run_grid  # noqa: E402
-from mmlib.scenarios import zhu2016  # noqa: E402
+from mmlib.papers import zhu2016  # noqa: E402
 
 from test_parallel import N_RUNS, assert_same_bits, zhou_study  # noqa: E402
 

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 import mmlib as m
-from mmlib import models
-from mmlib.adaptive import InnovationAdaptive
-from mmlib.bootstrap import ObservationBootstrap
-from mmlib.estimation import Failure, FilterDivergence, combine_covariances
-from mmlib.strong_tracking import StrongTracking
+from mmlib.core import models
+from mmlib.core.layers.adaptive import InnovationAdaptive
+from mmlib.core.layers.bootstrap import ObservationBootstrap
+from mmlib.core.estimation import Failure, FilterDivergence, combine_covariances
+from mmlib.core.layers.strong_tracking import StrongTracking
 from test_filters import FILTERS, IDS
 
 K_BAD = 7
@@ -206,7 +206,7 @@ def _borderline_matrix():
 def test_cholesky_verdict_of_a_matrix_does_not_depend_on_its_neighbours():
     """The old slow path (taken when any matrix of the stack failed) judged every matrix by eigvalsh instead of
     LAPACK: a borderline run passed alone and failed next to a diverged one (a batch-size dependence)."""
-    from mmlib import linalg
+    from mmlib.core import linalg
     a = _borderline_matrix()
     alone = linalg.cholesky(a[None])
     for neighbour in (-np.eye(4), np.full((4, 4), np.nan), np.eye(4)):
@@ -239,7 +239,7 @@ def test_cholesky_verdict_on_non_finite_entries_does_not_depend_on_neighbours(wh
     """Only the lower triangle is read (LAPACK's convention): a non-finite entry there fails, one above the
     diagonal is ignored, on the fast path (alone) and on the slow path (next to a failing matrix) alike; the
     old code judged the slow path by the whole matrix."""
-    from mmlib import linalg
+    from mmlib.core import linalg
     a = 2 * np.eye(3)
     a[where] = value
     assert linalg.cholesky(a[None])[1].tolist() == [fails]

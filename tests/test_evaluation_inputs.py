@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 import mmlib as m
-from mmlib import models
+from mmlib.core import models
 from mmlib.experiment import evaluation
-from mmlib.montecarlo import MonteCarlo, Stream
-from mmlib.simulate import ManeuverSchedule
+from mmlib.experiment.montecarlo import MonteCarlo, Stream
+from mmlib.experiment.simulate import ManeuverSchedule
 from conftest import raises_naming
 
 T, K = 1.0, 15

@@ -8,7 +8,7 @@ import math
 import pytest
 
 import experiment_jobs as toy
-from mmlib import report
+from mmlib.experiment import report
 from mmlib.experiment import Factor, Option, ReadingSpace, grid, run_grid, run_multiverse
 from mmlib.experiment.multiverse import from_dict
 
@@ -379,9 +379,9 @@ def test_presentation_modules_left_out_of_the_hash_are_not_used_by_any_computati
     import sys
     code = ("import sys, importlib\n"
             "for p in ('zhu2016', 'liu2017', 'hu2017', 'zhou2017', 'tseng2011'):\n"
-            "    m = importlib.import_module('mmlib.scenarios.' + p)\n"
+            "    m = importlib.import_module('mmlib.papers.' + p)\n"
             "    m.universe(m.SPACE.headline, 2, 1)\n"
-            "print(sorted(n for n in sys.modules if n in ('mmlib.experiment.views', 'mmlib.scenarios.presentation')))")
+            "print(sorted(n for n in sys.modules if n in ('mmlib.experiment.views', 'mmlib.papers.presentation')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=True)
     assert out.stdout.strip() == "[]", out.stdout
     assert {rel.split("/")[-1] for rel in grid.PRESENTATION_MODULES} == {"views.py", "presentation.py"}

@@ -14,8 +14,8 @@ filterpy = pytest.importorskip("filterpy")
 from filterpy.kalman import KalmanFilter
 
 import mmlib as m
-from mmlib import models
-from mmlib.crosscheck import filterpy_imm_ukf, filterpy_ukf
+from mmlib.core import models
+from bench.crosscheck import filterpy_imm_ukf, filterpy_ukf
 
 T = 1.0
 RB = models.RangeBearing(np.diag([100.0, 1e-5]))

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 import mmlib as m
-from mmlib import models
+from mmlib.core import models
 from conftest import random_mode_states, textbook_kf
-from mmlib import linalg as m_linalg
+from mmlib.core import linalg as m_linalg
 
 FILTERS = [m.KalmanFilter(), m.ExtendedKalmanFilter(),
            m.SigmaPointFilter(m.Unscented()), m.SigmaPointFilter(m.Unscented(alpha=0.1, beta=2.0, kappa=0.0)),

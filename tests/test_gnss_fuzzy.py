@@ -5,17 +5,17 @@ import math
 import numpy as np
 import pytest
 
-from mmlib import gnss
-from mmlib.adaptive_imm import FuzzyNoiseBounds, NoiseAdaptiveIMM, degree_of_divergence
+from mmlib.core import gnss
+from mmlib.core.layers.adaptive_imm import NoiseAdaptiveIMM, degree_of_divergence
 from scipy.linalg import expm
 
-from mmlib.estimation import IMM, Estimate, SingleModel, run
-from mmlib.filters import KalmanFilter
-from mmlib.fuzzy import TakagiSugeno, Trapezoid, ramp_sets
-from mmlib.models import constant_velocity, coordinated_turn, position_measurement
-from mmlib.montecarlo import MonteCarlo
+from mmlib.core.estimation import IMM, Estimate, SingleModel, run
+from mmlib.core.filters import KalmanFilter
+from mmlib.core.fuzzy import TakagiSugeno, Trapezoid, ramp_sets
+from mmlib.core.models import constant_velocity, coordinated_turn, position_measurement
+from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment import evaluation
-from mmlib.scenarios import tseng2011 as paper
+from mmlib.papers import tseng2011 as paper
 
 SITE = (25.15, 121.78, 0.0)
 
@@ -198,7 +198,7 @@ def estimate_with(innovation, S):
 
 def test_flas_corners_give_the_stated_bounds_and_nan_runs_stay_nan():
     setup = paper.Setup()
-    flas = FuzzyNoiseBounds(paper.fuzzy_system(setup))
+    flas = paper.FuzzyNoiseBounds(paper.fuzzy_system(setup))
     R = gnss.Pseudoranges(np.ones((4, 3)), setup.sigma_pr ** 2 * np.eye(4))
     S = np.tile(12.0 * np.eye(4), (2, 1, 1))
     quiet, loud = estimate_with(np.zeros((2, 4)), S), estimate_with(np.full((2, 4), 100.0), S)
@@ -208,7 +208,7 @@ def test_flas_corners_give_the_stated_bounds_and_nan_runs_stay_nan():
     out = flas(estimate_with(np.array([[np.nan] * 4, [0.0] * 4]), S), R)
     assert np.isnan(out[0]).all() and np.isfinite(out[1]).all()
     with pytest.raises(ValueError, match="normalise"):
-        FuzzyNoiseBounds(paper.fuzzy_system(setup), "sigma")
+        paper.FuzzyNoiseBounds(paper.fuzzy_system(setup), "sigma")
 
 
 def test_flas_normalises_by_the_predicted_innovation_variance():
@@ -216,8 +216,8 @@ def test_flas_normalises_by_the_predicted_innovation_variance():
     s_pred, sigma2 = 12.0, 9.0
     est = estimate_with(np.full((1, 4), math.sqrt(s_pred)), s_pred * np.eye(4)[None])
     R = gnss.Pseudoranges(np.ones((4, 3)), sigma2 * np.eye(4))
-    np.testing.assert_allclose(FuzzyNoiseBounds(ts).dod(est, R), [[1.0, 1.0]], rtol=1e-14)
-    np.testing.assert_allclose(FuzzyNoiseBounds(ts, "measurement").dod(est, R),
+    np.testing.assert_allclose(paper.FuzzyNoiseBounds(ts).dod(est, R), [[1.0, 1.0]], rtol=1e-14)
+    np.testing.assert_allclose(paper.FuzzyNoiseBounds(ts, "measurement").dod(est, R),
                                [[s_pred / sigma2, math.sqrt(s_pred / sigma2)]], rtol=1e-14)
 
 
@@ -338,7 +338,7 @@ def test_constant_fuzzy_output_equals_the_imm_to_rounding():
     imm = ex.estimators["IMMUKF"]
     ts = paper.fuzzy_system(setup)
     const = TakagiSugeno(ts.inputs, np.broadcast_to(np.log10([setup.s_lower, setup.s_upper]), ts.consequents.shape))
-    fz = NoiseAdaptiveIMM(imm, paper.noise_model(setup).Q, FuzzyNoiseBounds(const), (setup.s_lower, setup.s_upper))
+    fz = NoiseAdaptiveIMM(imm, paper.noise_model(setup).Q, paper.FuzzyNoiseBounds(const), (setup.s_lower, setup.s_upper))
     mc = MonteCarlo(paper.ROOT_SEED, 4)
     truth, z, init = paper.make_batch_fn(ex, mc)(range(4))
     a = run(fz, fz.init(truth[:, 0], np.diag(np.square(setup.p0_sd)), setup.mu0), z,
@@ -392,7 +392,7 @@ def test_setup_and_estimator_validation():
     with pytest.raises(ValueError, match="initial_levels"):
         NoiseAdaptiveIMM(ex.estimators["IMMUKF"], paper.noise_model(SHORT).Q, None, (0.1,))
     with pytest.raises(ValueError, match="system"):
-        FuzzyNoiseBounds(TakagiSugeno((ramp_sets("NL", (0, 1)),), np.zeros((2, 1))))
+        paper.FuzzyNoiseBounds(TakagiSugeno((ramp_sets("NL", (0, 1)),), np.zeros((2, 1))))
 
 
 def test_truth_clock_follows_the_clock_model():

@@ -2,9 +2,10 @@
 import numpy as np
 import pytest
 
-from mmlib import MonteCarlo, metrics, run
+from mmlib import MonteCarlo, run
+from mmlib.experiment import metrics
 from mmlib.experiment import evaluation
-from mmlib.scenarios import hu2017 as paper
+from mmlib.papers import hu2017 as paper
 
 
 @pytest.fixture(scope="module")
@@ -59,7 +60,7 @@ import json  # noqa: E402
 from dataclasses import fields  # noqa: E402
 
 from mmlib.experiment import run_grid  # noqa: E402
-from mmlib.montecarlo import MonteCarlo as _MC  # noqa: E402
+from mmlib.experiment.montecarlo import MonteCarlo as _MC  # noqa: E402
 
 
 def _jsonable(doc):
@@ -180,9 +181,9 @@ def test_table1_metrics_order_and_values():
 def test_printed_eq20_covariance_is_larger_than_the_kalman_form():
     """Eq. 20 as printed subtracts K P_zz K^T with P_zz < P_zz^n: the member covariance is larger, by
     exactly (c - 1) K R K^T, and the real measurement's member is unchanged."""
-    from mmlib.bootstrap import ObservationBootstrap
-    from mmlib.filters import SigmaPointFilter
-    from mmlib.rules import CentralDifference
+    from mmlib.core.layers.bootstrap import ObservationBootstrap
+    from mmlib.core.filters import SigmaPointFilter
+    from mmlib.core.rules import CentralDifference
     radar = paper.build(paper.Setup())[1]
     base = SigmaPointFilter(CentralDifference(form="weighted"))
     x = np.array([[8.0, 0.4, 6.0, 0.2]])
@@ -201,7 +202,7 @@ def test_printed_eq20_covariance_is_larger_than_the_kalman_form():
 
 
 def test_timing_rows_and_claims_use_standard_errors():
-    from mmlib.report import Claims
+    from mmlib.experiment.report import Claims
     per_run = {a: np.array([1.0, 1.02, 0.98]) * f for a, f in
                zip(paper.ALGORITHMS, (1.0, 0.3, 1.4, 1.0, 3.0))}
     claims = Claims()

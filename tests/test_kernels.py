@@ -1,4 +1,4 @@
-"""The compiled kernels (numba, :mod:`mmlib._kernels`) against the numpy reference path (issue 12).
+"""The compiled kernels (numba, :mod:`mmlib.core._kernels`) against the numpy reference path (issue 12).
 
 Both paths implement the same mathematics; they sum in different orders (BLAS/LAPACK vs index order), so
 they agree to round-off, not bit for bit:
@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mmlib import linalg
-from mmlib.estimation import combine_covariances, imm_output, mixing_weights
+from mmlib.core import linalg
+from mmlib.core.estimation import combine_covariances, imm_output, mixing_weights
 
 sys.path.insert(0, str(Path(__file__).parent))
 import test_batch_independence as tbi      # noqa: E402  (the cases: every estimator of every paper)
@@ -106,8 +106,9 @@ def test_every_kernel_matches_the_numpy_path_on_random_operands():
 def test_fused_steps_equal_the_generic_composition():
     """The fused kernels (sigma-point prediction through linear dynamics, measurement moments, IMM
     interaction) give what the generic numpy composition gives."""
-    from mmlib import IMM, SigmaPointFilter, Unscented, models
-    from mmlib.filters import GaussianState
+    from mmlib import IMM, SigmaPointFilter, Unscented
+    from mmlib.core import models
+    from mmlib.core.filters import GaussianState
     rng = np.random.default_rng(3)
     B, n = 23, 4
     dyn = [models.constant_velocity(1.0, 1.0), models.coordinated_turn(1.0, 0.05, 1.0)]

@@ -2,9 +2,10 @@
 import numpy as np
 import pytest
 
-from mmlib import MonteCarlo, metrics
+from mmlib import MonteCarlo
+from mmlib.experiment import metrics
 from mmlib.experiment import evaluation
-from mmlib.scenarios import liu2017 as paper
+from mmlib.papers import liu2017 as paper
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +49,7 @@ def test_setup_validation():
 # -- reading space and multiverse ---------------------------------------------------------------------------------
 import json  # noqa: E402
 
-from mmlib import report  # noqa: E402
+from mmlib.experiment import report  # noqa: E402
 from mmlib.experiment import run_grid  # noqa: E402
 from mmlib.experiment.multiverse import Multiverse  # noqa: E402
 from mmlib.experiment.readings import Design  # noqa: E402
@@ -88,7 +89,7 @@ def _batches(reading, names=("STSSRCKF",)):
 
 
 def _noise(truth, z, setup):
-    from mmlib import models
+    from mmlib.core import models
     radar = models.range_bearing(np.diag([setup.sigma_r ** 2, setup.sigma_theta ** 2]), state_dim=6)
     return z - radar.h(truth[:, 1:])
 

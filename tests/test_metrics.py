@@ -3,7 +3,7 @@ negative NEES or a cast index list), and ``rmse_over_time`` does what its docstr
 import numpy as np
 import pytest
 
-from mmlib import metrics
+from mmlib.experiment import metrics
 from conftest import raises_naming
 
 M, K, D = 6, 5, 2
@@ -174,6 +174,6 @@ def test_nees_valid_mask_skips_diverged_runs():
 def test_a_claim_with_nothing_compared_is_not_assessable(difference, stderr):
     """Old code: a NaN standard error (fewer than two valid runs) gave z = copysign(inf, difference), i.e.
     'holds' or 'contradicted' from nothing."""
-    from mmlib import report
+    from mmlib.experiment import report
     assert report.claim_verdict(difference, stderr, -1) == "not comparable"
     assert report.paired_claim(difference, stderr, -1).startswith(report.NOT_ASSESSABLE)

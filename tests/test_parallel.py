@@ -15,10 +15,10 @@ from pathlib import Path
 
 import pytest
 
-from mmlib import linalg
+from mmlib.core import linalg
 from mmlib.experiment import evaluation, executors, run_grid
-from mmlib.montecarlo import MonteCarlo
-from mmlib.scenarios import zhou2017, zhu2016
+from mmlib.experiment.montecarlo import MonteCarlo
+from mmlib.papers import zhou2017, zhu2016
 
 from conftest import raises_naming
 
@@ -128,7 +128,7 @@ def test_run_grid_on_the_pool_equals_serial(tmp_path):
     assert pooled == serial and len(serial) == 3 and serial[0] != serial[1]
 
 
-@pytest.mark.skipif(not hasattr(linalg, "use_kernel"), reason="mmlib.linalg has no selectable kernels")
+@pytest.mark.skipif(not hasattr(linalg, "use_kernel"), reason="mmlib.core.linalg has no selectable kernels")
 def test_the_callers_kernel_is_the_workers_kernel():
     """The kernel implementation is a process setting; a worker computes with the caller's."""
     for name in linalg.KERNELS:

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from mmlib import rules
+from mmlib.core import rules
 
 RULES = [rules.Unscented(), rules.Unscented(alpha=0.5, beta=2.0, kappa=1.0), rules.Cubature(),
          rules.FifthDegreeCubature(), rules.SphericalSimplexRadial(), rules.CentralDifference(),

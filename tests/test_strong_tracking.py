@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 import mmlib as m
-from mmlib import models
-from mmlib.simulate import ManeuverSchedule, simulate
-from mmlib.strong_tracking import StrongTracking
+from mmlib.core import models
+from mmlib.experiment.simulate import ManeuverSchedule, simulate
+from mmlib.core.layers.strong_tracking import StrongTracking
 
 BASES = [m.ExtendedKalmanFilter(), m.SigmaPointFilter(m.Unscented(1.0, 0.0, -3.0)), m.SigmaPointFilter(m.Cubature()),
          m.SigmaPointFilter(m.SphericalSimplexRadial()), m.SigmaPointFilter(m.FifthDegreeCubature()),

@@ -7,12 +7,12 @@ import multiprocessing
 import numpy as np
 import pytest
 
-from mmlib import report
-from mmlib.adaptive_imm import NoiseAdaptiveIMM, WindowedNoiseAdaptiveIMM
-from mmlib.estimation import run
+from mmlib.experiment import report
+from mmlib.core.layers.adaptive_imm import NoiseAdaptiveIMM, WindowedNoiseAdaptiveIMM
+from mmlib.core.estimation import run
 from mmlib.experiment import evaluation, run_grid
-from mmlib.montecarlo import MonteCarlo
-from mmlib.scenarios import tseng2011 as paper
+from mmlib.experiment.montecarlo import MonteCarlo
+from mmlib.papers import tseng2011 as paper
 
 SHORT = paper.Setup(n_steps=150, turns=((40.0, 90.0, 90.0),))
 

@@ -3,8 +3,9 @@ import numpy as np
 import pytest
 
 import mmlib as m
-from mmlib import models, report
-from mmlib.simulate import ManeuverSchedule, simulate
+from mmlib.core import models
+from mmlib.experiment import report
+from mmlib.experiment.simulate import ManeuverSchedule, simulate
 
 
 def test_bad_shapes_and_values_name_the_argument(linear_problem):
@@ -129,8 +130,8 @@ def test_verdict_rule():
 
 def test_nees_of_the_exact_kalman_filter_averages_to_the_state_dimension():
     """A consistent filter on its own model: E[NEES] = n (chi-square with n dof)."""
-    from mmlib import metrics
-    from mmlib.montecarlo import Stream
+    from mmlib.experiment import metrics
+    from mmlib.experiment.montecarlo import Stream
     mc = m.MonteCarlo(3, 400)
     cv = models.constant_velocity(1.0, 1.0)
     meas = models.position_measurement([4.0, 4.0])
@@ -150,7 +151,7 @@ def test_nees_of_the_exact_kalman_filter_averages_to_the_state_dimension():
 
 
 def test_jackknife_matches_the_closed_form_for_the_mean():
-    from mmlib import metrics
+    from mmlib.experiment import metrics
     x = np.random.default_rng(2).standard_normal(50)
     jk = metrics.jackknife(np.mean, x)
     closed = metrics.mean_with_se(x)
@@ -160,7 +161,7 @@ def test_jackknife_matches_the_closed_form_for_the_mean():
 def test_timing_ratio_is_robust_to_a_few_disturbed_repeats():
     """A median with a MAD-based standard error: one repeat 5x slower moves neither the ratio nor its error
     much, where it would move a mean by ~13 % and inflate its standard error ~30-fold."""
-    from mmlib import metrics
+    from mmlib.experiment import metrics
     rng = np.random.default_rng(1)
     ref = 0.02 * (1 + 0.01 * rng.standard_normal(30))
     t = ref * (1.05 + 0.01 * rng.standard_normal(30))
@@ -186,7 +187,7 @@ def test_gaussian_draws_have_the_asked_moments_and_do_not_depend_on_the_batch():
     covariance within 4 s.e. of a covariance estimate (sqrt((C_ij^2 + C_ii C_jj) / 4000)); run 3 drawn alone
     has the bits it has among 5."""
     import mmlib
-    from mmlib.montecarlo import Stream
+    from mmlib.experiment.montecarlo import Stream
     mc = mmlib.MonteCarlo(11, 4000)
     mean = np.array([1.0, -2.0, 3.0])
     A = np.array([[2.0, 0.0, 0.0], [0.5, 1.0, 0.0], [-0.3, 0.2, 0.5]])

@@ -4,7 +4,7 @@ import pytest
 
 from mmlib import MonteCarlo
 from mmlib.experiment import evaluation
-from mmlib.scenarios import zhou2017 as paper
+from mmlib.papers import zhou2017 as paper
 
 
 def test_naukf_as_printed_diverges_and_the_inflate_only_variant_does_not():
@@ -42,7 +42,7 @@ def test_setup_validation():
 from dataclasses import replace as _replace  # noqa: E402
 
 from mmlib.experiment import run_grid  # noqa: E402
-from mmlib.scenarios.zhou2017 import SPACE  # noqa: E402
+from mmlib.papers.zhou2017 import SPACE  # noqa: E402
 
 
 def test_headline_universe_through_a_two_process_grid_equals_the_notebook_path(tmp_path):
@@ -170,7 +170,7 @@ def test_section23_claim_verdicts_are_computed_from_the_moments(monkeypatch):
     """The Sec. 2.3 claims are judged against the mixture's moments by quadrature: MSE is exact (no
     overestimation), CP's variance is far off, so both claims are contradicted; were CP's variance the
     mixture's, the 'CP is accurate' part would no longer be contradicted."""
-    from mmlib import report
+    from mmlib.experiment import report
     m = paper.section23_moments()
     assert m["mixture_var"] == pytest.approx(m["mse_sd"] ** 2, abs=1e-9)
     assert m["cp_sd"] ** 2 == pytest.approx(sum(u * u * s * s for u, s in zip(paper.EXAMPLE_U, paper.EXAMPLE_SD)))

@@ -2,9 +2,10 @@
 import numpy as np
 import pytest
 
-from mmlib import MonteCarlo, metrics
+from mmlib import MonteCarlo
+from mmlib.experiment import metrics
 from mmlib.experiment import evaluation
-from mmlib.scenarios import zhu2016 as paper
+from mmlib.papers import zhu2016 as paper
 
 
 @pytest.fixture(scope="module")
@@ -58,12 +59,12 @@ import json
 from dataclasses import dataclass
 from functools import lru_cache
 
-from mmlib import report
-from mmlib.estimation import SingleModel
+from mmlib.experiment import report
+from mmlib.core.estimation import SingleModel
 from mmlib.experiment import run_grid
-from mmlib.filters import SigmaPointFilter
-from mmlib.montecarlo import Stream
-from mmlib.rules import FifthDegreeCubature, _frozen
+from mmlib.core.filters import SigmaPointFilter
+from mmlib.experiment.montecarlo import Stream
+from mmlib.core.rules import FifthDegreeCubature, _frozen
 
 
 def _non_headline_readings():

@@ -17,7 +17,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from mmlib.report import atomic_write_text  # noqa: E402
+from mmlib.experiment.report import atomic_write_text  # noqa: E402
 from mmlib.experiment import views  # noqa: E402
 from mmlib.experiment.views import markdown_table, value_pm  # noqa: E402
 
@@ -41,7 +41,7 @@ def render(doc: dict, root: Path, out_dir: Path) -> str:
              f"{prov.get('paper_citation', '')}", "",
              f"Generated from `data/results/{doc['paper']}.json` — profile `{prov['profile']}`, "
              f"{prov['n_runs']} Monte Carlo runs, root seed {prov['root_seed']}, commit `{prov['git_commit']}`. "
-             "Verdict rule: `mmlib/report.py`.", "", "## Comparison", ""]
+             "Verdict rule: `mmlib/experiment/report.py`.", "", "## Comparison", ""]
     lines.append(markdown_table(
         ["item", "algorithm", "quantity", "paper", "replicated ± s.e.", "verdict", "deviations", "note"],
         [[r["item"], r["algorithm"], r["quantity"], r["paper"] or "--",
@@ -70,9 +70,9 @@ def render(doc: dict, root: Path, out_dir: Path) -> str:
 
 def render_index(docs) -> str:
     """Cross-paper summary: verdict counts per paper and every claim verdict, one line each."""
-    from mmlib.report import VERDICTS
+    from mmlib.experiment.report import VERDICTS
     lines = ["# All papers: what holds", "",
-             "Generated from `data/results/*.json`. Verdict rule: `mmlib/report.py`. Counts are over the comparison "
+             "Generated from `data/results/*.json`. Verdict rule: `mmlib/experiment/report.py`. Counts are over the comparison "
              "rows of each paper (tables; timing rows included).", "",
              markdown_table(["paper", "runs", *VERDICTS, "report"],
                             [[d["paper"], d["provenance"]["n_runs"],

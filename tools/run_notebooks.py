@@ -12,7 +12,7 @@ or a path; default: all of them) is converted to .ipynb and executed with the ``
   other settings is never written over the committed outputs (nor over the smoke outputs the tolerance tests read).
 
 Every argument is checked before anything runs: ``-p`` names a parameter the notebook declares, with a value the
-notebooks accept (the rules of ``mmlib.scenarios.presentation.NotebookRun``: e.g. at least two Monte Carlo runs,
+notebooks accept (the rules of ``mmlib.papers.presentation.NotebookRun``: e.g. at least two Monte Carlo runs,
 since a standard error needs two); a bad one is an error naming it (exit status 2).
 
 Promotion is all-or-nothing per paper.  Only if every cell succeeds are the paper's reports rendered into its
@@ -200,7 +200,7 @@ def check_values(params: dict, declared: dict[str, str], profile: str) -> None:
     True/False for a parameter whose default is a boolean."""
     if not params:
         return
-    from mmlib.scenarios.presentation import NotebookRun
+    from mmlib.papers.presentation import NotebookRun
     accepted = inspect.signature(NotebookRun).parameters
     shared = {k: v for k, v in params.items() if k in accepted}
     try:
@@ -294,7 +294,7 @@ def write_journal(staging: Path, layout: Layout, paper: str, name: str) -> None:
     file is on disk, so that an interrupted promotion can always be finished."""
     entries = [{"path": rel, "staged": (staging / rel).exists()} for rel in owned_paths(layout, paper, name)]
     journal = {"out": os.path.relpath(layout.out, layout.root), "paper": paper, "entries": entries}
-    from mmlib.report import atomic_write_text
+    from mmlib.experiment.report import atomic_write_text
     atomic_write_text(staging / JOURNAL, json.dumps(journal, indent=1) + "\n", durable=True)
     checkpoint("journal")
 

@@ -3,12 +3,12 @@
 multiverse summaries (``multiverse``) and their tables and figures (``views``).
 
 It depends on the estimation core (filters, IMM, models, simulation, metrics) and on
-``mmlib.report`` (the one verdict rule); the paper set-ups in ``mmlib.scenarios`` depend on it.
+``mmlib.experiment.report`` (the one verdict rule); the paper set-ups in ``mmlib.papers`` depend on it.
 """
-from . import evaluation, grid, multiverse, readings
-from .grid import run_grid
-from .multiverse import Multiverse, PublishedNumber, run_multiverse, universe_result
-from .readings import Deviation, Factor, Option, ReadingSpace
+from mmlib.experiment import evaluation, grid, multiverse, readings
+from mmlib.experiment.grid import run_grid
+from mmlib.experiment.multiverse import Multiverse, PublishedNumber, run_multiverse, universe_result
+from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 
 __all__ = ["evaluation", "grid", "multiverse", "readings", "run_grid", "Multiverse", "PublishedNumber",
            "run_multiverse", "universe_result", "Deviation", "Factor", "Option", "ReadingSpace"]

@@ -10,13 +10,13 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from .. import metrics
-from .._validate import (as_float_array, check_bool, check_finite, check_finite_runs, check_index,
-                         check_positive_int)
-from ..estimation import run, select_runs, summarise_divergence
-from ..montecarlo import MonteCarlo, Progress
-from ..simulate import simulate
-from .executors import run_tasks
+from mmlib.experiment import metrics
+from mmlib.core._validate import (as_float_array, check_bool, check_finite, check_finite_runs, check_index,
+                                  check_positive_int)
+from mmlib.core.estimation import run, select_runs, summarise_divergence
+from mmlib.experiment.montecarlo import MonteCarlo, Progress
+from mmlib.experiment.simulate import simulate
+from mmlib.experiment.executors import run_tasks
 
 
 
@@ -28,14 +28,14 @@ class RunSet(NamedTuple):
     diverged_step: np.ndarray        # (N,)
     example_mean: np.ndarray         # (K, n) estimate of the first run (for trajectory plots)
     diagnostics: object = None       # (N, K, d) per-step diagnostics of adaptive estimators, or None
-    divergence_cause: object = None  # (N,) mmlib.estimation.Failure codes (0: not diverged), or None
+    divergence_cause: object = None  # (N,) mmlib.core.estimation.Failure codes (0: not diverged), or None
 
     @property
     def valid(self) -> np.ndarray:
         return self.diverged_step < 0
 
     def divergence_summary(self) -> str:
-        """How many runs diverged, at which steps and why (:func:`mmlib.estimation.summarise_divergence`)."""
+        """How many runs diverged, at which steps and why (:func:`mmlib.core.estimation.summarise_divergence`)."""
         return summarise_divergence(self.diverged_step, self.divergence_cause)
 
 
@@ -128,7 +128,7 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
 
     ``make_batch(runs)`` returns ``(truth (B, K+1, n), measurements (B, K, m),
     init: dict name -> initial state)``; with ``measurement_models`` (one per step, see
-    :func:`mmlib.estimation.run`) the measurements are a list of K arrays (B, m_k).
+    :func:`mmlib.core.estimation.run`) the measurements are a list of K arrays (B, m_k).
     Returns ``{name: RunSet}``.
 
     The runs are cut into chunks of ``chunk_size`` (integer >= 1) consecutive runs, and the chunks run in
@@ -198,8 +198,8 @@ def paired_mse_difference(a: RunSet, b: RunSet, components):
 
 def better_claim(results: dict, a: str, b: str, quantities) -> tuple[str, str]:
     """Verdict and evidence for "a is more accurate than b" over ``quantities`` = [(label, components)],
-    from paired differences on common random numbers (:func:`mmlib.report.claim_verdict`)."""
-    from ..report import claim_verdict, combine_claim_verdicts
+    from paired differences on common random numbers (:func:`mmlib.experiment.report.claim_verdict`)."""
+    from mmlib.experiment.report import claim_verdict, combine_claim_verdicts
     _check_mapping(results, "results", "RunSets by estimator name")
     _check_name(a, "a", results)
     _check_name(b, "b", results)
@@ -357,7 +357,7 @@ def run_digest(results, n_runs: int) -> dict:
 
     ``results``: ``{name: RunSet}`` as :func:`evaluate` returns, or a dict of such dicts (e.g. per case;
     names flattened to ``"case / name"``); ``n_runs``: integer from 1 to the runs of every RunSet.
-    Per run the streams are fixed (:mod:`mmlib.montecarlo`) and the filters give a run the same bits in
+    Per run the streams are fixed (:mod:`mmlib.experiment.montecarlo`) and the filters give a run the same bits in
     any batch, one run included (tests/test_batch_independence.py), so the digest of the first n runs is the same for an evaluation of
     n runs and of any N > n runs, whatever the chunking.
 
@@ -368,7 +368,7 @@ def run_digest(results, n_runs: int) -> dict:
     Beside it, for a readable mismatch message, per name: ``mean_squared_error`` (mean over the valid
     runs among the first n, the K steps and the n components of the squared error, in the squared unit
     of the state; None if no run is valid) and ``diverged`` (runs among the first n that diverged); ``kernel``:
-    the implementation that computed them (:func:`mmlib.linalg.kernel`: the compiled and numpy paths agree to
+    the implementation that computed them (:func:`mmlib.core.linalg.kernel`: the compiled and numpy paths agree to
     round-off, not bit for bit, so digests compare only within one kernel)."""
     flat = _flat_runsets(results, "results")
     n_runs = check_positive_int(n_runs, "n_runs")
@@ -391,6 +391,6 @@ def run_digest(results, n_runs: int) -> dict:
         diverged[name] = int((~ok).sum())
         m = float(np.mean(rs.errors[:n_runs][ok] ** 2)) if ok.any() else None
         mse[name] = m if m is not None and np.isfinite(m) else None
-    from ..linalg import kernel
+    from mmlib.core.linalg import kernel
     return {"version": DIGEST_VERSION, "n_runs": n_runs, "algorithms": sorted(flat), "sha256": h.hexdigest(),
             "mean_squared_error": mse, "diverged": diverged, "kernel": kernel()}

@@ -23,7 +23,7 @@ notebook's ``__main__`` run in any worker (plain pickle refuses both); results t
 
 Guarantee: :func:`run_tasks` returns the results in task order whatever the order in which they finish, and a
 task computes the same bits wherever it runs -- the tasks are deterministic functions of their arguments (per-run
-random streams, batch-size-independent filters), and the kernel implementation of :mod:`mmlib.linalg` selected in
+random streams, batch-size-independent filters), and the kernel implementation of :mod:`mmlib.core.linalg` selected in
 this process is selected in the worker for the task.  A Dask worker whose ``mmlib`` source differs from this
 process's is refused (its numbers could differ).  A worker that dies mid-task is replaced by Dask and its task
 recomputed (never lost nor duplicated); a local worker's death, or the loss of the Dask scheduler, is an error and
@@ -41,7 +41,7 @@ import threading
 import time
 from typing import Callable, Sequence
 
-from .._validate import check_positive_int
+from mmlib.core._validate import check_positive_int
 
 #: environment variable: the number of local worker processes (default: every core this process may use)
 WORKERS_VARIABLE = "WORKERS"
@@ -109,15 +109,15 @@ def _task_scope():
 
 def _process_state() -> dict:
     """What a worker must share with this process to compute the same bits: the kernel implementation of
-    :mod:`mmlib.linalg` (a process setting, ``linalg.use_kernel``), when the library has one."""
-    from .. import linalg
+    :mod:`mmlib.core.linalg` (a process setting, ``linalg.use_kernel``), when the library has one."""
+    from mmlib.core import linalg
     kernel = getattr(linalg, "kernel", None)
     return {"kernel": kernel()} if callable(kernel) else {}
 
 
 @contextlib.contextmanager
 def _entered(state: dict):
-    from .. import linalg
+    from mmlib.core import linalg
     use = getattr(linalg, "use_kernel", None)
     with (use(state["kernel"]) if "kernel" in state and callable(use) else contextlib.nullcontext()):
         yield
@@ -127,7 +127,7 @@ def _run_task(shared: bytes, payload: bytes, state: dict, source: str | None):
     """Runs in a worker: ``fn(*shared, *args)`` with the caller's process state, marked as a task."""
     import cloudpickle
     if source is not None:
-        from .grid import source_hash
+        from mmlib.experiment.grid import source_hash
         if source_hash() != source:
             import socket
             raise RuntimeError(f"{SCHEDULER_VARIABLE}: the worker on {socket.gethostname()} (pid {os.getpid()}) "
@@ -321,7 +321,7 @@ def run_tasks(fn: Callable, tasks: Sequence[tuple], *, shared: tuple = (), worke
     setting = "executor" if executor is not None else SCHEDULER_VARIABLE
     source = None
     if address is not None:          # a remote worker may hold another checkout: refuse it rather than differ
-        from .grid import source_hash
+        from mmlib.experiment.grid import source_hash
         source = source_hash()
     blob, state = cloudpickle.dumps(tuple(shared)), _process_state()
     futures = {ex.submit(_run_task, blob, cloudpickle.dumps((fn, task)), state, source): i

@@ -2,7 +2,7 @@
 
 A *job* is a function ``job(reading, n_runs, seed) -> dict`` (sent to the workers with
 cloudpickle; a module-level function keeps its cache key stable); every job uses the paper's one root seed and the
-per-run streams of :mod:`mmlib.montecarlo`, so universes share common random numbers
+per-run streams of :mod:`mmlib.experiment.montecarlo`, so universes share common random numbers
 and a universe's numbers do not depend on which worker ran it, in which order, or
 whether it came from the cache.
 
@@ -26,13 +26,13 @@ import time
 from pathlib import Path
 from typing import Callable, Mapping
 
-from .._validate import check_positive_int
+from mmlib.core._validate import check_positive_int
 # default_workers lived here: kept importable from this module
-from .executors import default_workers, run_tasks, worker_count  # noqa: F401
+from mmlib.experiment.executors import default_workers, run_tasks, worker_count  # noqa: F401
 
 
 #: modules that only render results (tables, figures): editing them cannot change a universe's numbers
-PRESENTATION_MODULES = ("experiment/views.py", "scenarios/presentation.py")
+PRESENTATION_MODULES = ("experiment/views.py", "papers/presentation.py")
 
 
 @functools.lru_cache(maxsize=1)
@@ -93,7 +93,7 @@ def _read_entry(path: Path, key_doc: dict):
 
 
 def _write_json_atomic(path: Path, doc) -> None:
-    from ..report import atomic_write_text
+    from mmlib.experiment.report import atomic_write_text
     atomic_write_text(path, json.dumps(doc, allow_nan=False, sort_keys=True))
 
 

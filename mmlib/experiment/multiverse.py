@@ -7,7 +7,7 @@ A paper module provides
   :class:`PublishedNumber` s (table, item, algorithm, quantity, the printed text);
 * a job ``universe(reading, n_runs, seed) -> dict`` built with :func:`universe_result`:
   the universe's ``values`` (one per published number it replicates, same item, algorithm
-  and quantity), its ``claims`` (verdicts in the claim vocabulary of :mod:`mmlib.report`),
+  and quantity), its ``claims`` (verdicts in the claim vocabulary of :mod:`mmlib.experiment.report`),
   its ``effects`` (named paired differences with standard errors, for the specification
   curve) and its ``diverged`` run counts per algorithm.
 
@@ -36,9 +36,9 @@ import math
 from dataclasses import dataclass
 from typing import Callable, NamedTuple
 
-from .. import report
-from .grid import run_grid
-from .readings import Design, ReadingSpace
+from mmlib.experiment import report
+from mmlib.experiment.grid import run_grid
+from mmlib.experiment.readings import Design, ReadingSpace
 
 #: a claim is robust when one verdict holds in at least this fraction of the universes
 ROBUST_FRACTION = 0.9
@@ -74,7 +74,7 @@ def universe_result(*, values, claims, diverged, effects=(), n_runs: int) -> dic
     sixth element ``failed`` (a reason, e.g. "diverged in 20/20 runs") for a value the method was
     run for but could not produce: its verdict is "not reproduced: <reason>" and its standardized
     distance infinite (it matches no printed number); ``claims``: a
-    :class:`mmlib.report.Claims` or dicts with ``claim`` and ``verdict``; ``diverged``: algorithm
+    :class:`mmlib.experiment.report.Claims` or dicts with ``claim`` and ``verdict``; ``diverged``: algorithm
     -> number of diverged runs; ``effects``: iterable of ``(name, value, stderr)`` or
     ``(name, value, stderr, published)``."""
     vals = []

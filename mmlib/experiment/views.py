@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import report
-from .multiverse import ROBUST_FRACTION, Multiverse
+from mmlib.experiment import report
+from mmlib.experiment.multiverse import ROBUST_FRACTION, Multiverse
 
 
 def _cell(v) -> str:

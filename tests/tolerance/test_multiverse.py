@@ -11,7 +11,7 @@ import math
 
 import pytest
 
-from mmlib import report
+from mmlib.experiment import report
 from test_results import PAPERS, load
 
 KEYS = ("factors", "design", "design_description", "n_universes", "n_runs", "universes", "claims_summary",
@@ -19,7 +19,7 @@ KEYS = ("factors", "design", "design_description", "n_universes", "n_runs", "uni
 
 
 def _module(paper):
-    return importlib.import_module(f"mmlib.scenarios.{paper}")
+    return importlib.import_module(f"mmlib.papers.{paper}")
 
 
 def _by_reading(mv):

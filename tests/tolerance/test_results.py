@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from mmlib import report
+from mmlib.experiment import report
 
 REPO = Path(__file__).resolve().parents[2]
 PAPERS = {"zhu2016": 100, "liu2017": 200, "hu2017": 100, "zhou2017": 100, "tseng2011": 100}          # paper -> full Monte Carlo count
@@ -134,7 +134,7 @@ def test_figures_exist_and_no_silent_divergence(paper):
 
 
 def test_zhu2016_paper_values_and_coincidence():
-    from mmlib.scenarios import zhu2016 as paper
+    from mmlib.papers import zhu2016 as paper
     full, smoke = load("zhu2016", "full"), load("zhu2016", "smoke")
     for row in full["rows"]:
         if row["quantity"].startswith("RMSE"):
@@ -154,7 +154,7 @@ def test_zhu2016_identity_in_every_universe(profile):
     """In every universe IMM5CKF equals IMM-KF to round-off (linear models: the identity holds under every
     reading) and nothing diverges; the headline universe is the declared headline."""
     doc = load("zhu2016", profile)
-    from mmlib.scenarios import zhu2016 as paper
+    from mmlib.papers import zhu2016 as paper
     mv = doc["multiverse"]
     head = mv["universes"][0]
     assert head["reading"] == paper.SPACE.headline
@@ -165,7 +165,7 @@ def test_zhu2016_identity_in_every_universe(profile):
 
 
 def test_liu2017_paper_values_and_near_equality():
-    from mmlib.scenarios import liu2017 as paper
+    from mmlib.papers import liu2017 as paper
     full = load("liu2017", "full")
     for row in full["rows"]:
         if row["item"] == "Table 1":
@@ -186,7 +186,7 @@ def test_hu2017_coincidence_and_over_confidence():
     assert full["nees_time_average"]["IMMCDKF-OBS"][0] > 10 * full["nees_time_average"]["IMMCDKF"][0]
     assert {f"fig0{i}" for i in range(1, 8)} <= {k[:5] for k in full["figures"]}
     # H-11 is metric-only: the claims are summarised once per distinct simulation
-    from mmlib.scenarios import hu2017
+    from mmlib.papers import hu2017
     sims = {hu2017.SPACE.simulation_key(u["reading"]) for u in full["multiverse"]["universes"]}
     assert full["multiverse"]["n_simulations"] == len(sims) < full["multiverse"]["n_universes"]
     assert all(c["n_simulations"] == len(sims) for c in full["multiverse"]["claims_summary"])

@@ -266,7 +266,7 @@ def _version(package: str):
 def provenance(*, root_seed: int, n_runs: int, profile: str, extra: dict | None = None) -> dict:
     import matplotlib
     import scipy
-    from .linalg import kernel
+    from mmlib.core.linalg import kernel
     info = {
         "git_commit": git_commit(Path(__file__).resolve().parent.parent),
         "root_seed": int(root_seed),

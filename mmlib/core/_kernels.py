@@ -1,4 +1,4 @@
-r"""Compiled (numba) kernels of :mod:`mmlib.linalg`: the same mathematics as its numpy reference
+r"""Compiled (numba) kernels of :mod:`mmlib.core.linalg`: the same mathematics as its numpy reference
 path, fused into one loop nest per filter operation.
 
 Why: the filters spend their time in many small operations on ``(B, r, n, n)`` stacks (n = 2..9).
@@ -9,11 +9,11 @@ bound: a few hundred ns per 4x4 step).  Here every kernel copies its operands in
 over the N runs: independent lanes that LLVM turns into SIMD instructions, with no temporaries and
 one call per filter operation.
 
-Conventions shared with the numpy path (:mod:`mmlib.linalg`), and tested against it
+Conventions shared with the numpy path (:mod:`mmlib.core.linalg`), and tested against it
 (``tests/test_kernels.py``):
 
 * the public kernels take and return stacks with the run axis first, ``(N, ...)``, C-contiguous
-  (the wrappers in :mod:`mmlib.linalg` broadcast and flatten leading axes);
+  (the wrappers in :mod:`mmlib.core.linalg` broadcast and flatten leading axes);
 * a Cholesky factor is LAPACK ``potf2``'s: only the lower triangle is read; a matrix fails when a pivot
   is not > 0 (NaN included) or not finite; a failed run's outputs are NaN and it is reported, never
   patched;
@@ -26,7 +26,7 @@ Conventions shared with the numpy path (:mod:`mmlib.linalg`), and tested against
 * the two paths agree to round-off (relative ~1e-12 after a filter run of 100 steps), not bit for bit:
   BLAS and LAPACK sum in other orders.
 
-Which path runs is :func:`mmlib.linalg.kernel` (``MMLIB_KERNEL=numpy`` selects the reference path).
+Which path runs is :func:`mmlib.core.linalg.kernel` (``MMLIB_KERNEL=numpy`` selects the reference path).
 """
 from __future__ import annotations
 
@@ -276,7 +276,7 @@ def weighted_outer(dy, w, dx, add):
 
 @njit(**_OPTS)
 def kalman_moments(mean, cov, nu, S, Pxz, H, R):
-    r"""The numerical part of :func:`mmlib.filters.kalman_update` for a stack of N runs.
+    r"""The numerical part of :func:`mmlib.core.filters.kalman_update` for a stack of N runs.
 
     mean (N, n), cov (N, n, n), innovation nu (N, m), S (N, m, m), Pxz (N, n, m); ``H`` (N, m, n) and
     ``R`` (N, m, m) select the Joseph form (``H`` of shape (N, 0, 0): the form :math:`P - AA^T`).

@@ -14,10 +14,10 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from ._validate import (as_float_array, check_applies, check_bool, check_finite, check_has, check_index,
-                        check_positive_int, check_scalar)
-from .linalg import matmul_rows
-from .montecarlo import MonteCarlo, Stream
+from mmlib.core._validate import (as_float_array, check_applies, check_bool, check_finite, check_has, check_index,
+                                  check_positive_int, check_scalar)
+from mmlib.core.linalg import matmul_rows
+from mmlib.experiment.montecarlo import MonteCarlo, Stream
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,17 +13,18 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .. import metrics, models
-from ..bootstrap import ObservationBootstrap
-from ..estimation import IMM, run
-from ..filters import ExtendedKalmanFilter, SigmaPointFilter
-from ..montecarlo import MonteCarlo, Stream
-from ..rules import CentralDifference, Cubature, Unscented
-from ..simulate import ManeuverSchedule
-from ..experiment import evaluation
-from ..experiment.multiverse import PublishedNumber, universe_result
-from ..experiment.readings import Deviation, Factor, Option, ReadingSpace
-from ..report import Claims, claim_verdict, combine_claim_verdicts, make_row
+from mmlib.experiment import metrics
+from mmlib.core import models
+from mmlib.core.layers.bootstrap import ObservationBootstrap
+from mmlib.core.estimation import IMM, run
+from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
+from mmlib.experiment.montecarlo import MonteCarlo, Stream
+from mmlib.core.rules import CentralDifference, Cubature, Unscented
+from mmlib.experiment.simulate import ManeuverSchedule
+from mmlib.experiment import evaluation
+from mmlib.experiment.multiverse import PublishedNumber, universe_result
+from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
+from mmlib.experiment.report import Claims, claim_verdict, combine_claim_verdicts, make_row
 
 PAPER = "hu2017"
 CITATION = ("Z. Hu, J. Zhang, C. Fu, X. Li, Maneuvering target tracking algorithm based on CDKF in observation "
@@ -413,7 +414,7 @@ AXES = (("horizontal", 0), ("vertical", 2))
 
 def judge_claims(res: ReadingResult) -> Claims:
     """The accuracy and mode-identification claims of Sec. 3 and the conclusions, judged on paired
-    differences over common random numbers (:mod:`mmlib.report`, claim vocabulary)."""
+    differences over common random numbers (:mod:`mmlib.experiment.report`, claim vocabulary)."""
     r = res.runs
     cl = Claims()
     cl.add("IMMCDKF-OBS is more accurate than IMMCDKF: bootstrapped observations improve precision without new "
@@ -575,7 +576,7 @@ def influence(mv, factor_id: str) -> dict:
     common random numbers, so it overstates the standard error of the change and the ratios are *lower
     bounds* of its significance; and a one-factor change cannot show an interaction (H-13 matters far more
     under H-4 = km).  ``moves`` is True when some ratio reaches 1 or a claim verdict changes."""
-    from ..report import claim_category
+    from mmlib.experiment.report import claim_category
 
     def z(va, sa, vb, sb):
         if va is None or vb is None or va == vb:
@@ -605,7 +606,7 @@ def bootstrapping_helps(mv) -> list:
     """The distinct simulations (:meth:`Multiverse.simulations`) in which 'IMMCDKF-OBS is more accurate than IMMCDKF'
     holds: (index of its first universe, description of its reading without the metric-only factors, key
     effect value, its standard error)."""
-    from ..report import claim_category
+    from mmlib.experiment.report import claim_category
     out = []
     for idx in mv.simulations():
         u = mv.universes[idx[0]]

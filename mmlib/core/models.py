@@ -17,9 +17,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validate import (RTOL, as_float_array, check_covariance, check_finite, check_has, check_index, check_matrix,
-                        check_positive_int, check_scalar)
-from .linalg import _compiled as _compiled_kernels, matmul_rows
+from mmlib.core._validate import (RTOL, as_float_array, check_covariance, check_finite, check_has, check_index,
+                                  check_matrix, check_positive_int, check_scalar)
+from mmlib.core.linalg import _compiled as _compiled_kernels, matmul_rows
 
 
 TWO_PI = 2.0 * math.pi
@@ -32,7 +32,7 @@ def wrap_angle(a):
 
 
 def _apply_matrix(x, A):
-    """``x @ A.T`` over any leading axes (x (..., n), A (d, n)) by :func:`mmlib.linalg.matmul_rows`:
+    """``x @ A.T`` over any leading axes (x (..., n), A (d, n)) by :func:`mmlib.core.linalg.matmul_rows`:
     one GEMM for the whole batch, whose rows have the same bits whatever the batch size (one run
     included, where a plain ``@`` would take BLAS's gemv path)."""
     return matmul_rows(x, A.T)
@@ -323,7 +323,7 @@ class RangeBearing:
 
     dim = 2
     #: which components are angles: the bearing (its residuals are wrapped to (-pi, pi], its average is
-    #: taken about a reference point); the compiled kernels of mmlib.linalg read this
+    #: taken about a reference point); the compiled kernels of mmlib.core.linalg read this
     angular = (False, True)
 
     @property
@@ -458,10 +458,10 @@ def range_bearing(R, state_dim: int = 4, sensor=(0.0, 0.0)) -> "RangeBearing":
 
 @dataclass(frozen=True, eq=False)
 class SensorFault:
-    """Additive sensor fault (Zhou et al. 2017, Eq. 2): ``z = h(x) + v + delta``, ``delta`` (B, K, m)
-    per run and step, finite, in the measurement's units (m and rad for a range-bearing radar).
-    :meth:`radar` builds the paper's range deviation and bearing drift; use as
-    ``simulate(..., measurement_noise_fn=fault.apply(measurement))``."""
+    """An additive sensor fault of any measurement model: ``z = h(x) + v + delta``, ``delta`` (B, K, m) per run
+    and step, finite, in the measurement's units (m and rad for a range-bearing radar); e.g. the range
+    deviation and bearing drift of Zhou et al. 2017, Eq. 2 (built by :func:`mmlib.papers.zhou2017.radar_drift`).
+    Use as ``simulate(..., measurement_noise_fn=fault.apply(measurement))``."""
 
     delta: np.ndarray
 
@@ -471,30 +471,8 @@ class SensorFault:
             raise ValueError(f"delta: expected shape (B, K, m) (runs, steps, measurement dimension), got {d.shape}")
         _freeze(self, delta=d)
 
-    @staticmethod
-    def radar(range_offset, bearing_rate, times) -> "SensorFault":
-        """Range deviation ``delta_r`` (m, per run, constant) and bearing drift
-        ``delta_theta_k = rate * t_k`` (rad, rate in rad/s per run): arrays of shape (B,) or (B, K);
-        ``times`` (K,) the measurement times t_k (s)."""
-        t = check_finite(as_float_array(times, "times"), "times")
-        if t.ndim != 1 or t.size < 1:
-            raise ValueError(f"times: expected shape (K,) with K >= 1, got {t.shape}")
-        K = t.shape[0]
-        arrays = {}
-        for name, value in (("range_offset", range_offset), ("bearing_rate", bearing_rate)):
-            a = check_finite(as_float_array(value, name), name)
-            if a.ndim not in (1, 2) or a.shape[0] < 1 or (a.ndim == 2 and a.shape[1] != K):
-                raise ValueError(f"{name}: expected shape (B,) or (B, {K}) (per run, or per run and step), "
-                                 f"got {a.shape}")
-            arrays[name] = a.reshape(a.shape[0], -1)
-        B = arrays["range_offset"].shape[0]
-        if arrays["bearing_rate"].shape[0] != B:
-            raise ValueError(f"bearing_rate: expected {B} runs (as range_offset), got shape {np.shape(bearing_rate)}")
-        dr = np.broadcast_to(arrays["range_offset"], (B, K))
-        return SensorFault(np.stack([dr, arrays["bearing_rate"] * t[None, :]], axis=-1))
-
     def apply(self, measurement):
-        """``noise_fn(truth (B, K, n), v (B, K, m))`` for :func:`mmlib.simulate.simulate`; the measurement
+        """``noise_fn(truth (B, K, n), v (B, K, m))`` for :func:`mmlib.experiment.simulate.simulate`; the measurement
         model's dimension and the truth's runs and steps must match ``delta``."""
         check_has(measurement, "measurement", "a measurement model", ("h", "noise_factor", "dim"))
         if measurement.dim != self.delta.shape[-1]:

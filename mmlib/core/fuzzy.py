@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import as_float_array, check_finite, check_scalar
-from .linalg import matmul_rows
+from mmlib.core._validate import as_float_array, check_finite, check_scalar
+from mmlib.core.linalg import matmul_rows
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ runs and modes, are flattened into one stack).
 
 **Two kernels, one mathematics** (:func:`kernel`, ``MMLIB_KERNEL``):
 
-* ``"numba"`` (default when numba imports): the compiled kernels of :mod:`mmlib._kernels`, each filter
+* ``"numba"`` (default when numba imports): the compiled kernels of :mod:`mmlib.core._kernels`, each filter
   operation fused into one batch-innermost loop nest vectorised across the runs;
 * ``"numpy"``: the reference path, LAPACK gufuncs and ``matmul`` on the leading-batch layout (measured on
   the 2-core reference machine, numpy 2.4, n = 4: ``np.linalg.cholesky`` on a ``(100, 4, 4)`` stack
@@ -20,7 +20,7 @@ only compiled: on the numpy path the filters compose the generic functions inste
 A matrix that is not positive definite never raises inside the batch: the
 affected runs are returned in a mask and their factor is NaN, so that the
 divergence propagates to that run only and is *reported* by the caller
-(:func:`mmlib.estimation.run`) instead of being patched.
+(:func:`mmlib.core.estimation.run`) instead of being patched.
 """
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ import os
 
 import numpy as np
 
-#: The implementations of the kernels below: ``"numba"`` (compiled loops, :mod:`mmlib._kernels`) and
+#: The implementations of the kernels below: ``"numba"`` (compiled loops, :mod:`mmlib.core._kernels`) and
 #: ``"numpy"`` (the reference path).  They compute the same mathematics and agree to round-off
 #: (``tests/test_kernels.py``); each gives every run the same bits in any batch.
 KERNELS = ("numba", "numpy")
@@ -44,7 +44,7 @@ def _initial_kernel() -> str:
     if env == "numpy":
         return "numpy"
     try:
-        from . import _kernels  # noqa: F401
+        from mmlib.core import _kernels  # noqa: F401
     except ImportError:
         if env == "numba":
             raise ValueError("MMLIB_KERNEL: 'numba' asked for, but numba is not installed (pip install numba)")
@@ -65,7 +65,7 @@ def set_kernel(name: str) -> None:
     if name not in KERNELS:
         raise ValueError(f"name: expected one of {KERNELS}, got {name!r}")
     if name == "numba":
-        from . import _kernels  # noqa: F401   (ImportError if numba is missing)
+        from mmlib.core import _kernels
     _KERNEL[0] = name
 
 
@@ -88,7 +88,7 @@ def _compiled():
     if _KERNEL[0] != "numba":
         return None
     if not _KERNELS_MODULE:
-        from . import _kernels
+        from mmlib.core import _kernels
         _KERNELS_MODULE.append(_kernels)
     return _KERNELS_MODULE[0]
 
@@ -347,7 +347,7 @@ def matmul_rows(x: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- fused filter kernels
-# Each has a numpy reference implementation here and a compiled one in mmlib._kernels (selected by kernel()).
+# Each has a numpy reference implementation here and a compiled one in mmlib.core._kernels (selected by kernel()).
 
 def sigma_points(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""Sigma points :math:`X_p = m + L\xi_p` with :math:`LL^T = P` (:func:`cholesky`), for a stack.
@@ -403,7 +403,7 @@ def weighted_covariances(dy: np.ndarray, w: np.ndarray, dx=None, add=None):
 
 
 def kalman_moments(mean, cov, nu, S, Pxz, H=None, R=None):
-    r"""The numerical part of the shared Kalman update (:func:`mmlib.filters.kalman_update`).
+    r"""The numerical part of the shared Kalman update (:func:`mmlib.core.filters.kalman_update`).
 
     ``mean`` (..., n), ``cov`` (..., n, n), residual-wrapped innovation ``nu`` (..., m), ``S`` (..., m, m),
     ``Pxz`` (..., n, m); ``H`` (..., m, n) with ``R`` (broadcasting to (..., m, m)) selects the Joseph form.
@@ -468,12 +468,12 @@ def combine_covariances(wt, means, covs, centres):
     return 0.5 * (spread + np.swapaxes(spread, -1, -2))
 
 
-# Fused steps: compiled only (the numpy path composes the generic functions above in mmlib.filters and
-# mmlib.estimation; tests/test_kernels.py checks that both paths agree).
+# Fused steps: compiled only (the numpy path composes the generic functions above in mmlib.core.filters and
+# mmlib.core.estimation; tests/test_kernels.py checks that both paths agree).
 
 def sigma_point_predict_linear(mean, cov, points, F, Q):
     r"""Sigma-point time update through linear dynamics, fused (compiled kernel only): the rule's unit
-    ``points`` (:class:`mmlib.rules.UnitPoints`) about ``mean`` (..., n) with covariance ``cov`` (..., n, n),
+    ``points`` (:class:`mmlib.core.rules.UnitPoints`) about ``mean`` (..., n) with covariance ``cov`` (..., n, n),
     mapped by ``F`` and ``Q`` (each broadcasting against (..., n, n)).  Returns ``(mean-, cov-)``: the
     moments :func:`sigma_points`, ``F X``, :func:`weighted_mean` and :func:`weighted_covariances` give."""
     lead = mean.shape[:-1]
@@ -501,13 +501,13 @@ def measurement_moments(X, mean, Z, points, angular, R):
 def imm_mix(mu, transition, means, covs):
     r"""IMM interaction fused (compiled kernel only): ``(c (B, r), mixed means (B, r, n), mixed covs
     (B, r, n, n))`` from mode probabilities ``mu`` (B, r), ``transition`` (r, r) (rows "from") and the mode
-    estimates; the same as :func:`mmlib.estimation.mixing_weights` then :class:`mmlib.estimation.MomentMixing`."""
+    estimates; the same as :func:`mmlib.core.estimation.mixing_weights` then :class:`mmlib.core.estimation.MomentMixing`."""
     return _call("imm_mix", mu.shape[0], _stack(mu, 1), np.ascontiguousarray(transition, dtype=np.float64), _stack(means, 2),
                             _stack(covs, 3))
 
 
 def imm_output(loglik, c, means, covs, nu, S, with_cov: bool):
-    """The end of an IMM cycle fused (compiled kernel only): :func:`mmlib.estimation.imm_output`."""
+    """The end of an IMM cycle fused (compiled kernel only): :func:`mmlib.core.estimation.imm_output`."""
     mu, marginal, underflow, mean, cov, innovation, innovation_cov = _call("imm_output", loglik.shape[0],
         _stack(loglik, 1), _stack(c, 1), _stack(means, 2), _stack(covs, 3), _stack(nu, 2), _stack(S, 3), bool(with_cov))
     return mu, marginal, underflow, mean, (cov if with_cov else None), innovation, innovation_cov

@@ -131,7 +131,7 @@ def check_covariance(value, name: str, dim: int | None = None, *, batch: bool = 
     (..., n, n) (e.g. runs and steps, or runs and modes) if ``stack``.
 
     Symmetry to ``RTOL`` of each matrix's largest entry.  Definiteness by LAPACK's Cholesky, the test the
-    filters apply (:func:`mmlib.linalg.cholesky`); ``semidefinite``: the Cholesky of
+    filters apply (:func:`mmlib.core.linalg.cholesky`); ``semidefinite``: the Cholesky of
     :math:`A + \mathrm{RTOL}\,\max|A|\,I`, i.e. smallest eigenvalue >= -RTOL x the largest entry (a zero
     block, e.g. a zero noise level, is legitimate).  One batched call, cheap enough for every step;
     eigenvalues are computed only to decide a semi-definite failure and to report the first offending
@@ -159,7 +159,7 @@ def check_covariance(value, name: str, dim: int | None = None, *, batch: bool = 
     if semidefinite:
         test = flat.copy()
         test.reshape(N, -1)[:, ::n + 1] += (RTOL * scale)[:, None]
-    from .linalg import cholesky           # the filters' own test, matrix by matrix (compiled when selected)
+    from mmlib.core.linalg import cholesky
     _, failed = cholesky(test)
     if not failed.any():
         return arr

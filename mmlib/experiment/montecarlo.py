@@ -20,7 +20,7 @@ from enum import IntEnum
 
 import numpy as np
 
-from ._validate import check_index, check_positive_int
+from mmlib.core._validate import check_index, check_positive_int
 
 
 class Stream(IntEnum):
@@ -83,8 +83,8 @@ class MonteCarlo:
         :math:`\text{mean} + L w` with :math:`LL^T = \text{cov}` (Cholesky) and ``w`` the run's standard normals
         of ``stream`` (e.g. a sampled initial estimate, :attr:`Stream.INITIAL`).  ``mean`` (n,) or
         (len(runs), n); the product is the same for a run in any batch, one run included."""
-        from ._validate import as_float_array, check_covariance
-        from .linalg import matmul_rows
+        from mmlib.core._validate import as_float_array, check_covariance
+        from mmlib.core.linalg import matmul_rows
         cov = check_covariance(cov, "cov")
         mean = as_float_array(mean, "mean")
         if mean.shape[-1:] != cov.shape[:1]:

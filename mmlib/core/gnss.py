@@ -5,14 +5,14 @@ position then velocity, then the receiver clock, all in metres:
 
     ``[e, ve, n, vn, u, vu, b, d]``  with ``b = c * dt_rx`` (m) and ``d = c * d(dt_rx)/dt`` (m/s).
 
-This follows :mod:`mmlib.models` (per axis, position then its derivative).
+This follows :mod:`mmlib.core.models` (per axis, position then its derivative).
 
 * :class:`CircularOrbitConstellation` -- satellites on circular Keplerian orbits, propagated in
   closed form and rotated into the Earth-fixed frame (IS-GPS-200 user algorithm with e = 0 and
   no perturbations).  ``nominal_gps24`` gives a 24-satellite, 6-plane, 55-degree constellation.
 * :class:`LocalFrame` -- ECEF <-> local ENU at a reference point, through ``pymap3d``.
 * :class:`Pseudoranges` -- :math:`\rho_i = \lVert s_i - p\rVert + b + v_i` for the satellites in
-  view; a measurement model of the :mod:`mmlib.filters` interface whose dimension is the number
+  view; a measurement model of the :mod:`mmlib.core.filters` interface whose dimension is the number
   of satellites (it changes from step to step: use ``run(..., measurement_models=...)``).
 * :func:`clock_process_noise` and :class:`PVClockNoise` -- the two-state clock model and the
   position-velocity (continuous white-noise acceleration) process noise of the 8-state filter.
@@ -28,8 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validate import as_float_array, check_covariance, check_finite, check_scalar
-from .models import LinearGaussianDynamics, _psd_factor
+from mmlib.core._validate import as_float_array, check_covariance, check_finite, check_scalar
+from mmlib.core.models import LinearGaussianDynamics, _psd_factor
 
 SPEED_OF_LIGHT = 299_792_458.0          # m/s
 EARTH_ROTATION = 7.2921151467e-5        # rad/s (WGS 84, IS-GPS-200)

@@ -1,7 +1,7 @@
 r"""An IMM whose modes' process-noise levels are set online from the innovations, and the
 fuzzy logic adaptive system (FLAS) of Tseng, Chang & Jwo 2011 (Sec. 3) that sets them.
 
-:class:`NoiseAdaptiveIMM` is a thin layer over :class:`mmlib.estimation.IMM`: at step k it
+:class:`NoiseAdaptiveIMM` is a thin layer over :class:`mmlib.core.estimation.IMM`: at step k it
 builds the modes' process noise :math:`Q_j = Q(\ell_{k,j})` from per-run levels
 :math:`\ell_k` (B, r), runs one ordinary IMM cycle with those dynamics, and asks a
 ``controller`` for the levels of step k+1 from the IMM's innovation at k (causal: the levels
@@ -15,7 +15,7 @@ Degree of divergence (Tseng et al. 2011, Sec. 3.2), from the innovation
           \qquad \eta_k = \frac1m \sum_i |\upsilon_{k,i}|.
 
 :func:`degree_of_divergence` divides them by a reference variance :math:`\bar s` and its square
-root, so that the fuzzy sets are dimensionless.  :class:`FuzzyNoiseBounds` uses by default the
+root, so that the fuzzy sets are dimensionless.  The FLAS (:class:`mmlib.papers.tseng2011.FuzzyNoiseBounds`) uses by default the
 *predicted* innovation variance per measurement, :math:`\bar s = \mathrm{tr}(S_k)/m` (for an IMM,
 of the mixture prior): for a consistent filter, :math:`\xi/\bar s` is then close to
 :math:`\chi^2_m/m` (mean 1) and :math:`\eta/\sqrt{\bar s}` has mean :math:`\approx\sqrt{2/\pi} = 0.80`,
@@ -29,9 +29,8 @@ from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
-from ._validate import as_float_array, check_bool, check_name
-from .estimation import IMM, IMMState
-from .fuzzy import TakagiSugeno
+from mmlib.core._validate import as_float_array, check_bool, check_has, check_name
+from mmlib.core.estimation import IMM, IMMState
 
 
 def degree_of_divergence(innovation, noise_variance) -> np.ndarray:
@@ -48,46 +47,6 @@ def degree_of_divergence(innovation, noise_variance) -> np.ndarray:
     return np.stack([xi, eta], axis=-1)
 
 
-@dataclass(frozen=True, eq=False)
-class FuzzyNoiseBounds:
-    """The FLAS: degree of divergence -> (lower, upper) process-noise levels of a two-mode IMM.
-
-    ``system`` is a Takagi-Sugeno system with the two inputs of :func:`degree_of_divergence`
-    and two outputs, the base-10 logarithms of the lower and upper levels (the consequents are
-    averaged in log space: the levels are scale parameters spanning decades).  ``normalise`` is
-    ``"innovation"`` (divide by the predicted innovation variance per measurement) or
-    ``"measurement"`` (by the mean measurement-noise variance)."""
-
-    system: TakagiSugeno
-    normalise: str = "innovation"
-
-    def __post_init__(self):
-        if not isinstance(self.system, TakagiSugeno):
-            raise ValueError(f"system: expected a TakagiSugeno system, got {type(self.system).__name__}")
-        if self.system.n_inputs != 2 or self.system.consequents.shape[-1] != 2:
-            raise ValueError("system: expected 2 inputs (xi, eta) and 2 outputs (log10 lower, log10 upper)")
-        if self.normalise not in ("innovation", "measurement"):
-            raise ValueError(f"normalise: expected 'innovation' or 'measurement', got {self.normalise!r}")
-
-    def dod(self, estimate, measurement) -> np.ndarray:
-        if self.normalise == "measurement":
-            ref = float(np.mean(np.diag(measurement.R)))
-        else:
-            S = estimate.innovation_cov
-            ref = np.trace(S, axis1=-2, axis2=-1) / S.shape[-1]
-            ref = np.where(np.isfinite(ref), ref, 1.0)          # diverged runs: NaN innovation anyway
-        return degree_of_divergence(estimate.innovation, ref)
-
-    def __call__(self, estimate, measurement) -> np.ndarray:
-        """Levels (B, 2); NaN for runs whose innovation is not finite (diverged runs stay visible)."""
-        dod = self.dod(estimate, measurement)
-        ok = np.isfinite(dod).all(axis=1)
-        out = np.full((dod.shape[0], 2), np.nan)
-        if ok.any():
-            out[ok] = 10.0 ** self.system(dod[ok])
-        return out
-
-
 class NoiseAdaptiveState(NamedTuple):
     imm: IMMState
     levels: np.ndarray          # (B, r) noise level of every mode for the next step
@@ -97,9 +56,9 @@ class NoiseAdaptiveState(NamedTuple):
 class NoiseAdaptiveIMM:
     """IMM with per-run, per-step process-noise levels (see the module docstring).
 
-    ``noise(levels)`` maps levels (B, r) to Q (B, r, n, n) (e.g. :meth:`mmlib.gnss.PVClockNoise.Q`);
+    ``noise(levels)`` maps levels (B, r) to Q (B, r, n, n) (e.g. :meth:`mmlib.core.gnss.PVClockNoise.Q`);
     ``controller(estimate, measurement)`` returns the next levels (B, r) from this step's
-    :class:`~mmlib.estimation.Estimate` (innovation and its predicted covariance);
+    :class:`~mmlib.core.estimation.Estimate` (innovation and its predicted covariance);
     ``initial_levels`` (r,) are the levels of the first step.  Each step's ``Estimate.diagnostics``
     holds the levels used in that step."""
 
@@ -112,7 +71,7 @@ class NoiseAdaptiveIMM:
 
     def __post_init__(self):
         if not isinstance(self.imm, IMM):
-            raise ValueError(f"imm: expected an mmlib.estimation.IMM, got {type(self.imm).__name__}")
+            raise ValueError(f"imm: expected an mmlib.core.estimation.IMM, got {type(self.imm).__name__}")
         if not callable(self.noise):
             raise ValueError(f"noise: expected a callable levels (B, r) -> Q (B, r, n, n), got {type(self.noise).__name__}")
         check_bool(self.frozen, "frozen")
@@ -168,9 +127,11 @@ class WindowedNoiseAdaptiveIMM(NoiseAdaptiveIMM):
     a moving window, :math:`\hat C_k = \frac1W\sum_{j=k-W+1}^{k}\upsilon_j\upsilon_j^T` (Mohamed &
     Schwarz 1999, J. Geodesy 73:193), of which one epoch is the case the paper names.  Here each
     epoch's normalised DOD :math:`[\xi_j/\bar s_j, \eta_j/\sqrt{\bar s_j}]` (see
-    :class:`FuzzyNoiseBounds`; the number of satellites may change between epochs) is averaged
-    over the last ``min(k, W)`` epochs before the fuzzy inference.  ``controller`` must be a
-    :class:`FuzzyNoiseBounds`.  With ``window=1`` this is :class:`NoiseAdaptiveIMM` bit for bit."""
+    :func:`degree_of_divergence`; the number of satellites may change between epochs) is averaged
+    over the last ``min(k, W)`` epochs before the inference.  ``controller`` must split its work in two:
+    ``dod(estimate, measurement) -> (B, 2)`` and ``levels(dod) -> (B, r)`` (as the FLAS,
+    :class:`mmlib.papers.tseng2011.FuzzyNoiseBounds`, does).  With ``window=1`` this is
+    :class:`NoiseAdaptiveIMM` bit for bit."""
 
     window: int = 1
 
@@ -178,8 +139,8 @@ class WindowedNoiseAdaptiveIMM(NoiseAdaptiveIMM):
         super().__post_init__()
         if isinstance(self.window, bool) or not isinstance(self.window, (int, np.integer)) or self.window < 1:
             raise ValueError(f"window: expected a positive integer, got {self.window!r}")
-        if not isinstance(self.controller, FuzzyNoiseBounds):
-            raise ValueError(f"controller: a windowed DOD needs a FuzzyNoiseBounds, got {type(self.controller).__name__}")
+        check_has(self.controller, "controller", "a controller with dod(estimate, measurement) and levels(dod) "
+                  "(a windowed DOD averages between the two)", ("dod", "levels"))
 
     def init(self, mean, cov, mode_probabilities=None, **filter_init) -> WindowedNoiseAdaptiveState:
         s = NoiseAdaptiveIMM.init(self, mean, cov, mode_probabilities, **filter_init)
@@ -206,9 +167,6 @@ class WindowedNoiseAdaptiveIMM(NoiseAdaptiveIMM):
         else:
             recent = np.arange(W)[None, :] >= (W - filled)[:, None]                      # (B, W) real epochs
             dod = np.where(recent[..., None], history, 0.0).sum(axis=1) / filled[:, None]
-        ok = np.isfinite(dod).all(axis=1)
-        levels = np.full((dod.shape[0], 2), np.nan)
-        if ok.any():
-            levels[ok] = 10.0 ** self.controller.system(dod[ok])
+        levels = self.controller.levels(dod)
         return (WindowedNoiseAdaptiveState(imm_state, levels, history, filled),
                 est._replace(diagnostics=state.levels))

@@ -24,17 +24,19 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .. import estimation, metrics, models, report
-from ..adaptive import InnovationAdaptive
-from ..estimation import IMM, MomentMixing, SingleModel
-from ..filters import ExtendedKalmanFilter, SigmaPointFilter
-from ..mixing import CubatureMixing
-from ..montecarlo import MonteCarlo, Stream
-from ..rules import Cubature, Unscented
-from ..simulate import ManeuverSchedule
-from ..experiment import evaluation
-from ..experiment.multiverse import PublishedNumber, universe_result
-from ..experiment.readings import Deviation, Factor, Option, ReadingSpace
+from mmlib.core import estimation, models
+from mmlib.core._validate import as_float_array, check_finite
+from mmlib.experiment import metrics, report
+from mmlib.core.layers.adaptive import InnovationAdaptive
+from mmlib.core.estimation import IMM, MomentMixing, SingleModel
+from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
+from mmlib.core.mixing import CubatureMixing
+from mmlib.experiment.montecarlo import MonteCarlo, Stream
+from mmlib.core.rules import Cubature, Unscented
+from mmlib.experiment.simulate import ManeuverSchedule
+from mmlib.experiment import evaluation
+from mmlib.experiment.multiverse import PublishedNumber, universe_result
+from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 
 PAPER = "zhou2017"
 CITATION = ("H. Zhou, H. Zhao, H. Huang, X. Zhao, A Cubature-Principle-Assisted IMM-Adaptive UKF Algorithm for "
@@ -308,6 +310,29 @@ def build(setup: Setup):
     return schedule, radar, estimators
 
 
+def radar_drift(range_offset, bearing_rate, times) -> models.SensorFault:
+    """Eq. 2's fault of a range-bearing radar as a :class:`mmlib.core.models.SensorFault`: range deviation
+    ``delta_r`` (m, per run, constant) and bearing drift ``delta_theta_k = rate * t_k`` (rad, rate in rad/s
+    per run): arrays of shape (B,) or (B, K);
+    ``times`` (K,) the measurement times t_k (s)."""
+    t = check_finite(as_float_array(times, "times"), "times")
+    if t.ndim != 1 or t.size < 1:
+        raise ValueError(f"times: expected shape (K,) with K >= 1, got {t.shape}")
+    K = t.shape[0]
+    arrays = {}
+    for name, value in (("range_offset", range_offset), ("bearing_rate", bearing_rate)):
+        a = check_finite(as_float_array(value, name), name)
+        if a.ndim not in (1, 2) or a.shape[0] < 1 or (a.ndim == 2 and a.shape[1] != K):
+            raise ValueError(f"{name}: expected shape (B,) or (B, {K}) (per run, or per run and step), "
+                             f"got {a.shape}")
+        arrays[name] = a.reshape(a.shape[0], -1)
+    B = arrays["range_offset"].shape[0]
+    if arrays["bearing_rate"].shape[0] != B:
+        raise ValueError(f"bearing_rate: expected {B} runs (as range_offset), got shape {np.shape(bearing_rate)}")
+    dr = np.broadcast_to(arrays["range_offset"], (B, K))
+    return models.SensorFault(np.stack([dr, arrays["bearing_rate"] * t[None, :]], axis=-1))
+
+
 def radar_fault(setup: Setup, mc: MonteCarlo, runs, times):
     """The Case 2 fault (Eq. 2's delta h_out) of the runs, from the FAULT stream; every fault kind uses
     the same 2K + 2 normals per run (common random numbers across the Z-6 readings):
@@ -322,7 +347,7 @@ def radar_fault(setup: Setup, mc: MonteCarlo, runs, times):
     if setup.fault_kind == "constant-drift":
         dr = (2 * p[:, 0] - 1) * setup.fault_range_max
         rate = p[:, 1] * setup.fault_bearing_rate_max
-        return models.SensorFault.radar(dr, rate, times)
+        return radar_drift(dr, rate, times)
     if setup.fault_kind == "constant":
         dr = np.repeat(((2 * p[:, 0] - 1) * setup.fault_range_max)[:, None], K, axis=1)
         dth = np.repeat((p[:, 1] * setup.fault_bearing_rate_max * setup.T)[:, None], K, axis=1)
@@ -438,7 +463,7 @@ def _steps(rs, steps):
 def compare(results: dict, pairs, quantities=Q4, steps=None):
     """Verdict (claim vocabulary) and evidence for "a is more accurate than b" for every (a, b) in
     ``pairs``, each over ``quantities``: one part per pair and quantity from the paired time-averaged
-    MSE difference on the runs valid in both (:func:`mmlib.report.claim_verdict`), and, when either
+    MSE difference on the runs valid in both (:func:`mmlib.experiment.report.claim_verdict`), and, when either
     diverged in some run, one part "a diverges no more often than b" from the paired difference of
     the divergence indicators (a run that diverges has no accuracy).  ``steps`` restricts the MSE to
     those steps."""
@@ -516,7 +541,7 @@ def section23_claims() -> dict:
             "second order": (report.combine_claim_verdicts(second),
                              numbers + "; the interaction function is linear, so the cubature rule is exact for "
                              "the weighted sum it evaluates, sum(mu^2 P), which is not the mixture the IMM "
-                             "interaction produces (mmlib/mixing.py); analytic, no reading changes it")}
+                             "interaction produces (mmlib/core/mixing.py); analytic, no reading changes it")}
 
 
 def section23_rows(seed: int, n_mc: int = 10_000):
@@ -557,7 +582,7 @@ def field_experiment_rows():
 
 
 def judge(results: dict, n_runs: int):
-    """Rows of Tables 2-3, the claims (:class:`mmlib.report.Claims`), effects and diverged-run counts of
+    """Rows of Tables 2-3, the claims (:class:`mmlib.experiment.report.Claims`), effects and diverged-run counts of
     one reading's evaluations (``results`` from :func:`evaluate_reading`)."""
     res1, res2 = results["case 1"], results["case 2"]
     rows = table_rows("Table 2", res1, TABLE2_NAMES, TABLE2, TABLE2_DEVIATIONS)
@@ -689,7 +714,7 @@ def gps_analogue_table(mc: MonteCarlo):
     """The synthetic analogue's table (NOT a replication): x and y mean absolute errors (m, mean over runs
     with standard errors) and diverged runs of EKF, CKF, UKF, AUKF and NAUKF as printed, and of AUKF and
     NAUKF in the inflate-only reading (Z-12).  Returns (rows of cells, {filter [reading]: {"diverged": n}})."""
-    from ..experiment.views import value_pm
+    from mmlib.experiment.views import value_pm
     rows, diverged = [], {}
     for label, an in (("as printed", GPSAnalogue()), ("inflate-only", GPSAnalogue(inflate_only=True))):
         mba, esta, _ = gps_analogue(an, mc)

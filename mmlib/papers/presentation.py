@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 
-from ..experiment.views import markdown_table, value_pm  # noqa: F401  (re-exported for the notebooks)
+from mmlib.experiment.views import markdown_table, value_pm
 
 
 def deviations_table(deviations) -> str:
@@ -56,7 +56,7 @@ class NotebookRun:
         # the reading-space multiverse: Monte Carlo runs per universe and design (profile defaults)
         self.mv_runs = MULTIVERSE_RUNS or cfg.get("mv_runs", self.n_runs)
         self.mv_design = MULTIVERSE_DESIGN or cfg.get("mv_design", "auto")
-        from ..experiment.executors import default_workers
+        from mmlib.experiment.executors import default_workers
         self.workers = WORKERS or default_workers()
         cwd = Path.cwd().resolve()
         self.root = Path(OUTPUT_ROOT) if OUTPUT_ROOT else (cwd.parent if cwd.name == "notebooks" else cwd)
@@ -73,7 +73,7 @@ class NotebookRun:
         import os
         import matplotlib.pyplot as plt
         from IPython.display import Markdown, display
-        from ..report import save_figure
+        from mmlib.experiment.report import save_figure
         paths = save_figure(fig, self.fig_dir, stem)
         self.figures[stem] = {"paper_claim": claim, "ours": ours,
                               "files": [os.path.relpath(p, self.root) for p in paths]}

@@ -31,9 +31,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ._validate import check_choice, check_has, check_name, check_scalar
-from .filters import FilterLayer, kalman_update
-from .linalg import trace
+from mmlib.core._validate import check_choice, check_name, check_scalar
+from mmlib.core.filters import FilterLayer, kalman_update
+from mmlib.core.linalg import trace
 
 
 class StrongTrackingState(NamedTuple):
@@ -60,7 +60,7 @@ class StrongTracking(FilterLayer):
     state_type = StrongTrackingState
 
     def __post_init__(self):
-        check_has(self.base, "base", "a filter", ("init", "predict", "predict_measurement"))
+        self._check_base()
         object.__setattr__(self, "beta", check_scalar(self.beta, "beta", low=1.0))       # softening factor
         object.__setattr__(self, "rho", check_scalar(self.rho, "rho", positive=True, high=1.0))   # forgetting
         check_choice(self.form, "form", ("statistical", "jacobian"))

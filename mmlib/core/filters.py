@@ -17,7 +17,7 @@ use):
 The variants differ only in how the predicted moments are obtained:
 :class:`ExtendedKalmanFilter` linearises (Jacobians; on linear models it *is*
 the Kalman filter), :class:`SigmaPointFilter` integrates with any rule from
-:mod:`mmlib.rules`.  Layers such as strong tracking or adaptive noise wrap a
+:mod:`mmlib.core.rules`.  Layers such as strong tracking or adaptive noise wrap a
 filter and override one of the two methods; they never copy the update.
 
 States are immutable ``NamedTuple`` objects with fields ``mean`` (..., n) and
@@ -25,7 +25,7 @@ States are immutable ``NamedTuple`` objects with fields ``mean`` (..., n) and
 Monte Carlo runs, (B, r) inside an IMM with r modes.  Layers may extend the
 state with extra fields, which the IMM carries through untouched (it only
 replaces ``mean`` and ``cov``).  Dynamics may be stacked per mode
-(:class:`mmlib.models.StackedDynamics`); measurements broadcast.
+(:class:`mmlib.core.models.StackedDynamics`); measurements broadcast.
 """
 from __future__ import annotations
 
@@ -35,9 +35,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from . import linalg
-from ._validate import as_float_array, check_batch_vector, check_covariance, check_name
-from .rules import SigmaPointRule, rule_by_name
+from mmlib.core import linalg
+from mmlib.core._validate import as_float_array, check_batch_vector, check_covariance, check_has, check_name
+from mmlib.core.protocols import MomentFilter, members
+from mmlib.core.rules import SigmaPointRule, rule_by_name
 
 LOG_2PI = math.log(2.0 * math.pi)
 
@@ -93,7 +94,7 @@ def kalman_update(state, pred: MeasurementPrediction, z: np.ndarray, measurement
     :math:`K = A L^{-1}`, :math:`K\nu = A e`, :math:`K S K^T = A A^T` and the
     NIS is :math:`e^T e`.  Runs whose innovation covariance is not positive
     definite get a NaN state and log-likelihood (reported by
-    :func:`mmlib.estimation.run` as diverged), never a patched one.
+    :func:`mmlib.core.estimation.run` as diverged), never a patched one.
 
     **Positive-definiteness check, for every filter.**  The posterior
     :math:`P^+ = P - AA^T` is symmetrised and factorised; a run whose :math:`P^+` has no
@@ -232,6 +233,11 @@ class FilterLayer:
 
     state_type: Any = None
 
+    def _check_base(self):
+        """``self.base`` provides a :class:`mmlib.core.protocols.MomentFilter` (ValueError naming ``base``)."""
+        check_has(self.base, "base", "a filter predicting measurement moments (protocols.MomentFilter)",
+                  members(MomentFilter))
+
     def init(self, mean, cov, **extra):
         g = gaussian_state(mean, cov)
         return self.state_type(g.mean, g.cov, **extra)
@@ -250,7 +256,7 @@ _FILTER_NAMES = {"kf": "KF", "ekf": "EKF"}
 
 
 def filter_by_name(name: str, **rule_params):
-    """``kf``/``ekf`` or any rule name of :func:`mmlib.rules.rule_by_name`."""
+    """``kf``/``ekf`` or any rule name of :func:`mmlib.core.rules.rule_by_name`."""
     key = str(name).lower()
     if key in _FILTER_NAMES:
         return ExtendedKalmanFilter(name=_FILTER_NAMES[key])

@@ -26,15 +26,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import metrics, models, report
-from ..estimation import IMM, KnownModeSequence, SingleModel
-from ..filters import ExtendedKalmanFilter, SigmaPointFilter
-from ..montecarlo import MonteCarlo, Stream
-from ..rules import Cubature, FifthDegreeCubature, Unscented
-from ..simulate import ManeuverSchedule
-from ..experiment import evaluation
-from ..experiment.multiverse import PublishedNumber, universe_result
-from ..experiment.readings import Deviation, Factor, Option, ReadingSpace
+from mmlib.experiment import metrics, report
+from mmlib.core import models
+from mmlib.core.estimation import IMM, KnownModeSequence, SingleModel
+from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
+from mmlib.experiment.montecarlo import MonteCarlo, Stream
+from mmlib.core.rules import Cubature, FifthDegreeCubature, Unscented
+from mmlib.experiment.simulate import ManeuverSchedule
+from mmlib.experiment import evaluation
+from mmlib.experiment.multiverse import PublishedNumber, universe_result
+from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 
 PAPER = "zhu2016"
 CITATION = ("W. Zhu, W. Wang, G. Yuan, An Improved Interacting Multiple Model Filtering Algorithm "
@@ -316,7 +317,7 @@ def rmse_values(results: dict) -> dict:
 
 
 def table1_rows(results: dict) -> list:
-    """The RMSE rows of Table 1 (:func:`mmlib.report.make_row`; OMTM-IMM 'not replicable', Z-14)."""
+    """The RMSE rows of Table 1 (:func:`mmlib.experiment.report.make_row`; OMTM-IMM 'not replicable', Z-14)."""
     rmse = rmse_values(results)
     rows = []
     for alg in RMSE_ALGORITHMS + ("OMTM-IMM",):
@@ -390,7 +391,7 @@ def _switch_window_probability(rs, true_modes, window: int = 10):
 
 def judge_claims(results: dict, setup: Setup) -> report.Claims:
     """The paper's accuracy, switching and divergence claims and the implicit attainability of Table 1,
-    each in the claim vocabulary of :mod:`mmlib.report` (the timing claim is judged by :func:`judge_timing`)."""
+    each in the claim vocabulary of :mod:`mmlib.experiment.report` (the timing claim is judged by :func:`judge_timing`)."""
     claims = report.Claims()
     for other in ("IMMCKF", "IMMUKF", "5CKF"):
         claims.add(f"IMM5CKF is more accurate than {other}",

@@ -23,11 +23,11 @@ from typing import Any, NamedTuple, Sequence
 
 import numpy as np
 
-from . import linalg
-from .linalg import matmul_rows
-from .models import StackedDynamics
-from ._validate import (check_finite, as_float_array, check_applies, check_batch_vector, check_bool, check_has, check_name,
-                        check_probabilities, check_transition_matrix)
+from mmlib.core import linalg, protocols
+from mmlib.core.linalg import matmul_rows
+from mmlib.core.models import StackedDynamics
+from mmlib.core._validate import (check_finite, as_float_array, check_applies, check_batch_vector, check_bool,
+                                  check_has, check_name, check_probabilities, check_transition_matrix)
 
 
 class Failure(IntEnum):
@@ -51,25 +51,26 @@ FAILURE_CAUSES = {
     Failure.NONFINITE: "estimate no longer finite (overflow)",
 }
 
-#: What the library expects of each kind of object (duck-typed interfaces, checked at construction).
-FILTER_METHODS = ("init", "predict", "update")
-DYNAMICS_METHODS = ("transition", "jacobian", "Q", "dim")
-MEASUREMENT_METHODS = ("h", "jacobian", "residual", "average", "R", "dim")
+#: What the library expects of each kind of object (the members of its protocol, checked at construction).
+FILTER_METHODS = protocols.members(protocols.Filter)
+DYNAMICS_METHODS = protocols.members(protocols.Dynamics)
+MEASUREMENT_METHODS = protocols.members(protocols.MeasurementModel)
+ESTIMATOR_METHODS = protocols.members(protocols.Estimator)
 
 
 def _check_filter(f, name: str = "filter"):
-    return check_has(f, name, "a mode-matched filter", FILTER_METHODS)
+    return check_has(f, name, "a mode-matched filter (protocols.Filter)", FILTER_METHODS)
 
 
 def _check_dynamics(d, name: str = "dynamics"):
-    return check_has(d, name, "a dynamics model", DYNAMICS_METHODS)
+    return check_has(d, name, "a dynamics model (protocols.Dynamics)", DYNAMICS_METHODS)
 
 
 def _check_measurement_model(m, name: str = "measurement", n: int | None = None):
     """A measurement model (or None); with ``n``, one that measures states of dimension ``n``."""
     if m is None:
         return None
-    check_has(m, name, "a measurement model", MEASUREMENT_METHODS)
+    check_has(m, name, "a measurement model (protocols.MeasurementModel)", MEASUREMENT_METHODS)
     if n is not None:
         check_applies(m, name, n)
     return m
@@ -280,7 +281,7 @@ class MomentMixing:
 
 
 def combine_covariances(wt, means, covs, centres):
-    r""":math:`\sum_i w_{ji}[P_i + (x_i - c_j)(x_i - c_j)^T]` for every j (:func:`mmlib.linalg.combine_covariances`).
+    r""":math:`\sum_i w_{ji}[P_i + (x_i - c_j)(x_i - c_j)^T]` for every j (:func:`mmlib.core.linalg.combine_covariances`).
 
     ``wt`` (B, J, I), ``means`` (B, I, n), ``covs`` (B, I, n, n), ``centres`` (B, J, n)."""
     return linalg.combine_covariances(wt, means, covs, centres)
@@ -297,7 +298,7 @@ def imm_output(loglik, c, means, covs, nu, S, with_cov: bool = True):
     ``loglik``, ``c`` (B, r); ``means`` (B, r, n); ``covs`` (B, r, n, n); ``nu`` (B, r, m); ``S`` (B, r, m, m).
     Returns ``(mu, marginal, underflow, mean, cov, innovation, innovation_cov)``; ``underflow`` (B,): every
     mode's likelihood underflowed (:math:`\log L_j = -\infty` for all j), the run's ``mu`` is then NaN.
-    Compiled when :func:`mmlib.linalg.kernel` is numba (:func:`mmlib.linalg.imm_output`)."""
+    Compiled when :func:`mmlib.core.linalg.kernel` is numba (:func:`mmlib.core.linalg.imm_output`)."""
     if linalg.kernel() == "numba":
         return linalg.imm_output(loglik, c, means, covs, nu, S, with_cov)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -391,7 +392,7 @@ class IMM:
     def step(self, state: IMMState, z, *, with_cov: bool = True, measurement=None, dynamics=None):
         """One IMM cycle.  ``with_cov=False`` skips the fused covariance (an output only).
         ``measurement`` overrides the measurement model for this step; ``dynamics`` overrides the
-        stacked mode dynamics (a :class:`~mmlib.models.StackedDynamics`, e.g. with per-run adapted Q)."""
+        stacked mode dynamics (a :class:`~mmlib.core.models.StackedDynamics`, e.g. with per-run adapted Q)."""
         if not isinstance(state, IMMState):
             raise ValueError(f"state: expected the IMMState returned by init(), got {type(state).__name__}")
         _check_state(state.modes, "state", ("mean", "cov"), self.stacked.dim, "IMM mode-filter state")
@@ -399,7 +400,7 @@ class IMM:
         measurement = _step_measurement(self.measurement, measurement, self.stacked.dim)
         z = _check_measurement(z, measurement.dim, batch=state.mode_probabilities.shape[0])
         if dynamics is not None:
-            check_has(dynamics, "dynamics", "stacked mode dynamics (mmlib.models.StackedDynamics)",
+            check_has(dynamics, "dynamics", "stacked mode dynamics (mmlib.core.models.StackedDynamics)",
                       ("transition", "jacobian", "Q", "dim"))
             B, r, n = state.modes.mean.shape
             if dynamics.dim != n:
@@ -518,7 +519,7 @@ def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bo
     if on_divergence not in ("record", "raise"):
         raise ValueError(f"on_divergence: expected 'record' or 'raise', got {on_divergence!r}")
     keep_cov = check_bool(keep_cov, "keep_cov")
-    check_has(estimator, "estimator", "an estimator", ("init", "step"))
+    check_has(estimator, "estimator", "an estimator (protocols.Estimator)", ESTIMATOR_METHODS)
     if isinstance(state, np.ndarray) or not isinstance(state, tuple):
         raise ValueError(f"state: expected the state returned by estimator.init(), got {type(state).__name__}")
     B = batch_size(state)

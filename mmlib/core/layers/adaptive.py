@@ -39,9 +39,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ._validate import check_bool, check_has, check_name, check_positive_int, check_scalar
-from .filters import FilterLayer, MeasurementPrediction, kalman_update
-from .linalg import trace
+from mmlib.core._validate import check_bool, check_name, check_positive_int, check_scalar
+from mmlib.core.filters import FilterLayer, MeasurementPrediction, kalman_update
+from mmlib.core.linalg import trace
 
 
 class AdaptiveState(NamedTuple):
@@ -67,7 +67,7 @@ class InnovationAdaptive(FilterLayer):
     state_type = AdaptiveState
 
     def __post_init__(self):
-        check_has(self.base, "base", "a filter", ("init", "predict", "predict_measurement"))
+        self._check_base()
         object.__setattr__(self, "window", check_positive_int(self.window, "window", minimum=2))
         object.__setattr__(self, "psi", check_scalar(self.psi, "psi", low=1.0))   # Eq. 32 coefficient
         for flag in ("zeta", "include_current", "inflate_only"):

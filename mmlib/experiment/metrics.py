@@ -12,8 +12,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy import stats
 
-from ._validate import (as_float_array, check_covariance, check_finite, check_finite_runs, check_index,
-                        check_mask, check_positive_int, check_scalar)
+from mmlib.core._validate import (as_float_array, check_covariance, check_finite, check_finite_runs, check_index,
+                                  check_mask, check_positive_int, check_scalar)
 
 
 class MCValue(NamedTuple):

@@ -20,18 +20,18 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .. import metrics, report
-from .. import models
-from ..estimation import SingleModel
-from ..estimation import run as run_filter
-from ..filters import ExtendedKalmanFilter, SigmaPointFilter
-from ..montecarlo import MonteCarlo, Stream
-from ..rules import Cubature, SphericalSimplexRadial, Unscented
-from ..simulate import ManeuverSchedule
-from ..strong_tracking import StrongTracking
-from ..experiment import evaluation
-from ..experiment.multiverse import PublishedNumber, universe_result
-from ..experiment.readings import Deviation, Factor, Option, ReadingSpace
+from mmlib.experiment import metrics, report
+from mmlib.core import models
+from mmlib.core.estimation import SingleModel
+from mmlib.core.estimation import run as run_filter
+from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
+from mmlib.experiment.montecarlo import MonteCarlo, Stream
+from mmlib.core.rules import Cubature, SphericalSimplexRadial, Unscented
+from mmlib.experiment.simulate import ManeuverSchedule
+from mmlib.core.layers.strong_tracking import StrongTracking
+from mmlib.experiment import evaluation
+from mmlib.experiment.multiverse import PublishedNumber, universe_result
+from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 
 PAPER = "liu2017"
 CITATION = ("H. Liu, W. Wu, Strong Tracking Spherical Simplex-Radial Cubature Kalman Filter for Maneuvering "
@@ -48,7 +48,7 @@ TABLE1 = {"SSRCKF": ("152.1", "31.2", "6.9"), "STF": ("129.7", "28.4", "6.2"), "
 TABLE2_TIME = {"SSRCKF": "0.07", "STF": "0.02", "STUKF": "0.14", "STCKF": "0.14", "STSSRCKF": "0.15"}
 TABLE2_COMPLEXITY = {"SSRCKF": "O((2n+2)^3)", "STF": "O(n^2)", "STUKF": "O((2n+1)^3)", "STCKF": "O((2n)^3)",
                      "STSSRCKF": "O((2n+2)^3)"}
-#: Per time step with n = 6, m = 2 (counted from mmlib/filters.py and mmlib/strong_tracking.py, which follow
+#: Per time step with n = 6, m = 2 (counted from mmlib/core/filters.py and mmlib/core/layers/strong_tracking.py, which follow
 #: Eqs. 20-36): points, n x n Cholesky factorisations, evaluations of f, evaluations of h (when lambda > 1),
 #: other n x n x n operations (n x n matrix products or linear solves: the EKF's F P F^T and its Joseph-form
 #: covariance update (I - KH) P (I - KH)^T, the statistical fading factor's (P^l)^-1 P_xz of Eqs. 18-19).
@@ -424,7 +424,7 @@ def combine_parts(parts) -> str:
 
 def judge_claims(results: ReadingResults) -> report.Claims:
     """The verdicts on the abstract's and conclusions' claims for one reading (claim vocabulary of
-    :mod:`mmlib.report`), with their evidence."""
+    :mod:`mmlib.experiment.report`), with their evidence."""
     R = results.runs
     ex1 = R["Example 1"]
     onset = {case: results.setups[case].onset_index for case in CASES}
@@ -557,7 +557,7 @@ def universe(reading, n_runs: int, seed: int) -> dict:
 
 
 def table_rows(summary: dict) -> list:
-    """Comparison rows (:func:`mmlib.report.make_row`) of Tables 1 and 3 from a universe result."""
+    """Comparison rows (:func:`mmlib.experiment.report.make_row`) of Tables 1 and 3 from a universe result."""
     n = summary["n_runs"]
     case_of = {v: k for k, v in ITEMS.items()}
     rows = []
@@ -745,7 +745,7 @@ def findings(mv) -> str:
     paper, whether some reading reproduces the published tables (Table 1's position column, whole
     tables) and whether each claim's verdict is robust.  Forensic: the best-matching reading is a
     finding about the paper, never the headline."""
-    from ..experiment.views import value_pm
+    from mmlib.experiment.views import value_pm
     out = []
     pos = [p for p in mv.published if p.table == "Table 1" and p.quantity == QUANTITIES[0][0]]
     head = mv.headline

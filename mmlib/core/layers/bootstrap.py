@@ -36,10 +36,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from . import linalg
-from ._validate import (as_float_array, check_choice, check_finite, check_has, check_name, check_positive_int,
-                        check_scalar)
-from .filters import FilterLayer, MeasurementPrediction, UpdateInfo, gaussian_state, kalman_update
+from mmlib.core import linalg
+from mmlib.core._validate import (as_float_array, check_choice, check_finite, check_name,
+                                  check_positive_int, check_scalar)
+from mmlib.core.filters import FilterLayer, MeasurementPrediction, UpdateInfo, gaussian_state, kalman_update
 
 
 class BootstrapState(NamedTuple):
@@ -62,7 +62,7 @@ class ObservationBootstrap(FilterLayer):
     covariance: str = "kalman"
 
     def __post_init__(self):
-        check_has(self.base, "base", "a filter", ("init", "predict", "predict_measurement"))
+        self._check_base()
         object.__setattr__(self, "n_boot", check_positive_int(self.n_boot, "n_boot", minimum=0))
         object.__setattr__(self, "variance_factor", check_scalar(self.variance_factor, "variance_factor", positive=True))
         check_choice(self.likelihood, "likelihood", ("sum", "product"))

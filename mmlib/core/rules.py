@@ -6,7 +6,7 @@ A rule approximates Gaussian-weighted integrals
 
 with unit points :math:`\xi_i` and weights :math:`w_i` that depend only on the
 dimension ``n``.  A rule knows nothing about filtering: the generic filter in
-:mod:`mmlib.filters` asks it for points and mean weights (``unit_points``) and
+:mod:`mmlib.core.filters` asks it for points and mean weights (``unit_points``) and
 for the (cross-)covariance of the deviations of transformed points.  Rules whose
 covariance is *not* a weighted sum of outer products (central differences)
 override :meth:`SigmaPointRule.covariances`.
@@ -23,8 +23,8 @@ from itertools import combinations
 
 import numpy as np
 
-from ._validate import check_positive_int, check_scalar
-from .linalg import matmul_rows, weighted_covariances
+from mmlib.core._validate import check_positive_int, check_scalar
+from mmlib.core.linalg import matmul_rows, weighted_covariances
 
 
 @dataclass(frozen=True)
@@ -58,7 +58,7 @@ class SigmaPointRule:
     name = "rule"
     degree = 3
     #: True when the rule's covariances are the weighted outer products of :meth:`covariances` (the
-    #: compiled kernels of :mod:`mmlib.linalg` implement that form; a rule that overrides it says False)
+    #: compiled kernels of :mod:`mmlib.core.linalg` implement that form; a rule that overrides it says False)
     weighted_moments = True
 
     def unit_points(self, n: int) -> UnitPoints:  # pragma: no cover - abstract
@@ -80,7 +80,7 @@ class SigmaPointRule:
     def covariances(self, dx: np.ndarray, dy: np.ndarray, add=None) -> tuple[np.ndarray, np.ndarray]:
         r"""``(P_yy + add, P_xy)`` from deviations ``dx = X_i - m`` (..., m, n) and
         ``dy = Y_i - \bar y`` (..., m, d):  :math:`\sum_i w^c_i dy_i dy_i^T` and
-        :math:`\sum_i w^c_i dx_i dy_i^T` (:func:`mmlib.linalg.weighted_covariances`); ``add`` (e.g. the
+        :math:`\sum_i w^c_i dx_i dy_i^T` (:func:`mmlib.core.linalg.weighted_covariances`); ``add`` (e.g. the
         noise R) broadcasts against (..., d, d)."""
         return weighted_covariances(dy, self.unit_points(dx.shape[-1]).wc, dx, add)
 

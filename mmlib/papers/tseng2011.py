@@ -23,17 +23,18 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .. import gnss, models, report
-from ..adaptive_imm import FuzzyNoiseBounds, NoiseAdaptiveIMM, WindowedNoiseAdaptiveIMM
-from ..estimation import IMM, SingleModel
-from ..filters import ExtendedKalmanFilter, SigmaPointFilter
-from ..fuzzy import TakagiSugeno, ramp_sets
-from ..montecarlo import MonteCarlo, Stream
-from ..rules import Unscented
-from ..simulate import ManeuverSchedule, propagate
-from ..experiment import evaluation
-from ..experiment.multiverse import PublishedNumber, universe_result
-from ..experiment.readings import Deviation, Factor, Option, ReadingSpace
+from mmlib.core import gnss, models
+from mmlib.experiment import report
+from mmlib.core.layers.adaptive_imm import NoiseAdaptiveIMM, WindowedNoiseAdaptiveIMM, degree_of_divergence
+from mmlib.core.estimation import IMM, SingleModel
+from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
+from mmlib.core.fuzzy import TakagiSugeno, ramp_sets
+from mmlib.experiment.montecarlo import MonteCarlo, Stream
+from mmlib.core.rules import Unscented
+from mmlib.experiment.simulate import ManeuverSchedule, propagate
+from mmlib.experiment import evaluation
+from mmlib.experiment.multiverse import PublishedNumber, universe_result
+from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 
 PAPER = "tseng2011"
 CITATION = ("C.-H. Tseng, C.-W. Chang, D.-J. Jwo, Fuzzy Adaptive Interacting Multiple Model Nonlinear Filter for "
@@ -134,7 +135,7 @@ DEVIATIONS = [
     Deviation("T-2", "sampling", "not given (the segment table is in whole seconds)", "T = 1 s, 1800 epochs", ""),
     Deviation("T-3", "satellites", "'GPS' only; constellation, epoch, site and elevation mask not given",
               "a nominal 24-satellite constellation (6 planes of 4, 55 deg, circular orbits, Walker 24/6/1 phasing) "
-              "propagated in closed form (mmlib.gnss), site at 25.15 N, 121.78 E (the authors' university, Keelung), "
+              "propagated in closed form (mmlib.core.gnss), site at 25.15 N, 121.78 E (the authors' university, Keelung), "
               "10-degree mask: 6-7 satellites in view, the set changing once in the 30 minutes",
               "No package propagates a nominal constellation without an almanac; a circular orbit is a closed form "
               "(IS-GPS-200 with e = 0).  Frames are converted with pymap3d.", ""),
@@ -274,6 +275,50 @@ def fuzzy_system(setup: Setup) -> TakagiSugeno:
                         ("xi / s", "eta / sqrt(s)"), ("log10 lower S_p", "log10 upper S_p"))
 
 
+@dataclass(frozen=True, eq=False)
+class FuzzyNoiseBounds:
+    """The FLAS of Section 3 (the controller of a :class:`NoiseAdaptiveIMM`): degree of divergence -> (lower, upper) process-noise levels of a two-mode IMM.
+
+    ``system`` is a Takagi-Sugeno system with the two inputs of :func:`degree_of_divergence`
+    and two outputs, the base-10 logarithms of the lower and upper levels (the consequents are
+    averaged in log space: the levels are scale parameters spanning decades).  ``normalise`` is
+    ``"innovation"`` (divide by the predicted innovation variance per measurement) or
+    ``"measurement"`` (by the mean measurement-noise variance)."""
+
+    system: TakagiSugeno
+    normalise: str = "innovation"
+
+    def __post_init__(self):
+        if not isinstance(self.system, TakagiSugeno):
+            raise ValueError(f"system: expected a TakagiSugeno system, got {type(self.system).__name__}")
+        if self.system.n_inputs != 2 or self.system.consequents.shape[-1] != 2:
+            raise ValueError("system: expected 2 inputs (xi, eta) and 2 outputs (log10 lower, log10 upper)")
+        if self.normalise not in ("innovation", "measurement"):
+            raise ValueError(f"normalise: expected 'innovation' or 'measurement', got {self.normalise!r}")
+
+    def dod(self, estimate, measurement) -> np.ndarray:
+        if self.normalise == "measurement":
+            ref = float(np.mean(np.diag(measurement.R)))
+        else:
+            S = estimate.innovation_cov
+            ref = np.trace(S, axis1=-2, axis2=-1) / S.shape[-1]
+            ref = np.where(np.isfinite(ref), ref, 1.0)          # diverged runs: NaN innovation anyway
+        return degree_of_divergence(estimate.innovation, ref)
+
+    def __call__(self, estimate, measurement) -> np.ndarray:
+        """Levels (B, 2) of the next step from this step's estimate (:meth:`levels` of :meth:`dod`)."""
+        return self.levels(self.dod(estimate, measurement))
+
+    def levels(self, dod) -> np.ndarray:
+        """Levels (B, 2) from degrees of divergence (B, 2); NaN for runs whose DOD is not finite (diverged runs
+        stay visible)."""
+        ok = np.isfinite(dod).all(axis=1)
+        out = np.full((dod.shape[0], 2), np.nan)
+        if ok.any():
+            out[ok] = 10.0 ** self.system(dod[ok])
+        return out
+
+
 def noise_model(setup: Setup) -> gnss.PVClockNoise:
     return gnss.PVClockNoise(setup.T, gnss.clock_process_noise(setup.T, setup.clock_h0, setup.clock_h_minus2))
 
@@ -376,7 +421,7 @@ def variant(setup: Setup, **changes) -> Setup:
 # ---------------------------------------------------------------- statistics
 def rms(rs, component: int):
     """RMS over runs and all epochs of one state component (the paper's East/North RMS error)."""
-    from .. import metrics
+    from mmlib.experiment import metrics
     return metrics.rmse_time_averaged(rs.errors[..., component], rs.valid)
 
 
@@ -384,7 +429,7 @@ def rms_reduction(a, b, component: int):
     """Percentage reduction of the RMS error of ``a`` relative to ``b``, 100 (1 - RMS_a / RMS_b), on
     common random numbers, with a delete-one-run jackknife standard error (runs diverged in either
     are excluded)."""
-    from .. import metrics
+    from mmlib.experiment import metrics
     ok = a.valid & b.valid
     pair = np.stack([a.errors[..., component], b.errors[..., component]], axis=-1)      # (N, K, 2)
 
@@ -411,7 +456,7 @@ def clairvoyant_schedules(ex: Experiment, straight=(0.0, 1e-4, 1e-3), turning=(0
     best schedule of the grid (chosen in hindsight) is a *reference* for what adapting Q to the
     maneuvers can buy -- not a strict bound (other schedules, or an IMM with adapted modes, could
     do somewhat better)."""
-    from ..estimation import KnownModeSequence
+    from mmlib.core.estimation import KnownModeSequence
     noise = noise_model(ex.setup)
     ukf = SigmaPointFilter(Unscented(*ex.setup.ukf), name="UKF")
     flags = maneuver_flags(ex.setup)
@@ -590,7 +635,7 @@ def evaluate_reading(reading, mc: MonteCarlo, progress: bool = False, names=MV_A
 
 
 def size_parts(rows) -> list:
-    """Part verdicts (:func:`mmlib.report.claim_verdict`, labelled by axis) on a claimed *size* of
+    """Part verdicts (:func:`mmlib.experiment.report.claim_verdict`, labelled by axis) on a claimed *size* of
     improvement, one per reduction row: the claim is that the reduction is (at least about) the printed
     one.  A row the number rule finds reproduced or qualitatively reproduced (within 25 %) preserves the
     claimed size: the part holds.  Otherwise the part is the paired test of ``replicated - printed``
@@ -640,7 +685,7 @@ def table_rows(universe: dict) -> list:
 def assess(results: dict, n_runs: int) -> dict:
     """Everything judged in a universe, from its evaluations: ``values`` (absolute RMS errors per axis;
     relative reductions 100 (1 - RMS_a/RMS_b) with jackknife s.e.), their ``rows`` (one verdict rule),
-    ``claims`` (a :class:`mmlib.report.Claims` with evidence), ``effects`` (paired MSE differences, m²;
+    ``claims`` (a :class:`mmlib.experiment.report.Claims` with evidence), ``effects`` (paired MSE differences, m²;
     key effect FUZZY-IMMUKF minus IMMUKF over East + North, with the published counterpart
     :func:`published_mse_difference`) and ``diverged`` run counts."""
     values = []

@@ -1,4 +1,4 @@
-r"""Alternative IMM interaction steps (the standard one is :class:`mmlib.estimation.MomentMixing`).
+r"""Alternative IMM interaction steps (the standard one is :class:`mmlib.core.estimation.MomentMixing`).
 
 Cubature-principle mixing (CPIMM, Zhou, Zhao, Huang & Zhao 2017, Eqs. 13-19): the
 interaction is treated as a function of the augmented variable
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import linalg
+from mmlib.core import linalg
 
 
 @dataclass(frozen=True)
