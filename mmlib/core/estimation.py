@@ -443,7 +443,13 @@ class Track(NamedTuple):
     ``mode_probabilities`` (B, K, r) or None, ``diverged_step`` (B,) first step at which
     the run failed (a covariance stopped being positive definite, every mode likelihood
     underflowed, or the estimate overflowed), -1 if it never did; ``diagnostics`` (B, K, d) or
-    None (see :class:`Estimate`); ``divergence_cause`` (B,) :class:`Failure` codes (0: none)."""
+    None (see :class:`Estimate`); ``divergence_cause`` (B,) :class:`Failure` codes (0: none).
+
+    With ``run(..., consistency=True)``: ``nis`` (B, K) the normalised innovation squared
+    :math:`\nu_k^T S_k^{-1} \nu_k` of every step (chi-square with ``nis_dof[k]`` = m_k degrees of freedom for a
+    consistent filter) and, when ``truth`` was given, ``nees`` (B, K) the normalised estimation error squared
+    :math:`(\hat x_k - x_k)^T P_k^{-1} (\hat x_k - x_k)` (chi-square with n degrees of freedom); NaN from a
+    run's divergence on.  Bar-Shalom, Li & Kirubarajan 2001, Sec. 5.4.2."""
 
     mean: np.ndarray
     cov: Any
@@ -451,6 +457,9 @@ class Track(NamedTuple):
     diverged_step: np.ndarray
     diagnostics: Any = None
     divergence_cause: Any = None
+    nees: Any = None
+    nis: Any = None
+    nis_dof: Any = None
 
     @property
     def diverged(self) -> np.ndarray:
@@ -503,9 +512,36 @@ def _per_step_measurements(measurements, measurement_models):
     return out
 
 
+def normalised_square(v, S) -> np.ndarray:
+    r""":math:`v^T S^{-1} v` per leading index for vectors ``v`` (..., d) and covariances ``S`` (..., d, d); NaN where
+    either is not finite or S is singular (a diverged run).  Each matrix is solved on its own (LAPACK per matrix),
+    so a run's value does not depend on the rest of its batch."""
+    v = np.asarray(v, dtype=float)
+    S = np.asarray(S, dtype=float)
+    ok = np.isfinite(v).all(axis=-1) & np.isfinite(S).all(axis=(-2, -1))
+    out = np.full(v.shape[:-1], np.nan)
+    if ok.any():
+        vo, So = v[ok], S[ok]
+        try:
+            sol = np.linalg.solve(So, vo[..., None])[..., 0]
+            out[ok] = np.einsum("...i,...i->...", vo, sol)
+        except np.linalg.LinAlgError:        # one singular matrix: solve them one by one, NaN for the singular
+            vals = np.full(vo.shape[0], np.nan)
+            for i in range(vo.shape[0]):
+                try:
+                    vals[i] = vo[i] @ np.linalg.solve(So[i], vo[i])
+                except np.linalg.LinAlgError:
+                    pass
+            out[ok] = vals
+    return out
+
+
 def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bool = True,
-        on_divergence: str = "record") -> Track:
+        on_divergence: str = "record", consistency: bool = False, truth=None) -> Track:
     """Run ``estimator`` over ``measurements`` (B, K, m), batched over runs.
+
+    ``consistency=True`` records every step's NIS and, with ``truth`` (B, K+1, n) the true states x_0..x_K
+    (or (B, K, n), x_1..x_K), its NEES (:class:`Track`), computed on the fly: the covariances need not be kept.
 
     With ``measurement_models`` (a sequence of K models), step k uses model k and
     ``measurements`` is a sequence of K arrays (B, m_k): the measurement dimension may change
@@ -519,6 +555,7 @@ def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bo
     if on_divergence not in ("record", "raise"):
         raise ValueError(f"on_divergence: expected 'record' or 'raise', got {on_divergence!r}")
     keep_cov = check_bool(keep_cov, "keep_cov")
+    consistency = check_bool(consistency, "consistency")
     check_has(estimator, "estimator", "an estimator (protocols.Estimator)", ESTIMATOR_METHODS)
     if isinstance(state, np.ndarray) or not isinstance(state, tuple):
         raise ValueError(f"state: expected the state returned by estimator.init(), got {type(state).__name__}")
@@ -540,12 +577,14 @@ def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bo
     if steps[0][0].shape[0] != B:
         raise ValueError(f"measurements: {steps[0][0].shape[0]} runs of measurements for a state of {B} runs")
     name = str(getattr(estimator, "name", "") or type(estimator).__name__)
-    means, covs, mus, diags = [], [], [], []
+    x_true = _check_truth(truth, B, len(steps), consistency)
+    means, covs, mus, diags, nees, nis = [], [], [], [], [], []
     diverged_step = np.full(B, -1)
     cause = np.zeros(B, dtype=np.int8)
+    with_cov = keep_cov or x_true is not None
     for k, (z_k, model_k) in enumerate(steps):
-        state, est = (estimator.step(state, z_k, with_cov=keep_cov) if model_k is None
-                      else estimator.step(state, z_k, with_cov=keep_cov, measurement=model_k))
+        state, est = (estimator.step(state, z_k, with_cov=with_cov) if model_k is None
+                      else estimator.step(state, z_k, with_cov=with_cov, measurement=model_k))
         failure = np.zeros(B, dtype=np.int8) if est.failure is None else est.failure
         bad = (~np.isfinite(est.mean).all(axis=1) | (failure != _NONE)) & (diverged_step < 0)
         if bad.any():
@@ -558,13 +597,35 @@ def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bo
         means.append(est.mean)
         if keep_cov:
             covs.append(est.cov)
+        if consistency:
+            nis.append(normalised_square(est.innovation, est.innovation_cov))
+            if x_true is not None:
+                nees.append(normalised_square(est.mean - x_true[:, k], est.cov))
         if est.mode_probabilities is not None:
             mus.append(est.mode_probabilities)
         if est.diagnostics is not None:
             diags.append(est.diagnostics)
-    return Track(np.stack(means, axis=1), np.stack(covs, axis=1) if keep_cov else None,
-                 np.stack(mus, axis=1) if mus else None, diverged_step,
-                 np.stack(diags, axis=1) if diags else None, cause)
+    track = Track(np.stack(means, axis=1), np.stack(covs, axis=1) if keep_cov else None,
+                  np.stack(mus, axis=1) if mus else None, diverged_step,
+                  np.stack(diags, axis=1) if diags else None, cause)
+    if consistency:
+        after = np.arange(len(steps))[None, :] >= np.where(diverged_step >= 0, diverged_step, len(steps))[:, None]
+        nis_arr = np.where(after, np.nan, np.stack(nis, axis=1))
+        nees_arr = np.where(after, np.nan, np.stack(nees, axis=1)) if nees else None
+        track = track._replace(nees=nees_arr, nis=nis_arr, nis_dof=np.array([z.shape[1] for z, _ in steps]))
+    return track
+
+
+def _check_truth(truth, B: int, K: int, consistency: bool):
+    """The true states x_1..x_K (B, K, n) of ``run(..., truth=)``, or None."""
+    if truth is None:
+        return None
+    if not consistency:
+        raise ValueError("truth: only used with consistency=True (the NEES)")
+    x = check_finite(as_float_array(truth, "truth"), "truth")
+    if x.ndim != 3 or x.shape[0] != B or x.shape[1] not in (K, K + 1):
+        raise ValueError(f"truth: expected shape ({B}, {K + 1}, n) (x_0..x_K) or ({B}, {K}, n), got {x.shape}")
+    return x[:, 1:] if x.shape[1] == K + 1 else x
 
 
 def select_runs(state, index):

@@ -29,6 +29,10 @@ class RunSet(NamedTuple):
     example_mean: np.ndarray         # (K, n) estimate of the first run (for trajectory plots)
     diagnostics: object = None       # (N, K, d) per-step diagnostics of adaptive estimators, or None
     divergence_cause: object = None  # (N,) mmlib.core.estimation.Failure codes (0: not diverged), or None
+    nees: object = None              # (N, K) NEES per run and step (evaluate(..., consistency=True)), or None
+    nis: object = None               # (N, K) NIS per run and step, or None
+    nis_dof: object = None           # (K,) measurement dimension m_k of every step (the NIS's degrees of freedom)
+    cpu_seconds: float = 0.0         # thread CPU time of the estimator's runs (simulation excluded): a measurement
 
     @property
     def valid(self) -> np.ndarray:
@@ -90,40 +94,63 @@ def select(estimators: dict, names=None) -> dict:
     return {k: estimators[_check_name(k, "names", estimators)] for k in names}
 
 
-def make_batches(mc: MonteCarlo, schedule, measurement, x0, estimators: dict, init_state: Callable, *,
-                 process_noise: bool = True, fault: Callable | None = None, start: Callable | None = None) -> Callable:
-    """The ``make_batch(runs)`` every scenario needs: simulate truth and measurements for the runs
-    (optionally with a sensor fault ``fault(runs) -> SensorFault``), start every filter from
-    ``start(runs)`` (default: the true x0) and initialise each estimator with
-    ``init_state(estimator, start, runs)``.  Returns ``runs -> (truth, measurements, {name: state})``.
-
-    ``x0`` (n,) the true initial state; ``start(runs)`` must return (len(runs), n)."""
+def simulator(mc: MonteCarlo, schedule, measurement, x0, *, process_noise: bool = True,
+              fault: Callable | None = None, start: Callable | None = None) -> Callable:
+    """``runs -> (truth (B, K+1, n), measurements (B, K, m), start means (B, n))``: the truth and measurements of
+    the runs (:func:`mmlib.experiment.simulate.simulate`, optionally with a sensor fault
+    ``fault(runs) -> SensorFault``) and the filters' initial means ``start(runs)`` (default: the true x0).
+    What a scenario's estimators see, before any of them is initialised (:func:`make_batches` adds that)."""
     if not isinstance(mc, MonteCarlo):
         raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
     x0 = check_finite(as_float_array(x0, "x0"), "x0")
     if x0.ndim != 1 or x0.size == 0:
         raise ValueError(f"x0: expected a state vector of shape (n,), got shape {x0.shape}")
-    _check_mapping(estimators, "estimators", "estimators by name", nonempty=False)   # none: truth only
-    _check_callable(init_state, "init_state", "a function (estimator, start, runs) -> state")
     _check_callable(fault, "fault", "None or a function runs -> SensorFault", optional=True)
     _check_callable(start, "start", "None or a function runs -> (B, n) start means", optional=True)
     if not isinstance(process_noise, (bool, np.bool_)):
         raise ValueError(f"process_noise: expected True or False, got {process_noise!r}")
 
-    def make_batch(runs):
+    def simulate_runs(runs):
         noise_fn = None if fault is None else fault(runs).apply(measurement)
         sc = simulate(schedule, x0, measurement, mc, runs, process_noise=process_noise, measurement_noise_fn=noise_fn)
         m0 = np.tile(x0, (len(runs), 1)) if start is None else start(runs)
         if np.shape(m0) != (len(runs), x0.size):
             raise ValueError(f"start: returned shape {np.shape(m0)}, expected {(len(runs), x0.size)} (runs, n)")
-        return sc.truth, sc.measurements, {n: init_state(e, m0, runs) for n, e in estimators.items()}
+        return sc.truth, sc.measurements, m0
+
+    return simulate_runs
+
+
+def with_initial_states(simulate_runs: Callable, estimators: dict, init_state: Callable) -> Callable:
+    """``runs -> (truth, measurements, {name: initial state})`` from a :func:`simulator`-like
+    ``simulate_runs(runs) -> (truth, measurements, start means)``: each estimator initialised by
+    ``init_state(estimator, start, runs)``."""
+    _check_mapping(estimators, "estimators", "estimators by name", nonempty=False)   # none: truth only
+    _check_callable(init_state, "init_state", "a function (estimator, start, runs) -> state")
+
+    def make_batch(runs):
+        truth, z, m0 = simulate_runs(runs)
+        return truth, z, {n: init_state(e, m0, runs) for n, e in estimators.items()}
 
     return make_batch
 
 
+def make_batches(mc: MonteCarlo, schedule, measurement, x0, estimators: dict, init_state: Callable, *,
+                 process_noise: bool = True, fault: Callable | None = None, start: Callable | None = None) -> Callable:
+    """The ``make_batch(runs)`` every scenario needs: :func:`simulator` (truth, measurements and start means of the
+    runs) with every estimator initialised by ``init_state(estimator, start, runs)``
+    (:func:`with_initial_states`).  Returns ``runs -> (truth, measurements, {name: state})``.
+
+    ``x0`` (n,) the true initial state; ``start(runs)`` must return (len(runs), n)."""
+    _check_mapping(estimators, "estimators", "estimators by name", nonempty=False)
+    _check_callable(init_state, "init_state", "a function (estimator, start, runs) -> state")
+    return with_initial_states(simulator(mc, schedule, measurement, x0, process_noise=process_noise, fault=fault,
+                                         start=start), estimators, init_state)
+
+
 def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_size: int = 250,
              label: str = "", progress: bool = True, measurement_models=None, workers: int | None = None,
-             executor=None) -> dict:
+             executor=None, consistency: bool = False) -> dict:
     """Run every estimator on the same runs (common random numbers), chunk by chunk.
 
     ``make_batch(runs)`` returns ``(truth (B, K+1, n), measurements (B, K, m),
@@ -143,34 +170,41 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
     _check_mapping(estimators, "estimators", "estimators by name")
     _check_callable(make_batch, "make_batch", "a function runs -> (truth, measurements, init)")
     check_bool(progress, "progress")
+    check_bool(consistency, "consistency")
     if not isinstance(mc, MonteCarlo):
         raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
     chunks = mc.chunks(chunk_size)
     bar = Progress(label or "Monte Carlo", mc.n_runs, enabled=progress)
     parts = run_tasks(_evaluate_chunk, [(runs,) for runs in chunks],
-                      shared=(estimators, make_batch, measurement_models), workers=workers, executor=executor,
+                      shared=(estimators, make_batch, measurement_models, consistency), workers=workers,
+                      executor=executor,
                       on_result=lambda i, _: bar.advance(len(chunks[i])))
     out = {}
     for name in estimators:
         per = [part[name] for part in parts]
         cat = (lambda field: np.concatenate([p[field] for p in per]) if per[0][field] is not None else None)
-        out[name] = RunSet(cat("err"), cat("mu"), cat("div"), per[0]["first"], cat("diag"), cat("cause"))
+        out[name] = RunSet(cat("err"), cat("mu"), cat("div"), per[0]["first"], cat("diag"), cat("cause"),
+                           cat("nees"), cat("nis"), per[0]["nis_dof"], float(sum(p["cpu"] for p in per)))
     return out
 
 
-def _evaluate_chunk(estimators: dict, make_batch: Callable, measurement_models, runs) -> dict:
+def _evaluate_chunk(estimators: dict, make_batch: Callable, measurement_models, consistency: bool, runs) -> dict:
     """One chunk of :func:`evaluate` (a task, possibly in a worker process): ``{name: {"err", "mu", "div",
     "diag", "cause", "first"}}`` for the runs ``runs`` (a range of run indices), ``mu``/``diag`` None when the
     estimator has none; ``first`` is the estimate of the chunk's first run."""
     truth, z, init = _checked_batch(make_batch(runs), runs, estimators, measurement_models is not None)
     out = {}
     for name, est in estimators.items():
-        track = run(est, init[name], z, keep_cov=False, measurement_models=measurement_models)
+        t0 = time.thread_time()
+        track = run(est, init[name], z, keep_cov=False, measurement_models=measurement_models,
+                    consistency=consistency, truth=truth if consistency else None)
+        cpu = time.thread_time() - t0
         if track.mean.shape[-1] != truth.shape[-1]:
             raise ValueError(f"make_batch: truth of state dimension {truth.shape[-1]}, but {name!r} estimates "
                              f"{track.mean.shape[-1]}")
         out[name] = {"err": track.mean - truth[:, 1:], "mu": track.mode_probabilities, "div": track.diverged_step,
-                     "diag": track.diagnostics, "cause": track.divergence_cause, "first": track.mean[0]}
+                     "diag": track.diagnostics, "cause": track.divergence_cause, "first": track.mean[0],
+                     "nees": track.nees, "nis": track.nis, "nis_dof": track.nis_dof, "cpu": cpu}
     return out
 
 
@@ -290,7 +324,7 @@ def first_runs(rs: RunSet, n: int) -> RunSet:
         raise ValueError(f"n: {n} runs asked of a RunSet of {rs.errors.shape[0]} runs")
     cut = (lambda a: None if a is None else a[:n])
     return RunSet(rs.errors[:n], cut(rs.mode_probabilities), rs.diverged_step[:n], rs.example_mean, cut(rs.diagnostics),
-                  cut(rs.divergence_cause))
+                  cut(rs.divergence_cause), cut(rs.nees), cut(rs.nis), rs.nis_dof, rs.cpu_seconds * n / rs.errors.shape[0])
 
 
 #: Tag hashed first by :func:`run_digest`; change it whenever what is hashed changes.

@@ -77,9 +77,9 @@ def cache_key(**parts) -> str:
 RESULT_KEYS = ("values", "claims", "effects", "diverged", "n_runs")
 
 
-def _read_entry(path: Path, key_doc: dict):
+def _read_entry(path: Path, key_doc: dict, result_keys=RESULT_KEYS):
     """The cached result, or None when the entry is missing, unreadable, written for another key or
-    not a universe result (it is then recomputed and overwritten)."""
+    lacks a key of ``result_keys`` (it is then recomputed and overwritten)."""
     try:
         entry = json.loads(path.read_text())
     except (OSError, json.JSONDecodeError):
@@ -87,7 +87,7 @@ def _read_entry(path: Path, key_doc: dict):
     if not isinstance(entry, dict) or entry.get("key") != json.loads(json.dumps(key_doc)):
         return None
     res = entry.get("result")
-    if not isinstance(res, dict) or any(k not in res for k in RESULT_KEYS):
+    if not isinstance(res, dict) or any(k not in res for k in result_keys):
         return None
     return res
 
@@ -104,7 +104,8 @@ def _run_job(job, reading, n_runs, seed):
 def run_grid(job: Callable, readings, *, paper: str, algorithms, n_runs: int, seed: int,
              executor: cf.Executor | None = None, workers: int | None = None,
              cache_dir: str | Path | None = None, use_cache: bool = True,
-             progress: bool | Callable = True, label: str = "") -> list:
+             progress: bool | Callable = True, label: str = "", result_keys=RESULT_KEYS,
+             unit: str = "universe") -> list:
     """Run ``job(reading, n_runs, seed)`` for every reading; results in the order of ``readings``.
 
     ``executor``: any ``concurrent.futures.Executor`` (it is not shut down here); by default
@@ -113,7 +114,9 @@ def run_grid(job: Callable, readings, *, paper: str, algorithms, n_runs: int, se
     when ``workers == 1`` or one universe is to be computed (:func:`executors.run_tasks`);
     the results do not depend on where the jobs ran.  ``cache_dir``: where results are kept
     (``default_cache_dir()``); ``use_cache=False`` neither reads nor writes it.  ``progress``: True prints one line per
-    universe to stderr, a callable receives that line, False is silent.
+    universe to stderr, a callable receives that line, False is silent.  ``result_keys``: the keys every job result
+    must have (default: a universe result of :func:`mmlib.experiment.multiverse.universe_result`); ``unit``: what a
+    job is called in the progress lines ("universe", "cell").
     """
     readings = [dict(r) for r in readings]
     check_positive_int(n_runs, "n_runs")
@@ -134,13 +137,13 @@ def run_grid(job: Callable, readings, *, paper: str, algorithms, n_runs: int, se
     todo = []
     for i, key in enumerate(keys):
         if use_cache:
-            results[i] = _read_entry(cache / paper / f"{key}.json", key_docs[i])
+            results[i] = _read_entry(cache / paper / f"{key}.json", key_docs[i], result_keys)
             if results[i] is not None:
                 continue
         todo.append(i)
     n_cached = len(readings) - len(todo)
     if say and n_cached:
-        say(f"  [{tag}] {n_cached}/{len(readings)} universes from the cache ({cache / paper})")
+        say(f"  [{tag}] {n_cached}/{len(readings)} {unit}s from the cache ({cache / paper})")
     if not todo:
         return results
     t0 = time.perf_counter()
@@ -152,16 +155,16 @@ def run_grid(job: Callable, readings, *, paper: str, algorithms, n_runs: int, se
         if not isinstance(res, dict):
             raise ValueError(f"job: {job_name(job)} returned {type(res).__name__}, expected a dict")
         results[i] = json.loads(json.dumps(res, allow_nan=False))   # the same form as from the cache
-        if any(key not in results[i] for key in RESULT_KEYS):
-            raise ValueError(f"job: {job_name(job)} returned a dict without {RESULT_KEYS} "
-                             f"(build it with multiverse.universe_result)")
+        if any(key not in results[i] for key in result_keys):
+            raise ValueError(f"job: {job_name(job)} returned a dict without {tuple(result_keys)}"
+                             + (" (build it with multiverse.universe_result)" if result_keys == RESULT_KEYS else ""))
         if use_cache:
             _write_json_atomic(cache / paper / f"{keys[i]}.json", {"key": key_docs[i], "result": results[i]})
         done += 1
         if say:
             div = res.get("diverged") or {}
             ndiv = sum(div.values()) if isinstance(div, dict) else 0
-            say(f"  [{tag}] universe {done}/{len(todo)} done ({time.perf_counter() - t0:.1f} s): "
+            say(f"  [{tag}] {unit} {done}/{len(todo)} done ({time.perf_counter() - t0:.1f} s): "
                 f"{json.dumps(readings[i], sort_keys=False)}" + (f"; diverged runs {div}" if ndiv else ""))
 
     run_tasks(_run_job, [(readings[i], n_runs, seed) for i in todo], shared=(job,), workers=workers,

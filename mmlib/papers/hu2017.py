@@ -24,6 +24,7 @@ from mmlib.experiment.simulate import ManeuverSchedule
 from mmlib.experiment import evaluation
 from mmlib.experiment.multiverse import PublishedNumber, universe_result
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
+from mmlib.experiment.scenario import Scenario
 from mmlib.experiment.report import Claims, claim_verdict, combine_claim_verdicts, make_row
 
 PAPER = "hu2017"
@@ -184,6 +185,18 @@ def build(setup: Setup):
     return schedule, radar, estimators
 
 
+def simulator(setup: Setup, schedule, radar):
+    """``mc -> (runs -> (truth, measurements, start means))``: truth from x0 with the truth's process noise (H-13),
+    radar measurements; the filters start at the true x0 (H-9)."""
+    return lambda mc: evaluation.simulator(mc, schedule, radar, setup.x0, process_noise=setup.truth_process_noise)
+
+
+def bootstrap_noise(mc: MonteCarlo, runs, n_steps: int, n_boot: int, m: int) -> np.ndarray:
+    """The standard normals (B, K, N, m) an observation-bootstrap layer adds to every step's measurement, from the
+    run's FILTER stream (drawn for max(N, 1) observations, so a run's draws do not depend on N being 0)."""
+    return mc.standard_normal(runs, Stream.FILTER, (n_steps, max(n_boot, 1), m))[:, :, :n_boot]
+
+
 def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
     schedule, radar, estimators = build(setup)
     estimators = evaluation.select(estimators, names)
@@ -192,13 +205,40 @@ def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
     def init_state(est, m0, runs):
         extra = {}
         if isinstance(est.filter, ObservationBootstrap):     # bootstrap noise from the run's own stream
-            noise = mc.standard_normal(runs, Stream.FILTER, (setup.n_steps, max(setup.n_boot, 1), 2))
-            extra = {"noise": noise[:, :, :setup.n_boot]}
+            extra = {"noise": bootstrap_noise(mc, runs, setup.n_steps, setup.n_boot, 2)}
         return est.init(m0, P0, setup.mode_probabilities0, **extra)
 
-    make_batch = evaluation.make_batches(mc, schedule, radar, setup.x0, estimators, init_state,
-                                         process_noise=setup.truth_process_noise)
+    make_batch = evaluation.with_initial_states(simulator(setup, schedule, radar)(mc), estimators, init_state)
     return make_batch, estimators, schedule
+
+
+KM = 1000.0        #: metres per kilometre: the paper's unit of length (H-2) and the arena's SI boundary
+
+
+def in_metres(setup: Setup) -> Setup:
+    """The same set-up in SI units (m, m/s, m^2/s^4): lengths times 1000, variances times 1e6.  The paper's
+    tables are in km, so the notebook keeps km; the arena converts here, at the paper's boundary."""
+    q_filter = None if setup.q_filter is None else tuple(v * KM ** 2 for v in setup.q_filter)
+    return replace(setup, x0=tuple(v * KM for v in setup.x0), sigma_r=setup.sigma_r * KM,
+                   P0_sd=tuple(v * KM for v in setup.P0_sd), q=tuple(v * KM ** 2 for v in setup.q), q_filter=q_filter)
+
+
+def scenario(setup: Setup | None = None) -> Scenario:
+    """Section 3's set-up (the headline reading unless ``setup`` is given) as an arena scenario, converted to SI
+    units (:func:`in_metres`): two coordinated-turn modes (0.3 and -0.15 rad/s) with the printed noise gain, a
+    range-bearing radar.  The paper runs only IMMs: it defines no single motion model."""
+    setup = in_metres(Setup() if setup is None else setup)
+    schedule, radar, estimators = build(setup)
+    imm = estimators["IMMCDKF"]
+    return Scenario(name=PAPER, title="Hu et al. 2017: two turn modes (0.3, -0.15 rad/s), range-bearing radar",
+                    source=CITATION, root_seed=ROOT_SEED, T=setup.T, n_steps=setup.n_steps,
+                    simulator=simulator(setup, schedule, radar), P0=np.diag(np.square(setup.P0_sd)),
+                    position=(0, 2), velocity=(1, 3), modes=tuple(imm.dynamics), transition=np.array(setup.transition),
+                    mode_probabilities=setup.mode_probabilities0, measurement=radar, ukf=tuple(setup.ukf),
+                    properties={"measurement": "range-bearing (100 m, 0.1°)", "manoeuvre": "turns at 0.3, -0.15 rad/s",
+                                "units": "converted from km"},
+                    notes={"single": "the paper runs only IMMs (two coordinated-turn modes): it defines no single "
+                                     "motion model"})
 
 
 def variant(setup: Setup, **changes) -> Setup:

@@ -32,6 +32,7 @@ from mmlib.core.layers.strong_tracking import StrongTracking
 from mmlib.experiment import evaluation
 from mmlib.experiment.multiverse import PublishedNumber, universe_result
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
+from mmlib.experiment.scenario import Scenario
 
 PAPER = "liu2017"
 CITATION = ("H. Liu, W. Wu, Strong Tracking Spherical Simplex-Radial Cubature Kalman Filter for Maneuvering "
@@ -336,23 +337,50 @@ def build(setup: Setup):
     return schedule, radar, estimators
 
 
-def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
-    """``(make_batch, estimators, schedule)`` for one set-up: truth from x0 (with the filter's Q as
-    process noise under L-3 "matched"), radar measurements, and every filter started at x0 or at
-    x0 + N(0, P0) drawn from the run's INITIAL stream (L-6), with P0 = diag(P0_sd^2)."""
-    schedule, radar, estimators = build(setup)
-    estimators = evaluation.select(estimators, names)
+def simulator(setup: Setup, schedule, radar):
+    """``mc -> (runs -> (truth, measurements, start means))``: truth from x0 (with the filter's Q as process noise
+    under L-3 "matched"), radar measurements, and the filters' initial means x0 or x0 + N(0, P0) drawn from the run's
+    INITIAL stream (L-6), with P0 = diag(P0_sd^2)."""
     x0 = np.array(setup.x0)
     P0 = np.diag(np.square(setup.P0_sd))
 
-    def start(runs):
-        if setup.samples_initial_estimate:
-            return mc.gaussian(runs, Stream.INITIAL, x0, P0)
-        return np.tile(x0, (len(runs), 1))
+    def for_mc(mc: MonteCarlo):
+        def start(runs):
+            if setup.samples_initial_estimate:
+                return mc.gaussian(runs, Stream.INITIAL, x0, P0)
+            return np.tile(x0, (len(runs), 1))
 
-    make_batch = evaluation.make_batches(mc, schedule, radar, x0, estimators, lambda est, m0, runs: est.init(m0, P0),
-                                         process_noise=setup.truth_process_noise, start=start)
+        return evaluation.simulator(mc, schedule, radar, x0, process_noise=setup.truth_process_noise, start=start)
+
+    return for_mc
+
+
+def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
+    """``(make_batch, estimators, schedule)`` for one set-up (:func:`simulator`, every filter started with P0)."""
+    schedule, radar, estimators = build(setup)
+    estimators = evaluation.select(estimators, names)
+    P0 = np.diag(np.square(setup.P0_sd))
+    make_batch = evaluation.with_initial_states(simulator(setup, schedule, radar)(mc), estimators,
+                                                lambda est, m0, runs: est.init(m0, P0))
     return make_batch, estimators, schedule
+
+
+def scenario(setup: Setup | None = None) -> Scenario:
+    """Example 1 under the headline reading (unless ``setup`` is given) as an arena scenario: a constant-acceleration
+    model with an acceleration step at the onset, a range-bearing radar (30 m, 10 mrad).  The paper's filters are all
+    single-model: it defines no mode set for an IMM."""
+    setup = setups(SPACE.headline)["Example 1"] if setup is None else setup
+    schedule, radar, estimators = build(setup)
+    return Scenario(name=PAPER, title="Liu & Wu 2017 Example 1: CA model, acceleration step, range-bearing radar",
+                    source=CITATION, root_seed=ROOT_SEED, T=setup.T, n_steps=setup.n_steps,
+                    simulator=simulator(setup, schedule, radar), P0=np.diag(np.square(setup.P0_sd)),
+                    position=(0, 3), velocity=(1, 4), single=estimators["SSRCKF"].dynamics, measurement=radar,
+                    ukf=tuple(setup.ukf),
+                    properties={"measurement": "range-bearing (30 m, 10 mrad)",
+                                "manoeuvre": f"acceleration step to {setup.maneuver_acceleration} m/s² at "
+                                             f"t = {setup.onset:g} s"},
+                    notes={"modes": "the paper's filters are all single-model (one constant-acceleration model): it "
+                                    "defines no mode set for an IMM"})
 
 
 class ReadingResults(NamedTuple):

@@ -20,6 +20,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -35,6 +36,7 @@ from mmlib.experiment.simulate import ManeuverSchedule, propagate
 from mmlib.experiment import evaluation
 from mmlib.experiment.multiverse import PublishedNumber, universe_result
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
+from mmlib.experiment.scenario import Scenario
 
 PAPER = "tseng2011"
 CITATION = ("C.-H. Tseng, C.-W. Chang, D.-J. Jwo, Fuzzy Adaptive Interacting Multiple Model Nonlinear Filter for "
@@ -323,6 +325,27 @@ def noise_model(setup: Setup) -> gnss.PVClockNoise:
     return gnss.PVClockNoise(setup.T, gnss.clock_process_noise(setup.T, setup.clock_h0, setup.clock_h_minus2))
 
 
+def fuzzy_imm(filter, noise, lower: float, upper: float, transition, setup: Setup, *, frozen: bool = False,
+              measurement=None, name: str = "FUZZY-IMMUKF"):
+    """The FUZZY-IMMUKF of Section 3 over any mode filter and any process-noise family ``noise`` (``level ->
+    dynamics`` with ``Q(levels)``, e.g. :class:`mmlib.core.gnss.PVClockNoise`): a two-mode IMM whose modes' noise
+    levels the FLAS (:func:`fuzzy_system` with its output range from ``lower`` to ``upper``, ``setup``'s breakpoints,
+    DOD normalisation and window) sets every epoch, starting from the FLAS's "Normal" levels."""
+    system = fuzzy_system(replace(setup, s_lower=lower, s_upper=upper))
+    normal = 10.0 ** system.consequents[0, 0]
+    base = IMM(filter, [noise.dynamics(normal[0]), noise.dynamics(normal[1])], measurement, transition, name=name)
+    flas = FuzzyNoiseBounds(system, setup.dod_normalise)
+    if setup.dod_window == 1:
+        return NoiseAdaptiveIMM(base, noise.Q, flas, tuple(normal), frozen=frozen, name=name)
+    return WindowedNoiseAdaptiveIMM(base, noise.Q, flas, tuple(normal), frozen=frozen, name=name,
+                                    window=setup.dod_window)
+
+
+def transition_matrix(setup: Setup) -> np.ndarray:
+    """The two-mode IMM's transition matrix (T-8): stay with ``p_stay``."""
+    return np.array([[setup.p_stay, 1 - setup.p_stay], [1 - setup.p_stay, setup.p_stay]])
+
+
 def build(setup: Setup, *, frozen_fuzzy: bool = False):
     """Estimators {UKF, IMMUKF, FUZZY-IMMUKF} (plus EKF for the coincidence check)."""
     noise = noise_model(setup)
@@ -330,17 +353,10 @@ def build(setup: Setup, *, frozen_fuzzy: bool = False):
     ukf = SigmaPointFilter(Unscented(a, b, k), name="UKF")
     meas0 = None  # every step supplies its own measurement model
     low, high = noise.dynamics(setup.s_lower, "lower"), noise.dynamics(setup.s_upper, "upper")
-    Tm = np.array([[setup.p_stay, 1 - setup.p_stay], [1 - setup.p_stay, setup.p_stay]])
+    Tm = transition_matrix(setup)
     imm = IMM(ukf, [low, high], meas0, Tm, name="IMMUKF")
-    flas = FuzzyNoiseBounds(fuzzy_system(setup), setup.dod_normalise)
-    normal = 10.0 ** fuzzy_system(setup).consequents[0, 0]
-    fimm_base = IMM(ukf, [noise.dynamics(normal[0]), noise.dynamics(normal[1])], meas0, Tm, name="FUZZY-IMMUKF")
+    fimm = fuzzy_imm(ukf, noise, setup.s_lower, setup.s_upper, Tm, setup, frozen=frozen_fuzzy)
     single = noise.dynamics(setup.ukf_level, "UKF")
-    if setup.dod_window == 1:
-        fimm = NoiseAdaptiveIMM(fimm_base, noise.Q, flas, tuple(normal), frozen=frozen_fuzzy, name="FUZZY-IMMUKF")
-    else:
-        fimm = WindowedNoiseAdaptiveIMM(fimm_base, noise.Q, flas, tuple(normal), frozen=frozen_fuzzy,
-                                        name="FUZZY-IMMUKF", window=setup.dod_window)
     return {
         "UKF": SingleModel(ukf, single, meas0, name="UKF"),
         "IMMUKF": imm,
@@ -385,8 +401,8 @@ def experiment(setup: Setup, names=ALGORITHMS, **build_kw) -> Experiment:
     return Experiment(setup, plane, sk, {n: est[n] for n in names})
 
 
-def make_batch_fn(ex: Experiment, mc: MonteCarlo):
-    """``runs -> (truth (B, K+1, 8), [z_k (B, m_k)], {name: initial state})``.
+def simulator(ex: Experiment):
+    """``mc -> (runs -> (truth (B, K+1, 8), [z_k (B, m_k)], start means (B, 8)))``.
 
     Per run: the clock random walk from Stream.TRUTH, pseudorange noise from Stream.MEASUREMENT
     (drawn for all 24 satellites at every epoch, so a satellite's noise does not depend on which
@@ -397,21 +413,62 @@ def make_batch_fn(ex: Experiment, mc: MonteCarlo):
     P0 = np.diag(np.square(s.p0_sd))
     n_sat = len(ex.sky.names)
 
-    def make_batch(runs):
-        B = len(runs)
-        clock_truth = propagate(clock, np.zeros((B, 2)), mc.standard_normal(runs, Stream.TRUTH, (K, 2)))
-        truth = np.zeros((B, K + 1, gnss.STATE_DIM))
-        truth[:, :, [0, 1, 2, 3]] = ex.truth_plane[None]
-        truth[:, :, list(gnss.CLOCK_INDEX)] = clock_truth
-        v = mc.standard_normal(runs, Stream.MEASUREMENT, (K, n_sat)) * s.sigma_pr
-        z = [model.h(truth[:, k + 1]) + v[:, k, ex.sky.visible[k]] for k, model in enumerate(ex.measurement_models)]
-        x0 = mc.gaussian(runs, Stream.INITIAL, truth[:, 0], P0)
-        init = {}
-        for name, e in ex.estimators.items():
-            init[name] = e.init(x0, P0, s.mu0) if isinstance(e, (IMM, NoiseAdaptiveIMM)) else e.init(x0, P0)
-        return truth, z, init
+    def for_mc(mc: MonteCarlo):
+        def simulate_runs(runs):
+            B = len(runs)
+            clock_truth = propagate(clock, np.zeros((B, 2)), mc.standard_normal(runs, Stream.TRUTH, (K, 2)))
+            truth = np.zeros((B, K + 1, gnss.STATE_DIM))
+            truth[:, :, [0, 1, 2, 3]] = ex.truth_plane[None]
+            truth[:, :, list(gnss.CLOCK_INDEX)] = clock_truth
+            v = mc.standard_normal(runs, Stream.MEASUREMENT, (K, n_sat)) * s.sigma_pr
+            z = [model.h(truth[:, k + 1]) + v[:, k, ex.sky.visible[k]]
+                 for k, model in enumerate(ex.measurement_models)]
+            return truth, z, mc.gaussian(runs, Stream.INITIAL, truth[:, 0], P0)
 
-    return make_batch
+        return simulate_runs
+
+    return for_mc
+
+
+def make_batch_fn(ex: Experiment, mc: MonteCarlo):
+    """``runs -> (truth (B, K+1, 8), [z_k (B, m_k)], {name: initial state})`` (:func:`simulator`)."""
+    s = ex.setup
+    P0 = np.diag(np.square(s.p0_sd))
+
+    def init_state(e, x0, runs):
+        return e.init(x0, P0, s.mu0) if isinstance(e, (IMM, NoiseAdaptiveIMM)) else e.init(x0, P0)
+
+    return evaluation.with_initial_states(simulator(ex)(mc), ex.estimators, init_state)
+
+
+class NoiseLevels(NamedTuple):
+    """A process-noise family with the two levels of an IMM whose modes differ only in their noise: ``family``
+    (``level -> dynamics``, ``Q(levels)``), ``lower`` and ``upper`` (the family's level unit; for
+    :class:`mmlib.core.gnss.PVClockNoise` the acceleration PSD in m^2/s^3)."""
+
+    family: object
+    lower: float
+    upper: float
+
+
+def scenario(setup: Setup | None = None) -> Scenario:
+    """The reconstructed vehicle experiment (the headline reading unless ``setup`` is given) as an arena scenario:
+    8-state position-velocity-clock dynamics, raw pseudoranges of the satellites in view (the sensor changes every
+    epoch), the IMM's two modes the lower and upper noise levels, single-model filters at the UKF's level (T-8);
+    the noise family the FLAS adapts is the scenario's ``noise_levels``."""
+    setup = setups(SPACE.headline) if setup is None else setup
+    ex = experiment(setup, names=("UKF",))
+    noise = noise_model(setup)
+    return Scenario(name=PAPER, title="Tseng et al. 2011 (reconstruction): GPS pseudoranges, PV-clock model",
+                    source=CITATION, root_seed=ROOT_SEED, T=setup.T, n_steps=setup.n_steps, simulator=simulator(ex),
+                    P0=np.diag(np.square(setup.p0_sd)), position=gnss.POSITION_INDEX[:2],
+                    velocity=gnss.VELOCITY_INDEX[:2], single=noise.dynamics(setup.ukf_level, "UKF"),
+                    modes=(noise.dynamics(setup.s_lower, "lower"), noise.dynamics(setup.s_upper, "upper")),
+                    transition=transition_matrix(setup), mode_probabilities=setup.mu0,
+                    measurement_models=ex.measurement_models, ukf=tuple(setup.ukf),
+                    noise_levels=NoiseLevels(noise, setup.s_lower, setup.s_upper),
+                    properties={"measurement": f"pseudoranges of 6-7 satellites ({setup.sigma_pr:g} m)",
+                                "manoeuvre": "straight and circular segments at 20 m/s"})
 
 
 def variant(setup: Setup, **changes) -> Setup:

@@ -37,6 +37,7 @@ from mmlib.experiment.simulate import ManeuverSchedule
 from mmlib.experiment import evaluation
 from mmlib.experiment.multiverse import PublishedNumber, universe_result
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
+from mmlib.experiment.scenario import Scenario
 
 PAPER = "zhou2017"
 CITATION = ("H. Zhou, H. Zhao, H. Huang, X. Zhao, A Cubature-Principle-Assisted IMM-Adaptive UKF Algorithm for "
@@ -357,15 +358,46 @@ def radar_fault(setup: Setup, mc: MonteCarlo, runs, times):
     return models.SensorFault(np.stack([dr, dth], axis=-1))
 
 
+def simulator(setup: Setup, schedule, radar):
+    """``mc -> (runs -> (truth, measurements, start means))``: truth from x0, radar measurements with the Case 2
+    fault when ``setup.faults`` (:func:`radar_fault`, the run's FAULT stream); the filters start at the true x0."""
+    def for_mc(mc: MonteCarlo):
+        fault = (lambda runs: radar_fault(setup, mc, runs, schedule.times)) if setup.faults else None
+        return evaluation.simulator(mc, schedule, radar, setup.x0, process_noise=setup.truth_process_noise,
+                                    fault=fault)
+
+    return for_mc
+
+
 def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
     schedule, radar, estimators = build(setup)
     estimators = evaluation.select(estimators, names)
     P0 = np.diag(np.square(setup.P0_sd))
-    fault = (lambda runs: radar_fault(setup, mc, runs, schedule.times)) if setup.faults else None
-    make_batch = evaluation.make_batches(mc, schedule, radar, setup.x0, estimators,
-                                         lambda est, m0, runs: est.init(m0, P0, setup.mode_probabilities0),
-                                         process_noise=setup.truth_process_noise, fault=fault)
+    make_batch = evaluation.with_initial_states(simulator(setup, schedule, radar)(mc), estimators,
+                                                lambda est, m0, runs: est.init(m0, P0, setup.mode_probabilities0))
     return make_batch, estimators, schedule
+
+
+def scenario(setup: Setup | None = None) -> Scenario:
+    """Case 2 of Section 4.1 (sensor faults) under the headline reading, unless ``setup`` is given, as an arena
+    scenario: CV and two coordinated-turn modes, a range-bearing radar with the range offset and bearing drift of
+    Eq. 2.  Single-model filters use the CV mode: the paper runs single-model UKF, AUKF and NAUKF only in its
+    field test (Table 4), whose model it does not give."""
+    setup = setups(SPACE.headline)[1] if setup is None else setup
+    schedule, radar, estimators = build(setup)
+    modes = tuple(estimators["IMM-UKF"].dynamics)
+    case = "Case 2 (sensor faults)" if setup.faults else "Case 1 (no fault)"
+    return Scenario(name=PAPER, title=f"Zhou et al. 2017 {case}: CV and ±0.1 rad/s turns, range-bearing radar",
+                    source=CITATION, root_seed=ROOT_SEED, T=setup.T, n_steps=setup.n_steps,
+                    simulator=simulator(setup, schedule, radar), P0=np.diag(np.square(setup.P0_sd)),
+                    position=(0, 2), velocity=(1, 3), single=modes[0], modes=modes,
+                    transition=np.array(setup.transition), mode_probabilities=setup.mode_probabilities0,
+                    measurement=radar, ukf=tuple(setup.ukf),
+                    properties={"measurement": "range-bearing" + (" with range offset and bearing drift (Eq. 2)"
+                                                                  if setup.faults else ""),
+                                "manoeuvre": "turns at ±0.1 rad/s"},
+                    notes={"single": "single-model filters use the CV mode of Section 4.1 (the paper's single-model "
+                                     "filters appear only in its field test, whose model is not given)"})
 
 
 def variant(setup: Setup, **changes) -> Setup:

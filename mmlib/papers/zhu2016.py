@@ -36,6 +36,7 @@ from mmlib.experiment.simulate import ManeuverSchedule
 from mmlib.experiment import evaluation
 from mmlib.experiment.multiverse import PublishedNumber, universe_result
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
+from mmlib.experiment.scenario import Scenario
 
 PAPER = "zhu2016"
 CITATION = ("W. Zhu, W. Wang, G. Yuan, An Improved Interacting Multiple Model Filtering Algorithm "
@@ -271,23 +272,48 @@ def build(setup: Setup):
     return schedule, meas, estimators
 
 
-def make_batch_fn(setup: Setup, mc: MonteCarlo):
-    """``runs -> (truth, measurements, initial states)`` for :func:`evaluation.evaluate`."""
-    schedule, meas, estimators = build(setup)
+def simulator(setup: Setup, schedule, meas):
+    """``mc -> (runs -> (truth, measurements, start means))``: the truth (with process noise under Z-7), the
+    position measurements and the filters' initial means (x0, or x0 + N(0, P0) from the run's INITIAL stream, Z-9)."""
     x0 = np.array(setup.x0)
     P0 = np.diag(setup.P0_diag)
 
-    def start(runs):
-        if setup.initial_estimate == "sampled":
-            return mc.gaussian(runs, Stream.INITIAL, x0, P0)
-        return np.tile(x0, (len(runs), 1))
+    def for_mc(mc: MonteCarlo):
+        def start(runs):
+            if setup.initial_estimate == "sampled":
+                return mc.gaussian(runs, Stream.INITIAL, x0, P0)
+            return np.tile(x0, (len(runs), 1))
+
+        return evaluation.simulator(mc, schedule, meas, x0, process_noise=setup.truth_process_noise, start=start)
+
+    return for_mc
+
+
+def make_batch_fn(setup: Setup, mc: MonteCarlo):
+    """``runs -> (truth, measurements, initial states)`` for :func:`evaluation.evaluate`."""
+    schedule, meas, estimators = build(setup)
+    P0 = np.diag(setup.P0_diag)
 
     def init_state(est, m0, runs):
         return est.init(m0, P0, setup.mode_probabilities0) if isinstance(est, IMM) else est.init(m0, P0)
 
-    make_batch = evaluation.make_batches(mc, schedule, meas, x0, estimators, init_state,
-                                     process_noise=setup.truth_process_noise, start=start)
+    make_batch = evaluation.with_initial_states(simulator(setup, schedule, meas)(mc), estimators, init_state)
     return make_batch, estimators, schedule
+
+
+def scenario(setup: Setup | None = None) -> Scenario:
+    """Section 4's set-up (the headline reading unless ``setup`` is given) as an arena scenario: the IMM's three
+    modes (CV and the two known-rate turns), the single-model 5CKF's model (Z-10) and the position sensor, all
+    linear (so every rule returns the Kalman moments); SI units as printed."""
+    setup = Setup() if setup is None else setup
+    schedule, meas, estimators = build(setup)
+    return Scenario(name=PAPER, title="Zhu et al. 2016: CV and ±3°/s turns, linear position sensor", source=CITATION,
+                    root_seed=ROOT_SEED, T=setup.T, n_steps=setup.n_steps, simulator=simulator(setup, schedule, meas),
+                    P0=np.diag(setup.P0_diag), position=(0, 2), velocity=(1, 3),
+                    single=estimators["5CKF"].dynamics, modes=tuple(estimators["IMM5CKF"].dynamics),
+                    transition=np.array(setup.transition), mode_probabilities=setup.mode_probabilities0,
+                    measurement=meas, ukf=tuple(setup.ukf),
+                    properties={"measurement": "linear position (x, y)", "manoeuvre": "±3°/s turns, known rate"})
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -1,0 +1,201 @@
+r"""Every algorithm of the five papers as a recipe: how to build it from any scenario's models
+(:class:`mmlib.experiment.scenario.Scenario`), with its parameters stated once.
+
+A recipe says which paper proposed or ran the algorithm, what it needs of a scenario (an IMM's mode set, a
+single motion model, a process-noise family whose level can be set online) and how to assemble it from the
+core's pieces: a rule, the one generic filter, thin layers, the IMM combinator.  Where an algorithm cannot apply to
+a scenario, :func:`applicability` says why (e.g. "needs an IMM mode set: ..."), never a blank.
+
+Parameters, stated once here:
+
+* the layers' parameters come from the proposing paper's headline set-up: strong tracking's softening factor
+  beta = 4.5 and forgetting factor rho = 0.95 (Liu & Wu 2017, :class:`mmlib.papers.liu2017.Setup`); NAUKF's window
+  and Eq. 27-28 options and AUKF's (Zhou et al. 2017, :class:`mmlib.papers.zhou2017.Setup`, its Table 4 analogue);
+  the bootstrap's N, variance factor, likelihood and fused covariance, and the central-difference form (Hu et al.
+  2017, :class:`mmlib.papers.hu2017.Setup`); the FLAS's breakpoints, normalisation and window (Tseng et al. 2011,
+  :class:`mmlib.papers.tseng2011.Setup`);
+* what belongs to a scenario's set-up comes from the scenario: its models, process noise, P0, transition matrix,
+  initial mode probabilities and its unscented rule's (alpha, beta, kappa) (each paper tunes its own UKF; the
+  ladder uses (1, 2, 0));
+* names: one spelling per algorithm (``IMMUKF``; Zhou et al.'s ``IMM-UKF``, ``IMM-EKF`` and ``IMM-CKF`` are
+  aliases of ``IMMUKF``, ``IMMEKF`` and ``IMMCKF``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from mmlib.core.estimation import IMM, MomentMixing, SingleModel
+from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
+from mmlib.core.layers.adaptive import InnovationAdaptive
+from mmlib.core.layers.bootstrap import ObservationBootstrap
+from mmlib.core.layers.strong_tracking import StrongTracking
+from mmlib.core.mixing import CubatureMixing
+from mmlib.core.rules import CentralDifference, Cubature, FifthDegreeCubature, SphericalSimplexRadial, Unscented
+from mmlib.experiment.montecarlo import MonteCarlo
+from mmlib.experiment.scenario import Scenario
+from mmlib.papers import hu2017, liu2017, tseng2011, zhou2017
+
+#: the proposing papers' headline set-ups, whose layer parameters the recipes use
+LIU, ZHOU, HU, TSENG = liu2017.Setup(), zhou2017.Setup(), hu2017.Setup(), tseng2011.setups(tseng2011.SPACE.headline)
+
+
+class NotApplicable(ValueError):
+    """An algorithm that cannot run on a scenario; the message says why."""
+
+
+# ------------------------------------------------------------------------------------------------ mode filters
+def ukf(s: Scenario):
+    return SigmaPointFilter(Unscented(*s.ukf), name="UKF")
+
+
+def cdkf(s: Scenario):
+    return SigmaPointFilter(CentralDifference(form=HU.cd_form), name="CDKF")
+
+
+def naukf(s: Scenario):
+    """NAUKF (Zhou et al. 2017, Eqs. 27-28) over the scenario's UKF, window and options of Zhou's headline."""
+    return InnovationAdaptive(ukf(s), window=ZHOU.window, psi=ZHOU.psi, inflate_only=ZHOU.inflate_only, name="NAUKF")
+
+
+def aukf(s: Scenario):
+    """The classic innovation-based adaptive UKF (IAE: no adaptive gene, innovations before the current one) that
+    Zhou et al. compare with NAUKF in Table 4, with NAUKF's window."""
+    return InnovationAdaptive(ukf(s), window=ZHOU.window, zeta=False, include_current=False,
+                              inflate_only=ZHOU.inflate_only, name="AUKF")
+
+
+def cdkf_obs(s: Scenario):
+    """Observation bootstrapping (Hu et al. 2017) over the CDKF, with Hu's headline N, variance factor,
+    likelihood and fused covariance."""
+    return ObservationBootstrap(cdkf(s), n_boot=HU.n_boot, variance_factor=HU.boot_variance_factor,
+                                likelihood=HU.obs_likelihood, covariance=HU.obs_covariance, name="CDKF-OBS")
+
+
+def strong(base, name: str):
+    """Strong tracking (Liu & Wu 2017) with Liu's headline beta and rho; the Jacobian form over an EKF (STF)."""
+    form = {"form": "jacobian"} if isinstance(base, ExtendedKalmanFilter) else {}
+    return StrongTracking(base, beta=LIU.beta, rho=LIU.rho, name=name, **form)
+
+
+# ------------------------------------------------------------------------------------------------ recipes
+@dataclass(frozen=True)
+class Recipe:
+    """How to build one algorithm: ``kind`` "imm" (over the scenario's modes), "single" (over its single model) or
+    "noise-adaptive imm" (over its noise family); ``filter(scenario)`` the mode filter (with its layers); ``mixing``
+    the IMM's interaction; ``papers`` the papers that run it (the first proposed it or its layer)."""
+
+    name: str
+    kind: str
+    filter: Callable
+    papers: tuple
+    description: str
+    mixing: Callable = MomentMixing
+
+    def build(self, s: Scenario):
+        """The estimator on scenario ``s``; :class:`NotApplicable` (with the reason) where it cannot apply."""
+        reason = requirement(self, s)
+        if reason:
+            raise NotApplicable(f"{self.name} on {s.name}: {reason}")
+        f = self.filter(s)
+        if self.kind == "single":
+            return SingleModel(f, s.single, s.measurement, name=self.name)
+        if self.kind == "imm":
+            return IMM(f, list(s.modes), s.measurement, s.transition, mixing=self.mixing(), name=self.name)
+        levels = s.noise_levels
+        return tseng2011.fuzzy_imm(f, levels.family, levels.lower, levels.upper, s.transition, TSENG,
+                                   measurement=s.measurement, name=self.name)
+
+
+def requirement(recipe: Recipe, s: Scenario) -> str:
+    """Why ``recipe`` cannot run on ``s`` ("" if it can)."""
+    if recipe.kind == "single" and s.single is None:
+        return "needs a single motion model: " + s.notes.get("single", "the scenario has none")
+    if recipe.kind == "imm" and s.modes is None:
+        return "needs an IMM mode set: " + s.notes.get("modes", "the scenario has none")
+    if recipe.kind == "noise-adaptive imm":
+        if s.noise_levels is None:
+            return ("needs a process-noise family whose level the FLAS sets online (two modes differing only in "
+                    "their noise, as the GNSS position-velocity-clock model provides); the scenario's modes are "
+                    "fixed motion models")
+        if s.modes is None or len(s.modes) != 2:
+            return "needs a two-mode IMM (the FLAS sets a lower and an upper noise level)"
+    return ""
+
+
+_EKF = (lambda s: ExtendedKalmanFilter(name="EKF"))
+_CKF = (lambda s: SigmaPointFilter(Cubature(), name="CKF"))
+_CKF5 = (lambda s: SigmaPointFilter(FifthDegreeCubature(), name="5CKF"))
+_SSR = (lambda s: SigmaPointFilter(SphericalSimplexRadial(), name="SSRCKF"))
+
+RECIPES = {r.name: r for r in (
+    # Zhu, Wang & Yuan 2016
+    Recipe("IMM5CKF", "imm", _CKF5, ("zhu2016",), "IMM of fifth-degree cubature KFs (Jia, Xin & Cheng 2013)"),
+    Recipe("IMMCKF", "imm", _CKF, ("zhu2016", "hu2017", "zhou2017"), "IMM of third-degree cubature KFs"),
+    Recipe("IMMUKF", "imm", ukf, ("zhu2016", "hu2017", "zhou2017", "tseng2011"), "IMM of unscented KFs"),
+    Recipe("5CKF", "single", _CKF5, ("zhu2016",), "single-model fifth-degree cubature KF"),
+    # Hu, Zhang, Fu & Li 2017
+    Recipe("IMMEKF", "imm", _EKF, ("hu2017", "zhou2017"), "IMM of extended KFs"),
+    Recipe("IMMCDKF", "imm", cdkf, ("hu2017",), "IMM of central-difference KFs"),
+    Recipe("IMMCDKF-OBS", "imm", cdkf_obs, ("hu2017",), "IMM of CDKFs fed bootstrapped observations"),
+    # Zhou, Zhao, Huang & Zhao 2017
+    Recipe("IMM-NAUKF", "imm", naukf, ("zhou2017",), "IMM of NAUKFs (adaptive R, Eqs. 27-28)"),
+    Recipe("CPIMM-UKF", "imm", ukf, ("zhou2017",), "cubature-principle mixing, UKF modes", mixing=CubatureMixing),
+    Recipe("CPIMM-NAUKF", "imm", naukf, ("zhou2017",), "cubature-principle mixing, NAUKF modes",
+           mixing=CubatureMixing),
+    Recipe("NAUKF", "single", naukf, ("zhou2017",), "single-model NAUKF (Table 4)"),
+    Recipe("AUKF", "single", aukf, ("zhou2017",), "single-model innovation-adaptive UKF (Table 4)"),
+    # Liu & Wu 2017
+    Recipe("SSRCKF", "single", _SSR, ("liu2017",), "spherical simplex-radial cubature KF"),
+    Recipe("STF", "single", lambda s: strong(ExtendedKalmanFilter(), "STF"), ("liu2017",),
+           "strong tracking filter (EKF, Jacobian fading factor)"),
+    Recipe("STUKF", "single", lambda s: strong(ukf(s), "STUKF"), ("liu2017",), "strong tracking UKF"),
+    Recipe("STCKF", "single", lambda s: strong(_CKF(s), "STCKF"), ("liu2017",), "strong tracking CKF"),
+    Recipe("STSSRCKF", "single", lambda s: strong(_SSR(s), "STSSRCKF"), ("liu2017",),
+           "strong tracking simplex-radial CKF"),
+    # single-model baselines run by several papers
+    Recipe("EKF", "single", _EKF, ("zhou2017", "tseng2011"), "extended KF"),
+    Recipe("CKF", "single", _CKF, ("liu2017", "zhou2017"), "third-degree cubature KF"),
+    Recipe("UKF", "single", ukf, ("liu2017", "zhou2017", "tseng2011"), "unscented KF"),
+    # Tseng, Chang & Jwo 2011
+    Recipe("FUZZY-IMMUKF", "noise-adaptive imm", ukf, ("tseng2011",),
+           "two-level IMM-UKF whose noise levels a fuzzy system sets online"),
+)}
+
+#: other papers' spellings of the same algorithms
+ALIASES = {"IMM-UKF": "IMMUKF", "IMM-EKF": "IMMEKF", "IMM-CKF": "IMMCKF"}
+
+ALGORITHMS = tuple(RECIPES)
+
+
+def recipe(name: str) -> Recipe:
+    """The recipe of algorithm ``name`` (or an alias); ValueError listing the known names otherwise."""
+    key = ALIASES.get(name, name) if isinstance(name, str) else name
+    if key not in RECIPES:
+        raise ValueError(f"algorithm: unknown algorithm {name!r}; known: {', '.join(ALGORITHMS)} "
+                         f"(aliases: {', '.join(f'{a} = {b}' for a, b in ALIASES.items())})")
+    return RECIPES[key]
+
+
+def applicability(name: str, s: Scenario) -> str:
+    """Why algorithm ``name`` cannot run on ``s``; "" if it can."""
+    return requirement(recipe(name), s)
+
+
+def build(name: str, s: Scenario):
+    """Algorithm ``name`` on scenario ``s`` (:meth:`Recipe.build`)."""
+    return recipe(name).build(s)
+
+
+def initial_state(estimator, s: Scenario, start, runs, mc: MonteCarlo):
+    """``estimator``'s state at step 0 on ``s``: means ``start`` (B, n), covariance ``s.P0``, the scenario's initial
+    mode probabilities for IMMs, and for observation bootstrapping the pre-drawn standard normals of the runs' own
+    FILTER stream (:func:`mmlib.papers.hu2017.bootstrap_noise`, at the scenario's largest measurement dimension)."""
+    imm = getattr(estimator, "imm", estimator)
+    f = getattr(imm, "filter", None)
+    extra = {}
+    if isinstance(f, ObservationBootstrap):
+        extra["noise"] = hu2017.bootstrap_noise(mc, runs, s.n_steps, f.n_boot, s.measurement_dim)
+    if isinstance(imm, IMM):
+        return estimator.init(start, s.P0, s.mode_probabilities, **extra)
+    return estimator.init(start, s.P0, **extra)
