@@ -1,12 +1,19 @@
-"""mmlib: batched multiple-model and sigma-point Kalman filtering for replication studies.
+r"""mmlib: batched multiple-model and sigma-point Kalman filtering for replication studies.
 
-Layout: ``rules`` (quadrature rules) -> ``filters`` (one generic recursion, one
-Kalman update) -> layers over any filter (``strong_tracking``, ``adaptive``,
-``bootstrap``) -> ``estimation`` (single model, IMM combinator with pluggable
-``mixing``, batched driver);
-``models`` and ``simulate`` (dynamics, sensors, truth); ``montecarlo``
-(deterministic per-run streams); ``metrics`` (errors with standard errors);
-``report`` (verdict rule, results contract); ``scenarios`` (one module per paper).
+The folders are the layers, each depending only on those below it:
+
+1. ``mmlib.core`` -- the estimation core, paper-agnostic: quadrature rules (``rules``), one generic filter and one
+   Kalman update (``filters``), thin layers over any filter (``core.layers``: strong tracking, innovation adaptation,
+   observation bootstrapping, noise-adaptive IMM), the IMM combinator and the batched driver (``estimation``,
+   ``mixing``), dynamics and measurement models (``models``, ``gnss``), fuzzy inference (``fuzzy``); the interfaces
+   as ``typing.Protocol``\ s (``protocols``);
+2. ``mmlib.experiment`` -- Monte Carlo streams (``montecarlo``), truth simulation (``simulate``), scenarios as data
+   (``scenario``), metrics with standard errors (``metrics``), evaluation, reading spaces and the grid runner, the
+   verdict rule and results (``report``);
+3. ``mmlib.papers`` -- one module per paper: its set-up, factors, scenario and algorithms;
+4. ``mmlib.arena`` -- every algorithm of the papers on every scenario (recipes, the controlled ladder, the study).
+
+The most used names are re-exported here (``mmlib.IMM``, ``mmlib.SigmaPointFilter``, ``mmlib.models`` ...).
 """
 from mmlib.core.layers import adaptive, bootstrap, strong_tracking
 from mmlib.core import estimation, filters, linalg, mixing, models, rules

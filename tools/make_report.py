@@ -35,7 +35,43 @@ def render_multiverse(mv: dict) -> list:
             "consistent with), not the headline; no continuous parameter is fitted."]
 
 
+def render_figures(doc: dict, root: Path, out_dir: Path) -> list:
+    lines = []
+    for stem, fig in doc.get("figures", {}).items():
+        png = next((f for f in fig["files"] if f.endswith(".png")), None)
+        lines += [f"### {stem}", "", f"**Paper:** {fig['paper_claim']}  ", f"**Ours:** {fig['ours']}", ""]
+        if png:
+            lines += [f"![{stem}]({os.path.relpath(root / png, out_dir)})", ""]
+    return lines
+
+
+def render_arena(doc: dict, root: Path, out_dir: Path) -> str:
+    """reports/arena.md: the scenarios, the findings, the papers' ideas scenario by scenario and every cell."""
+    from mmlib.arena.views import cell_table
+    prov = doc["provenance"]
+    lines = ["# The arena: every algorithm on every scenario", "",
+             f"Generated from `data/results/arena.json` — profile `{prov['profile']}`, {prov['n_runs']} Monte Carlo "
+             f"runs per cell, commit `{prov['git_commit']}`. Verdict rule: `mmlib/experiment/report.py`.", "",
+             "## Scenarios", "",
+             markdown_table(["scenario", "what", "steps", "nonlinearity index (median)"],
+                            [[r["scenario"], r["title"], r["n_steps"], f"{r['nonlinearity_index']['median']:.3g}"]
+                             for r in doc["scenarios"]]),
+             "", "## Findings", "", *doc["findings"], "", "## The papers' ideas, scenario by scenario", "",
+             markdown_table(["idea", "A − B", "scenario", "Δ position MSE (m²) ± s.e.", "verdict"],
+                            [[i["idea"], f"{i['a']} − {i['b']}", c["scenario"],
+                              "--" if c["difference_m2"] is None else f"{c['difference_m2']:.4g} ± {c['stderr_m2']:.2g}",
+                              c["verdict"]] for i in doc["ideas"] for c in i["comparisons"]]), "", "## Figures", ""]
+    lines += render_figures(doc, root, out_dir)
+    lines += ["## Every cell", ""]
+    for r in doc["scenarios"]:
+        rows = cell_table(doc["cells"], r["scenario"])
+        lines += [f"### {r['scenario']}", "", markdown_table(list(rows[0]), [list(x.values()) for x in rows]), ""]
+    return "\n".join(lines) + "\n"
+
+
 def render(doc: dict, root: Path, out_dir: Path) -> str:
+    if doc.get("kind") == "arena":
+        return render_arena(doc, root, out_dir)
     prov = doc["provenance"]
     lines = [f"# {doc['paper']}: paper versus replication", "",
              f"{prov.get('paper_citation', '')}", "",
@@ -54,12 +90,7 @@ def render(doc: dict, root: Path, out_dir: Path) -> str:
     if doc.get("multiverse"):
         lines += render_multiverse(doc["multiverse"])
     if doc.get("figures"):
-        lines += ["", "## Figures", ""]
-        for stem, fig in doc["figures"].items():
-            png = next((f for f in fig["files"] if f.endswith(".png")), None)
-            lines += [f"### {stem}", "", f"**Paper:** {fig['paper_claim']}  ", f"**Ours:** {fig['ours']}", ""]
-            if png:
-                lines += [f"![{stem}]({os.path.relpath(root / png, out_dir)})", ""]
+        lines += ["", "## Figures", ""] + render_figures(doc, root, out_dir)
     if doc.get("deviations"):
         lines += ["## Deviations", "", markdown_table(
             ["id", "topic", "paper", "our choice", "why", "sweep"],
@@ -69,8 +100,10 @@ def render(doc: dict, root: Path, out_dir: Path) -> str:
 
 
 def render_index(docs) -> str:
-    """Cross-paper summary: verdict counts per paper and every claim verdict, one line each."""
+    """Cross-paper summary: verdict counts per paper and every claim verdict, one line each; the arena's findings."""
     from mmlib.experiment.report import VERDICTS
+    arena = [d for d in docs if d.get("kind") == "arena"]
+    docs = [d for d in docs if d.get("kind") != "arena"]
     lines = ["# All papers: what holds", "",
              "Generated from `data/results/*.json`. Verdict rule: `mmlib/experiment/report.py`. Counts are over the comparison "
              "rows of each paper (tables; timing rows included).", "",
@@ -107,6 +140,10 @@ def render_index(docs) -> str:
         lines += [f"### {d['paper']}", "", markdown_table(["claim", "verdict", "across the reading space"],
                                                           [[c["claim"], c["verdict"], spread(c)]
                                                            for c in d.get("claims", [])]), ""]
+    for d in arena:
+        lines += ["## The arena: every algorithm on every scenario", "",
+                  f"{len(d['cells'])} cells ({sum('reason' not in c for c in d['cells'])} applicable) at "
+                  f"{d['provenance']['n_runs']} runs each: [arena.md](arena.md).", "", *d["findings"], ""]
     return "\n".join(lines) + "\n"
 
 

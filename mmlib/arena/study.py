@@ -37,6 +37,9 @@ from __future__ import annotations
 
 import functools
 import math
+import re
+import sys
+from typing import NamedTuple
 
 import numpy as np
 from scipy import stats
@@ -72,14 +75,16 @@ def seed_of(s: Scenario, seed: int | None) -> int:
     return s.root_seed if seed is None else int(seed)
 
 
-def evaluate_cell(algorithm: str, s: Scenario, mc: MonteCarlo, consistency: bool = True) -> evaluation.RunSet:
-    """The RunSet of ``algorithm`` on ``s`` over the runs of ``mc`` (chunks of :data:`CHUNK_SIZE`; with NEES and NIS
-    when ``consistency``); :class:`recipes.NotApplicable` where it cannot apply."""
+def evaluate_cell(algorithm: str, s: Scenario, mc: MonteCarlo, consistency: bool = True) -> tuple:
+    """``(RunSet, CPU seconds)`` of ``algorithm`` on ``s`` over the runs of ``mc`` (chunks of :data:`CHUNK_SIZE`; with
+    NEES and NIS when ``consistency``); :class:`recipes.NotApplicable` where it cannot apply."""
     est = recipes.build(algorithm, s)
     make_batch = evaluation.with_initial_states(s.simulator(mc), {algorithm: est},
                                                 lambda e, start, runs: recipes.initial_state(e, s, start, runs, mc))
-    return evaluation.evaluate({algorithm: est}, make_batch, mc, chunk_size=CHUNK_SIZE, progress=False,
-                               measurement_models=s.measurement_models, consistency=consistency, workers=1)[algorithm]
+    runs, cpu = evaluation.evaluate_with_cost({algorithm: est}, make_batch, mc, chunk_size=CHUNK_SIZE, progress=False,
+                                              measurement_models=s.measurement_models, consistency=consistency,
+                                              workers=1)
+    return runs[algorithm], cpu[algorithm]
 
 
 def _mc_value(v: metrics.MCValue) -> dict:
@@ -124,12 +129,12 @@ def consistency(stat: np.ndarray, dof, ok: np.ndarray) -> dict:
             "runs_inside": runs_inside, "n_runs": int(N), "inside": band[0] <= value <= band[1]}
 
 
-def cell_metrics(rs: evaluation.RunSet, s: Scenario) -> dict:
-    """The metrics of one cell (module docstring) from its RunSet."""
+def cell_metrics(rs: evaluation.RunSet, s: Scenario, cpu_seconds: float) -> dict:
+    """The metrics of one cell (module docstring) from its RunSet and the CPU time of its runs."""
     ok = rs.valid
     N, K = rs.errors.shape[:2]
     out = {"diverged": int((~ok).sum()), "divergence": rs.divergence_summary(),
-           "cost_us_per_run_step": 1e6 * rs.cpu_seconds / (N * K)}
+           "cost_us_per_run_step": 1e6 * cpu_seconds / (N * K)}
     if ok.sum() >= 2:
         out["rmse_position"] = _mc_value(metrics.rms_with_se(np.nan_to_num(_per_run_squared(rs, s.position)), ok))
         out["rmse_velocity"] = _mc_value(metrics.rms_with_se(np.nan_to_num(_per_run_squared(rs, s.velocity)), ok))
@@ -151,8 +156,8 @@ def cell(reading: dict, n_runs: int, seed: int) -> dict:
         return {"metrics": None, "reason": reason, "n_runs": int(n_runs), "diverged": {},
                 "per_run_position_mse": None}
     mc = MonteCarlo(seed_of(s, reading.get("seed")), n_runs)
-    rs = evaluate_cell(algorithm, s, mc)
-    m = cell_metrics(rs, s)
+    rs, cpu = evaluate_cell(algorithm, s, mc)
+    m = cell_metrics(rs, s, cpu)
     sq = _per_run_squared(rs, s.position)
     return {"metrics": m, "reason": "", "n_runs": int(n_runs), "diverged": {algorithm: m["diverged"]},
             "per_run_position_mse": [None if not math.isfinite(v) else float(v) for v in sq]}
@@ -191,13 +196,27 @@ def rank_scenario(cells: dict) -> dict:
     return out
 
 
+class ArenaResult(NamedTuple):
+    """What :func:`run_arena` returns: ``cells`` (one document per (algorithm, scenario), scenario-major, with metrics
+    and ranks or the reason it does not apply) and ``per_run`` ({(scenario, algorithm): (N,) per-run time-averaged
+    squared position error, NaN for diverged runs}) for paired comparisons."""
+
+    cells: list
+    per_run: dict
+    n_runs: int
+
+
 def run_arena(n_runs: int, *, scenarios=SCENARIOS, algorithms=ALGORITHMS, seed: int | None = None,
               workers: int | None = None, executor=None, progress=True, use_cache: bool = True,
-              cache_dir=None) -> list:
-    """Every cell of ``algorithms`` x ``scenarios`` at ``n_runs`` runs (integer >= 2): a list of cell documents
-    ``{"algorithm", "scenario", "metrics" | "reason", ...}`` with ranks, in scenario-major order.  Unknown names are a
-    ValueError listing the known ones.  ``seed`` overrides every scenario's root seed."""
-    scenarios, algorithms = list(scenarios), [recipes.recipe(a).name for a in algorithms]
+              cache_dir=None) -> ArenaResult:
+    """Every cell of ``algorithms`` x ``scenarios`` at ``n_runs`` runs (integer >= 2), in parallel and cached
+    (:func:`mmlib.experiment.grid.run_grid`), with the ranks of each scenario.  Unknown names are a ValueError listing
+    the known ones.  ``seed`` overrides every scenario's root seed."""
+    scenarios = list(scenarios)
+    try:
+        algorithms = [recipes.recipe(a).name for a in algorithms]
+    except ValueError as exc:
+        raise ValueError("algorithms: " + str(exc).removeprefix("algorithm: ")) from None
     for name in scenarios:
         if name not in SCENARIOS:
             raise ValueError(f"scenarios: unknown scenario {name!r}; known: {', '.join(SCENARIOS)}")
@@ -206,9 +225,9 @@ def run_arena(n_runs: int, *, scenarios=SCENARIOS, algorithms=ALGORITHMS, seed: 
     readings = [{"scenario": s, "algorithm": a, "seed": seed} for s in scenarios for a in algorithms]
     results = run_grid(cell, readings, paper=PAPER, algorithms=algorithms, n_runs=int(n_runs),
                        seed=ladder.ROOT_SEED if seed is None else int(seed), workers=workers, executor=executor,
-                       progress=progress, use_cache=use_cache, cache_dir=cache_dir, label="arena",
-                       result_keys=RESULT_KEYS, unit="cell")
-    cells = []
+                       progress=_every(len(readings), progress), use_cache=use_cache, cache_dir=cache_dir,
+                       label="arena", result_keys=RESULT_KEYS, unit="cell")
+    cells, per_run = [], {}
     for s in scenarios:
         here = {r["algorithm"]: res for r, res in zip(readings, results) if r["scenario"] == s}
         ranks = rank_scenario({a: c for a, c in here.items() if c["metrics"] is not None})
@@ -220,8 +239,107 @@ def run_arena(n_runs: int, *, scenarios=SCENARIOS, algorithms=ALGORITHMS, seed: 
             else:
                 doc.update(c["metrics"])
                 doc.update(ranks.get(a, {"rank": None, "versus_best": None}))
+                per_run[(s, a)] = np.array([np.nan if v is None else v for v in c["per_run_position_mse"]])
             cells.append(doc)
-    return cells
+    return ArenaResult(cells, per_run, int(n_runs))
+
+
+def _every(total: int, progress, lines: int = 20):
+    """``run_grid``'s progress for many short jobs: about ``lines`` lines in all (every k-th finished cell and the
+    last; other lines, e.g. the cache's, pass through); ``progress`` True prints to stderr, a callable receives the
+    lines, False is silent."""
+    if not progress:
+        return False
+    say = (lambda line: print(line, file=sys.stderr, flush=True)) if progress is True else progress
+    k = max(1, math.ceil(total / lines))
+
+    def throttled(line: str):
+        m = re.search(r" cell (\d+)/(\d+) done", line)
+        if m is None or int(m.group(1)) % k == 0 or m.group(1) == m.group(2):
+            say(line)
+
+    return throttled
+
+
+#: The papers' ideas as paired comparisons "A against B" (A adds the idea to B): (idea, A, B, paper).
+IDEAS = (
+    ("fifth-degree cubature rule", "IMM5CKF", "IMMCKF", "zhu2016"),
+    ("fifth-degree rule against the unscented", "IMM5CKF", "IMMUKF", "zhu2016"),
+    ("fifth-degree rule, single model", "5CKF", "CKF", "zhu2016"),
+    ("spherical simplex-radial rule", "SSRCKF", "CKF", "liu2017"),
+    ("strong tracking (simplex-radial CKF)", "STSSRCKF", "SSRCKF", "liu2017"),
+    ("strong tracking (UKF)", "STUKF", "UKF", "liu2017"),
+    ("strong tracking (EKF: STF)", "STF", "EKF", "liu2017"),
+    ("central differences", "IMMCDKF", "IMMUKF", "hu2017"),
+    ("observation bootstrapping", "IMMCDKF-OBS", "IMMCDKF", "hu2017"),
+    ("NAUKF innovation adaptation (IMM)", "IMM-NAUKF", "IMMUKF", "zhou2017"),
+    ("NAUKF innovation adaptation (single model)", "NAUKF", "UKF", "zhou2017"),
+    ("NAUKF against the classic adaptive UKF", "NAUKF", "AUKF", "zhou2017"),
+    ("NAUKF adaptation, inflate-only reading (IMM)", "IMM-NAUKF[inflate-only]", "IMMUKF", "zhou2017"),
+    ("NAUKF adaptation, inflate-only reading (single model)", "NAUKF[inflate-only]", "UKF", "zhou2017"),
+    ("NAUKF against AUKF, inflate-only reading", "NAUKF[inflate-only]", "AUKF[inflate-only]", "zhou2017"),
+    ("cubature-principle mixing", "CPIMM-UKF", "IMMUKF", "zhou2017"),
+    ("fuzzy-adapted process noise", "FUZZY-IMMUKF", "IMMUKF", "tseng2011"),
+    ("IMM over one model (UKF)", "IMMUKF", "UKF", "all"),
+    ("sigma points against linearisation (IMM)", "IMMUKF", "IMMEKF", "all"),
+)
+
+
+def compare(result: ArenaResult, a: str, b: str, scenario_name: str) -> dict | None:
+    """The paired comparison of ``a`` against ``b`` on one scenario: mean over the runs valid in both of the
+    difference of their time-averaged squared position errors (m^2) with its standard error, relative to b's MSE,
+    and the verdict of :func:`mmlib.experiment.report.claim_verdict` read as "helps" (a smaller), "hurts" (a larger)
+    or "no detectable difference"; "diverges" when a diverged in every run or in more runs than b.  None where
+    either does not apply."""
+    if (scenario_name, a) not in result.per_run or (scenario_name, b) not in result.per_run:
+        return None
+    va, vb = result.per_run[(scenario_name, a)], result.per_run[(scenario_name, b)]
+    da, db = int((~np.isfinite(va)).sum()), int((~np.isfinite(vb)).sum())
+    ok = np.isfinite(va) & np.isfinite(vb)
+    out = {"scenario": scenario_name, "a": a, "b": b, "diverged_a": da, "diverged_b": db, "n_runs": int(ok.sum())}
+    if ok.sum() < 2:
+        out.update(difference_m2=None, stderr_m2=None, relative=None,
+                   verdict="diverges" if da > db else "not comparable")
+        return out
+    d = metrics.mean_with_se(np.where(ok, va - vb, 0.0), ok)
+    ref = float(vb[ok].mean())
+    v = report.claim_verdict(float(d.value), float(d.stderr), -1, reference=ref)
+    verdict = ("helps" if v.startswith("holds") else "hurts" if v.startswith("contradicted")
+               else "no detectable difference")
+    if v.endswith("negligible (< 1 %)"):
+        verdict += ", but negligible (< 1 %)"
+    if da > db:
+        verdict = "diverges"
+    out.update(difference_m2=float(d.value), stderr_m2=float(d.stderr), relative=float(d.value) / ref if ref else None,
+               verdict=verdict)
+    return out
+
+
+def ideas(result: ArenaResult, scenarios=None) -> list:
+    """Every idea of :data:`IDEAS` on every scenario where both its algorithms apply: ``[{idea, paper, a, b,
+    comparisons: [compare(...)]}]``."""
+    names = list(dict.fromkeys(c["scenario"] for c in result.cells)) if scenarios is None else list(scenarios)
+    out = []
+    for idea, a, b, paper in IDEAS:
+        comps = [c for c in (compare(result, a, b, s) for s in names) if c is not None]
+        out.append({"idea": idea, "paper": paper, "a": a, "b": b, "comparisons": comps})
+    return out
+
+
+def digest(result: ArenaResult, n_runs: int) -> dict:
+    """SHA-256 of every applicable cell's per-run position errors over the first ``n_runs`` runs (float64 bytes,
+    NaN canonical), by scenario and algorithm: the same for a study of ``n_runs`` runs and of any larger one (the runs'
+    streams are fixed and a run's numbers do not depend on its batch), so the smoke profile recomputes the committed
+    full study's digest exactly (``tests/tolerance/test_arena.py``)."""
+    import hashlib
+    from mmlib.core.linalg import kernel
+    h = hashlib.sha256(b"mmlib-arena-digest-1")
+    for (s, a) in sorted(result.per_run):
+        v = np.ascontiguousarray(result.per_run[(s, a)][:n_runs], dtype=np.float64)
+        v = np.where(np.isnan(v), np.nan, v)
+        h.update(f"\0{s}\0{a}\0".encode())
+        h.update(v.tobytes())
+    return {"n_runs": int(n_runs), "sha256": h.hexdigest(), "cells": len(result.per_run), "kernel": kernel()}
 
 
 def scenario_table(names=SCENARIOS, n_index_runs: int = 50) -> list:
@@ -236,3 +354,105 @@ def scenario_table(names=SCENARIOS, n_index_runs: int = 50) -> list:
                      "measurement_dim": s.measurement_dim, "nonlinearity_index": ladder.nonlinearity_index(s, runs),
                      "properties": s.properties, "root_seed": s.root_seed})
     return rows
+
+
+#: Each paper's accuracy claims as "A is more accurate than B" comparisons, checked on every scenario where both apply.
+PAPER_CLAIMS = (
+    ("zhu2016", "IMM5CKF is more accurate than IMMCKF and IMMUKF", (("IMM5CKF", "IMMCKF"), ("IMM5CKF", "IMMUKF"))),
+    ("liu2017", "STSSRCKF is more accurate than SSRCKF, STUKF and STCKF",
+     (("STSSRCKF", "SSRCKF"), ("STSSRCKF", "STUKF"), ("STSSRCKF", "STCKF"))),
+    ("hu2017", "IMMCDKF-OBS is more accurate than IMMCDKF, IMMUKF and IMMEKF",
+     (("IMMCDKF-OBS", "IMMCDKF"), ("IMMCDKF-OBS", "IMMUKF"), ("IMMCDKF-OBS", "IMMEKF"))),
+    ("zhou2017", "CPIMM and NAUKF make the IMM more accurate (CPIMM-UKF, IMM-NAUKF and CPIMM-NAUKF beat IMM-UKF)",
+     (("CPIMM-UKF", "IMMUKF"), ("IMM-NAUKF", "IMMUKF"), ("CPIMM-NAUKF", "IMMUKF"))),
+    ("tseng2011", "FUZZY-IMMUKF is more accurate than IMMUKF, and IMMUKF than the UKF",
+     (("FUZZY-IMMUKF", "IMMUKF"), ("IMMUKF", "UKF"))),
+)
+#: a comparison's verdict read as the verdict of "A is more accurate than B" (report.CLAIM_VERDICTS vocabulary)
+CLAIM_OF_COMPARISON = {"helps": report.HOLDS, "hurts": report.CONTRADICTED, "diverges": report.CONTRADICTED,
+                       "no detectable difference": report.NOT_SUPPORTED, "not comparable": report.NOT_ASSESSABLE}
+
+
+def paper_claims(result: ArenaResult) -> list:
+    """Each paper's accuracy claims (:data:`PAPER_CLAIMS`) across the arena: per pair, the claim's verdict on every
+    scenario where both algorithms apply (helps -> holds, hurts or diverges -> contradicted, no detectable difference
+    -> not supported)."""
+    names = list(dict.fromkeys(c["scenario"] for c in result.cells))
+    out = []
+    for paper, claim, pairs in PAPER_CLAIMS:
+        parts = []
+        for a, b in pairs:
+            verdicts = {}
+            for s in names:
+                c = compare(result, a, b, s)
+                if c is not None:
+                    verdicts[s] = CLAIM_OF_COMPARISON[c["verdict"].split(",")[0]]
+            parts.append({"a": a, "b": b, "verdicts": verdicts})
+        out.append({"paper": paper, "claim": claim, "pairs": parts})
+    return out
+
+
+def _scenario_list(names) -> str:
+    return ", ".join(names) if names else "none"
+
+
+def idea_summary(idea: dict) -> dict:
+    """Counts of one idea's verdicts over the scenarios where it applies, and the scenarios of each verdict."""
+    groups: dict = {}
+    for c in idea["comparisons"]:
+        key = c["verdict"].split(",")[0]
+        groups.setdefault(key, []).append(c["scenario"])
+    return {"idea": idea["idea"], "paper": idea["paper"], "a": idea["a"], "b": idea["b"],
+            "n_scenarios": len(idea["comparisons"]), "by_verdict": groups}
+
+
+def findings(result: ArenaResult, scenario_rows: list) -> list:
+    """The arena's findings as Markdown bullets, every number from ``result`` and ``scenario_rows``
+    (:func:`scenario_table`): which idea helps where, which algorithms are consistent, which diverge, and where the
+    rules separate along the ladder."""
+    out = []
+    index = {r["scenario"]: r["nonlinearity_index"]["median"] for r in scenario_rows}
+    for idea in ideas(result):
+        s = idea_summary(idea)
+        if not s["n_scenarios"]:
+            out.append(f"- **{s['idea']}** ({s['a']} against {s['b']}): applies to no scenario of this run.")
+            continue
+        parts = [f"{k} in {len(v)} ({_scenario_list(v)})" for k, v in sorted(s["by_verdict"].items())]
+        out.append(f"- **{s['idea']}** ({s['a']} against {s['b']}, {s['paper']}): over the {s['n_scenarios']} "
+                   f"scenarios where both apply, " + "; ".join(parts) + ".")
+    metric_cells = [c for c in result.cells if "reason" not in c]
+    consistent = {}
+    for c in metric_cells:
+        a = c.get("anees") or {}
+        consistent.setdefault(c["algorithm"], []).append(bool(a.get("inside")))
+    ranked = sorted(consistent, key=lambda a: -sum(consistent[a]))
+    out.append("- **Consistency** (ANEES inside its 95 % band): " + "; ".join(
+        f"{a} {sum(v)}/{len(v)}" for a, v in ((a, consistent[a]) for a in ranked)) + " scenarios.")
+    diverging = {}
+    for c in metric_cells:
+        if c["diverged"]:
+            diverging.setdefault(c["algorithm"], []).append(f"{c['scenario']} {c['diverged']}/{c['n_runs']}")
+    out.append("- **Divergence** (runs diverged, counted and excluded): " + (
+        "; ".join(f"{a}: {', '.join(v)}" for a, v in diverging.items()) if diverging else "no run diverged") + ".")
+    ladder_nl = [r["scenario"] for r in scenario_rows if r["properties"].get("axis") == "nonlinearity"]
+    sep = []
+    for name in ladder_nl:
+        c = compare(result, "IMMUKF", "IMMEKF", name)
+        d = compare(result, "IMM5CKF", "IMMCKF", name)
+        if c and d:
+            sep.append(f"{name} (index {index.get(name, float('nan')):.3g}): IMMUKF vs IMMEKF {c['verdict']}"
+                       + (f" ({100 * c['relative']:+.1f} %)" if c.get("relative") is not None else "")
+                       + f", IMM5CKF vs IMMCKF {d['verdict']}"
+                       + (f" ({100 * d['relative']:+.1f} %)" if d.get("relative") is not None else ""))
+    if sep:
+        out.append("- **Where the rules separate** (position MSE, paired): " + "; ".join(sep) + ".")
+    for pc in paper_claims(result):
+        parts = []
+        for pair in pc["pairs"]:
+            groups: dict = {}
+            for s, v in pair["verdicts"].items():
+                groups.setdefault(v, []).append(s)
+            counts = "; ".join(f"{v} in {len(ss)} ({_scenario_list(ss)})" for v, ss in sorted(groups.items()))
+            parts.append(f"{pair['a']} against {pair['b']}: " + (counts or "no scenario where both apply"))
+        out.append(f"- **{pc['paper']}'s claim** *{pc['claim']}*, across the arena: " + " | ".join(parts) + ".")
+    return out

@@ -439,7 +439,7 @@ class IMM:
 
 # --------------------------------------------------------------------------- driver
 class Track(NamedTuple):
-    """Output of :func:`run` over K steps: ``mean`` (B, K, n), ``cov`` (B, K, n, n) or None,
+    r"""Output of :func:`run` over K steps: ``mean`` (B, K, n), ``cov`` (B, K, n, n) or None,
     ``mode_probabilities`` (B, K, r) or None, ``diverged_step`` (B,) first step at which
     the run failed (a covariance stopped being positive definite, every mode likelihood
     underflowed, or the estimate overflowed), -1 if it never did; ``diagnostics`` (B, K, d) or

@@ -32,7 +32,6 @@ class RunSet(NamedTuple):
     nees: object = None              # (N, K) NEES per run and step (evaluate(..., consistency=True)), or None
     nis: object = None               # (N, K) NIS per run and step, or None
     nis_dof: object = None           # (K,) measurement dimension m_k of every step (the NIS's degrees of freedom)
-    cpu_seconds: float = 0.0         # thread CPU time of the estimator's runs (simulation excluded): a measurement
 
     @property
     def valid(self) -> np.ndarray:
@@ -166,7 +165,18 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
     ``chunk_size`` only, the results are concatenated in chunk order and the filters give a run the same bits in
     any batch, so the numbers are bit for bit those of a serial run, whatever the workers, executor or chunk size.
     ``estimators``, ``make_batch`` and ``measurement_models`` are sent to the workers with cloudpickle (closures
-    and notebook functions are fine).  ``progress`` prints a line per finished chunk."""
+    and notebook functions are fine).  ``progress`` prints a line per finished chunk.  ``consistency=True`` also
+    records every run's NEES and NIS per step (``RunSet.nees``, ``nis``, ``nis_dof``; :func:`mmlib.core.estimation.run`)."""
+    return evaluate_with_cost(estimators, make_batch, mc, chunk_size=chunk_size, label=label, progress=progress,
+                              measurement_models=measurement_models, workers=workers, executor=executor,
+                              consistency=consistency)[0]
+
+
+def evaluate_with_cost(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_size: int = 250,
+                       label: str = "", progress: bool = True, measurement_models=None, workers: int | None = None,
+                       executor=None, consistency: bool = False) -> tuple:
+    """:func:`evaluate` and what it cost: ``({name: RunSet}, {name: CPU seconds})``, the thread CPU time of each
+    estimator's runs summed over the chunks (simulation excluded; a measurement, never part of a result)."""
     _check_mapping(estimators, "estimators", "estimators by name")
     _check_callable(make_batch, "make_batch", "a function runs -> (truth, measurements, init)")
     check_bool(progress, "progress")
@@ -179,13 +189,14 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
                       shared=(estimators, make_batch, measurement_models, consistency), workers=workers,
                       executor=executor,
                       on_result=lambda i, _: bar.advance(len(chunks[i])))
-    out = {}
+    out, cpu = {}, {}
     for name in estimators:
         per = [part[name] for part in parts]
         cat = (lambda field: np.concatenate([p[field] for p in per]) if per[0][field] is not None else None)
         out[name] = RunSet(cat("err"), cat("mu"), cat("div"), per[0]["first"], cat("diag"), cat("cause"),
-                           cat("nees"), cat("nis"), per[0]["nis_dof"], float(sum(p["cpu"] for p in per)))
-    return out
+                           cat("nees"), cat("nis"), per[0]["nis_dof"])
+        cpu[name] = float(sum(p["cpu"] for p in per))
+    return out, cpu
 
 
 def _evaluate_chunk(estimators: dict, make_batch: Callable, measurement_models, consistency: bool, runs) -> dict:
@@ -324,7 +335,7 @@ def first_runs(rs: RunSet, n: int) -> RunSet:
         raise ValueError(f"n: {n} runs asked of a RunSet of {rs.errors.shape[0]} runs")
     cut = (lambda a: None if a is None else a[:n])
     return RunSet(rs.errors[:n], cut(rs.mode_probabilities), rs.diverged_step[:n], rs.example_mean, cut(rs.diagnostics),
-                  cut(rs.divergence_cause), cut(rs.nees), cut(rs.nis), rs.nis_dof, rs.cpu_seconds * n / rs.errors.shape[0])
+                  cut(rs.divergence_cause), cut(rs.nees), cut(rs.nis), rs.nis_dof)
 
 
 #: Tag hashed first by :func:`run_digest`; change it whenever what is hashed changes.

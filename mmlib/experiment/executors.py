@@ -176,7 +176,12 @@ class _PinnedSpawnContext(multiprocessing.context.SpawnContext):
 
 def _watch_parent(parent: int) -> None:
     """Pool worker initializer: leave as soon as the process that started the pool is gone -- a notebook kernel
-    killed mid-study would otherwise leave its workers computing for nobody."""
+    killed mid-study would otherwise leave its workers computing for nobody -- and ignore SIGINT, which a terminal's
+    Ctrl-C or a kernel's shutdown sends to the whole process group: the process that owns the pool decides when its
+    workers stop (the pool's shutdown), so an interrupt is handled once, there, not as a traceback per worker."""
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
     def watch():
         while os.getppid() == parent:
             time.sleep(PARENT_POLL)

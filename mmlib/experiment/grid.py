@@ -32,7 +32,7 @@ from mmlib.experiment.executors import default_workers, run_tasks, worker_count 
 
 
 #: modules that only render results (tables, figures): editing them cannot change a universe's numbers
-PRESENTATION_MODULES = ("experiment/views.py", "papers/presentation.py")
+PRESENTATION_MODULES = ("experiment/views.py", "papers/presentation.py", "arena/views.py")
 
 
 @functools.lru_cache(maxsize=1)

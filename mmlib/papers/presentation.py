@@ -51,8 +51,8 @@ class NotebookRun:
         self.paper, self.profile = paper, PROFILE
         self.n_runs = N_RUNS or cfg["n_runs"]
         self.seed = root_seed if SEED is None else SEED
-        self.timing_runs = min(N_TIMING_RUNS or cfg["timing_runs"], self.n_runs)
-        self.timing_repeats = cfg["timing_repeats"]
+        self.timing_runs = min(N_TIMING_RUNS or cfg.get("timing_runs", 1), self.n_runs)
+        self.timing_repeats = cfg.get("timing_repeats")
         # the reading-space multiverse: Monte Carlo runs per universe and design (profile defaults)
         self.mv_runs = MULTIVERSE_RUNS or cfg.get("mv_runs", self.n_runs)
         self.mv_design = MULTIVERSE_DESIGN or cfg.get("mv_design", "auto")

@@ -1,0 +1,199 @@
+# ---
+# jupyter:
+#   jupytext:
+#     formats: py:percent
+#   kernelspec:
+#     display_name: mmlib (.venv)
+#     language: python
+#     name: mmlib
+# ---
+
+# %% [markdown]
+# # The arena: every algorithm of the five papers on every scenario
+#
+# Each paper notebook judges a paper on its own scenario, and all five scenarios are only weakly nonlinear, so the
+# rules coincide there and the papers' claims about rules cannot be tested where they could matter. Here every
+# algorithm of the five papers runs on every scenario where it applies — the papers' five headline scenarios and a
+# controlled **ladder** of one target and one radar whose measurement nonlinearity and manoeuvre strength are stepped —
+# and one table reports accuracy, consistency (NEES/NIS), divergence and cost.
+#
+# How it is built (`mmlib/arena/`): every algorithm is a **recipe** built from any scenario's models alone, with its
+# parameters stated once (`recipes.py`: the layers' parameters are their proposing paper's headline); every scenario is
+# data (`mmlib/experiment/scenario.py`; each paper's headline is `<paper>.scenario()`, in SI units, Hu et al.'s km
+# converted at its boundary; the ladder is `ladder.py`); each (algorithm, scenario) **cell** is a Monte Carlo job run
+# in parallel and cached (`study.py`). Within a scenario every algorithm sees the same truth, measurements and initial
+# estimates (common random numbers), and a paper scenario uses its paper's root seed, so an arena cell reproduces the
+# paper notebook's headline evaluation bit for bit (`tests/test_arena.py`).
+#
+# **Verdicts** come from the one rule of `mmlib/experiment/report.py`: a paired difference is detectable when it is
+# at least 3 standard errors from zero; otherwise *no detectable difference*. Ranks: 1 + the number of algorithms of
+# the scenario with a detectably smaller position error. Diverged runs are counted and excluded, never patched.
+
+# %% tags=["parameters"]
+PROFILE = "full"          # "full" (1000 runs per cell) or "smoke" (20 runs per cell, a prefix of the full runs)
+N_RUNS = None             # override the profile's Monte Carlo runs per cell
+SEED = None               # override every scenario's root seed (default: each paper's own, the arena's for the ladder)
+OUTPUT_ROOT = ""          # folder that receives figures/ and data/results/; empty means the repository root
+WORKERS = None            # worker processes for the cells (None: one per core)
+PROGRESS = True
+
+# %%
+import time
+
+import matplotlib.pyplot as plt
+from IPython.display import Markdown, display
+
+import mmlib
+from mmlib.arena import ladder, recipes, study, views as arena_views
+from mmlib.experiment import report
+from mmlib.papers.presentation import NotebookRun, markdown_table, plot_style
+
+# full: 1000 runs per cell (about 11 CPU-minutes for the 24 x 15 cells, most of it the 1800-epoch GNSS scenario);
+# smoke: the first 20 runs of the same streams, so its digest equals the full study's.
+PROFILES = {"full": dict(n_runs=1000), "smoke": dict(n_runs=20)}
+nb = NotebookRun(study.PAPER, ladder.ROOT_SEED, PROFILES, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED,
+                 OUTPUT_ROOT=OUTPUT_ROOT, WORKERS=WORKERS)
+n_runs, root = nb.n_runs, nb.root
+plot_style()
+print(nb)
+
+# %% [markdown]
+# ## Scenarios
+#
+# The nonlinearity index is *computed* from each scenario's own runs (`ladder.nonlinearity_index`): the size, in
+# innovation standard deviations, of the gap between the Gaussian mean of the measurement function and the
+# measurement function at the mean, at a CKF's predicted moments (median over runs and steps). It is 0 for a linear
+# sensor; the papers' scenarios stay below 0.003, the ladder climbs to about 0.4.
+
+# %%
+scenario_rows = study.scenario_table()
+display(Markdown(markdown_table(
+    ["scenario", "what", "steps", "n", "m", "nonlinearity index (median, p90)", "root seed"],
+    [[r["scenario"], r["title"], r["n_steps"], r["dim"], r["measurement_dim"],
+      f"{r['nonlinearity_index']['median']:.3g}, {r['nonlinearity_index']['p90']:.3g}", r["root_seed"]]
+     for r in scenario_rows])))
+
+# %% [markdown]
+# ## Algorithms
+#
+# One recipe per algorithm; *kind* says what it needs of a scenario (an IMM's mode set, a single motion model, or a
+# process-noise family whose level can be set online).
+
+# %%
+display(Markdown(markdown_table(["algorithm", "kind", "papers", "what"],
+                                [[r.name, r.kind, ", ".join(r.papers), r.description]
+                                 for r in recipes.RECIPES.values()])))
+
+# %% [markdown]
+# ## Every cell
+#
+# One Monte Carlo job per (algorithm, scenario), in parallel worker processes, cached by scenario, algorithm, runs,
+# seed and mmlib's source (a re-run after an edit outside `mmlib/` recomputes nothing).
+
+# %%
+t0 = time.perf_counter()
+result = study.run_arena(n_runs, seed=SEED, workers=nb.workers, progress=PROGRESS)
+cells = result.cells
+n_applicable = sum("reason" not in c for c in cells)
+print(f"{len(cells)} cells ({n_applicable} applicable) at {n_runs} runs each in {time.perf_counter() - t0:.1f} s")
+
+# %% [markdown]
+# ### Position error relative to the best algorithm of each scenario
+#
+# Grey cells: the algorithm does not apply to the scenario (the reason is in the tables below). A dagger marks cells
+# with diverged runs (excluded from the error); *div.* cells diverged in every run.
+
+# %%
+fig = arena_views.rmse_heatmap(cells, scenario_rows)
+nb.show(fig, "rmse_heatmap", "(no paper: cross-paper comparison)",
+        "position RMSE of every applicable cell relative to the best algorithm of its scenario")
+
+# %% [markdown]
+# ### Consistency: ANEES and ANIS relative to their degrees of freedom
+#
+# 1 is consistent; above 1 the filter is over-confident (its covariance is too small for its errors), below 1
+# pessimistic. A marked cell's value lies inside its 95 % χ² band.
+
+# %%
+fig = arena_views.consistency_heatmap(cells, "anees", scenario_rows)
+nb.show(fig, "anees_heatmap", "(no paper)", "time-averaged NEES over the state dimension, per cell")
+fig = arena_views.consistency_heatmap(cells, "anis", scenario_rows)
+nb.show(fig, "anis_heatmap", "(no paper)", "time-averaged NIS over the measurement dimension, per cell")
+
+# %% [markdown]
+# ### The ladder: where do the rules and layers separate?
+
+# %%
+fig = arena_views.ladder_curves(cells, scenario_rows)
+nb.show(fig, "ladder_curves", "(no paper)",
+        "position RMSE against the computed nonlinearity index (left) and the turn rate (right)")
+
+# %% [markdown]
+# ## Per scenario
+#
+# Position and velocity RMSE (± standard error), ANEES and ANIS with their 95 % bands, diverged runs, cost, and the
+# rank from paired differences; for an algorithm that cannot apply, why.
+
+# %%
+for row in scenario_rows:
+    display(Markdown(f"### {row['scenario']}: {row['title']}"))
+    display(Markdown(markdown_table(list(arena_views.cell_table(cells, row["scenario"])[0]),
+                                    [list(r.values()) for r in arena_views.cell_table(cells, row["scenario"])])))
+
+# %% [markdown]
+# ## The papers' ideas, scenario by scenario
+#
+# Each idea is a paired comparison of the algorithm that adds it against the one without it, on every scenario where
+# both apply: *helps* (position MSE detectably smaller), *hurts*, *no detectable difference*, or *diverges* (more runs
+# diverged than without the idea).
+
+# %%
+idea_rows = study.ideas(result)
+display(Markdown(markdown_table(
+    ["idea", "A − B", "scenario", "Δ position MSE (m²) ± s.e.", "relative", "verdict", "diverged A / B"],
+    [[i["idea"], f"{i['a']} − {i['b']}", c["scenario"],
+      "--" if c["difference_m2"] is None else f"{c['difference_m2']:.4g} ± {c['stderr_m2']:.2g}",
+      "--" if c["relative"] is None else f"{100 * c['relative']:+.2f} %", c["verdict"],
+      f"{c['diverged_a']} / {c['diverged_b']}"] for i in idea_rows for c in i["comparisons"]])))
+
+# %% [markdown]
+# ## The papers' accuracy claims across the arena
+#
+# Each paper's claim "A is more accurate than B", judged on every scenario where both apply, in the claim vocabulary
+# of `mmlib/experiment/report.py`: *holds* (A detectably better), *contradicted* (detectably worse, or A diverges more),
+# *not supported* (no detectable difference).
+
+# %%
+claims_in_arena = study.paper_claims(result)
+display(Markdown(markdown_table(
+    ["paper", "claim", "pair", "holds", "contradicted", "not supported", "not assessable"],
+    [[pc["paper"], pc["claim"], f"{pair['a']} vs {pair['b']}",
+      *[", ".join(s for s, v in pair["verdicts"].items() if v == verdict) or "--"
+        for verdict in (report.HOLDS, report.CONTRADICTED, report.NOT_SUPPORTED, report.NOT_ASSESSABLE)]]
+     for pc in claims_in_arena for pair in pc["pairs"]])))
+
+# %% [markdown]
+# ## Findings
+#
+# Every sentence below is generated from the numbers above.
+
+# %%
+finding_lines = study.findings(result, scenario_rows)
+display(Markdown("\n".join(finding_lines)))
+
+# %% [markdown]
+# ## Results file
+
+# %%
+prov = report.provenance(root_seed=nb.seed, n_runs=n_runs, profile=PROFILE,
+                         extra={"mmlib": mmlib.__version__, "scenario_seeds": {r["scenario"]: r["root_seed"]
+                                                                              for r in scenario_rows},
+                                "seed_override": SEED})
+digest = study.digest(result, min(n_runs, PROFILES["smoke"]["n_runs"]))
+doc = report.write_results(nb.results_path, paper=study.PAPER, provenance=prov, rows=[], kind="arena",
+                           cells=cells, scenarios=scenario_rows,
+                           algorithms=[{"algorithm": r.name, "kind": r.kind, "papers": list(r.papers),
+                                        "description": r.description} for r in recipes.RECIPES.values()],
+                           ideas=idea_rows, paper_claims=claims_in_arena, findings=finding_lines, digest=digest,
+                           figures=nb.figures)
+print(f"wrote {nb.results_path}: {len(cells)} cells, {n_applicable} applicable")

@@ -1,0 +1,449 @@
+"""The arena (mmlib.arena): the recipe registry, paper cells against the papers' own evaluations, consistency
+metrics, the controlled ladder's computed nonlinearity index, ranks, bad input and the study runner."""
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from conftest import raises_naming
+from mmlib import MonteCarlo
+from mmlib.arena import ladder, recipes, study
+from mmlib.core import models
+from mmlib.core.estimation import SingleModel, normalised_square, run
+from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
+from mmlib.core.rules import Cubature
+from mmlib.experiment import evaluation, metrics
+from mmlib.papers import hu2017, liu2017, tseng2011, zhou2017, zhu2016
+
+EPS = np.finfo(float).eps
+
+
+def cell_runset(algorithm, s, mc, **kw) -> evaluation.RunSet:
+    """The RunSet of an arena cell (evaluate_cell also returns the CPU seconds, which no test reads)."""
+    return study.evaluate_cell(algorithm, s, mc, **kw)[0]
+
+
+def cell_metrics(rs, s) -> dict:
+    return study.cell_metrics(rs, s, 0.0)
+
+
+def estimator_for_every_run(s, est, mc):
+    """make_batch for a hand-built estimator on scenario ``s``'s runs (start means and P0 of the scenario)."""
+    return evaluation.with_initial_states(s.simulator(mc), {"x": est}, lambda e, start, runs: e.init(start, s.P0))
+
+
+# ================================================================================================ 1. registry
+@pytest.mark.parametrize("name", study.SCENARIOS)
+def test_every_cell_is_built_or_refused_with_its_reason(name):
+    s = study.scenario(name)
+    for alg in recipes.ALGORITHMS:
+        reason = recipes.applicability(alg, s)
+        assert isinstance(reason, str)
+        if reason == "":
+            est = recipes.build(alg, s)
+            assert est.name == alg
+            assert callable(getattr(est, "init", None)) and callable(getattr(est, "step", None))
+        else:
+            assert reason.strip(), (alg, name)
+            with pytest.raises(recipes.NotApplicable) as info:
+                recipes.build(alg, s)
+            assert reason in str(info.value)
+            assert isinstance(info.value, ValueError)          # NotApplicable is a ValueError
+
+
+IMM_ALGORITHMS = ("IMM5CKF", "IMMCKF", "IMMUKF", "IMMEKF", "IMMCDKF", "IMMCDKF-OBS", "IMM-NAUKF", "CPIMM-UKF",
+                  "CPIMM-NAUKF")
+SINGLE_ALGORITHMS = ("5CKF", "NAUKF", "AUKF", "SSRCKF", "STF", "STUKF", "STCKF", "STSSRCKF", "EKF", "CKF", "UKF")
+
+
+def test_expected_applicabilities():
+    liu, hu = study.scenario("liu2017"), study.scenario("hu2017")
+    for alg in IMM_ALGORITHMS:                        # Liu & Wu define no mode set
+        assert recipes.applicability(alg, liu).startswith("needs an IMM mode set"), alg
+        assert recipes.applicability(alg, hu) == "", alg
+        assert recipes.applicability(alg, study.scenario("ladder-linear")).startswith("needs an IMM mode set")
+    for alg in SINGLE_ALGORITHMS:                     # Hu et al. define no single motion model
+        assert recipes.applicability(alg, hu).startswith("needs a single motion model"), alg
+        assert recipes.applicability(alg, liu) == "", alg
+    where = [name for name in study.SCENARIOS if recipes.applicability("FUZZY-IMMUKF", study.scenario(name)) == ""]
+    assert where == ["tseng2011"]
+    # every algorithm applies to the radar rungs of the ladder except the GNSS-only fuzzy IMM
+    nl = study.scenario("ladder-nl3")
+    assert [a for a in recipes.ALGORITHMS if recipes.applicability(a, nl)] == ["FUZZY-IMMUKF"]
+
+
+def test_aliases_resolve_to_one_recipe():
+    s = study.scenario("zhou2017")
+    assert recipes.ALIASES["IMM-UKF"] == "IMMUKF"
+    for alias, name in recipes.ALIASES.items():
+        assert recipes.recipe(alias) is recipes.recipe(name)
+        assert alias not in recipes.ALGORITHMS and name in recipes.ALGORITHMS
+        assert recipes.applicability(alias, s) == recipes.applicability(name, s) == ""
+        assert recipes.build(alias, s).name == name
+
+
+def test_unknown_algorithm_and_scenario_list_the_known_names():
+    s = study.scenario("ladder-nl1")
+    for call in (lambda: recipes.recipe("nope"), lambda: recipes.build("nope", s),
+                 lambda: recipes.applicability("nope", s)):
+        with raises_naming("algorithm") as info:
+            call()
+        assert "'nope'" in str(info.value)
+        assert all(a in str(info.value) for a in recipes.ALGORITHMS)
+    with raises_naming("scenario") as info:
+        study.scenario("nope")
+    assert all(name in str(info.value) for name in study.SCENARIOS)
+
+
+# ================================================================= 2. a paper's cell is the paper's own evaluation
+def _zhu():
+    return zhu2016, zhu2016.setups(zhu2016.SPACE.headline), ("IMM5CKF", "IMMCKF", "IMMUKF", "5CKF"), 8
+
+
+def _liu():
+    return (liu2017, liu2017.setups(liu2017.SPACE.headline)["Example 1"],
+            ("SSRCKF", "STF", "STUKF", "STCKF", "STSSRCKF", "CKF", "UKF"), 8)
+
+
+def _zhou():
+    return (zhou2017, zhou2017.setups(zhou2017.SPACE.headline)[1],
+            ("IMM-UKF", "IMM-NAUKF", "CPIMM-UKF", "CPIMM-NAUKF", "IMM-EKF", "IMM-CKF"), 8)
+
+
+def _tseng():
+    # 1800 epochs per run: 3 runs
+    return tseng2011, tseng2011.setups(tseng2011.SPACE.headline), ("UKF", "IMMUKF", "FUZZY-IMMUKF", "EKF"), 3
+
+
+@pytest.mark.parametrize("case", [_zhu, _liu, _zhou, _tseng], ids=["zhu2016", "liu2017", "zhou2017", "tseng2011"])
+def test_paper_cell_equals_the_papers_own_evaluation_bit_for_bit(case):
+    paper, setup, algs, n = case()
+    mc = MonteCarlo(paper.ROOT_SEED, n)
+    if paper is tseng2011:
+        ex = paper.experiment(setup, names=algs)
+        own = evaluation.evaluate(ex.estimators, paper.make_batch_fn(ex, mc), mc, progress=False, workers=1,
+                                  measurement_models=ex.measurement_models)
+    else:
+        make_batch, estimators, _ = paper.make_batch_fn(setup, mc)
+        assert set(algs) <= set(estimators)
+        own = evaluation.evaluate({a: estimators[a] for a in algs}, make_batch, mc, progress=False, workers=1)
+    s = study.scenario(paper.PAPER)
+    for alg in algs:
+        name = recipes.ALIASES.get(alg, alg)
+        assert name in recipes.ALGORITHMS
+        rs = cell_runset(name, s, mc, consistency=False)
+        # the same runs, models and initial states: exact equality (NaN where a run diverged, e.g. Zhou's NAUKF)
+        assert np.array_equal(rs.errors, own[alg].errors, equal_nan=True), alg
+        assert np.array_equal(rs.diverged_step, own[alg].diverged_step), alg
+        assert (rs.mode_probabilities is None) == (own[alg].mode_probabilities is None), alg
+        if rs.mode_probabilities is not None:
+            assert np.array_equal(rs.mode_probabilities, own[alg].mode_probabilities, equal_nan=True), alg
+
+
+#: |arena error (m) - 1000 x paper error (km)| <= RTOL x the largest |true state component| of the run (m).
+#: The arena runs Hu et al.'s set-up in metres: x0, sigma_r, P0 and q are multiplied by 1000 (1e6), which is not a
+#: power of two, so every input differs from an exact rescaling by up to half an ulp (1.1e-16 relative).  In exact
+#: arithmetic the filters are scale-equivariant (bearing is scale-free, the range and every length scale by 1000),
+#: so what remains is round-off relative to the state's magnitude (an error is a difference of ~15 km quantities,
+#: hence the scale is |x|, not |error|).  Plain sigma-point / extended IMMs propagate it without growth: measured
+#: 1.2e-15 (about five ulps of eps = 2.2e-16); 1e-13 leaves a factor ~100 for a different BLAS.  The
+#: observation-bootstrap IMM fuses its N + 1 posteriors by an inverse of a sum of inverses into an over-confident
+#: covariance, and its round-off grows by ~1.45 per step (measured: 7e-12 m at the first step, 5e-7 m by step 30
+#: of 35, 2.3e-10 relative);
+#: 1e-8 keeps a factor ~40, and any modelling difference (another q, R, P0 or start) would move the errors by
+#: metres, i.e. ~1e-4 of the state, orders of magnitude above it.
+HU_RTOL = {"IMMUKF": 1e-13, "IMMEKF": 1e-13, "IMMCKF": 1e-13, "IMMCDKF": 1e-13, "IMMCDKF-OBS": 1e-8}
+
+
+def test_hu2017_cell_is_the_papers_evaluation_in_metres():
+    n = 8
+    setup = hu2017.setups(hu2017.SPACE.headline)
+    mc = MonteCarlo(hu2017.ROOT_SEED, n)
+    make_batch, estimators, _ = hu2017.make_batch_fn(setup, mc, names=tuple(HU_RTOL))
+    own = evaluation.evaluate(estimators, make_batch, mc, progress=False, workers=1)
+    truth_km = make_batch(range(n))[0]
+    scale_m = 1000.0 * np.abs(truth_km).max(axis=(1, 2))                    # (N,) per run
+    s = study.scenario("hu2017")
+    for alg, rtol in HU_RTOL.items():
+        rs = cell_runset(alg, s, mc, consistency=False)
+        assert np.array_equal(rs.diverged_step, own[alg].diverged_step), alg
+        assert rs.valid.all(), alg
+        gap = np.abs(rs.errors - 1000.0 * own[alg].errors).max(axis=(1, 2))
+        assert np.all(gap <= rtol * scale_m), (alg, (gap / scale_m).max())
+        # and it is a real comparison: the errors are of order 100 m, far above the tolerance
+        assert np.abs(rs.errors).max() > 10.0
+
+
+# ================================================================================================ 3. consistency
+@pytest.fixture(scope="module")
+def linear_cells():
+    """The KF (the EKF on a linear sensor) on ladder-linear over 400 runs, and the same KF told 4R, by hand."""
+    s = study.scenario("ladder-linear")
+    mc = MonteCarlo(s.root_seed, 400)
+    rs = cell_runset("EKF", s, mc)
+    kf = lambda R: SingleModel(ExtendedKalmanFilter(name="KF"), s.single, models.position_measurement(R), name="KF")
+    own = {f: evaluation.evaluate({"x": kf(f * s.measurement.R)}, estimator_for_every_run(s, kf(f * s.measurement.R),
+                                                                                           mc),
+                                  mc, progress=False, consistency=True, workers=1)["x"] for f in (1.0, 4.0)}
+    return s, rs, own
+
+
+def test_hand_built_kf_is_the_registry_ekf(linear_cells):
+    s, rs, own = linear_cells
+    # the inconsistent filter below differs from the registry's EKF cell only in R: with R unchanged, same bits
+    assert np.array_equal(own[1.0].errors, rs.errors)
+    assert np.array_equal(own[1.0].nees, rs.nees) and np.array_equal(own[1.0].nis, rs.nis)
+
+
+def test_kalman_filter_is_consistent_on_the_linear_rung(linear_cells):
+    s, rs, _ = linear_cells
+    m = cell_metrics(rs, s)
+    assert m["diverged"] == 0
+    N = rs.errors.shape[0]
+    for key, dof in (("anees", s.dim), ("anis", 2)):
+        c = m[key]
+        assert c["dof"] == dof and c["n_runs"] == N
+        # the band holds a run-average at one step with probability 0.95; the time average varies less
+        lo, hi = c["band"]
+        assert lo < dof < hi
+        assert lo <= c["value"] <= hi, (key, c)
+    # NIS of a consistent KF: innovations white, each run's time average is chi2(m K)/K exactly, so the fraction
+    # of runs inside the per-run band is binomial(N, 0.95) / N: 0.95 +- 3 sqrt(0.95 0.05 / N) (+-0.033 at N = 400)
+    half = 3.0 * math.sqrt(0.95 * 0.05 / N)
+    assert abs(m["anis"]["runs_inside"] - 0.95) <= half, m["anis"]
+
+
+def test_filter_told_four_times_the_sensor_noise_is_outside_the_band(linear_cells):
+    s, _, own = linear_cells
+    m = cell_metrics(own[4.0], s)
+    # told 4R, the filter over-states its uncertainty: NIS and NEES far below their dof (measured ANIS 0.72,
+    # ANEES 2.4 against bands ~[1.81, 2.20] and ~[3.73, 4.28])
+    for key in ("anees", "anis"):
+        lo, hi = m[key]["band"]
+        assert m[key]["value"] < lo, (key, m[key])
+        assert m[key]["inside"] is False
+    half = 3.0 * math.sqrt(0.95 * 0.05 / own[4.0].errors.shape[0])
+    assert m["anis"]["runs_inside"] < 0.95 - half
+
+
+def test_run_records_the_nees_of_its_covariances():
+    s = study.scenario("ladder-nl3")
+    n = 6
+    mc = MonteCarlo(s.root_seed, n)
+    truth, z, start = s.simulator(mc)(range(n))
+    est = recipes.build("IMMUKF", s)
+    state = recipes.initial_state(est, s, start, range(n), mc)
+    tr = run(est, state, z, consistency=True, truth=truth)
+    assert tr.nees.shape == tr.nis.shape == (n, s.n_steps) and not tr.diverged.any()
+    assert np.array_equal(tr.nis_dof, np.full(s.n_steps, 2))
+    ref = metrics.nees(tr.mean - truth[:, 1:], tr.cov)
+    # the same quadratic form solved per matrix vs in one batch: LAPACK round-off only (NEES ~ 4, condition
+    # numbers of P below ~1e4 here: relative differences ~1e-15; 1e-12 leaves margin)
+    np.testing.assert_allclose(tr.nees, ref, rtol=1e-12, atol=0)
+    # computed on the fly: the same bits without keeping the covariances, and with truth given as x_1..x_K
+    tr2 = run(est, state, z, consistency=True, truth=truth[:, 1:], keep_cov=False)
+    assert tr2.cov is None
+    assert np.array_equal(tr2.nees, tr.nees) and np.array_equal(tr2.nis, tr.nis)
+    with raises_naming("truth"):
+        run(est, state, z, truth=truth)                          # the NEES needs consistency=True
+
+
+def test_normalised_square_hand_computed_and_nan_where_undefined():
+    v = np.array([1.0, 2.0])
+    S = np.array([[2.0, 1.0], [1.0, 3.0]])
+    # S^-1 = [[3, -1], [-1, 2]] / 5, v^T S^-1 v = (3 - 4 + 8) / 5 = 1.4; a 2x2 LU solve: a few ulps
+    assert normalised_square(v, S) == pytest.approx(1.4, rel=1e-14, abs=0)
+    singular = np.array([[1.0, 1.0], [1.0, 1.0]])
+    vs = np.stack([v, v, v, [np.nan, 1.0], v])
+    Ss = np.stack([S, singular, np.array([[np.inf, 0.0], [0.0, 1.0]]), S, 2.0 * S])
+    out = normalised_square(vs, Ss)                 # one singular matrix in the batch: solved one by one
+    assert out.shape == (5,)
+    assert out[0] == pytest.approx(1.4, rel=1e-14, abs=0) and out[4] == pytest.approx(0.7, rel=1e-14, abs=0)
+    assert np.isnan(out[1:4]).all()
+    # leading axes are kept (runs, steps)
+    assert normalised_square(np.broadcast_to(v, (2, 3, 2)), np.broadcast_to(S, (2, 3, 2, 2))).shape == (2, 3)
+    assert np.isnan(normalised_square(v, singular))
+
+
+# ================================================================================================ 4. ladder
+@pytest.mark.parametrize("name", ["ladder-linear", "zhu2016"])
+def test_nonlinearity_index_is_zero_for_a_linear_sensor(name):
+    s = study.scenario(name)
+    assert not s.nonlinear_measurement
+    idx = ladder.nonlinearity_index(s, 20)
+    # b = E[Hx] - H E[x] is zero in exact arithmetic; in floating point it is the round-off of a weighted sum of the
+    # fifth-degree rule's points at the size of the measurement, a few eps |z|, and eta is b in units of the
+    # innovation s.d. >= the sensor's smallest s.d.  Measured (p90): 1.2 eps |z| / sigma on ladder-linear, 0.11
+    # on zhu2016; 16 leaves a factor > 10.  (Against 1.8e-3 on the least nonlinear radar rung.)
+    z = s.simulator(MonteCarlo(s.root_seed, idx["n_runs"]))(range(idx["n_runs"]))[1]
+    sigma_min = math.sqrt(np.linalg.eigvalsh(s.measurement.R).min())
+    bound = 16 * EPS * np.abs(z).max() / sigma_min
+    assert 0 <= idx["median"] <= idx["p90"] <= bound, (idx, bound)
+    assert idx["n_runs"] == 20
+
+
+NL_RUNGS = tuple(f"ladder-nl{i}" for i in range(1, 7))
+
+
+def test_nonlinearity_index_increases_along_the_ladder():
+    assert [n for n in ladder.NAMES if ladder.rung(n).axis == "nonlinearity"] == list(NL_RUNGS)
+    med = [ladder.nonlinearity_index(study.scenario(n))["median"] for n in NL_RUNGS]
+    assert all(a < b for a, b in zip(med, med[1:])), med
+    assert med[0] < 0.005 and med[-1] > 0.2, med
+
+
+@pytest.mark.parametrize("name", ["ladder-nl1", "ladder-nl2", "ladder-nl3"])
+def test_nonlinearity_index_agrees_with_the_small_spread_closed_form(name):
+    """Around the predicted mean at range r, with radial offset a and cross-range offset c,
+    range = r + a + c^2/(2r) + ... and bearing = theta + c/r - a c/r^2 + ..., so the second-order mean gap is
+    b = [sigma_c^2 / (2r), -P_ac / r^2] with sigma_c^2 the predicted cross-range variance and P_ac the radial-cross
+    covariance; with the linearised S = H P H^T + R, eta = sqrt(b^T S^-1 b).  The neglected terms are relatively
+    O(sigma_c^2 / r^2) in b (the fourth-order range term) and O(sigma_c^4 / (2 r^2 S_rr)) in S (the variance of the
+    quadratic term), so per step |eta_closed / eta - 1| <~ eps_k = sigma_c^2/r^2 + sigma_c^4/(2 r^2 S_rr); every
+    quantile of the closed forms then agrees with that of the index within max_k eps_k (a ratio bound per element
+    bounds the ratio of order statistics).  The test asserts the small-spread premise (max eps < 0.01) too."""
+    s = study.scenario(name)
+    n = 20
+    idx = ladder.nonlinearity_index(s, n)
+    # the index's own loop (the scenario's first n runs, a CKF on its single model), with the closed form per step
+    mc = MonteCarlo(s.root_seed, n)
+    _, z, start = s.simulator(mc)(range(n))
+    ckf = SigmaPointFilter(Cubature())
+    state = ckf.init(start, s.P0)
+    R = s.measurement.R
+    closed, eps = [], []
+    for k in range(s.n_steps):
+        state = ckf.predict(state, s.single)
+        x, P = state.mean, state.cov
+        p = x[:, [0, 2]]
+        Pp = P[:, [0, 2]][:, :, [0, 2]]
+        r = np.linalg.norm(p, axis=1)
+        u = p / r[:, None]                                   # radial unit vector
+        v = np.stack([-u[:, 1], u[:, 0]], axis=1)            # cross-range unit vector
+        s_cc = np.einsum("bi,bij,bj->b", v, Pp, v)
+        s_ac = np.einsum("bi,bij,bj->b", u, Pp, v)
+        b = np.stack([s_cc / (2 * r), -s_ac / r ** 2], axis=1)
+        H = np.zeros((n, 2, 4))
+        H[:, 0, [0, 2]] = u
+        H[:, 1, [0, 2]] = v / r[:, None]
+        S = H @ P @ np.swapaxes(H, 1, 2) + R
+        closed.append(np.sqrt(np.einsum("bi,bi->b", b, np.linalg.solve(S, b[..., None])[..., 0])))
+        eps.append(s_cc / r ** 2 + s_cc ** 2 / (2 * r ** 2 * S[:, 0, 0]))
+        state, _ = ckf.update(state, z[:, k], s.measurement)
+    closed, eps_max = np.array(closed), float(np.max(eps))
+    assert eps_max < 0.01, eps_max
+    assert idx["median"] == pytest.approx(float(np.median(closed)), rel=eps_max, abs=0), (idx, eps_max)
+    assert idx["p90"] == pytest.approx(float(np.quantile(closed, 0.9)), rel=eps_max, abs=0), (idx, eps_max)
+
+
+# ================================================================================================ 5. ranks
+def _cells(**per_run):
+    return {a: {"per_run_position_mse": [None if (v is None or np.isnan(v)) else float(v) for v in vals]}
+            for a, vals in per_run.items()}
+
+
+def test_rank_a_clearly_worse_algorithm_and_a_tie():
+    rng = np.random.default_rng(7)
+    base = 100.0 + rng.normal(0, 10, 30)
+    # B is A plus 50 m^2 +- 1: paired difference 50 +- 0.2, hundreds of standard errors; C is A exactly
+    worse = base + 50.0 + rng.normal(0, 1, 30)
+    ranks = study.rank_scenario(_cells(A=base, B=worse, C=base.copy()))
+    assert ranks["B"]["rank"] == 3 and ranks["B"]["versus_best"]["verdict"] == "worse"
+    assert ranks["A"]["rank"] == ranks["C"]["rank"] == 1
+    best = ranks["A"]["versus_best"]["algorithm"]
+    assert best in ("A", "C")
+    other = "C" if best == "A" else "A"
+    assert ranks[best]["versus_best"]["verdict"] == "best"
+    assert ranks[other]["versus_best"]["verdict"] == "no detectable difference (identical)"
+    # the paired difference on all 30 runs (float64 sums in another order: round-off, 1e-12)
+    assert ranks["B"]["versus_best"]["difference_m2"] == pytest.approx(float(np.mean(worse - base)), rel=1e-12)
+
+
+def test_rank_excludes_diverged_runs_pairwise():
+    rng = np.random.default_rng(11)
+    base = 100.0 + rng.normal(0, 10, 20)
+    a = base.copy()
+    a[0] = np.nan                                 # A diverged in run 0
+    b = base + 5.0 + rng.normal(0, 0.5, 20)
+    b[0] = 1e9                                    # ... where B is wild: it must not enter A-vs-B
+    b[5] = np.nan                                 # B diverged in run 5
+    ranks = study.rank_scenario(_cells(A=a, B=b, D=[1.0, np.nan, np.nan]))
+    assert "D" not in ranks                       # fewer than two valid runs: not ranked
+    vb = ranks["B"]["versus_best"]
+    assert vb["algorithm"] == "A" and vb["verdict"] == "worse" and ranks["B"]["rank"] == 2
+    ok = np.isfinite(a) & np.isfinite(b)          # runs 1-4, 6-19
+    d = (b - a)[ok]
+    assert vb["difference_m2"] == pytest.approx(float(d.mean()), rel=1e-12)
+    assert vb["stderr_m2"] == pytest.approx(float(d.std(ddof=1) / math.sqrt(ok.sum())), rel=1e-12)
+
+
+def test_consistency_summary_of_chi_square_draws():
+    rng = np.random.default_rng(2024)
+    N, K, dof = 300, 200, 3
+    stat = rng.chisquare(dof, (N, K))
+    stat[7, 50:] = np.nan                        # a diverged run, excluded by ok
+    ok = np.ones(N, dtype=bool)
+    ok[7] = False
+    c = study.consistency(stat, dof, ok)
+    assert c["n_runs"] == N - 1 and c["dof"] == dof
+    # white draws: the mean of (N-1) K chi2(dof) values has s.d. sqrt(2 dof / ((N-1) K)) = 0.0058
+    assert abs(c["value"] - dof) <= 4 * math.sqrt(2 * dof / ((N - 1) * K)), c
+    assert c["stderr"] == pytest.approx(math.sqrt(2 * dof / ((N - 1) * K)), rel=0.2)   # its own estimate (+-~8 %)
+    # steps (runs) inside are independent 0.95-events: binomial, within 3 sigma
+    assert abs(c["steps_inside"] - 0.95) <= 3 * math.sqrt(0.95 * 0.05 / K), c
+    assert abs(c["runs_inside"] - 0.95) <= 3 * math.sqrt(0.95 * 0.05 / (N - 1)), c
+    assert c["inside"] is True
+    # a per-step dof (e.g. satellites in view) is accepted, and scaled statistics fall outside
+    dofs = np.where(np.arange(K) < K // 2, 2, 4)
+    c2 = study.consistency(rng.chisquare(dofs, (N, K)), dofs, np.ones(N, dtype=bool))
+    assert abs(c2["steps_inside"] - 0.95) <= 3 * math.sqrt(0.95 * 0.05 / K), c2
+    assert study.consistency(2.0 * stat, dof, ok)["inside"] is False
+    assert study.consistency(stat[:1], dof, ok[:1])["value"] is None          # one run: no standard error
+
+
+# ================================================================================================ 6. bad input
+def test_run_arena_bad_input_names_the_argument():
+    with raises_naming("n_runs"):
+        study.run_arena(1)
+    with raises_naming("n_runs"):
+        study.run_arena(2.5)
+    with raises_naming("scenarios") as info:
+        study.run_arena(10, scenarios=["nope"])
+    assert "ladder-nl1" in str(info.value)
+    with raises_naming("algorithms") as info:
+        study.run_arena(10, algorithms=["nope"])
+    assert "IMMUKF" in str(info.value)
+
+
+def test_scenario_rejects_an_inconsistent_transition_matrix():
+    s = study.scenario("ladder-nl1")
+    assert replace(s, transition=s.transition.copy()).transition.shape == (3, 3)       # the control: accepted
+    for bad in ([[0.9, 0.05, 0.05], [0.05, 0.9, 0.05], [0.1, 0.1, 0.9]],           # a row sums to 1.1
+                [[0.9, 0.1], [0.1, 0.9]],                                          # 2 x 2 for 3 modes
+                [[1.1, -0.05, -0.05], [0.05, 0.9, 0.05], [0.05, 0.05, 0.9]]):      # negative entries
+        with raises_naming("transition"):
+            replace(s, transition=np.array(bad))
+
+
+# ================================================================================================ 7. the runner
+def test_tiny_arena_serial_and_parallel_give_the_same_bits(tmp_path):
+    kw = dict(scenarios=["ladder-nl1", "liu2017"], algorithms=["EKF", "IMMUKF", "UKF"], progress=False)
+    serial = study.run_arena(4, workers=1, use_cache=False, **kw)
+    cells = serial.cells
+    assert [(c["scenario"], c["algorithm"]) for c in cells] == \
+        [(s, a) for s in ("ladder-nl1", "liu2017") for a in ("EKF", "IMMUKF", "UKF")]
+    for c in cells:
+        assert c["n_runs"] == 4
+        if (c["scenario"], c["algorithm"]) == ("liu2017", "IMMUKF"):
+            assert c["reason"].startswith("needs an IMM mode set") and "rmse_position" not in c
+        else:
+            assert "reason" not in c
+            assert c["diverged"] == 0 and c["rmse_position"]["value"] > 0
+            assert c["anees"]["n_runs"] == 4 and c["anis"]["dof"] == 2.0
+            assert c["rank"] >= 1 and c["versus_best"]["algorithm"] in ("EKF", "IMMUKF", "UKF")
+    parallel = study.run_arena(4, workers=2, use_cache=True, cache_dir=tmp_path, **kw)
+    strip = (lambda cs: [{k: v for k, v in c.items() if k != "cost_us_per_run_step"} for c in cs])
+    assert strip(parallel.cells) == strip(cells)            # exact equality of every float
+    assert serial.per_run.keys() == parallel.per_run.keys()
+    assert all(np.array_equal(serial.per_run[k], parallel.per_run[k], equal_nan=True) for k in serial.per_run)

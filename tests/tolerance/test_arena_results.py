@@ -1,0 +1,76 @@
+"""Tolerance tests of the arena: the smoke study (``make test``: 20 runs per cell) against the committed full study
+(``make figures``: 1000 runs per cell).
+
+The smoke runs are the first runs of the full study's streams, so (1) the digest of the per-run position errors of
+the first 20 runs is the same bit for bit (the committed results come from the committed code), and (2) every smoke
+value and its full value estimate the same quantity from nested samples: their difference has a standard deviation
+below sqrt(se_smoke^2 + se_full^2), and we allow 4 of those, as for the papers (tests/tolerance/test_results.py).
+"""
+import math
+
+import pytest
+
+from mmlib.arena import recipes, study
+from test_results import RTOL_KERNELS, load
+
+FULL_RUNS = 1000
+
+
+@pytest.fixture(scope="module")
+def docs():
+    return load("arena", "smoke"), load("arena", "full")
+
+
+def test_arena_contract(docs):
+    smoke, full = docs
+    for doc in (smoke, full):
+        assert doc["paper"] == "arena" and doc["kind"] == "arena"
+        assert len(doc["cells"]) == len(recipes.ALGORITHMS) * len(study.SCENARIOS)
+        assert {(c["scenario"], c["algorithm"]) for c in doc["cells"]} == \
+            {(s, a) for s in study.SCENARIOS for a in recipes.ALGORITHMS}
+        for c in doc["cells"]:
+            assert ("reason" in c) != ("rmse_position" in c), c      # a reason or metrics, never a blank
+            if "reason" in c:
+                assert c["reason"], c
+        assert doc["findings"] and doc["scenarios"] and doc["ideas"]
+    assert full["provenance"]["n_runs"] == FULL_RUNS and full["provenance"]["profile"] == "full"
+    assert smoke["provenance"]["profile"] == "smoke"
+
+
+def test_arena_digest_matches_committed(docs):
+    smoke, full = docs
+    s, f = smoke["digest"], full["digest"]
+    assert s["n_runs"] == f["n_runs"] and s["cells"] == f["cells"]
+    if s["kernel"] != f["kernel"]:
+        pytest.skip(f"kernel {s['kernel']} here, {f['kernel']} for the committed results: digests compare within one "
+                    f"kernel (the values are compared to Monte Carlo error below)")
+    assert s["sha256"] == f["sha256"], ("the committed arena results do not come from this code: regenerate them "
+                                        "with 'make figures PAPER=arena'")
+
+
+def test_arena_applicability_is_the_same(docs):
+    smoke, full = docs
+    key = lambda doc: {(c["scenario"], c["algorithm"]): c.get("reason") for c in doc["cells"]}  # noqa: E731
+    assert key(smoke) == key(full)
+
+
+def test_arena_smoke_within_monte_carlo_error_of_full(docs):
+    smoke, full = docs
+    committed = {(c["scenario"], c["algorithm"]): c for c in full["cells"]}
+    bad, compared = [], 0
+    for c in smoke["cells"]:
+        f = committed[(c["scenario"], c["algorithm"])]
+        for q in ("rmse_position", "rmse_velocity"):
+            a, b = c.get(q), f.get(q)
+            if not a or not b or a["value"] is None or b["value"] is None or a["stderr"] is None:
+                continue
+            if a["n_runs"] < 20:            # a smoke cell with diverged runs: too few runs to judge
+                continue
+            sigma = math.hypot(a["stderr"], b["stderr"])
+            tol = 4 * sigma + RTOL_KERNELS * abs(b["value"])
+            compared += 1
+            if abs(a["value"] - b["value"]) > tol:
+                bad.append(f"{c['scenario']} {c['algorithm']} {q}: smoke {a['value']:.6g} ± {a['stderr']:.2g}, "
+                           f"full {b['value']:.6g} ± {b['stderr']:.2g}")
+    assert compared > 100
+    assert not bad, "\n".join(bad)
