@@ -1,6 +1,6 @@
 r"""mmlib: batched multiple-model and sigma-point Kalman filtering for replication studies.
 
-The folders are the layers, each depending only on those below it:
+The folders are the layers, numbered; each depends only on the layers with a smaller number:
 
 1. ``mmlib.core`` -- the estimation core, paper-agnostic: quadrature rules (``rules``), one generic filter and one
    Kalman update (``filters``), thin layers over any filter (``core.layers``: strong tracking, innovation adaptation,

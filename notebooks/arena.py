@@ -22,8 +22,10 @@
 # data (`mmlib/experiment/scenario.py`; each paper's headline is `<paper>.scenario()`, in SI units, Hu et al.'s km
 # converted at its boundary; the ladder is `ladder.py`); each (algorithm, scenario) **cell** is a Monte Carlo job run
 # in parallel and cached (`study.py`). Within a scenario every algorithm sees the same truth, measurements and initial
-# estimates (common random numbers), and a paper scenario uses its paper's root seed, so an arena cell reproduces the
-# paper notebook's headline evaluation bit for bit (`tests/test_arena.py`).
+# estimates (common random numbers), and a paper scenario uses its paper's root seed, so an arena cell's per-run
+# errors are those of the paper notebook's headline evaluation of the same algorithm, bit for bit (Hu et al. 2017 to
+# round-off, its km converted to m; `tests/test_arena.py`). The arena's metrics are its own — position RMSE over x
+# and y together, for instance, where the papers tabulate each axis — so its numbers are not the papers' table cells.
 #
 # **Verdicts** come from the one rule of `mmlib/experiment/report.py`: a paired difference is detectable when it is
 # at least 3 standard errors from zero; otherwise *no detectable difference*. Ranks: 1 + the number of algorithms of
@@ -63,7 +65,7 @@ print(nb)
 # The nonlinearity index is *computed* from each scenario's own runs (`ladder.nonlinearity_index`): the size, in
 # innovation standard deviations, of the gap between the Gaussian mean of the measurement function and the
 # measurement function at the mean, at a CKF's predicted moments (median over runs and steps). It is 0 for a linear
-# sensor; the papers' scenarios stay below 0.003, the ladder climbs to about 0.4.
+# sensor; the line under the table gives the range the papers' scenarios and the ladder span.
 
 # %%
 scenario_rows = study.scenario_table()
@@ -72,6 +74,11 @@ display(Markdown(markdown_table(
     [[r["scenario"], r["title"], r["n_steps"], r["dim"], r["measurement_dim"],
       f"{r['nonlinearity_index']['median']:.3g}, {r['nonlinearity_index']['p90']:.3g}", r["root_seed"]]
      for r in scenario_rows])))
+index = {r["scenario"]: r["nonlinearity_index"]["median"] for r in scenario_rows}
+papers_max = max(index[name] for name in study.PAPER_SCENARIOS)
+ladder_nl = [index[name] for name in ladder.NAMES if name != "ladder-linear"]
+print(f"nonlinearity index: the papers' scenarios at most {papers_max:.2g}; the ladder's radar rungs from "
+      f"{min(ladder_nl):.2g} to {max(ladder_nl):.2g}")
 
 # %% [markdown]
 # ## Algorithms
@@ -101,7 +108,8 @@ print(f"{len(cells)} cells ({n_applicable} applicable) at {n_runs} runs each in 
 # ### Position error relative to the best algorithm of each scenario
 #
 # Grey cells: the algorithm does not apply to the scenario (the reason is in the tables below). A dagger marks cells
-# with diverged runs (excluded from the error); *div.* cells diverged in every run.
+# with diverged runs (their RMSE is over the other runs, and they are not ranked); *div.* cells have fewer than two
+# runs left. The best of a scenario is its best cell without diverged runs.
 
 # %%
 fig = arena_views.rmse_heatmap(cells, scenario_rows)
@@ -161,14 +169,14 @@ display(Markdown(markdown_table(
 #
 # Each paper's claim "A is more accurate than B", judged on every scenario where both apply, in the claim vocabulary
 # of `mmlib/experiment/report.py`: *holds* (A detectably better), *contradicted* (detectably worse, or A diverges more),
-# *not supported* (no detectable difference).
+# *not supported* (no detectable difference, or one below 1 % of B's mean squared error).
 
 # %%
 claims_in_arena = study.paper_claims(result)
 display(Markdown(markdown_table(
     ["paper", "claim", "pair", "holds", "contradicted", "not supported", "not assessable"],
     [[pc["paper"], pc["claim"], f"{pair['a']} vs {pair['b']}",
-      *[", ".join(s for s, v in pair["verdicts"].items() if v == verdict) or "--"
+      *[", ".join(s for s, v in pair["verdicts"].items() if report.claim_category(v) == verdict) or "--"
         for verdict in (report.HOLDS, report.CONTRADICTED, report.NOT_SUPPORTED, report.NOT_ASSESSABLE)]]
      for pc in claims_in_arena for pair in pc["pairs"]])))
 

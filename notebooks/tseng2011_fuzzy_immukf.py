@@ -31,9 +31,10 @@
 # which readings support it.
 #
 # **Library pieces** (all in `mmlib`): the constellation, frames (via `pymap3d`), pseudoranges and clock model in
-# `mmlib/core/gnss.py`; zero-order Takagi–Sugeno inference in `mmlib/core/fuzzy.py`; the FLAS and the IMM whose modes' noise
-# levels are set online in `mmlib/core/layers/adaptive_imm.py`; the measurement model changes every epoch with the satellites in
-# view (`run(..., measurement_models=...)`).
+# `mmlib/core/gnss.py`; zero-order Takagi–Sugeno inference in `mmlib/core/fuzzy.py`; the IMM whose modes' noise
+# levels are set online in `mmlib/core/layers/adaptive_imm.py`, and the FLAS that sets them (the paper's design) in
+# `mmlib/papers/tseng2011.py`; the measurement model changes every epoch with the satellites in view
+# (`run(..., measurement_models=...)`).
 #
 # **Verdict rule** (`mmlib/experiment/report.py`): *reproduced* within 3 combined standard errors; *inconclusive* when within
 # them but 3 s.e. exceed 25 % of the printed value; *qualitatively reproduced* within 25 %; *not reproduced*

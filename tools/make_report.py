@@ -60,7 +60,13 @@ def render_arena(doc: dict, root: Path, out_dir: Path) -> str:
              markdown_table(["idea", "A − B", "scenario", "Δ position MSE (m²) ± s.e.", "verdict"],
                             [[i["idea"], f"{i['a']} − {i['b']}", c["scenario"],
                               "--" if c["difference_m2"] is None else f"{c['difference_m2']:.4g} ± {c['stderr_m2']:.2g}",
-                              c["verdict"]] for i in doc["ideas"] for c in i["comparisons"]]), "", "## Figures", ""]
+                              c["verdict"]] for i in doc["ideas"] for c in i["comparisons"]]),
+             "", "## The papers' accuracy claims across the arena", "",
+             markdown_table(["paper", "claim", "pair", "scenario: verdict"],
+                            [[pc["paper"], pc["claim"], f"{pair['a']} vs {pair['b']}",
+                              "; ".join(f"{s}: {v}" for s, v in pair["verdicts"].items()) or "--"]
+                             for pc in doc.get("paper_claims", []) for pair in pc["pairs"]]),
+             "", "## Figures", ""]
     lines += render_figures(doc, root, out_dir)
     lines += ["## Every cell", ""]
     for r in doc["scenarios"]:

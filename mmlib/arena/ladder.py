@@ -6,8 +6,8 @@ The target (SI units): starts at (-5 km, 10 km) heading east at 100 m/s, turns r
 left at omega over 65-85 s, 100 steps of T = 1 s, with acceleration noise of variance q = 10 (m/s^2)^2 per step
 (discretised white-noise acceleration, :func:`mmlib.core.models.constant_velocity`) in the truth and in every filter's
 models (the filters are told the truth's noise, so a consistent filter is possible).  The radar
-at the origin measures range precisely (sigma_r = 1 m) and bearing coarsely (sigma_theta).  At ranges r of 10-11 km the cross-range
-spread of a bearing is sigma_theta * r, and the second-order term of the range that a linearisation neglects is about
+at the origin measures range precisely (sigma_r = 1 m) and bearing coarsely (sigma_theta).  At ranges r of 10-11 km
+the cross-range spread of a bearing is sigma_theta * r, and the second-order term of the range that a linearisation neglects is about
 (sigma_theta r)^2 / (2 r) (Lerro & Bar-Shalom 1993, IEEE Trans. AES 29(3):1015: the converted-measurement bias
 r sigma_theta^2 relative to sigma_r), so stepping sigma_theta steps the nonlinearity.
 
@@ -130,7 +130,9 @@ def nonlinearity_index(s: Scenario, n_runs: int = 50) -> dict:
     cubature rule (exact for polynomials to degree 5).  Returns ``median`` and ``p90`` over runs and steps (diverged
     runs excluded) and ``n_runs``: 0 for a linear sensor; the size, in innovation standard deviations, of the mean
     error a linearisation makes."""
-    mc = MonteCarlo(s.root_seed, max(int(n_runs), 2))
+    if isinstance(n_runs, bool) or not isinstance(n_runs, (int, np.integer)) or n_runs < 2:
+        raise ValueError(f"n_runs: expected an integer >= 2, got {n_runs!r}")
+    mc = MonteCarlo(s.root_seed, int(n_runs))
     runs = range(mc.n_runs)
     truth, z, start = s.simulator(mc)(runs)
     ckf = SigmaPointFilter(Cubature())

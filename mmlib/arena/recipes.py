@@ -30,17 +30,18 @@ from typing import Callable
 
 from mmlib.core.estimation import IMM, MomentMixing, SingleModel
 from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
-from mmlib.core.layers.adaptive import InnovationAdaptive
 from mmlib.core.layers.bootstrap import ObservationBootstrap
-from mmlib.core.layers.strong_tracking import StrongTracking
 from mmlib.core.mixing import CubatureMixing
-from mmlib.core.rules import CentralDifference, Cubature, FifthDegreeCubature, SphericalSimplexRadial, Unscented
+from mmlib.core.rules import Cubature, FifthDegreeCubature, SphericalSimplexRadial, Unscented
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment.scenario import Scenario
 from mmlib.papers import hu2017, liu2017, tseng2011, zhou2017
 
-#: the proposing papers' headline set-ups, whose layer parameters the recipes use
-LIU, ZHOU, HU, TSENG = liu2017.Setup(), zhou2017.Setup(), hu2017.Setup(), tseng2011.setups(tseng2011.SPACE.headline)
+#: the proposing papers' headline set-ups (their headline readings), whose layer parameters the recipes use
+LIU = liu2017.setups(liu2017.SPACE.headline)["Example 1"]
+ZHOU = zhou2017.setups(zhou2017.SPACE.headline)[0]
+HU = hu2017.setups(hu2017.SPACE.headline)
+TSENG = tseng2011.setups(tseng2011.SPACE.headline)
 
 
 class NotApplicable(ValueError):
@@ -53,33 +54,32 @@ def ukf(s: Scenario):
 
 
 def cdkf(s: Scenario):
-    return SigmaPointFilter(CentralDifference(form=HU.cd_form), name="CDKF")
+    """Hu et al.'s CDKF in the form of their headline (:func:`mmlib.papers.hu2017.cdkf_filter`)."""
+    return hu2017.cdkf_filter(HU)
 
 
-def naukf(s: Scenario, inflate_only: bool = ZHOU.inflate_only):
-    """NAUKF (Zhou et al. 2017, Eqs. 27-28) over the scenario's UKF, with the window and options of Zhou's headline;
-    ``inflate_only=True`` is the bounded reading of factor Z-12 (the adaptive covariance can only grow)."""
-    return InnovationAdaptive(ukf(s), window=ZHOU.window, psi=ZHOU.psi, inflate_only=inflate_only, name="NAUKF")
+def naukf(s: Scenario, inflate_only: bool | None = None):
+    """NAUKF (Zhou et al. 2017, Eqs. 27-28) over the scenario's UKF, with the window and options of Zhou's headline
+    (:func:`mmlib.papers.zhou2017.naukf_filter`); ``inflate_only=True`` is the bounded reading of factor Z-12."""
+    return zhou2017.naukf_filter(ukf(s), ZHOU, inflate_only)
 
 
-def aukf(s: Scenario, inflate_only: bool = ZHOU.inflate_only):
-    """The classic innovation-based adaptive UKF (IAE: no adaptive gene, innovations before the current one) that
-    Zhou et al. compare with NAUKF in Table 4, with NAUKF's window (and its Z-12 reading)."""
-    return InnovationAdaptive(ukf(s), window=ZHOU.window, zeta=False, include_current=False,
-                              inflate_only=inflate_only, name="AUKF")
+def aukf(s: Scenario, inflate_only: bool | None = None):
+    """The classic adaptive UKF of Zhou et al.'s Table 4 over the scenario's UKF, with NAUKF's window and Z-12 reading
+    (:func:`mmlib.papers.zhou2017.aukf_filter`)."""
+    return zhou2017.aukf_filter(ukf(s), ZHOU.window, ZHOU.inflate_only if inflate_only is None else inflate_only)
 
 
 def cdkf_obs(s: Scenario):
-    """Observation bootstrapping (Hu et al. 2017) over the CDKF, with Hu's headline N, variance factor,
-    likelihood and fused covariance."""
-    return ObservationBootstrap(cdkf(s), n_boot=HU.n_boot, variance_factor=HU.boot_variance_factor,
-                                likelihood=HU.obs_likelihood, covariance=HU.obs_covariance, name="CDKF-OBS")
+    """Observation bootstrapping (Hu et al. 2017) over the CDKF with Hu's headline N, variance factor, likelihood
+    and fused covariance (:func:`mmlib.papers.hu2017.cdkf_obs_filter`)."""
+    return hu2017.cdkf_obs_filter(HU)
 
 
 def strong(base, name: str):
-    """Strong tracking (Liu & Wu 2017) with Liu's headline beta and rho; the Jacobian form over an EKF (STF)."""
-    form = {"form": "jacobian"} if isinstance(base, ExtendedKalmanFilter) else {}
-    return StrongTracking(base, beta=LIU.beta, rho=LIU.rho, name=name, **form)
+    """Strong tracking (Liu & Wu 2017) with Liu's headline beta and rho (:func:`mmlib.papers.liu2017.strong_tracking`;
+    the Jacobian form over an EKF: the STF)."""
+    return liu2017.strong_tracking(base, LIU, name)
 
 
 # ------------------------------------------------------------------------------------------------ recipes
@@ -98,6 +98,7 @@ class Recipe:
 
     def build(self, s: Scenario):
         """The estimator on scenario ``s``; :class:`NotApplicable` (with the reason) where it cannot apply."""
+        _check_scenario(s)
         reason = requirement(self, s)
         if reason:
             raise NotApplicable(f"{self.name} on {s.name}: {reason}")
@@ -111,8 +112,15 @@ class Recipe:
                                    measurement=s.measurement, name=self.name)
 
 
+def _check_scenario(s):
+    if not isinstance(s, Scenario):
+        raise ValueError(f"scenario: expected a Scenario (e.g. mmlib.arena.study.scenario(name)), got {s!r}")
+    return s
+
+
 def requirement(recipe: Recipe, s: Scenario) -> str:
     """Why ``recipe`` cannot run on ``s`` ("" if it can)."""
+    _check_scenario(s)
     if recipe.kind == "single" and s.single is None:
         return "needs a single motion model: " + s.notes.get("single", "the scenario has none")
     if recipe.kind == "imm" and s.modes is None:
@@ -181,7 +189,7 @@ ALGORITHMS = tuple(RECIPES)
 
 def recipe(name: str) -> Recipe:
     """The recipe of algorithm ``name`` (or an alias); ValueError listing the known names otherwise."""
-    key = ALIASES.get(name, name) if isinstance(name, str) else name
+    key = ALIASES.get(name, name) if isinstance(name, str) else None
     if key not in RECIPES:
         raise ValueError(f"algorithm: unknown algorithm {name!r}; known: {', '.join(ALGORITHMS)} "
                          f"(aliases: {', '.join(f'{a} = {b}' for a, b in ALIASES.items())})")

@@ -2,8 +2,8 @@ r"""The arena study: one *cell* per (algorithm, scenario), each an independent M
 
 A cell runs the algorithm (built by :mod:`mmlib.arena.recipes`) on its scenario's runs -- the first ``n_runs`` runs
 of the scenario's root seed, so every algorithm of a scenario sees the same truth, measurements and initial
-estimates (common random numbers), and a paper scenario's cell reproduces the paper's own evaluation bit for bit --
-and returns its metrics (:func:`cell_metrics`) with each run's time-averaged squared position error, from which the
+estimates (common random numbers), and a paper scenario's cell reproduces the paper's own evaluation of the same
+algorithm bit for bit (Hu et al. 2017 to round-off: its km are converted to m) -- and returns its metrics (:func:`cell_metrics`) with each run's time-averaged squared position error, from which the
 ranks within the scenario are computed afterwards (:func:`rank_scenario`).  An algorithm that cannot apply to a
 scenario gets a cell with the reason instead of metrics.
 
@@ -15,23 +15,26 @@ Metrics per cell (units: m, m/s; Bar-Shalom, Li & Kirubarajan 2001, Sec. 5.4.2 f
 * ``rmse_position``, ``rmse_velocity``: :math:`\sqrt{\frac{1}{NK}\sum_{i,k}\lVert e_{i,k}\rVert^2}` over the
   position (velocity) components, with the delta-method standard error from the per-run time averages (the runs
   are the independent replications);
-* ``anees``: the NEES averaged over runs and steps, its standard error from the per-run averages, and the 95 %
-  band of a run-average of N consistent NEES values at one step, :math:`[\chi^2_{nN}(0.025), \chi^2_{nN}(0.975)]/N`
-  (the time average of a consistent filter's ANEES lies inside it with at least that probability: errors of one
-  run are correlated in time, so its spread is between the white value and that of one step);
-  ``steps_inside``: the fraction of steps whose run-average NEES is inside that band (about 0.95 for a consistent
-  filter); ``runs_inside``: the fraction of runs whose own time-averaged NEES lies inside
-  :math:`[\chi^2_{nK}(0.025), \chi^2_{nK}(0.975)]/K` (conservative for the NEES, whose terms are correlated in
-  time; exact for the NIS of a consistent filter, whose innovations are white);
-* ``anis``: the same for the NIS, with ``dof`` the measurement dimension (the median over steps when it varies);
+* ``anees``: the NEES averaged over runs and steps, its standard error from the per-run averages, and ``band``, the
+  95 % band of a run-average of N consistent NEES values at one step, :math:`[\chi^2_{nN}(0.025), \chi^2_{nN}(0.975)]/N`.
+  The errors of one run are correlated in time, so the time average of a consistent filter's ANEES has a spread
+  between the white value and that of one step and lies inside this band with at least 95 % probability: ``inside``
+  is a lenient test; ``steps_inside``, the fraction of steps whose run-average NEES lies inside the band, is the
+  textbook one (about 0.95 for a consistent filter);
+* ``anis``: the same for the NIS with ``dof`` the mean measurement dimension over the steps; the innovations of a
+  consistent filter are white, so its ``band`` is the exact one of the run-and-time average,
+  :math:`[\chi^2_{N\sum_k m_k}(0.025), \chi^2_{N\sum_k m_k}(0.975)]/(NK)`;
+  for both, ``runs_inside`` is the fraction of runs whose own time average lies inside
+  :math:`[\chi^2_{\sum_k m_k}(0.025), \chi^2_{\sum_k m_k}(0.975)]/K` -- about 0.95 for the NIS of a consistent
+  filter, less for its NEES (a consistent KF shows ~0.77 on the linear rung: time-correlated errors spread the
+  per-run averages beyond the white band);
 * ``diverged``: runs that diverged (excluded from every other metric) and the summary of their steps and causes;
-* ``cost_us_per_run_step``: the CPU time of the batched run (thread time of the cell's evaluation, simulation
-  excluded) per run and step, in microseconds -- a measurement, reported, never tested;
-* ``rank``: 1 + the number of algorithms of the scenario whose position error is detectably smaller (paired
-  difference of the per-run time-averaged squared position errors, on the runs valid in both, at least 3 standard
-  errors: the verdict rule of :func:`mmlib.experiment.report.claim_verdict`); ``versus_best``: the paired difference
-  to the scenario's best algorithm with its standard error and verdict ("no detectable difference" where the
-  interval covers zero).
+* ``cost_us_per_run_step``: CPU time per run and step in microseconds of one batched run of the first
+  :data:`COST_RUNS` runs without the NEES/NIS bookkeeping, after an untimed warm-up (thread time, simulation
+  excluded) -- a measurement, reported, never tested, never part of a rank or digest;
+* ``rank``: for the cells none of whose runs diverged, 1 + the number of them whose position error is detectably and
+  not negligibly smaller (:func:`rank_scenario`); ``versus_best``: the paired difference to the scenario's best
+  algorithm with its standard error and verdict ("no detectable difference" where the interval covers zero).
 """
 from __future__ import annotations
 
@@ -56,13 +59,20 @@ PAPER_SCENARIOS = {m.PAPER: m for m in (zhu2016, hu2017, liu2017, zhou2017, tsen
 SCENARIOS = tuple(PAPER_SCENARIOS) + ladder.NAMES
 ALGORITHMS = recipes.ALGORITHMS
 CHUNK_SIZE = 250
-RESULT_KEYS = ("metrics", "reason", "n_runs", "diverged", "per_run_position_mse")
+COST_RUNS = 100           #: runs of the batched run that measures a cell's cost (the same batch for every algorithm)
+RESULT_KEYS = ("metrics", "reason", "n_runs", "diverged", "per_run")
+
+
+def scenario(name: str) -> Scenario:
+    """The scenario ``name``: a paper's headline scenario (``zhu2016`` ...) or a ladder rung; ValueError listing the
+    known names otherwise.  Built once per process (its arrays are read-only)."""
+    if not isinstance(name, str):
+        raise ValueError(f"scenario: expected a scenario name, got {name!r}; known: {', '.join(SCENARIOS)}")
+    return _scenario(name)
 
 
 @functools.lru_cache(maxsize=32)
-def scenario(name: str) -> Scenario:
-    """The scenario ``name``: a paper's headline scenario (``zhu2016`` ...) or a ladder rung; ValueError listing the
-    known names otherwise.  Built once per process."""
+def _scenario(name: str) -> Scenario:
     if name in PAPER_SCENARIOS:
         return PAPER_SCENARIOS[name].scenario()
     if name in ladder.NAMES:
@@ -76,15 +86,30 @@ def seed_of(s: Scenario, seed: int | None) -> int:
 
 
 def evaluate_cell(algorithm: str, s: Scenario, mc: MonteCarlo, consistency: bool = True) -> tuple:
-    """``(RunSet, CPU seconds)`` of ``algorithm`` on ``s`` over the runs of ``mc`` (chunks of :data:`CHUNK_SIZE`; with
-    NEES and NIS when ``consistency``); :class:`recipes.NotApplicable` where it cannot apply."""
+    """``(RunSet, CPU seconds per run-step)`` of ``algorithm`` on ``s`` over the runs of ``mc`` (chunks of
+    :data:`CHUNK_SIZE`; with NEES and NIS when ``consistency``); :class:`recipes.NotApplicable` where it cannot
+    apply.  The cost is measured apart (:func:`cost_per_run_step`), so that neither the NEES/NIS bookkeeping nor the
+    first call's compilation enters it."""
     est = recipes.build(algorithm, s)
     make_batch = evaluation.with_initial_states(s.simulator(mc), {algorithm: est},
                                                 lambda e, start, runs: recipes.initial_state(e, s, start, runs, mc))
-    runs, cpu = evaluation.evaluate_with_cost({algorithm: est}, make_batch, mc, chunk_size=CHUNK_SIZE, progress=False,
-                                              measurement_models=s.measurement_models, consistency=consistency,
-                                              workers=1)
-    return runs[algorithm], cpu[algorithm]
+    runs = evaluation.evaluate({algorithm: est}, make_batch, mc, chunk_size=CHUNK_SIZE, progress=False,
+                               measurement_models=s.measurement_models, consistency=consistency, workers=1)
+    return runs[algorithm], cost_per_run_step(est, make_batch, s, min(mc.n_runs, COST_RUNS))
+
+
+def cost_per_run_step(est, make_batch, s: Scenario, n: int) -> float:
+    """Thread CPU seconds per run and step of one batched run of ``est`` over the first ``n`` runs (no NEES/NIS),
+    after an untimed one-run warm-up (compilation, caches)."""
+    import time
+    from mmlib.core.estimation import run, select_runs
+    _, z, init = make_batch(range(n))
+    state = init[est.name]
+    first = [zk[:1] for zk in z] if s.measurement_models is not None else z[:1]
+    run(est, select_runs(state, slice(0, 1)), first, keep_cov=False, measurement_models=s.measurement_models)
+    t0 = time.thread_time()
+    run(est, state, z, keep_cov=False, measurement_models=s.measurement_models)
+    return (time.thread_time() - t0) / (n * s.n_steps)
 
 
 def _mc_value(v: metrics.MCValue) -> dict:
@@ -104,44 +129,52 @@ def _per_run_squared(rs: evaluation.RunSet, idx) -> np.ndarray:
     return sq
 
 
-def consistency(stat: np.ndarray, dof, ok: np.ndarray) -> dict:
+def consistency(stat: np.ndarray, dof, ok: np.ndarray, *, white: bool) -> dict:
     """ANEES/ANIS summary of per-run, per-step chi-square statistics ``stat`` (N, K) with ``dof`` degrees of freedom
-    (an int, or (K,) per step), over the valid runs ``ok`` (see the module docstring)."""
+    (an int, or (K,) per step), over the valid runs ``ok`` (module docstring).  ``dof`` in the result is the mean
+    degrees of freedom over the steps (what a consistent filter's average has as its mean); ``white`` says the
+    statistics of one run are independent in time (the NIS of a consistent filter), which makes the band of the run-
+    and-time average exact; otherwise (the NEES) the band is that of a run-average at one step (module docstring)."""
     s = stat[ok]
     N, K = s.shape
     dof_k = np.broadcast_to(np.asarray(dof, dtype=float), (K,))
+    dof_mean = float(dof_k.mean())
+    out = {"value": None, "stderr": None, "dof": dof_mean, "band": None, "band_kind": None, "inside": None,
+           "steps_inside": None, "runs_inside": None, "n_runs": int(N)}
     if N < 2 or not np.isfinite(s).all():
-        return {"value": None, "stderr": None, "dof": float(np.median(dof_k)), "band": None, "steps_inside": None,
-                "runs_inside": None, "n_runs": int(N)}
+        return out
     per_run = s.mean(axis=1)
     value = float(per_run.mean())
-    se = float(per_run.std(ddof=1) / math.sqrt(N))
-    lo_k = stats.chi2.ppf(0.025, dof_k * N) / N
-    hi_k = stats.chi2.ppf(0.975, dof_k * N) / N
+    step_lo, step_hi = stats.chi2.ppf(0.025, dof_k * N) / N, stats.chi2.ppf(0.975, dof_k * N) / N
     step_mean = s.mean(axis=0)
-    steps_inside = float(np.mean((step_mean >= lo_k) & (step_mean <= hi_k)))
-    total = dof_k.sum()
-    lo_r, hi_r = stats.chi2.ppf([0.025, 0.975], total) / K
-    runs_inside = float(np.mean((per_run >= lo_r) & (per_run <= hi_r)))
-    dof_med = float(np.median(dof_k))
-    band = [float(stats.chi2.ppf(0.025, dof_med * N) / N), float(stats.chi2.ppf(0.975, dof_med * N) / N)]
-    return {"value": value, "stderr": se, "dof": dof_med, "band": band, "steps_inside": steps_inside,
-            "runs_inside": runs_inside, "n_runs": int(N), "inside": band[0] <= value <= band[1]}
+    total = float(dof_k.sum())
+    run_lo, run_hi = stats.chi2.ppf([0.025, 0.975], total) / K             # one run's time average
+    if white:
+        band = [float(stats.chi2.ppf(0.025, total * N) / (N * K)), float(stats.chi2.ppf(0.975, total * N) / (N * K))]
+        kind = "run-and-time average, white statistics: chi2(N sum_k m_k) / (N K)"
+    else:
+        band = [float(stats.chi2.ppf(0.025, dof_mean * N) / N), float(stats.chi2.ppf(0.975, dof_mean * N) / N)]
+        kind = "run-average at one step: chi2(n N) / N (the time average of a consistent filter lies inside it " \
+               "with at least 95 % probability)"
+    out.update(value=value, stderr=float(per_run.std(ddof=1) / math.sqrt(N)), band=band, band_kind=kind,
+               inside=band[0] <= value <= band[1],
+               steps_inside=float(np.mean((step_mean >= step_lo) & (step_mean <= step_hi))),
+               runs_inside=float(np.mean((per_run >= run_lo) & (per_run <= run_hi))))
+    return out
 
 
-def cell_metrics(rs: evaluation.RunSet, s: Scenario, cpu_seconds: float) -> dict:
-    """The metrics of one cell (module docstring) from its RunSet and the CPU time of its runs."""
+def cell_metrics(rs: evaluation.RunSet, s: Scenario, cost_seconds: float) -> dict:
+    """The metrics of one cell (module docstring) from its RunSet and its cost (CPU seconds per run-step)."""
     ok = rs.valid
-    N, K = rs.errors.shape[:2]
     out = {"diverged": int((~ok).sum()), "divergence": rs.divergence_summary(),
-           "cost_us_per_run_step": 1e6 * cpu_seconds / (N * K)}
+           "cost_us_per_run_step": 1e6 * cost_seconds}
     if ok.sum() >= 2:
         out["rmse_position"] = _mc_value(metrics.rms_with_se(np.nan_to_num(_per_run_squared(rs, s.position)), ok))
         out["rmse_velocity"] = _mc_value(metrics.rms_with_se(np.nan_to_num(_per_run_squared(rs, s.velocity)), ok))
     else:
         out["rmse_position"] = out["rmse_velocity"] = None
-    out["anees"] = consistency(rs.nees, s.dim, ok) if rs.nees is not None else None
-    out["anis"] = consistency(rs.nis, rs.nis_dof, ok) if rs.nis is not None else None
+    out["anees"] = consistency(rs.nees, s.dim, ok, white=False) if rs.nees is not None else None
+    out["anis"] = consistency(rs.nis, rs.nis_dof, ok, white=True) if rs.nis is not None else None
     return out
 
 
@@ -153,57 +186,88 @@ def cell(reading: dict, n_runs: int, seed: int) -> dict:
     algorithm = reading["algorithm"]
     reason = recipes.applicability(algorithm, s)
     if reason:
-        return {"metrics": None, "reason": reason, "n_runs": int(n_runs), "diverged": {},
-                "per_run_position_mse": None}
+        return {"metrics": None, "reason": reason, "n_runs": int(n_runs), "diverged": {}, "per_run": None}
     mc = MonteCarlo(seed_of(s, reading.get("seed")), n_runs)
-    rs, cpu = evaluate_cell(algorithm, s, mc)
-    m = cell_metrics(rs, s, cpu)
-    sq = _per_run_squared(rs, s.position)
+    rs, cost = evaluate_cell(algorithm, s, mc)
+    m = cell_metrics(rs, s, cost)
     return {"metrics": m, "reason": "", "n_runs": int(n_runs), "diverged": {algorithm: m["diverged"]},
-            "per_run_position_mse": [None if not math.isfinite(v) else float(v) for v in sq]}
+            "per_run": per_run_values(rs, s)}
+
+
+def _listed(values) -> list:
+    return [None if not math.isfinite(v) else float(v) for v in np.asarray(values, dtype=float)]
+
+
+def per_run_values(rs: evaluation.RunSet, s: Scenario) -> dict:
+    """Per run: the time-averaged squared position and velocity errors (for paired comparisons and ranks), the
+    time-averaged NEES and NIS, and the step at which it diverged (-1: never); None for a diverged run's values."""
+    ok = rs.valid
+    avg = (lambda stat: _listed(np.where(ok, np.nanmean(np.where(ok[:, None], stat, 0.0), axis=1), np.nan))
+           if stat is not None else None)
+    return {"position_mse": _listed(_per_run_squared(rs, s.position)),
+            "velocity_mse": _listed(_per_run_squared(rs, s.velocity)),
+            "nees": avg(rs.nees), "nis": avg(rs.nis), "diverged_step": [int(k) for k in rs.diverged_step]}
 
 
 def rank_scenario(cells: dict) -> dict:
-    """``{algorithm: {"rank", "versus_best"}}`` for one scenario's cells ``{algorithm: cell result}`` (those with
-    metrics and at least two valid runs), from paired differences of the per-run position errors (module docstring)."""
-    per_run = {a: np.array([np.nan if v is None else v for v in c["per_run_position_mse"]])
-               for a, c in cells.items() if c.get("per_run_position_mse") is not None}
-    per_run = {a: v for a, v in per_run.items() if np.isfinite(v).sum() >= 2}
-    if not per_run:
-        return {}
+    """``{algorithm: {"rank", "versus_best"}}`` for one scenario's cells ``{algorithm: cell result}``.
 
-    def paired(a, b):
-        ok = np.isfinite(per_run[a]) & np.isfinite(per_run[b])
-        d = metrics.mean_with_se(np.where(ok, per_run[a] - per_run[b], 0.0), ok)
-        return float(d.value), float(d.stderr)
+    Only cells none of whose runs diverged are ranked (a cell with diverged runs would be compared on fewer, easier
+    runs; its rank is None and its divergence is reported instead), so every comparison is paired over the same runs.
+    The best is the ranked algorithm with the smallest mean time-averaged squared position error; an algorithm's rank
+    is 1 + the number of ranked algorithms that are better by the one rule -- a paired difference at least 3 standard
+    errors from zero and not negligible (at least 1 % of the worse one's mean squared error;
+    :func:`mmlib.experiment.report.claim_verdict` with its reference), so that round-off between algorithms that
+    coincide (every rule on a linear model) never orders them."""
+    per_run = {a: np.array([np.nan if v is None else v for v in c["per_run"]["position_mse"]])
+               for a, c in cells.items() if c.get("per_run") is not None}
+    ranked = {a: v for a, v in per_run.items() if np.isfinite(v).all() and v.size >= 2}
+    out = {a: {"rank": None, "versus_best": None} for a in per_run if a not in ranked}
+    if not ranked:
+        return out
 
-    means = {a: float(np.nanmean(v)) for a, v in per_run.items()}
-    best = min(means, key=means.get)
-    out = {}
-    for a in per_run:
-        worse_than = 0
-        for b in per_run:
-            if b == a:
-                continue
-            d, se = paired(a, b)
-            if report.claim_verdict(d, se, +1).startswith("holds"):
-                worse_than += 1
-        d, se = paired(a, best) if a != best else (0.0, 0.0)
-        verdict = "best" if a == best else report.claim_verdict(d, se, +1)
-        verdict = {"holds": "worse", "contradicted": "better"}.get(verdict, verdict)
-        out[a] = {"rank": 1 + worse_than, "versus_best": {"algorithm": best, "difference_m2": d, "stderr_m2": se,
-                                                          "verdict": verdict}}
+    def worse(a, b) -> str:
+        """The part verdict of "a is worse than b" (paired, reference a's mean squared error)."""
+        d = metrics.mean_with_se(ranked[a] - ranked[b])
+        return report.claim_verdict(float(d.value), float(d.stderr), +1, reference=float(ranked[a].mean())), d
+
+    best = min(ranked, key=lambda a: float(ranked[a].mean()))
+    for a in ranked:
+        rank = 1 + sum(worse(a, b)[0] == "holds" for b in ranked if b != a)
+        if a == best:
+            out[a] = {"rank": rank, "versus_best": {"algorithm": best, "difference_m2": 0.0, "stderr_m2": 0.0,
+                                                    "verdict": "best"}}
+            continue
+        verdict, d = worse(a, best)
+        head, _, qualifier = verdict.partition(", ")
+        verdict = {"holds": "worse", "contradicted": "better"}.get(head, head) + (f", {qualifier}" if qualifier else "")
+        out[a] = {"rank": rank, "versus_best": {"algorithm": best, "difference_m2": float(d.value),
+                                                "stderr_m2": float(d.stderr), "verdict": verdict}}
     return out
 
 
 class ArenaResult(NamedTuple):
     """What :func:`run_arena` returns: ``cells`` (one document per (algorithm, scenario), scenario-major, with metrics
-    and ranks or the reason it does not apply) and ``per_run`` ({(scenario, algorithm): (N,) per-run time-averaged
-    squared position error, NaN for diverged runs}) for paired comparisons."""
+    and ranks or the reason it does not apply), ``per_run`` ({(scenario, algorithm): (N,) per-run time-averaged
+    squared position error, NaN for diverged runs}) for paired comparisons, and ``details`` (every per-run number of
+    :func:`per_run_values`)."""
 
     cells: list
     per_run: dict
     n_runs: int
+    details: dict = {}        #: {(scenario, algorithm): per_run_values(...)}: every per-run number (for the digest)
+
+
+def _names(values, name: str) -> list:
+    """A non-empty list of distinct name strings (a single string is refused: it is not a list of names)."""
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+        raise ValueError(f"{name}: expected a list of names, got {values!r}")
+    values = list(values)
+    if not values or not all(isinstance(v, str) for v in values):
+        raise ValueError(f"{name}: expected a non-empty list of name strings, got {values!r}")
+    if len(set(values)) != len(values):
+        raise ValueError(f"{name}: repeated names in {values}")
+    return values
 
 
 def run_arena(n_runs: int, *, scenarios=SCENARIOS, algorithms=ALGORITHMS, seed: int | None = None,
@@ -212,22 +276,28 @@ def run_arena(n_runs: int, *, scenarios=SCENARIOS, algorithms=ALGORITHMS, seed: 
     """Every cell of ``algorithms`` x ``scenarios`` at ``n_runs`` runs (integer >= 2), in parallel and cached
     (:func:`mmlib.experiment.grid.run_grid`), with the ranks of each scenario.  Unknown names are a ValueError listing
     the known ones.  ``seed`` overrides every scenario's root seed."""
-    scenarios = list(scenarios)
+    scenarios = _names(scenarios, "scenarios")
+    algorithms = _names(algorithms, "algorithms")
     try:
         algorithms = [recipes.recipe(a).name for a in algorithms]
     except ValueError as exc:
         raise ValueError("algorithms: " + str(exc).removeprefix("algorithm: ")) from None
+    if len(set(algorithms)) != len(algorithms):
+        raise ValueError(f"algorithms: names the same algorithm twice (aliases resolved): {algorithms}")
     for name in scenarios:
         if name not in SCENARIOS:
             raise ValueError(f"scenarios: unknown scenario {name!r}; known: {', '.join(SCENARIOS)}")
     if isinstance(n_runs, bool) or not isinstance(n_runs, (int, np.integer)) or n_runs < 2:
         raise ValueError(f"n_runs: expected an integer >= 2 (a standard error needs two runs), got {n_runs!r}")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
+        raise ValueError(f"seed: expected None or an integer >= 0, got {seed!r}")
     readings = [{"scenario": s, "algorithm": a, "seed": seed} for s in scenarios for a in algorithms]
-    results = run_grid(cell, readings, paper=PAPER, algorithms=algorithms, n_runs=int(n_runs),
+    # the algorithm is part of each reading, so the cache key needs no list of them: a subset reuses the cells
+    results = run_grid(cell, readings, paper=PAPER, algorithms=[], n_runs=int(n_runs),
                        seed=ladder.ROOT_SEED if seed is None else int(seed), workers=workers, executor=executor,
                        progress=_every(len(readings), progress), use_cache=use_cache, cache_dir=cache_dir,
                        label="arena", result_keys=RESULT_KEYS, unit="cell")
-    cells, per_run = [], {}
+    cells, per_run, details = [], {}, {}
     for s in scenarios:
         here = {r["algorithm"]: res for r, res in zip(readings, results) if r["scenario"] == s}
         ranks = rank_scenario({a: c for a, c in here.items() if c["metrics"] is not None})
@@ -239,9 +309,10 @@ def run_arena(n_runs: int, *, scenarios=SCENARIOS, algorithms=ALGORITHMS, seed: 
             else:
                 doc.update(c["metrics"])
                 doc.update(ranks.get(a, {"rank": None, "versus_best": None}))
-                per_run[(s, a)] = np.array([np.nan if v is None else v for v in c["per_run_position_mse"]])
+                per_run[(s, a)] = np.array([np.nan if v is None else v for v in c["per_run"]["position_mse"]])
+                details[(s, a)] = c["per_run"]
             cells.append(doc)
-    return ArenaResult(cells, per_run, int(n_runs))
+    return ArenaResult(cells, per_run, int(n_runs), details)
 
 
 def _every(total: int, progress, lines: int = 20):
@@ -287,31 +358,36 @@ IDEAS = (
 
 def compare(result: ArenaResult, a: str, b: str, scenario_name: str) -> dict | None:
     """The paired comparison of ``a`` against ``b`` on one scenario: mean over the runs valid in both of the
-    difference of their time-averaged squared position errors (m^2) with its standard error, relative to b's MSE,
-    and the verdict of :func:`mmlib.experiment.report.claim_verdict` read as "helps" (a smaller), "hurts" (a larger)
-    or "no detectable difference"; "diverges" when a diverged in every run or in more runs than b.  None where
-    either does not apply."""
+    difference of their time-averaged squared position errors (m^2) with its standard error and relative to b's MSE;
+    ``verdict``, the part verdict of :func:`mmlib.experiment.report.claim_verdict` read as "helps" (a smaller),
+    "hurts" (a larger) or "no detectable difference" (with ", but negligible (< 1 %)" where it says so), or
+    "diverges" when a diverged in detectably more runs than b (the difference of the counts at least 3 standard
+    errors, sqrt(d_a + d_b) for Poisson counts); and ``claim``, the verdict of the claim "a is more accurate than b" by
+    the one rule (:func:`mmlib.experiment.report.paired_claim`; contradicted when a diverges detectably more).
+    None where either does not apply."""
     if (scenario_name, a) not in result.per_run or (scenario_name, b) not in result.per_run:
         return None
     va, vb = result.per_run[(scenario_name, a)], result.per_run[(scenario_name, b)]
     da, db = int((~np.isfinite(va)).sum()), int((~np.isfinite(vb)).sum())
     ok = np.isfinite(va) & np.isfinite(vb)
-    out = {"scenario": scenario_name, "a": a, "b": b, "diverged_a": da, "diverged_b": db, "n_runs": int(ok.sum())}
+    out = {"scenario": scenario_name, "a": a, "b": b, "diverged_a": da, "diverged_b": db, "n_runs": int(ok.sum()),
+           "difference_m2": None, "stderr_m2": None, "relative": None}
+    diverges = f"{report.CONTRADICTED}: {a} diverged in {da} runs, {b} in {db}"
+    more = da - db >= report.SIGMA_FACTOR * math.sqrt(da + db) and da > db
     if ok.sum() < 2:
-        out.update(difference_m2=None, stderr_m2=None, relative=None,
-                   verdict="diverges" if da > db else "not comparable")
+        out.update(verdict="diverges" if more else "not comparable",
+                   claim=diverges if more else f"{report.NOT_ASSESSABLE}: fewer than two runs valid in both")
         return out
     d = metrics.mean_with_se(np.where(ok, va - vb, 0.0), ok)
     ref = float(vb[ok].mean())
-    v = report.claim_verdict(float(d.value), float(d.stderr), -1, reference=ref)
-    verdict = ("helps" if v.startswith("holds") else "hurts" if v.startswith("contradicted")
-               else "no detectable difference")
-    if v.endswith("negligible (< 1 %)"):
-        verdict += ", but negligible (< 1 %)"
-    if da > db:
-        verdict = "diverges"
+    part = report.claim_verdict(float(d.value), float(d.stderr), -1, reference=ref)
+    head, _, qualifier = part.partition(", ")
+    verdict = {"holds": "helps", "contradicted": "hurts"}.get(head, head) + (f", {qualifier}" if qualifier else "")
+    claim = report.paired_claim(float(d.value), float(d.stderr), -1, reference=ref)
+    if more:
+        verdict, claim = "diverges", diverges
     out.update(difference_m2=float(d.value), stderr_m2=float(d.stderr), relative=float(d.value) / ref if ref else None,
-               verdict=verdict)
+               verdict=verdict, claim=claim)
     return out
 
 
@@ -327,32 +403,37 @@ def ideas(result: ArenaResult, scenarios=None) -> list:
 
 
 def digest(result: ArenaResult, n_runs: int) -> dict:
-    """SHA-256 of every applicable cell's per-run position errors over the first ``n_runs`` runs (float64 bytes,
-    NaN canonical), by scenario and algorithm: the same for a study of ``n_runs`` runs and of any larger one (the runs'
+    """SHA-256 of every applicable cell's per-run numbers over the first ``n_runs`` runs -- position and velocity
+    squared errors, NEES, NIS (time averages) and divergence steps (:func:`per_run_values`; float64 bytes, NaN
+    canonical), by scenario and algorithm: the same for a study of ``n_runs`` runs and of any larger one (the runs'
     streams are fixed and a run's numbers do not depend on its batch), so the smoke profile recomputes the committed
-    full study's digest exactly (``tests/tolerance/test_arena.py``)."""
+    full study's digest exactly (``tests/tolerance/test_arena_results.py``)."""
     import hashlib
     from mmlib.core.linalg import kernel
-    h = hashlib.sha256(b"mmlib-arena-digest-1")
-    for (s, a) in sorted(result.per_run):
-        v = np.ascontiguousarray(result.per_run[(s, a)][:n_runs], dtype=np.float64)
-        v = np.where(np.isnan(v), np.nan, v)
-        h.update(f"\0{s}\0{a}\0".encode())
-        h.update(v.tobytes())
-    return {"n_runs": int(n_runs), "sha256": h.hexdigest(), "cells": len(result.per_run), "kernel": kernel()}
+    h = hashlib.sha256(b"mmlib-arena-digest-2")
+    for key in sorted(result.details):
+        h.update(f"\0{key[0]}\0{key[1]}".encode())
+        for field in ("position_mse", "velocity_mse", "nees", "nis", "diverged_step"):
+            values = result.details[key][field]
+            if values is None:
+                continue
+            v = np.array([np.nan if x is None else x for x in values[:n_runs]], dtype=np.float64)
+            h.update(f"\0{field}\0".encode())
+            h.update(np.where(np.isnan(v), np.nan, v).tobytes())
+    return {"n_runs": int(n_runs), "sha256": h.hexdigest(), "cells": len(result.details), "kernel": kernel()}
 
 
-def scenario_table(names=SCENARIOS, n_index_runs: int = 50) -> list:
+def scenario_table(names=SCENARIOS, n_index_runs: int = 50, max_run_steps: int = 18_000) -> list:
     """One row per scenario: name, title, source, steps, state and measurement dimensions, its properties and its
-    computed nonlinearity index (:func:`mmlib.arena.ladder.nonlinearity_index`; 10 runs for the 1800-epoch GNSS
-    scenario)."""
+    computed nonlinearity index (:func:`mmlib.arena.ladder.nonlinearity_index`) over ``n_index_runs`` runs, or fewer
+    where they would exceed ``max_run_steps`` run-steps (10 runs for the 1800-epoch GNSS scenario)."""
     rows = []
     for name in names:
         s = scenario(name)
-        runs = 10 if s.n_steps > 500 else n_index_runs
+        runs = max(2, min(n_index_runs, max_run_steps // s.n_steps))
         rows.append({"scenario": name, "title": s.title, "source": s.source, "n_steps": s.n_steps, "dim": s.dim,
                      "measurement_dim": s.measurement_dim, "nonlinearity_index": ladder.nonlinearity_index(s, runs),
-                     "properties": s.properties, "root_seed": s.root_seed})
+                     "properties": dict(s.properties), "root_seed": s.root_seed})
     return rows
 
 
@@ -368,15 +449,11 @@ PAPER_CLAIMS = (
     ("tseng2011", "FUZZY-IMMUKF is more accurate than IMMUKF, and IMMUKF than the UKF",
      (("FUZZY-IMMUKF", "IMMUKF"), ("IMMUKF", "UKF"))),
 )
-#: a comparison's verdict read as the verdict of "A is more accurate than B" (report.CLAIM_VERDICTS vocabulary)
-CLAIM_OF_COMPARISON = {"helps": report.HOLDS, "hurts": report.CONTRADICTED, "diverges": report.CONTRADICTED,
-                       "no detectable difference": report.NOT_SUPPORTED, "not comparable": report.NOT_ASSESSABLE}
 
 
 def paper_claims(result: ArenaResult) -> list:
-    """Each paper's accuracy claims (:data:`PAPER_CLAIMS`) across the arena: per pair, the claim's verdict on every
-    scenario where both algorithms apply (helps -> holds, hurts or diverges -> contradicted, no detectable difference
-    -> not supported)."""
+    """Each paper's accuracy claims (:data:`PAPER_CLAIMS`) across the arena: per pair, the verdict of "A is more
+    accurate than B" on every scenario where both algorithms apply (``compare(...)["claim"]``, the one rule)."""
     names = list(dict.fromkeys(c["scenario"] for c in result.cells))
     out = []
     for paper, claim, pairs in PAPER_CLAIMS:
@@ -386,7 +463,7 @@ def paper_claims(result: ArenaResult) -> list:
             for s in names:
                 c = compare(result, a, b, s)
                 if c is not None:
-                    verdicts[s] = CLAIM_OF_COMPARISON[c["verdict"].split(",")[0]]
+                    verdicts[s] = c["claim"]
             parts.append({"a": a, "b": b, "verdicts": verdicts})
         out.append({"paper": paper, "claim": claim, "pairs": parts})
     return out
@@ -400,8 +477,7 @@ def idea_summary(idea: dict) -> dict:
     """Counts of one idea's verdicts over the scenarios where it applies, and the scenarios of each verdict."""
     groups: dict = {}
     for c in idea["comparisons"]:
-        key = c["verdict"].split(",")[0]
-        groups.setdefault(key, []).append(c["scenario"])
+        groups.setdefault(c["verdict"], []).append(c["scenario"])
     return {"idea": idea["idea"], "paper": idea["paper"], "a": idea["a"], "b": idea["b"],
             "n_scenarios": len(idea["comparisons"]), "by_verdict": groups}
 
@@ -421,13 +497,16 @@ def findings(result: ArenaResult, scenario_rows: list) -> list:
         out.append(f"- **{s['idea']}** ({s['a']} against {s['b']}, {s['paper']}): over the {s['n_scenarios']} "
                    f"scenarios where both apply, " + "; ".join(parts) + ".")
     metric_cells = [c for c in result.cells if "reason" not in c]
-    consistent = {}
-    for c in metric_cells:
-        a = c.get("anees") or {}
-        consistent.setdefault(c["algorithm"], []).append(bool(a.get("inside")))
-    ranked = sorted(consistent, key=lambda a: -sum(consistent[a]))
-    out.append("- **Consistency** (ANEES inside its 95 % band): " + "; ".join(
-        f"{a} {sum(v)}/{len(v)}" for a, v in ((a, consistent[a]) for a in ranked)) + " scenarios.")
+    for stat, what in (("anis", "ANIS inside its exact 95 % band (white innovations)"),
+                       ("anees", "ANEES inside its 95 % one-step band (a lenient test: module docstring)")):
+        judged = {}
+        for c in metric_cells:
+            m = c.get(stat) or {}
+            if m.get("inside") is not None:
+                judged.setdefault(c["algorithm"], []).append(bool(m["inside"]))
+        order = sorted(judged, key=lambda a: (-sum(judged[a]), a))
+        out.append(f"- **Consistency: {what}**, in the scenarios where the algorithm has a value: "
+                   + "; ".join(f"{a} {sum(judged[a])}/{len(judged[a])}" for a in order) + ".")
     diverging = {}
     for c in metric_cells:
         if c["diverged"]:
@@ -451,7 +530,7 @@ def findings(result: ArenaResult, scenario_rows: list) -> list:
         for pair in pc["pairs"]:
             groups: dict = {}
             for s, v in pair["verdicts"].items():
-                groups.setdefault(v, []).append(s)
+                groups.setdefault(report.claim_category(v), []).append(s)
             counts = "; ".join(f"{v} in {len(ss)} ({_scenario_list(ss)})" for v, ss in sorted(groups.items()))
             parts.append(f"{pair['a']} against {pair['b']}: " + (counts or "no scenario where both apply"))
         out.append(f"- **{pc['paper']}'s claim** *{pc['claim']}*, across the arena: " + " | ".join(parts) + ".")

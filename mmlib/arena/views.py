@@ -235,7 +235,8 @@ def rmse_heatmap(cells, scenarios=None, ax=None):
     Drawn: rows = scenarios, columns = algorithms (order of ``cells``); the colour is RMSE / (smallest RMSE of the
     row) -- a dimensionless ratio >= 1 -- on a log scale from 1 to 10 (larger ratios clipped to the top colour);
     each cell is annotated with the ratio to two significant digits.  The best of a row is the smallest RMSE
-    among its cells with a value (as :func:`mmlib.arena.study.rank_scenario`'s best, which uses the same runs); a
+    among its cells none of whose runs diverged (the cells :func:`mmlib.arena.study.rank_scenario` ranks, all on the
+    same runs), so a ratio below 1 is possible only for a cell with diverged runs (its RMSE is over fewer runs); a
     cell some of whose runs diverged shows the RMSE of the others, with a red border and "† n".  Cells whose
     algorithm does not apply are grey with "n/a"; cells without an RMSE (every run, or all but one, diverged) are
     red with "div.".  Returns the Figure.
@@ -260,7 +261,10 @@ def rmse_heatmap(cells, scenarios=None, ax=None):
                 kinds[i][j] = "value"
                 data[i, j] = float(r["value"])
         row = data[i]
-        if np.isfinite(row).any():
+        clean = [j for j in range(n_c) if kinds[i][j] == "value" and not diverged[i][j]]
+        if clean:                                 # the best among the cells without diverged runs (ranked ones)
+            data[i] = row / np.min(row[clean])
+        elif np.isfinite(row).any():
             data[i] = row / np.nanmin(row)
     labels = [[_sig2(data[i, j]) if kinds[i][j] == "value" else "" for j in range(n_c)] for i in range(n_r)]
     fig, ax, own = _new_axes(ax, n_r, n_c)

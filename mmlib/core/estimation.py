@@ -524,16 +524,15 @@ def normalised_square(v, S) -> np.ndarray:
         vo, So = v[ok], S[ok]
         try:
             sol = np.linalg.solve(So, vo[..., None])[..., 0]
-            out[ok] = np.einsum("...i,...i->...", vo, sol)
-        except np.linalg.LinAlgError:        # one singular matrix: solve them one by one, NaN for the singular
-            vals = np.full(vo.shape[0], np.nan)
+        except np.linalg.LinAlgError:        # a singular matrix: solve them one by one, NaN for the singular ones
+            sol = np.full(vo.shape, np.nan)
             for i in range(vo.shape[0]):
                 try:
-                    vals[i] = vo[i] @ np.linalg.solve(So[i], vo[i])
+                    sol[i] = np.linalg.solve(So[i], vo[i])
                 except np.linalg.LinAlgError:
                     pass
-            out[ok] = vals
-    return out
+        out[ok] = (vo * sol).sum(axis=-1)    # the same reduction on either path: a run's bits do not depend on
+    return out                               # whether another run of its batch is singular
 
 
 def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bool = True,
@@ -600,6 +599,9 @@ def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bo
         if consistency:
             nis.append(normalised_square(est.innovation, est.innovation_cov))
             if x_true is not None:
+                if x_true.shape[-1] != est.mean.shape[-1]:
+                    raise ValueError(f"truth: state dimension {x_true.shape[-1]}, but the estimator estimates "
+                                     f"{est.mean.shape[-1]}")
                 nees.append(normalised_square(est.mean - x_true[:, k], est.cov))
         if est.mode_probabilities is not None:
             mus.append(est.mode_probabilities)

@@ -8,7 +8,8 @@ stated).  The library checks an object's members at construction (:func:`require
 Shapes: ``B`` runs (the batch axis, always first), ``r`` IMM modes, ``p`` sigma points, ``n`` the state and ``m``
 the measurement dimension.  Units: SI inside the library (m, s, rad, m/s, rad/s).
 
-* :class:`Dynamics` -- :math:`x_k = f(x_{k-1}) + w_k`, :math:`w_k \sim N(0, Q)`;
+* :class:`Dynamics` -- :math:`x_k = f(x_{k-1}) + w_k`, :math:`w_k \sim N(0, Q)` (:class:`SimulatedDynamics` when it
+  also drives a simulated truth);
 * :class:`MeasurementModel` -- :math:`z_k = h(x_k) + v_k`, :math:`v_k \sim N(0, R)`, with residuals and means
   of measurements that know which components are angles (bearings are wrapped to (-pi, pi]);
 * :class:`Filter` -- a mode-matched Gaussian filter: ``init``, ``predict`` (time update through a Dynamics)
@@ -43,6 +44,16 @@ class Dynamics(Protocol):
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         """df/dx at means (B, n) or (B, r, n); returns (..., n, n)."""
+
+
+@runtime_checkable
+class SimulatedDynamics(Dynamics, Protocol):
+    """A Dynamics that can also generate a truth (:func:`mmlib.experiment.simulate.simulate`): it gives a square root
+    of its process noise."""
+
+    @property
+    def noise_factor(self) -> np.ndarray:
+        """A factor G (n, k) with G G^T = Q, used to draw the process noise."""
 
 
 @runtime_checkable

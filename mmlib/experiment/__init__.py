@@ -1,9 +1,11 @@
-"""The experiment layer (paper-agnostic): Monte Carlo evaluation on common random numbers
-(``evaluation``), reading spaces (``readings``), the grid runner with its cache (``grid``),
-multiverse summaries (``multiverse``) and their tables and figures (``views``).
+"""The experiment layer (paper-agnostic): Monte Carlo streams (``montecarlo``), truth simulation (``simulate``),
+scenarios as data (``scenario``), metrics with standard errors (``metrics``), Monte Carlo evaluation on common random
+numbers (``evaluation``), reading spaces (``readings``), the grid runner with its cache (``grid``) and executors
+(``executors``), multiverse summaries (``multiverse``), the one verdict rule and the results contract (``report``)
+and their tables and figures (``views``).
 
-It depends on the estimation core (filters, IMM, models, simulation, metrics) and on
-``mmlib.experiment.report`` (the one verdict rule); the paper set-ups in ``mmlib.papers`` depend on it.
+It depends only on the estimation core (``mmlib.core``); the paper set-ups (``mmlib.papers``) and the arena
+(``mmlib.arena``) depend on it.
 """
 from mmlib.experiment import evaluation, grid, multiverse, readings
 from mmlib.experiment.grid import run_grid

@@ -19,6 +19,7 @@ What a scenario provides (SI units throughout: m, s, rad, m/s; a paper that prin
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any, Callable
 
 import numpy as np
@@ -101,6 +102,18 @@ class Scenario:
             if not idx or any(not 0 <= i < n for i in idx):
                 raise ValueError(f"{name}: expected state indices in 0..{n - 1}, got {getattr(self, name)!r}")
             object.__setattr__(self, name, idx)
+        self._freeze()
+
+    def _freeze(self):
+        """Read-only arrays and mappings: a scenario is shared (cached per process) by every cell that uses it."""
+        for name in ("P0", "transition", "mode_probabilities"):
+            value = getattr(self, name)
+            if isinstance(value, np.ndarray):
+                value = value.copy()
+                value.setflags(write=False)
+                object.__setattr__(self, name, value)
+        for name in ("properties", "notes"):
+            object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
 
     @property
     def dim(self) -> int:

@@ -18,6 +18,9 @@ from mmlib.core._validate import (as_float_array, check_applies, check_bool, che
                                   check_positive_int, check_scalar)
 from mmlib.core.linalg import matmul_rows
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
+from mmlib.core.protocols import SimulatedDynamics, members
+
+SIMULATED_DYNAMICS_METHODS = members(SimulatedDynamics)
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,7 +40,8 @@ class ManeuverSchedule:
         if isinstance(self.models, (str, bytes)) or not hasattr(self.models, "__len__") or not len(self.models):
             raise ValueError(f"models: expected a non-empty sequence of dynamics models, got {self.models!r}")
         for j, model in enumerate(self.models):
-            check_has(model, f"models[{j}]", "a dynamics model", ("transition", "noise_factor", "dim"))
+            check_has(model, f"models[{j}]", "a dynamics model that drives a truth (protocols.SimulatedDynamics)",
+                      SIMULATED_DYNAMICS_METHODS)
         r = len(self.models)
         n = self.models[0].dim
         if any(model.dim != n for model in self.models):

@@ -161,6 +161,19 @@ DEVIATIONS = [
 ]
 
 
+def cdkf_filter(setup: Setup):
+    """The paper's central-difference KF (Eqs. 10-17) in the set-up's form (H-11)."""
+    return SigmaPointFilter(CentralDifference(form=setup.cd_form), name="CDKF")
+
+
+def cdkf_obs_filter(setup: Setup, base=None):
+    """Observation bootstrapping (Sec. 2.2, Eqs. 18-23) over ``base`` (default: :func:`cdkf_filter`) with the set-up's
+    N, variance factor, likelihood and fused covariance (H-6, H-7, H-8)."""
+    return ObservationBootstrap(cdkf_filter(setup) if base is None else base, n_boot=setup.n_boot,
+                                variance_factor=setup.boot_variance_factor, likelihood=setup.obs_likelihood,
+                                covariance=setup.obs_covariance, name="CDKF-OBS")
+
+
 def build(setup: Setup):
     """Truth schedule (modes with the truth's ``q``), radar, and the five IMM estimators (mode
     models with the filters' ``q``; Eq. 7)."""
@@ -172,15 +185,12 @@ def build(setup: Setup):
     a, b = setup.mode2_steps
     schedule = ManeuverSchedule(truth_modes, [((a - 1) * T, b * T, 1)], 0, T, setup.n_steps)
     Tm = np.array(setup.transition)
-    cdkf = SigmaPointFilter(CentralDifference(form=setup.cd_form), name="CDKF")
+    cdkf = cdkf_filter(setup)
     filters = {"IMMUKF": SigmaPointFilter(Unscented(*setup.ukf), name="UKF"),
                "IMMEKF": ExtendedKalmanFilter(name="EKF"),
                "IMMCKF": SigmaPointFilter(Cubature(), name="CKF"),
                "IMMCDKF": cdkf,
-               "IMMCDKF-OBS": ObservationBootstrap(cdkf, n_boot=setup.n_boot,
-                                                   variance_factor=setup.boot_variance_factor,
-                                                   likelihood=setup.obs_likelihood,
-                                                   covariance=setup.obs_covariance, name="CDKF-OBS")}
+               "IMMCDKF-OBS": cdkf_obs_filter(setup, cdkf)}
     estimators = {name: IMM(f, modes, radar, Tm, name=name) for name, f in filters.items()}
     return schedule, radar, estimators
 

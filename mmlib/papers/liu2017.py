@@ -314,22 +314,28 @@ def setups(reading) -> dict:
     return {case: replace(BASE_SETUPS[case], **changes) for case in CASES}
 
 
+def strong_tracking(base, setup: Setup, name: str):
+    """The strong-tracking layer (Eqs. 20-36) over ``base`` with the set-up's softening factor beta and forgetting
+    factor rho; over an EKF the Jacobian form of the fading factor (the STF of Zhou & Frank)."""
+    form = {"form": "jacobian"} if isinstance(base, ExtendedKalmanFilter) else {}
+    return StrongTracking(base, beta=setup.beta, rho=setup.rho, name=name, **form)
+
+
 def build(setup: Setup):
     """Dynamics, radar, schedule and the five filters of Table 1 (plus the plain CKF and UKF)."""
     ca = models.constant_acceleration(setup.T, setup.q_sd ** 2)
     radar = models.range_bearing(np.diag([setup.sigma_r ** 2, setup.sigma_theta ** 2]), state_dim=6)
     schedule = ManeuverSchedule([ca], [], 0, setup.T, setup.n_steps,
                                 jumps=[(setup.onset, (2, 5), setup.maneuver_acceleration)])
-    st = dict(beta=setup.beta, rho=setup.rho)
     ssr = SigmaPointFilter(SphericalSimplexRadial(), name="SSRCKF")
     ckf = SigmaPointFilter(Cubature(), name="CKF")
     ukf = SigmaPointFilter(Unscented(*setup.ukf), name="UKF")
     filters = {
         "SSRCKF": ssr,
-        "STF": StrongTracking(ExtendedKalmanFilter(), form="jacobian", name="STF", **st),
-        "STUKF": StrongTracking(ukf, name="STUKF", **st),
-        "STCKF": StrongTracking(ckf, name="STCKF", **st),
-        "STSSRCKF": StrongTracking(ssr, name="STSSRCKF", **st),
+        "STF": strong_tracking(ExtendedKalmanFilter(), setup, "STF"),
+        "STUKF": strong_tracking(ukf, setup, "STUKF"),
+        "STCKF": strong_tracking(ckf, setup, "STCKF"),
+        "STSSRCKF": strong_tracking(ssr, setup, "STSSRCKF"),
         "CKF": ckf,      # not in the paper's tables: for the claim "SSR is more accurate than CKF"
         "UKF": ukf,
     }

@@ -281,6 +281,20 @@ def published_mse_difference(table: dict, a: str, b: str) -> float:
     return (ma * ma + sa * sa) - (mb * mb + sb * sb)
 
 
+def naukf_filter(base, setup: Setup, inflate_only: bool | None = None):
+    """NAUKF (Eqs. 27-39) over ``base`` with the set-up's window, psi and Z-12 reading (``inflate_only`` overrides
+    the reading)."""
+    return InnovationAdaptive(base, window=setup.window, psi=setup.psi,
+                              inflate_only=setup.inflate_only if inflate_only is None else inflate_only, name="NAUKF")
+
+
+def aukf_filter(base, window: int, inflate_only: bool):
+    """The classic innovation-based adaptive UKF that Table 4 compares with NAUKF (Mohamed & Schwarz 1999: no adaptive
+    gene, the window of innovations before the current one)."""
+    return InnovationAdaptive(base, window=window, zeta=False, include_current=False, inflate_only=inflate_only,
+                              name="AUKF")
+
+
 def build(setup: Setup):
     """Truth schedule (printed q), radar, and the estimators (filters' models with q * filter_q_scale)."""
     T = setup.T
@@ -297,8 +311,7 @@ def build(setup: Setup):
                                 setup.n_steps)
     Tm = np.array(setup.transition)
     ukf = SigmaPointFilter(Unscented(*setup.ukf), name="UKF")
-    naukf = InnovationAdaptive(ukf, window=setup.window, psi=setup.psi, inflate_only=setup.inflate_only,
-                               name="NAUKF")
+    naukf = naukf_filter(ukf, setup)
     estimators = {
         "IMM-UKF": IMM(ukf, modes, radar, Tm, mixing=MomentMixing(), name="IMM-UKF"),
         "IMM-NAUKF": IMM(naukf, modes, radar, Tm, mixing=MomentMixing(), name="IMM-NAUKF"),
@@ -722,8 +735,7 @@ def gps_analogue(an: GPSAnalogue, mc: MonteCarlo):
     schedule, _, _ = build(an.base)
     ukf = SigmaPointFilter(Unscented(*an.base.ukf), name="UKF")
     filters = {"EKF": ExtendedKalmanFilter(name="EKF"), "CKF": SigmaPointFilter(Cubature(), name="CKF"), "UKF": ukf,
-               "AUKF": InnovationAdaptive(ukf, window=an.window, zeta=False, include_current=False,
-                                          inflate_only=an.inflate_only, name="AUKF"),
+               "AUKF": aukf_filter(ukf, an.window, an.inflate_only),
                "NAUKF": InnovationAdaptive(ukf, window=an.window, inflate_only=an.inflate_only, name="NAUKF")}
     estimators = {k: SingleModel(f, cv, gps, name=k) for k, f in filters.items()}
     P0 = np.diag(np.square(an.base.P0_sd))

@@ -48,6 +48,12 @@ def test_arena_digest_matches_committed(docs):
                                         "with 'make figures PAPER=arena'")
 
 
+def test_arena_scenarios_and_their_index_are_the_same(docs):
+    """The nonlinearity index is computed from the same first runs in either profile: equal exactly."""
+    smoke, full = docs
+    assert smoke["scenarios"] == full["scenarios"]
+
+
 def test_arena_applicability_is_the_same(docs):
     smoke, full = docs
     key = lambda doc: {(c["scenario"], c["algorithm"]): c.get("reason") for c in doc["cells"]}  # noqa: E731
@@ -60,7 +66,7 @@ def test_arena_smoke_within_monte_carlo_error_of_full(docs):
     bad, compared = [], 0
     for c in smoke["cells"]:
         f = committed[(c["scenario"], c["algorithm"])]
-        for q in ("rmse_position", "rmse_velocity"):
+        for q in ("rmse_position", "rmse_velocity", "anees", "anis"):
             a, b = c.get(q), f.get(q)
             if not a or not b or a["value"] is None or b["value"] is None or a["stderr"] is None:
                 continue
