@@ -28,8 +28,10 @@
 # and y together, for instance, where the papers tabulate each axis — so its numbers are not the papers' table cells.
 #
 # **Verdicts** come from the one rule of `mmlib/experiment/report.py`: a paired difference is detectable when it is
-# at least 3 standard errors from zero; otherwise *no detectable difference*. Ranks: 1 + the number of algorithms of
-# the scenario with a detectably smaller position error. Diverged runs are counted and excluded, never patched.
+# at least 3 standard errors from zero (and *negligible* below 1 % of the reference mean squared error); otherwise *no
+# detectable difference*. Ranks, among the cells of a scenario none of whose runs diverged: 1 + the number of them
+# with a detectably and not negligibly smaller position error. Diverged runs are counted and excluded, never patched;
+# a cell with diverged runs is not ranked.
 
 # %% tags=["parameters"]
 PROFILE = "full"          # "full" (1000 runs per cell) or "smoke" (20 runs per cell, a prefix of the full runs)
@@ -176,7 +178,8 @@ claims_in_arena = study.paper_claims(result)
 display(Markdown(markdown_table(
     ["paper", "claim", "pair", "holds", "contradicted", "not supported", "not assessable"],
     [[pc["paper"], pc["claim"], f"{pair['a']} vs {pair['b']}",
-      *[", ".join(s for s, v in pair["verdicts"].items() if report.claim_category(v) == verdict) or "--"
+      *[", ".join(s + (" (negligible)" if "negligible" in v else "") for s, v in pair["verdicts"].items()
+                  if report.claim_category(v) == verdict) or "--"
         for verdict in (report.HOLDS, report.CONTRADICTED, report.NOT_SUPPORTED, report.NOT_ASSESSABLE)]]
      for pc in claims_in_arena for pair in pc["pairs"]])))
 

@@ -494,3 +494,61 @@ def test_tiny_arena_serial_and_parallel_give_the_same_bits(tmp_path):
     assert strip(parallel.cells) == strip(cells)            # exact equality of every float
     assert serial.per_run.keys() == parallel.per_run.keys()
     assert all(np.array_equal(serial.per_run[k], parallel.per_run[k], equal_nan=True) for k in serial.per_run)
+
+
+# ===================================================================== 8. comparisons, claims, digest, cost
+def _result(**per_run):
+    """An ArenaResult over one scenario "s" from per-run position MSE vectors (NaN: diverged)."""
+    pr = {("s", a): np.asarray(v, dtype=float) for a, v in per_run.items()}
+    cells = [{"scenario": "s", "algorithm": a} for a in per_run]
+    return study.ArenaResult(cells, pr, len(next(iter(pr.values()))), {})
+
+
+def test_compare_and_claims_follow_the_one_rule():
+    rng = np.random.default_rng(8)
+    b = 100.0 + rng.normal(0, 10, 200)
+    helps = b - 10.0 + rng.normal(0, 0.5, 200)          # 10 % smaller, ~280 standard errors
+    tiny = b * (1 - 1e-3)                                 # 0.1 % smaller: detectable, negligible
+    res = _result(B=b, A=helps, T=tiny)
+    c = study.compare(res, "A", "B", "s")
+    assert c["verdict"] == "helps" and c["claim"] == "holds"
+    t = study.compare(res, "T", "B", "s")
+    assert t["verdict"] == "helps, but negligible (< 1 %)"
+    assert t["claim"].startswith("not supported")        # report.combine_claim_verdicts: negligible is not a claim
+    assert study.compare(res, "B", "A", "s")["claim"] == "contradicted"
+    assert study.compare(res, "A", "nope", "s") is None   # not applicable: no comparison
+
+
+def test_compare_divergence_needs_detectably_more_diverged_runs():
+    b = np.full(100, 50.0) + np.arange(100) * 0.01
+    few = b.copy()
+    few[:2] = np.nan                                      # 2 against 0: within Poisson noise (3 sqrt(2) = 4.2)
+    many = b.copy()
+    many[:20] = np.nan                                    # 20 against 0: detectable
+    res = _result(B=b, F=few, M=many)
+    assert study.compare(res, "F", "B", "s")["verdict"] != "diverges"
+    m = study.compare(res, "M", "B", "s")
+    assert m["verdict"] == "diverges" and m["claim"].startswith("contradicted")
+
+
+def test_digest_is_a_prefix_property_and_covers_every_per_run_number():
+    kw = dict(scenarios=["ladder-nl1"], algorithms=["EKF", "IMMUKF"], workers=1, use_cache=False, progress=False)
+    short, long = study.run_arena(4, **kw), study.run_arena(7, **kw)
+    assert study.digest(short, 4) == study.digest(long, 4)
+    assert study.digest(long, 5) != study.digest(long, 4)
+    changed = {k: dict(v) for k, v in long.details.items()}
+    key = ("ladder-nl1", "EKF")
+    changed[key]["nis"] = [x * (1 + 1e-15) if x is not None else None for x in changed[key]["nis"]]
+    assert study.digest(long._replace(details=changed), 4) != study.digest(long, 4)     # the NIS is digested
+    with raises_naming("n_runs"):
+        study.digest(long, 8)
+
+
+def test_cost_is_measured_on_per_step_sensors():
+    s = study.scenario("tseng2011")
+    mc = MonteCarlo(s.root_seed, 2)
+    est = recipes.build("UKF", s)
+    make_batch = evaluation.with_initial_states(s.simulator(mc), {"UKF": est},
+                                                lambda e, start, runs: recipes.initial_state(e, s, start, runs, mc))
+    cost = study.cost_per_run_step(est, make_batch, s, 2)
+    assert 0 < cost < 1e-2                                # seconds per run-step: positive and finite

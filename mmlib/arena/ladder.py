@@ -130,6 +130,8 @@ def nonlinearity_index(s: Scenario, n_runs: int = 50) -> dict:
     cubature rule (exact for polynomials to degree 5).  Returns ``median`` and ``p90`` over runs and steps (diverged
     runs excluded) and ``n_runs``: 0 for a linear sensor; the size, in innovation standard deviations, of the mean
     error a linearisation makes."""
+    if not isinstance(s, Scenario):
+        raise ValueError(f"s: expected a Scenario, got {s!r}")
     if isinstance(n_runs, bool) or not isinstance(n_runs, (int, np.integer)) or n_runs < 2:
         raise ValueError(f"n_runs: expected an integer >= 2, got {n_runs!r}")
     mc = MonteCarlo(s.root_seed, int(n_runs))

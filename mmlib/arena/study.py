@@ -227,9 +227,10 @@ def rank_scenario(cells: dict) -> dict:
         return out
 
     def worse(a, b) -> str:
-        """The part verdict of "a is worse than b" (paired, reference a's mean squared error)."""
+        """The part verdict of "a is worse than b" (paired; the reference of the 1 % negligibility is b's mean squared
+        error, as in :func:`compare` and :func:`mmlib.experiment.evaluation.better_claim`)."""
         d = metrics.mean_with_se(ranked[a] - ranked[b])
-        return report.claim_verdict(float(d.value), float(d.stderr), +1, reference=float(ranked[a].mean())), d
+        return report.claim_verdict(float(d.value), float(d.stderr), +1, reference=float(ranked[b].mean())), d
 
     best = min(ranked, key=lambda a: float(ranked[a].mean()))
     for a in ranked:
@@ -319,6 +320,8 @@ def _every(total: int, progress, lines: int = 20):
     """``run_grid``'s progress for many short jobs: about ``lines`` lines in all (every k-th finished cell and the
     last; other lines, e.g. the cache's, pass through); ``progress`` True prints to stderr, a callable receives the
     lines, False is silent."""
+    if not (isinstance(progress, bool) or callable(progress)):
+        raise ValueError(f"progress: expected True, False or a function of one line, got {progress!r}")
     if not progress:
         return False
     say = (lambda line: print(line, file=sys.stderr, flush=True)) if progress is True else progress
@@ -410,6 +413,8 @@ def digest(result: ArenaResult, n_runs: int) -> dict:
     full study's digest exactly (``tests/tolerance/test_arena_results.py``)."""
     import hashlib
     from mmlib.core.linalg import kernel
+    if isinstance(n_runs, bool) or not isinstance(n_runs, (int, np.integer)) or not 1 <= n_runs <= result.n_runs:
+        raise ValueError(f"n_runs: expected an integer from 1 to the study's {result.n_runs} runs, got {n_runs!r}")
     h = hashlib.sha256(b"mmlib-arena-digest-2")
     for key in sorted(result.details):
         h.update(f"\0{key[0]}\0{key[1]}".encode())
@@ -427,8 +432,11 @@ def scenario_table(names=SCENARIOS, n_index_runs: int = 50, max_run_steps: int =
     """One row per scenario: name, title, source, steps, state and measurement dimensions, its properties and its
     computed nonlinearity index (:func:`mmlib.arena.ladder.nonlinearity_index`) over ``n_index_runs`` runs, or fewer
     where they would exceed ``max_run_steps`` run-steps (10 runs for the 1800-epoch GNSS scenario)."""
+    for value, name in ((n_index_runs, "n_index_runs"), (max_run_steps, "max_run_steps")):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 2:
+            raise ValueError(f"{name}: expected an integer >= 2, got {value!r}")
     rows = []
-    for name in names:
+    for name in _names(names, "names"):
         s = scenario(name)
         runs = max(2, min(n_index_runs, max_run_steps // s.n_steps))
         rows.append({"scenario": name, "title": s.title, "source": s.source, "n_steps": s.n_steps, "dim": s.dim,
@@ -530,7 +538,8 @@ def findings(result: ArenaResult, scenario_rows: list) -> list:
         for pair in pc["pairs"]:
             groups: dict = {}
             for s, v in pair["verdicts"].items():
-                groups.setdefault(report.claim_category(v), []).append(s)
+                key = report.claim_category(v) + (" (negligible, < 1 %)" if "negligible" in v else "")
+                groups.setdefault(key, []).append(s)
             counts = "; ".join(f"{v} in {len(ss)} ({_scenario_list(ss)})" for v, ss in sorted(groups.items()))
             parts.append(f"{pair['a']} against {pair['b']}: " + (counts or "no scenario where both apply"))
         out.append(f"- **{pc['paper']}'s claim** *{pc['claim']}*, across the arena: " + " | ".join(parts) + ".")

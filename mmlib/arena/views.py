@@ -233,7 +233,8 @@ def rmse_heatmap(cells, scenarios=None, ax=None):
     nonlinearity index.  ``ax``: an Axes to draw into (default: a new figure).
 
     Drawn: rows = scenarios, columns = algorithms (order of ``cells``); the colour is RMSE / (smallest RMSE of the
-    row) -- a dimensionless ratio >= 1 -- on a log scale from 1 to 10 (larger ratios clipped to the top colour);
+    row) -- a dimensionless ratio, >= 1 but for cells with diverged runs -- on a log scale from 1 to 10 (ratios
+    beyond clipped to the end colours);
     each cell is annotated with the ratio to two significant digits.  The best of a row is the smallest RMSE
     among its cells none of whose runs diverged (the cells :func:`mmlib.arena.study.rank_scenario` ranks, all on the
     same runs), so a ratio below 1 is possible only for a cell with diverged runs (its RMSE is over fewer runs); a
@@ -272,7 +273,7 @@ def rmse_heatmap(cells, scenarios=None, ax=None):
     cmap = matplotlib.colormaps["YlGnBu"]
     im = _draw_cells(ax, data, kinds, labels, diverged, cmap, norm)
     _grid(ax, algorithms, names, rows)
-    cb = fig.colorbar(im, ax=ax, extend="max", fraction=0.035, pad=0.02)
+    cb = fig.colorbar(im, ax=ax, extend="both", fraction=0.035, pad=0.02)
     cb.set_label("position RMSE / best in scenario (log; > 10 clipped)")
     cb.set_ticks([1, 1.5, 2, 3, 5, 10], labels=["1", "1.5", "2", "3", "5", "10"])
     cb.minorticks_off()
@@ -295,8 +296,10 @@ def consistency_heatmap(cells, which="anees", scenarios=None, ax=None):
     Drawn: rows = scenarios, columns = algorithms; the colour is value / dof (dimensionless; 1 = a consistent
     filter, > 1 over-confident: errors larger than the filter's covariance says, < 1 pessimistic) on a log scale
     from 0.2 to 5 centred at 1 (clipped beyond); each cell is annotated with value / dof to two significant digits,
-    in bold with a dot in its corner when the value lies inside its 95 % band (``band``, the chi-square interval of
-    a consistent filter's average over the runs).  n/a, "div." (every run diverged) and partly diverged cells
+    in bold with a dot in its corner when the value lies inside its 95 % band (``band``: for the ANIS the exact
+    chi-square interval of a consistent filter's average over runs and steps, for the ANEES the lenient one of a
+    run-average at one step; :func:`mmlib.arena.study.consistency`).  n/a, "div." (fewer than two runs left) and
+    partly diverged cells
     ("† n", red border; the value over the others) as in :func:`rmse_heatmap`; "--" where the statistic was not
     recorded.  Returns the Figure.
     """
@@ -527,7 +530,7 @@ def _consistency_text(st) -> str:
     if st is None:
         return "--"
     if st.get("value") is None:
-        return f"-- (dof {st['dof']:g}; no valid runs)"
+        return f"-- (dof {st['dof']:g}; fewer than two valid runs with finite statistics)"
     v = st["value"]
     d = _digits(v)
     text = f"{value_pm(v, st.get('stderr'), d)} (dof {st['dof']:g}"
