@@ -56,15 +56,19 @@ def notebook_time(path: Path) -> dict:
 def notebook_times(executed_dir: Path, results_dir: Path | None = None) -> dict:
     """Every ``*.ipynb`` of ``executed_dir``, keyed by paper (the file name up to its first ``_``), with the
     git commit recorded in the paper's results file (``results_dir/<paper>.json``) when there is one; and
-    the sums over the papers."""
-    papers = {}
+    the sums over the papers.  Studies that are not a paper's replication (the arena: its results file says
+    ``"kind": "arena"``) are listed apart, under ``studies``, and are not in the sums."""
+    papers, studies = {}, {}
     for path in sorted(Path(executed_dir).glob("*.ipynb")):
         paper = path.stem.split("_")[0]
         t = notebook_time(path)
         res = Path(results_dir) / f"{paper}.json" if results_dir is not None else None
+        kind = None
         if res is not None and res.exists():
-            t["results_git_commit"] = json.loads(res.read_text()).get("provenance", {}).get("git_commit")
-        papers[paper] = t
+            doc = json.loads(res.read_text())
+            t["results_git_commit"] = doc.get("provenance", {}).get("git_commit")
+            kind = doc.get("kind")
+        (studies if kind == "arena" else papers)[paper] = t
 
     def total(key):
         vals = [t[key] for t in papers.values()]
@@ -80,6 +84,7 @@ def notebook_times(executed_dir: Path, results_dir: Path | None = None) -> dict:
                 "notebooks do not record the worker count. universes_from_cache: universes read from the "
                 "multiverse cache instead of computed (0: all computed).",
         "papers": papers,
+        "studies": studies,
         "sum": {"wall_s": total("wall_s"), "headline_s": total("headline_s"), "multiverse_s": total("multiverse_s"),
                 "cells_s": total("cells_s"), "papermill_overhead_s": total("papermill_overhead_s")},
         "first_start": min(starts) if starts else None, "last_end": max(ends) if ends else None,

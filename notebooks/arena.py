@@ -33,6 +33,11 @@
 # with a detectably and not negligibly smaller position error. Diverged runs are counted and excluded, never patched;
 # a cell with diverged runs is not ranked.
 
+# %% [markdown]
+# The runner (`make figures`) runs this notebook alone, after the papers, with every worker: its cells keep all the
+# cores busy by themselves.
+# mmlib-runner: exclusive
+
 # %% tags=["parameters"]
 PROFILE = "full"          # "full" (1000 runs per cell) or "smoke" (20 runs per cell, a prefix of the full runs)
 N_RUNS = None             # override the profile's Monte Carlo runs per cell

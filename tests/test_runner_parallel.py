@@ -113,3 +113,28 @@ def test_bad_execution_settings_are_rejected_by_name_before_anything_runs(runner
         for key in env:
             monkeypatch.delenv(key)
     assert snapshot(repo) == before
+
+
+def test_an_exclusive_notebook_runs_alone_after_the_others_with_every_worker(repo):
+    """A notebook marked ``# mmlib-runner: exclusive`` (the arena) starts after the others have ended, alone, and its
+    kernel gets all the workers, not a share."""
+    report_environment(repo)
+    src = repo / "notebooks" / "alpha2001_fake.py"
+    src.write_text(src.read_text() + "\n# %% [markdown]\n# mmlib-runner: exclusive\n")
+    proc = run(repo, "--workers", "2", check=0)
+    lines = proc.stdout.splitlines()
+    assert "execution: 2 worker(s): 1 notebook(s) at a time, WORKERS=2 in each; then alpha2001_fake alone, WORKERS=2" \
+        in lines
+    beta_done = next(i for i, ln in enumerate(lines) if re.fullmatch(r"\[\d/2\] beta2002_fake: done in .*", ln))
+    alpha_start = next(i for i, ln in enumerate(lines) if re.fullmatch(r"\[\d/2\] alpha2001_fake: executing .*", ln))
+    assert alpha_start > beta_done                                    # after the others
+    assert "kernel env: WORKERS=2 MMLIB_SCHEDULER=" in proc.stdout    # every worker
+    assert_whole(repo, alpha2001="new", beta2002="new")
+    assert_no_leftovers(repo)
+
+
+def test_is_exclusive_reads_the_mark_on_a_line_of_its_own(runner, tmp_path):
+    marked, mentioned = tmp_path / "a.py", tmp_path / "b.py"
+    marked.write_text("# %%\nx = 1\n# mmlib-runner: exclusive\n")
+    mentioned.write_text("# %%\nprint('# mmlib-runner: exclusive')\n")
+    assert runner.is_exclusive(marked) and not runner.is_exclusive(mentioned)

@@ -500,6 +500,16 @@ def run_one(src: Path, layout: Layout, profile: str, params: dict, timeout: int,
     return [layout.show(layout.out / rel) for rel in owned_paths(layout, paper, src.stem)]
 
 
+#: A line of a notebook source that asks to run alone, after the others, with every worker: a study that keeps all the
+#: cores busy by itself (the arena's cells) would otherwise hold only its share of them long after the others ended.
+EXCLUSIVE_MARK = "# mmlib-runner: exclusive"
+
+
+def is_exclusive(src: Path) -> bool:
+    """Whether the notebook source carries :data:`EXCLUSIVE_MARK` on a line of its own."""
+    return any(line.strip() == EXCLUSIVE_MARK for line in src.read_text().splitlines())
+
+
 def parallel_plan(workers: int, n_notebooks: int) -> tuple[int, int]:
     """``(notebooks at once, WORKERS of each kernel)`` for ``workers`` worker processes in all.
 
@@ -516,13 +526,15 @@ def parallel_plan(workers: int, n_notebooks: int) -> tuple[int, int]:
     return slots, -(-workers // slots)
 
 
-def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, timeout: int, jobs: int = 1) -> int:
+def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, timeout: int, jobs: int = 1,
+            exclusive: list[Path] = (), exclusive_workers: int | None = None) -> int:
     """Run the notebooks, up to ``jobs`` at a time (in threads; each kernel is its own process), each promoted as
-    soon as it succeeds.  At the first failure no further notebook starts; those already running finish (and are
-    promoted if they succeed); exit status 1."""
+    soon as it succeeds; then the ``exclusive`` ones, one at a time, each kernel with ``exclusive_workers`` workers.
+    At the first failure no further notebook starts; those already running finish (and are promoted if they
+    succeed); exit status 1."""
     t_all = time.perf_counter()
-    n = len(sources)
-    jobs = max(1, min(jobs, n))
+    n = len(sources) + len(exclusive)
+    jobs = max(1, min(jobs, len(sources) or 1))
     promotion_lock, print_lock = threading.Lock(), threading.Lock()
     failures: list[str] = []
     stop = threading.Event()
@@ -559,7 +571,7 @@ def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, tim
             one(i, src)
             if failures:
                 return 1
-    else:
+    elif sources:
         import concurrent.futures as cf
         pool = cf.ThreadPoolExecutor(max_workers=jobs, thread_name_prefix="notebook")
         try:
@@ -573,6 +585,14 @@ def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, tim
         pool.shutdown(wait=True)
         if failures:
             return 1
+    if exclusive:
+        if exclusive_workers is not None:          # the kernels inherit it; no other kernel runs now
+            os.environ["WORKERS"] = str(exclusive_workers)
+        jobs = 1
+        for i, src in enumerate(exclusive, len(sources) + 1):
+            one(i, src)
+            if failures:
+                return 1
     print(f"all {n} notebook(s) done in {time.perf_counter() - t_all:.1f} s (profile={profile}, "
           f"outputs: {layout.destination}, {jobs} at a time)")
     return 0
@@ -619,7 +639,8 @@ def execution_workers(option: str | None, parameter) -> int:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--profile", default="full", choices=PROFILES)
-    ap.add_argument("--timeout", type=int, default=900, help="seconds per cell (positive)")
+    ap.add_argument("--timeout", type=int, default=3600,
+                    help="seconds per cell (positive; the arena's study cell takes ~20 min on one core)")
     ap.add_argument("-p", "--param", action="append", default=[], metavar="NAME=VALUE",
                     help="notebook parameter (value parsed as Python literal, else string); "
                          "outputs then go to build/custom/<profile>-<NAME=VALUE...>/")
@@ -666,17 +687,22 @@ def main(argv=None) -> int:
         if params:
             print(f"parameters {params} override the profile: outputs go to {layout.destination} "
                   f"(never over the committed or smoke outputs)", flush=True)
-        jobs, kernel_workers = parallel_plan(workers, len(sources))
+        alone = [src for src in sources if is_exclusive(src)]
+        sources = [src for src in sources if src not in alone]
+        jobs, kernel_workers = parallel_plan(workers, len(sources) or 1)
         # the kernels inherit this environment: their worker count, and the scheduler (or none)
-        os.environ["WORKERS"] = str(kernel_workers)
+        os.environ["WORKERS"] = str(kernel_workers if sources else workers)
         if scheduler:
             os.environ["MMLIB_SCHEDULER"] = scheduler
         else:
             os.environ.pop("MMLIB_SCHEDULER", None)
-        print(f"execution: {workers} worker(s): {jobs} notebook(s) at a time, WORKERS={kernel_workers} in each"
+        print(f"execution: {workers} worker(s): "
+              + (f"{jobs} notebook(s) at a time, WORKERS={kernel_workers} in each" if sources else "")
+              + ("; then " if sources and alone else "")
+              + (f"{', '.join(s.stem for s in alone)} alone, WORKERS={workers}" if alone else "")
               + (f"; Monte Carlo chunks and universes on the Dask scheduler at {scheduler}" if scheduler else ""),
               flush=True)
-        return run_all(sources, layout, args.profile, params, args.timeout, jobs)
+        return run_all(sources, layout, args.profile, params, args.timeout, jobs, alone, workers)
 
 
 if __name__ == "__main__":
