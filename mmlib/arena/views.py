@@ -225,6 +225,36 @@ def _legend(ax, kinds, diverged, stat, extra=()):
                   frameon=False, handlelength=1.6, columnspacing=1.5)
 
 
+def _value(stat) -> float | None:
+    """The ``value`` of a metric dict, or None (no dict, or no value: too few valid runs)."""
+    return None if stat is None or stat.get("value") is None else float(stat["value"])
+
+
+def _cell_grid(cells, scenarios, value_of):
+    """What a heat map draws, scenario rows by algorithm columns: ``(algorithms, names, by, rows, data, kinds,
+    diverged)`` with ``data`` the cells' ``value_of(cell)`` (NaN where None), ``kinds`` "na" (does not apply), "value",
+    "div" (no value, runs diverged) or "none" (no value otherwise), and ``diverged`` the diverged runs per cell."""
+    algorithms, names, by = _layout(cells)
+    rows = _scenario_rows(scenarios)
+    n_r, n_c = len(names), len(algorithms)
+    data = np.full((n_r, n_c), np.nan)
+    kinds = [["na"] * n_c for _ in range(n_r)]
+    diverged = [[0] * n_c for _ in range(n_r)]
+    for i, s in enumerate(names):
+        for j, a in enumerate(algorithms):
+            c = by.get((s, a))
+            if c is None or "reason" in c:
+                continue
+            diverged[i][j] = int(c.get("diverged") or 0)
+            v = value_of(c)
+            if v is None:
+                kinds[i][j] = "div" if diverged[i][j] else "none"
+            else:
+                kinds[i][j] = "value"
+                data[i, j] = v
+    return algorithms, names, by, rows, data, kinds, diverged
+
+
 def rmse_heatmap(cells, scenarios=None, ax=None):
     """Heat map of the position RMSE of every cell relative to the best algorithm of its scenario.
 
@@ -243,24 +273,10 @@ def rmse_heatmap(cells, scenarios=None, ax=None):
     red with "div.".  Returns the Figure.
     """
     import matplotlib
-    algorithms, names, by = _layout(cells)
-    rows = _scenario_rows(scenarios)
-    n_r, n_c = len(names), len(algorithms)
-    data = np.full((n_r, n_c), np.nan)
-    kinds = [["na"] * n_c for _ in range(n_r)]
-    diverged = [[0] * n_c for _ in range(n_r)]
-    for i, s in enumerate(names):
-        for j, a in enumerate(algorithms):
-            c = by.get((s, a))
-            if c is None or "reason" in c:
-                continue
-            diverged[i][j] = int(c.get("diverged") or 0)
-            r = c.get("rmse_position")
-            if r is None or r.get("value") is None:
-                kinds[i][j] = "div" if diverged[i][j] else "none"
-            else:
-                kinds[i][j] = "value"
-                data[i, j] = float(r["value"])
+    algorithms, names, by, rows, data, kinds, diverged = _cell_grid(
+        cells, scenarios, lambda c: _value(c.get("rmse_position")))
+    n_r, n_c = data.shape
+    for i in range(n_r):
         row = data[i]
         clean = [j for j in range(n_c) if kinds[i][j] == "value" and not diverged[i][j]]
         if clean:                                 # the best among the cells without diverged runs (ranked ones)
@@ -307,29 +323,16 @@ def consistency_heatmap(cells, which="anees", scenarios=None, ax=None):
     from matplotlib.lines import Line2D
     if which not in CONSISTENCY_NAMES:
         raise ValueError(f"which: expected 'anees' or 'anis', got {which!r}")
-    algorithms, names, by = _layout(cells)
-    rows = _scenario_rows(scenarios)
-    n_r, n_c = len(names), len(algorithms)
-    data = np.full((n_r, n_c), np.nan)
-    kinds = [["na"] * n_c for _ in range(n_r)]
-    diverged = [[0] * n_c for _ in range(n_r)]
+    algorithms, names, by, rows, data, kinds, diverged = _cell_grid(
+        cells, scenarios, lambda c: None if _value(c.get(which)) is None else _value(c[which]) / float(c[which]["dof"]))
+    n_r, n_c = data.shape
     inside = [[False] * n_c for _ in range(n_r)]
     for i, s in enumerate(names):
         for j, a in enumerate(algorithms):
-            c = by.get((s, a))
-            if c is None or "reason" in c:
-                continue
-            diverged[i][j] = int(c.get("diverged") or 0)
-            st = c.get(which)
-            if st is None:
-                kinds[i][j] = "none"
-            elif st.get("value") is None:
-                kinds[i][j] = "div" if diverged[i][j] else "none"
-            else:
-                kinds[i][j] = "value"
-                data[i, j] = float(st["value"]) / float(st["dof"])
+            st = (by.get((s, a)) or {}).get(which)
+            if kinds[i][j] == "value":
                 band = st.get("band")
-                inside[i][j] = bool(st["inside"]) if "inside" in st else (
+                inside[i][j] = bool(st["inside"]) if st.get("inside") is not None else (
                     band is not None and band[0] <= st["value"] <= band[1])
     labels = [[_sig2(data[i, j]) if kinds[i][j] == "value" else "" for j in range(n_c)] for i in range(n_r)]
     fig, ax, own = _new_axes(ax, n_r, n_c)
