@@ -114,6 +114,11 @@ def test_fused_steps_equal_the_generic_composition():
     dyn = [models.constant_velocity(1.0, 1.0), models.coordinated_turn(1.0, 0.05, 1.0)]
     radar = models.RangeBearing(np.diag([100.0, 1e-4]))
     imm = IMM(SigmaPointFilter(Unscented(1.0, 2.0, 0.0)), dyn, radar, np.array([[0.9, 0.1], [0.2, 0.8]]))
+    # the comparison is compiled-fused against numpy-generic only if the two paths really differ
+    with linalg.use_kernel("numba"):
+        assert imm.filter._fused() and imm.stacked.is_linear
+    with linalg.use_kernel("numpy"):
+        assert not imm.filter._fused()
     P = _spd(rng, B * 2, n, cond=5.0).reshape(B, 2, n, n) * 100.0
     state = GaussianState(rng.standard_normal((B, 2, n)) * 100.0 + np.array([2e4, 10.0, 1e4, 5.0]), P)
     got, ref = _both(imm.filter.predict, state, imm.stacked)

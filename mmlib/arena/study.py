@@ -45,7 +45,6 @@ import sys
 from typing import NamedTuple
 
 import numpy as np
-from scipy import stats
 
 from mmlib.arena import ladder, recipes
 from mmlib.experiment import evaluation, metrics, report
@@ -145,17 +144,21 @@ def consistency(stat: np.ndarray, dof, ok: np.ndarray, *, white: bool) -> dict:
         return out
     per_run = s.mean(axis=1)
     value = float(per_run.mean())
-    step_lo, step_hi = stats.chi2.ppf(0.025, dof_k * N) / N, stats.chi2.ppf(0.975, dof_k * N) / N
+    dof_int = np.asarray(dof_k, dtype=int)                       # degrees of freedom are counts of components
+    bands = {d: metrics.chi2_band(int(d), N) for d in np.unique(dof_int)}   # a run-average at one step
+    step_lo = np.array([bands[d][0] for d in dof_int])
+    step_hi = np.array([bands[d][1] for d in dof_int])
     step_mean = s.mean(axis=0)
-    total = float(dof_k.sum())
-    run_lo, run_hi = stats.chi2.ppf([0.025, 0.975], total) / K             # one run's time average
+    total = int(dof_int.sum())
+    run_lo, run_hi = (b / K for b in metrics.chi2_band(total, 1))        # one run's time average
     if white:
-        band = [float(stats.chi2.ppf(0.025, total * N) / (N * K)), float(stats.chi2.ppf(0.975, total * N) / (N * K))]
+        band = [b / K for b in metrics.chi2_band(total, N)]
         kind = "run-and-time average, white statistics: chi2(N sum_k m_k) / (N K)"
     else:
-        band = [float(stats.chi2.ppf(0.025, dof_mean * N) / N), float(stats.chi2.ppf(0.975, dof_mean * N) / N)]
+        band = list(metrics.chi2_band(int(round(dof_mean)), N))
         kind = "run-average at one step: chi2(n N) / N (the time average of a consistent filter lies inside it " \
                "with at least 95 % probability)"
+    band = [float(b) for b in band]
     out.update(value=value, stderr=float(per_run.std(ddof=1) / math.sqrt(N)), band=band, band_kind=kind,
                inside=band[0] <= value <= band[1],
                steps_inside=float(np.mean((step_mean >= step_lo) & (step_mean <= step_hi))),

@@ -12,6 +12,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy import stats
 
+from mmlib.core.estimation import normalised_square
+
 from mmlib.core._validate import (as_float_array, check_covariance, check_finite, check_finite_runs, check_index,
                                   check_mask, check_positive_int, check_scalar)
 
@@ -163,8 +165,7 @@ def nees(err, cov, valid=None):
     if valid is None:
         check_finite(e, "err")
         check_covariance(P, "cov", stack=True)
-        sol = np.linalg.solve(P, e[..., None])[..., 0]
-        return np.sum(e * sol, axis=-1)
+        return normalised_square(e, P)          # the quadratic form run() records on the fly, written once
     if e.ndim < 2:
         raise ValueError(f"valid: needs err with a run axis first, shape (M, ..., n), got {e.shape}")
     ok = _valid(valid, e.shape[0])
