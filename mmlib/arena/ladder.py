@@ -73,6 +73,7 @@ NAMES = tuple(r.name for r in RUNGS)
 
 
 def rung(name: str) -> Rung:
+    """The :class:`Rung` called ``name`` (one of :data:`NAMES`); ValueError listing the known names otherwise."""
     for r in RUNGS:
         if r.name == name:
             return r

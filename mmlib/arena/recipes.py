@@ -49,11 +49,12 @@ class NotApplicable(ValueError):
 
 
 # ------------------------------------------------------------------------------------------------ mode filters
-def ukf(s: Scenario):
+def ukf(s: Scenario) -> SigmaPointFilter:
+    """The scenario's unscented KF, named "UKF": its own rule parameters ``s.ukf`` = (alpha, beta, kappa)."""
     return SigmaPointFilter(Unscented(*s.ukf), name="UKF")
 
 
-def cdkf(s: Scenario):
+def cdkf(s: Scenario) -> SigmaPointFilter:
     """Hu et al.'s CDKF in the form of their headline (:func:`mmlib.papers.hu2017.cdkf_filter`)."""
     return hu2017.cdkf_filter(HU)
 
@@ -70,7 +71,7 @@ def aukf(s: Scenario, inflate_only: bool | None = None):
     return zhou2017.aukf_filter(ukf(s), ZHOU.window, ZHOU.inflate_only if inflate_only is None else inflate_only)
 
 
-def cdkf_obs(s: Scenario):
+def cdkf_obs(s: Scenario) -> ObservationBootstrap:
     """Observation bootstrapping (Hu et al. 2017) over the CDKF with Hu's headline N, variance factor, likelihood
     and fused covariance (:func:`mmlib.papers.hu2017.cdkf_obs_filter`)."""
     return hu2017.cdkf_obs_filter(HU)

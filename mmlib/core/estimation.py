@@ -76,7 +76,7 @@ def _check_measurement_model(m, name: str = "measurement", n: int | None = None)
     return m
 
 
-def batch_size(state) -> int:
+def batch_size(state: tuple | np.ndarray) -> int:
     """Number of runs B of any (nested NamedTuple) estimator state: the leading axis of its first array."""
     if isinstance(state, np.ndarray):
         return state.shape[0]
@@ -164,7 +164,13 @@ def _check_measurement(z, dim: int, name: str = "z", batch: int | None = None) -
 @dataclass(frozen=True, eq=False)
 class SingleModel:
     """One filter, one dynamics model, one measurement model.  ``step`` accepts a per-step
-    ``measurement`` model overriding the default one (e.g. the satellites visible at that step)."""
+    ``measurement`` model overriding the default one (e.g. the satellites visible at that step).
+
+    ``filter``: a :class:`mmlib.core.protocols.Filter`; ``dynamics``: a
+    :class:`mmlib.core.protocols.Dynamics` of state dimension n; ``measurement``: a
+    :class:`mmlib.core.protocols.MeasurementModel` of states of dimension n, or None when every step
+    supplies its own; ``name`` a string (default: the filter's name).  Each is checked on construction
+    (ValueError naming it)."""
 
     filter: Any
     dynamics: Any
@@ -179,12 +185,19 @@ class SingleModel:
         if not self.name:
             object.__setattr__(self, "name", str(getattr(self.filter, "name", "") or type(self.filter).__name__))
 
-    def init(self, mean, cov, **filter_init):
-        """``filter_init`` goes to the filter's ``init`` (e.g. pre-drawn bootstrap noise)."""
+    def init(self, mean: np.ndarray, cov: np.ndarray, **filter_init):
+        """The filter's state at step 0 from ``mean`` (B, n) and ``cov`` (B, n, n) or (n, n), in the state's
+        units; ``filter_init`` goes to the filter's ``init`` (e.g. pre-drawn bootstrap noise)."""
         _check_mean_dim(mean, self.dynamics.dim)
         return self.filter.init(mean, cov, **filter_init)
 
-    def step(self, state, z, *, with_cov: bool = True, measurement=None):
+    def step(self, state, z: np.ndarray, *, with_cov: bool = True, measurement=None) -> tuple:
+        """One predict + update with the measurements ``z`` (B, m): returns ``(state, Estimate)``, the
+        estimate holding the posterior mean (B, n), cov (B, n, n), log-likelihood (B,), innovation (B, m) and
+        its covariance (B, m, m) and the failure codes (B,) (mode probabilities None).  ``measurement``
+        overrides the measurement model for this step; ``with_cov`` is accepted for the
+        :class:`mmlib.core.protocols.Estimator` interface (the covariance is always computed).  A state,
+        ``z`` or model that does not fit is a ValueError naming it."""
         _check_state(state, "state", ("mean", "cov"), self.dynamics.dim)
         check_bool(with_cov, "with_cov")
         measurement = _step_measurement(self.measurement, measurement, self.dynamics.dim)
@@ -196,6 +209,9 @@ class SingleModel:
 
 
 class SwitchingState(NamedTuple):
+    """State of :class:`KnownModeSequence`: the filter's own state (mean (B, n), cov (B, n, n), ...) and the
+    index ``step`` of the next step (0 at init)."""
+
     filter_state: Any
     step: int
 
@@ -204,7 +220,11 @@ class SwitchingState(NamedTuple):
 class KnownModeSequence:
     """A filter told the true mode of every step ("clairvoyant" benchmark): step k uses
     ``dynamics[modes[k]]``.  With linear models and the Kalman filter it is the MMSE
-    estimator, hence a lower bound on the error of any filter, IMM included."""
+    estimator, hence a lower bound on the error of any filter, IMM included.
+
+    ``dynamics``: one or more models of one state dimension n; ``modes`` (K,) integer indices into
+    ``dynamics``, one per step (K steps at most); ``filter``, ``measurement``, ``name`` as in
+    :class:`SingleModel`."""
 
     filter: Any
     dynamics: Sequence[Any]
@@ -225,11 +245,15 @@ class KnownModeSequence:
         check_name(self.name)
         object.__setattr__(self, "dynamics", dyn)
 
-    def init(self, mean, cov):
+    def init(self, mean: np.ndarray, cov: np.ndarray) -> SwitchingState:
+        """:class:`SwitchingState` at step 0 from ``mean`` (B, n) and ``cov`` (B, n, n) or (n, n)."""
         _check_mean_dim(mean, self.dynamics[0].dim)
         return SwitchingState(self.filter.init(mean, cov), 0)
 
-    def step(self, state, z, *, with_cov: bool = True, measurement=None):
+    def step(self, state: SwitchingState, z: np.ndarray, *, with_cov: bool = True, measurement=None) -> tuple:
+        """Step k: predict with ``dynamics[modes[k]]``, update with ``z`` (B, m); returns
+        ``(SwitchingState, Estimate)`` as :meth:`SingleModel.step` does.  A step beyond ``len(modes)`` is a
+        ValueError naming ``z``."""
         if not isinstance(state, SwitchingState):
             raise ValueError(f"state: expected the SwitchingState returned by init(), got {type(state).__name__}")
         _check_state(state.filter_state, "state", ("mean", "cov"), self.dynamics[0].dim)
@@ -246,8 +270,11 @@ class KnownModeSequence:
 
 
 # --------------------------------------------------------------------------- IMM
-def mixing_weights(mu: np.ndarray, transition: np.ndarray):
-    r"""``c`` (B, r) and ``w[b, i, j] = mu_{i|j}`` (B, r, r) (Zhu et al. 2016, Eq. 54)."""
+def mixing_weights(mu: np.ndarray, transition: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r"""``c`` (B, r) and ``w[b, i, j] = mu_{i|j}`` (B, r, r) (Zhu et al. 2016, Eq. 54):
+    :math:`c_j = \sum_i p_{ij}\mu_i`, :math:`\mu_{i|j} = p_{ij}\mu_i / c_j`, from mode probabilities ``mu``
+    (B, r) and ``transition`` (r, r) (rows "from").  A mode with :math:`c_j = 0` (unreachable) gets
+    :math:`\mu_{i|j} = \mu_i` (its estimate has zero weight later; no 0/0)."""
     c = matmul_rows(mu, transition)          # mu @ transition, the same bits for a run whatever the batch size
     impossible = c <= 0.0
     if impossible.any():
@@ -265,7 +292,8 @@ class MomentMixing:
     :math:`x^{0j} = \sum_i \mu_{i|j} x^i`,
     :math:`P^{0j} = \sum_i \mu_{i|j}[P^i + (x^i - x^{0j})(x^i - x^{0j})^T]`.
 
-    ``means`` (B, r, n), ``covs`` (B, r, n, n), ``w`` (B, r_from, r_to).
+    ``means`` (B, r, n), ``covs`` (B, r, n, n), ``w`` (B, r_from, r_to) (:func:`mixing_weights`) ->
+    ``(mixed means (B, r, n), mixed covs (B, r, n, n))``, in the state's units.
     Alternative strategies (e.g. cubature-principle mixing, Zhou et al. 2017)
     implement the same call."""
 
@@ -274,20 +302,22 @@ class MomentMixing:
     def __post_init__(self):
         check_name(self.name)
 
-    def __call__(self, means, covs, w):
+    def __call__(self, means: np.ndarray, covs: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         wt = np.swapaxes(w, -1, -2)                                   # (B, j, i)
         mixed_mean = wt @ means                                       # (B, j, n)
         return mixed_mean, combine_covariances(wt, means, covs, mixed_mean)
 
 
-def combine_covariances(wt, means, covs, centres):
+def combine_covariances(wt: np.ndarray, means: np.ndarray, covs: np.ndarray, centres: np.ndarray) -> np.ndarray:
     r""":math:`\sum_i w_{ji}[P_i + (x_i - c_j)(x_i - c_j)^T]` for every j (:func:`mmlib.core.linalg.combine_covariances`).
 
-    ``wt`` (B, J, I), ``means`` (B, I, n), ``covs`` (B, I, n, n), ``centres`` (B, J, n)."""
+    ``wt`` (B, J, I), ``means`` (B, I, n), ``covs`` (B, I, n, n), ``centres`` (B, J, n) -> (B, J, n, n),
+    symmetrised."""
     return linalg.combine_covariances(wt, means, covs, centres)
 
 
-def imm_output(loglik, c, means, covs, nu, S, with_cov: bool = True):
+def imm_output(loglik: np.ndarray, c: np.ndarray, means: np.ndarray, covs: np.ndarray, nu: np.ndarray,
+               S: np.ndarray, with_cov: bool = True) -> tuple:
     r"""The end of an IMM cycle (Zhu et al. 2016, Eqs. 57-59): mode probabilities :math:`\mu_j \propto c_j L_j`
     (in logs, about the largest term), the log marginal likelihood :math:`\log p(z_k | z_{1:k-1}) =
     \log\sum_j c_j L_j`, the fused estimate :math:`\sum_j \mu_j x_j` with (if ``with_cov``, else None) its
@@ -320,6 +350,10 @@ def imm_output(loglik, c, means, covs, nu, S, with_cov: bool = True):
 
 
 class IMMState(NamedTuple):
+    """State of :class:`IMM`: the mode filters' states stacked on a mode axis (``modes.mean`` (B, r, n),
+    ``modes.cov`` (B, r, n, n), a layer's extra per-run fields likewise) and the mode probabilities
+    ``mode_probabilities`` (B, r), rows summing to 1."""
+
     modes: Any                       # the mode filters' state, stacked: mean (B, r, n), cov (B, r, n, n)
     mode_probabilities: np.ndarray   # (B, r)
 
@@ -335,6 +369,13 @@ class IMM:
     ``mixing`` is a strategy with the signature of :class:`MomentMixing`.
     ``measurement`` may be None when every step supplies its own model
     (``run(..., measurement_models=...)``).
+
+    ``dynamics``: r >= 1 models of one state dimension n (e.g. :func:`mmlib.core.models.constant_velocity`
+    and :func:`mmlib.core.models.coordinated_turn` with rates in rad/s), stacked once into a
+    :class:`~mmlib.core.models.StackedDynamics` (attribute ``stacked``); ``transition`` (r, r) a
+    row-stochastic matrix of per-step switching probabilities (dimensionless, entries in [0, 1], rows
+    summing to 1 within 1e-9 r), stored read-only; ``name`` a string.  Each argument is checked on
+    construction (ValueError naming it).
     """
 
     filter: Any
@@ -367,11 +408,16 @@ class IMM:
 
     @property
     def n_modes(self) -> int:
+        """Number of modes r."""
         return len(self.dynamics)
 
-    def init(self, mean, cov, mode_probabilities=None, **filter_init) -> IMMState:
-        """``filter_init`` goes to the mode filter's ``init``; every mode starts from the same state.
-        ``mode_probabilities`` (r,) or (B, r), default uniform."""
+    def init(self, mean: np.ndarray, cov: np.ndarray, mode_probabilities: np.ndarray | None = None,
+             **filter_init) -> IMMState:
+        """:class:`IMMState` at step 0 from ``mean`` (B, n) and ``cov`` (B, n, n) or (n, n): every mode starts
+        from the same state (every per-run field repeated on a mode axis, (B, r, ...)).
+        ``filter_init`` goes to the mode filter's ``init``.  ``mode_probabilities`` (r,) or (B, r), each
+        row a probability vector, default uniform ``1/r``; a wrong shape or a row not summing to 1 is a
+        ValueError naming ``mode_probabilities``."""
         _check_mean_dim(mean, self.stacked.dim)
         base = self.filter.init(mean, cov, **filter_init)
         B = base.mean.shape[0]
@@ -389,10 +435,16 @@ class IMM:
                         else f for f in base)
         return IMMState(type(base)(*stacked), np.array(mu, dtype=float))
 
-    def step(self, state: IMMState, z, *, with_cov: bool = True, measurement=None, dynamics=None):
-        """One IMM cycle.  ``with_cov=False`` skips the fused covariance (an output only).
+    def step(self, state: IMMState, z: np.ndarray, *, with_cov: bool = True, measurement=None,
+             dynamics=None) -> tuple:
+        """One IMM cycle (steps 1-5 of the module docstring) with the measurements ``z`` (B, m), the same for
+        every mode.  Returns ``(IMMState, Estimate)``: fused mean (B, n) and cov (B, n, n), posterior mode
+        probabilities (B, r), the log marginal likelihood :math:`\\log\\sum_j c_j L_j` (B,), the innovation of
+        the mixture prior (B, m) with its covariance (B, m, m), and failure codes (B,)
+        (:class:`Failure`).  ``with_cov=False`` skips the fused covariance (an output only; ``cov`` None).
         ``measurement`` overrides the measurement model for this step; ``dynamics`` overrides the
-        stacked mode dynamics (a :class:`~mmlib.core.models.StackedDynamics`, e.g. with per-run adapted Q)."""
+        stacked mode dynamics (a :class:`~mmlib.core.models.StackedDynamics`, e.g. with per-run adapted Q
+        broadcasting to (B, r, n, n))."""
         if not isinstance(state, IMMState):
             raise ValueError(f"state: expected the IMMState returned by init(), got {type(state).__name__}")
         _check_state(state.modes, "state", ("mean", "cov"), self.stacked.dim, "IMM mode-filter state")
@@ -463,6 +515,7 @@ class Track(NamedTuple):
 
     @property
     def diverged(self) -> np.ndarray:
+        """(B,) bool: the runs that diverged at some step (``diverged_step >= 0``)."""
         return self.diverged_step >= 0
 
     def divergence_summary(self) -> str:
@@ -470,7 +523,7 @@ class Track(NamedTuple):
         return summarise_divergence(self.diverged_step, self.divergence_cause)
 
 
-def summarise_divergence(diverged_step, cause=None) -> str:
+def summarise_divergence(diverged_step: np.ndarray, cause: np.ndarray | None = None) -> str:
     """``"4 of 100 runs diverged (steps 12, 40 ×2, 41; covariance no longer positive definite)"`` from the
     per-run ``diverged_step`` (-1: did not) and :class:`Failure` codes ``cause`` (None: unknown, read as
     overflow); ``""`` if no run diverged.  The one formatting of divergences (Track, RunSet, reports)."""
@@ -489,7 +542,8 @@ def summarise_divergence(diverged_step, cause=None) -> str:
 
 
 class FilterDivergence(RuntimeError):
-    pass
+    """Raised by :func:`run` with ``on_divergence='raise'`` at the first step where a run fails
+    (:class:`Failure`); the message names the estimator, the run, the step and the cause."""
 
 
 def _per_step_measurements(measurements, measurement_models):
@@ -512,7 +566,7 @@ def _per_step_measurements(measurements, measurement_models):
     return out
 
 
-def normalised_square(v, S) -> np.ndarray:
+def normalised_square(v: np.ndarray, S: np.ndarray) -> np.ndarray:
     r""":math:`v^T S^{-1} v` per leading index for vectors ``v`` (..., d) and covariances ``S`` (..., d, d); NaN where
     either is not finite or S is singular (a diverged run).  Each matrix is solved on its own (LAPACK per matrix),
     so a run's value does not depend on the rest of its batch."""
@@ -536,8 +590,15 @@ def normalised_square(v, S) -> np.ndarray:
 
 
 def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bool = True,
-        on_divergence: str = "record", consistency: bool = False, truth=None) -> Track:
+        on_divergence: str = "record", consistency: bool = False, truth: np.ndarray | None = None) -> Track:
     """Run ``estimator`` over ``measurements`` (B, K, m), batched over runs.
+
+    ``estimator``: a :class:`mmlib.core.protocols.Estimator` (:class:`SingleModel`, :class:`IMM`, ...);
+    ``state``: its state from ``estimator.init`` (B runs); ``measurements`` in the measurement model's
+    units (e.g. m for positions, (m, rad) for range-bearing), finite.  Returns a :class:`Track`:
+    ``mean`` (B, K, n), ``cov`` (B, K, n, n) (None with ``keep_cov=False``), mode probabilities
+    (B, K, r) for an IMM.  Bad input (shapes, a non-finite measurement, an unknown ``on_divergence``) is
+    a ValueError naming the argument.
 
     ``consistency=True`` records every step's NIS and, with ``truth`` (B, K+1, n) the true states x_0..x_K
     (or (B, K, n), x_1..x_K), its NEES (:class:`Track`), computed on the fly: the covariances need not be kept.
@@ -630,7 +691,7 @@ def _check_truth(truth, B: int, K: int, consistency: bool):
     return x[:, 1:] if x.shape[1] == K + 1 else x
 
 
-def select_runs(state, index):
+def select_runs(state: Any, index: slice | np.ndarray) -> Any:
     """The sub-batch ``index`` (slice or index array) of any (nested NamedTuple) filter state."""
     if isinstance(state, tuple):
         parts = [select_runs(s, index) for s in state]

@@ -65,6 +65,13 @@ class MeasurementPrediction(NamedTuple):
 
 
 class UpdateInfo(NamedTuple):
+    r"""What a Kalman update reports besides the posterior (:func:`kalman_update`): ``innovation``
+    :math:`\nu = z - \hat z` (B, m), residual-wrapped (angles in :math:`(-\pi, \pi]`), in the measurement's
+    units; its covariance ``S`` (B, m, m); ``loglik`` (B,) :math:`\log N(\nu; 0, S)` (NaN for a failed
+    run); ``nis`` (B,) :math:`\nu^T S^{-1}\nu` (dimensionless); ``failed`` (B,) bool, S or the posterior
+    covariance not positive definite (that run's state is NaN).  Inside an IMM every field has a mode
+    axis after B."""
+
     innovation: np.ndarray      # (B, m), residual-wrapped
     S: np.ndarray               # (B, m, m)
     loglik: np.ndarray          # (B,)  log N(innovation; 0, S), NaN if S not PD
@@ -72,8 +79,11 @@ class UpdateInfo(NamedTuple):
     failed: Any = None          # (B,) bool: S or the posterior covariance not positive definite (state NaN)
 
 
-def gaussian_state(mean, cov) -> GaussianState:
-    """Validated initial state: mean (B, n) and cov (B, n, n) or a shared (n, n)."""
+def gaussian_state(mean: np.ndarray, cov: np.ndarray) -> GaussianState:
+    """Validated initial state: mean (B, n) and cov (B, n, n) or a shared (n, n) (broadcast to every run), in
+    the state's units (m, m/s, ...; cov squared).  The mean is copied, a shared cov broadcast into a new
+    array; a float64 (B, n, n) cov is used as given (not copied).  A mean that is not (B, n) and finite,
+    or a cov that is not symmetric positive definite of matching size, is a ValueError naming it."""
     mean = check_batch_vector(mean, "mean")
     cov_arr = as_float_array(cov, "cov")
     if cov_arr.ndim == 2:
@@ -86,8 +96,13 @@ def gaussian_state(mean, cov) -> GaussianState:
     return GaussianState(mean.copy(), cov_arr)
 
 
-def kalman_update(state, pred: MeasurementPrediction, z: np.ndarray, measurement):
+def kalman_update(state, pred: MeasurementPrediction, z: np.ndarray, measurement) -> tuple:
     r"""The one Kalman update shared by every filter (see module docstring).
+
+    ``state``: the predicted state (mean (..., n), cov (..., n, n); any NamedTuple with these fields,
+    the others are kept); ``pred``: its :class:`MeasurementPrediction`; ``z`` (..., m) the measurement
+    (broadcasting against ``pred.z_pred``); ``measurement`` the model (its ``residual``, and ``R`` for
+    the Joseph form).  Returns ``(posterior state, UpdateInfo)``.
 
     Computed through the Cholesky factor :math:`S = L L^T`: with
     :math:`A = P_{xz} L^{-T}` and :math:`e = L^{-1}\nu`, the gain is
@@ -122,10 +137,13 @@ def kalman_update(state, pred: MeasurementPrediction, z: np.ndarray, measurement
 class _FilterBase:
     """``update`` = measurement prediction + the shared Kalman update."""
 
-    def update(self, state, z, measurement):
+    def update(self, state, z: np.ndarray, measurement) -> tuple:
+        """Measurement update with ``z`` (B, m) ((B, 1, m) inside an IMM): :meth:`predict_measurement`, then
+        :func:`kalman_update`; returns ``(posterior state, UpdateInfo)``."""
         return kalman_update(state, self.predict_measurement(state, measurement), z, measurement)
 
-    def init(self, mean, cov) -> GaussianState:
+    def init(self, mean: np.ndarray, cov: np.ndarray) -> GaussianState:
+        """The state at step 0: :func:`gaussian_state` of ``mean`` (B, n) and ``cov`` (B, n, n) or (n, n)."""
         return gaussian_state(mean, cov)
 
     def predict_measurement(self, state, measurement):  # pragma: no cover - implemented by subclasses
@@ -144,6 +162,10 @@ class ExtendedKalmanFilter(_FilterBase):
         check_name(self.name)
 
     def predict(self, state, dynamics):
+        r"""Time update :math:`\hat x^- = f(\hat x)`, :math:`P^- = F P F^T + Q` with :math:`F` the Jacobian of
+        ``dynamics`` at the prior mean: ``state`` mean (..., n), cov (..., n, n) (e.g. (B, n) or (B, r, n) with a
+        :class:`~mmlib.core.models.StackedDynamics` of r modes); returns the state with the predicted mean
+        and cov (other fields kept).  Linear dynamics use the fused compiled kernel when numba is selected."""
         if linalg.kernel() == "numba" and getattr(dynamics, "is_linear", False):
             mean, cov = linalg.linear_predict(state.mean, state.cov, dynamics.F, dynamics.Q)
             return state._replace(mean=mean, cov=cov)
@@ -152,7 +174,10 @@ class ExtendedKalmanFilter(_FilterBase):
         mean = dynamics.transition(state.mean[..., None, :])[..., 0, :]
         return state._replace(mean=mean, cov=cov)
 
-    def predict_measurement(self, state, measurement):
+    def predict_measurement(self, state, measurement) -> MeasurementPrediction:
+        r"""Linearised measurement moments at the predicted mean: :math:`\hat z = h(\hat x^-)` (..., m),
+        :math:`S = H P^- H^T + R` (..., m, m), :math:`P_{xz} = P^- H^T` (..., n, m), and ``H`` (..., m, n), which
+        selects the Joseph-form update."""
         H = measurement.jacobian(state.mean)
         S, pxz = linalg.congruence(H, state.cov, measurement.R)
         return MeasurementPrediction(measurement.h(state.mean[..., None, :])[..., 0, :], S, pxz, H)
@@ -192,6 +217,11 @@ class SigmaPointFilter(_FilterBase):
         return X
 
     def predict(self, state, dynamics):
+        r"""Time update through the rule: :math:`X_i = \hat x + S\xi_i` (:math:`SS^T = P`),
+        :math:`\hat x^- = \sum_i w^m_i f(X_i)`, :math:`P^- = \mathrm{cov}_{rule}(f(X_i)) + Q`.  ``state`` mean
+        (..., n), cov (..., n, n) (e.g. (B, n), or (B, r, n) with stacked mode dynamics); returns the state with
+        the predicted mean and cov (other fields kept).  A run whose P is not positive definite gets NaN
+        points, hence a NaN prediction.  Linear dynamics use the fused compiled kernel when it applies."""
         if self._fused() and getattr(dynamics, "is_linear", False):
             mean, cov = linalg.sigma_point_predict_linear(state.mean, state.cov,
                                                           self.rule.unit_points(state.mean.shape[-1]),
@@ -209,7 +239,11 @@ class SigmaPointFilter(_FilterBase):
         weighted sums of outer products (every rule but the Stirling central differences)."""
         return linalg.kernel() == "numba" and self.rule.weighted_moments
 
-    def predict_measurement(self, state, measurement):
+    def predict_measurement(self, state, measurement) -> MeasurementPrediction:
+        r"""Measurement moments from fresh sigma points :math:`X_i` of the predicted state:
+        :math:`\hat z` = ``measurement.average`` of :math:`h(X_i)` (..., m) (angles averaged about a reference
+        point), :math:`S = \mathrm{cov}_{rule}(h(X_i)) + R` (..., m, m) and
+        :math:`P_{xz} = \mathrm{cross}_{rule}(X_i, h(X_i))` (..., n, m), deviations residual-wrapped; no ``H``."""
         X = self._points(state)
         Z = measurement.h(X)
         up = self.rule.unit_points(state.mean.shape[-1])
@@ -238,25 +272,33 @@ class FilterLayer:
         check_has(self.base, "base", "a filter predicting measurement moments (protocols.MomentFilter)",
                   members(MomentFilter))
 
-    def init(self, mean, cov, **extra):
+    def init(self, mean: np.ndarray, cov: np.ndarray, **extra):
+        """The layer's ``state_type`` at step 0 from :func:`gaussian_state` of ``mean`` (B, n) and ``cov``
+        (B, n, n) or (n, n); ``extra`` fills the layer's own fields."""
         g = gaussian_state(mean, cov)
         return self.state_type(g.mean, g.cov, **extra)
 
     def predict(self, state, dynamics):
+        """The base filter's time update; when the state has a ``Q`` field it records ``dynamics.Q``
+        broadcast to the covariance's shape (..., n, n) (a read-only view)."""
         s = self.base.predict(state, dynamics)
         if "Q" in s._fields:
             s = s._replace(Q=np.broadcast_to(dynamics.Q, s.cov.shape))
         return s
 
-    def predict_measurement(self, state, measurement):
+    def predict_measurement(self, state, measurement) -> MeasurementPrediction:
+        """The base filter's measurement prediction (:class:`MeasurementPrediction`), unchanged."""
         return self.base.predict_measurement(state, measurement)
 
 
 _FILTER_NAMES = {"kf": "KF", "ekf": "EKF"}
 
 
-def filter_by_name(name: str, **rule_params):
-    """``kf``/``ekf`` or any rule name of :func:`mmlib.core.rules.rule_by_name`."""
+def filter_by_name(name: str, **rule_params) -> ExtendedKalmanFilter | SigmaPointFilter:
+    """``kf``/``ekf`` (an :class:`ExtendedKalmanFilter` named ``KF``/``EKF``; ``rule_params`` are then not
+    used) or any rule name of :func:`mmlib.core.rules.rule_by_name` (a :class:`SigmaPointFilter` named
+    by the upper-cased name, ``rule_params`` passed to the rule).  Any case; an unknown name or rule
+    parameter is a ValueError naming it."""
     key = str(name).lower()
     if key in _FILTER_NAMES:
         return ExtendedKalmanFilter(name=_FILTER_NAMES[key])

@@ -33,7 +33,8 @@ class Trapezoid:
 
     ``name`` a string; ``a``-``d`` real numbers (in the input's units) with ``a <= b <= c <= d``;
     infinities only as shoulders (``a = -inf`` exactly when ``b = -inf``, ``d = inf`` exactly when
-    ``c = inf``), so that every set is non-zero somewhere."""
+    ``c = inf``), so that every set is non-zero somewhere.  Call with ``x`` of any shape (finite, else a
+    ValueError naming ``x``) to get the memberships in [0, 1], same shape."""
 
     name: str
     a: float
@@ -57,7 +58,7 @@ class Trapezoid:
         for k, v in zip("abcd", (a, b, c, d)):
             object.__setattr__(self, k, v)
 
-    def __call__(self, x):
+    def __call__(self, x: np.ndarray | float) -> np.ndarray:
         x = check_finite(as_float_array(x, "x"), "x")
         with np.errstate(invalid="ignore", divide="ignore"):
             up = np.ones_like(x) if self.a == -math.inf else (
@@ -67,7 +68,7 @@ class Trapezoid:
         return np.clip(np.minimum(up, down), 0.0, 1.0)
 
 
-def ramp_sets(names, breakpoints) -> tuple:
+def ramp_sets(names, breakpoints: np.ndarray) -> tuple:
     """Sets forming a partition of unity on the real line -- a left shoulder, triangles, a right
     shoulder -- with ``breakpoints[i]`` the point where set i reaches 1 (the end of the left
     shoulder, the triangles' peaks, the start of the right shoulder).  E.g. names (N, M, L) with
@@ -98,11 +99,12 @@ def ramp_sets(names, breakpoints) -> tuple:
 
 @dataclass(frozen=True, eq=False)
 class TakagiSugeno:
-    """Zero-order Takagi-Sugeno system with a complete rule grid.
+    r"""Zero-order Takagi-Sugeno system with a complete rule grid.
 
     ``inputs``: one tuple of membership functions per input; ``consequents``: array of shape
     (n_sets_1, ..., n_sets_d, n_outputs), the crisp output of every rule.  Call with ``x`` (B, d)
-    to get (B, n_outputs)."""
+    to get (B, n_outputs), :math:`y = \sum_r w_r c_r / \sum_r w_r` (ValueError naming ``x`` for a row that
+    fires no rule).  ``input_names`` / ``output_names``: optional labels, one per input / output."""
 
     inputs: tuple
     consequents: np.ndarray
@@ -143,10 +145,13 @@ class TakagiSugeno:
 
     @property
     def n_inputs(self) -> int:
+        """Number of inputs d."""
         return len(self.inputs)
 
-    def firing_strengths(self, x) -> np.ndarray:
-        """Rule weights (B, n_sets_1, ..., n_sets_d): product of the memberships."""
+    def firing_strengths(self, x: np.ndarray) -> np.ndarray:
+        r"""Rule weights (B, n_sets_1, ..., n_sets_d): product of the memberships,
+        :math:`w_r = \prod_i \mu_{A_{ri}}(x_i)`, in [0, 1], for inputs ``x`` (B, d) (each in its sets' units).
+        A non-finite ``x`` or one of another shape is a ValueError naming ``x``."""
         x = check_finite(as_float_array(x, "x"), "x")
         if x.ndim != 2 or x.shape[1] != self.n_inputs:
             raise ValueError(f"x: expected shape (B, {self.n_inputs}), got {x.shape}")
@@ -158,7 +163,7 @@ class TakagiSugeno:
             w = w * mu.reshape(shape)
         return w
 
-    def __call__(self, x) -> np.ndarray:
+    def __call__(self, x: np.ndarray) -> np.ndarray:
         w = self.firing_strengths(x)
         B = w.shape[0]
         wf = w.reshape(B, -1)

@@ -93,14 +93,17 @@ class CircularOrbitConstellation:
 
     @property
     def size(self) -> int:
+        """Number of satellites S."""
         return self.raan.shape[0]
 
     @property
     def mean_motion(self) -> float:
+        r"""Two-body mean motion :math:`n = \sqrt{GM/a^3}` (rad/s), the rate of the argument of latitude."""
         return math.sqrt(EARTH_GM / self.a ** 3)
 
-    def positions_ecef(self, times) -> np.ndarray:
-        """Earth-fixed positions (K, S, 3) at ``times`` (K,) seconds."""
+    def positions_ecef(self, times: np.ndarray) -> np.ndarray:
+        """Earth-fixed positions (K, S, 3) (m) at ``times`` (K,) seconds (any shape, flattened to K; finite,
+        else a ValueError naming ``times``), by the formula of the class docstring."""
         t = check_finite(as_float_array(times, "times"), "times").reshape(-1, 1)
         u = self.arg_latitude[None, :] + self.mean_motion * t
         om = self.raan[None, :] - EARTH_ROTATION * t
@@ -151,17 +154,18 @@ class LocalFrame:
 
     @property
     def origin_ecef(self) -> np.ndarray:
+        """The frame's origin (``lat``, ``lon``, ``height``) in ECEF coordinates (3,) (m, WGS 84)."""
         import pymap3d
         return np.array(pymap3d.geodetic2ecef(self.lat, self.lon, self.height))
 
-    def ecef_to_enu(self, xyz) -> np.ndarray:
+    def ecef_to_enu(self, xyz: np.ndarray) -> np.ndarray:
         """ECEF points (..., 3) to ENU (..., 3) in this frame (metres)."""
         import pymap3d
         xyz = self._points(xyz, "xyz")
         e, n, u = pymap3d.ecef2enu(xyz[..., 0], xyz[..., 1], xyz[..., 2], self.lat, self.lon, self.height)
         return np.stack([np.asarray(e), np.asarray(n), np.asarray(u)], axis=-1)
 
-    def enu_to_ecef(self, enu) -> np.ndarray:
+    def enu_to_ecef(self, enu: np.ndarray) -> np.ndarray:
         """ENU points (..., 3) in this frame to ECEF (..., 3) (metres)."""
         import pymap3d
         enu = self._points(enu, "enu")
@@ -169,7 +173,7 @@ class LocalFrame:
         return np.stack([np.asarray(x), np.asarray(y), np.asarray(z)], axis=-1)
 
 
-def elevation(satellites_enu, receiver_enu) -> np.ndarray:
+def elevation(satellites_enu: np.ndarray, receiver_enu: np.ndarray) -> np.ndarray:
     """Elevation angle (rad) of satellites (..., S, 3) seen from receivers (..., 3), both in one
     ENU frame, measured from that frame's horizontal plane.  For a receiver within 25 km of the
     frame's origin the local vertical differs from the frame's by < 0.25 degrees (truth and filter
@@ -215,10 +219,12 @@ class Pseudoranges:
 
     @property
     def dim(self) -> int:
+        """Measurement dimension m: the number of satellites in view."""
         return self.satellites.shape[0]
 
     @property
     def noise_factor(self) -> np.ndarray:
+        """Lower Cholesky factor L (m, m) of ``R`` (metres), :math:`L L^T = R`, used to draw the noise."""
         return np.linalg.cholesky(self.R)
 
     @property
@@ -231,21 +237,29 @@ class Pseudoranges:
         d = self.satellites - p[..., None, :]                          # (..., m, 3)
         return d, np.sqrt((d * d).sum(axis=-1))
 
-    def h(self, x):
+    def h(self, x: np.ndarray) -> np.ndarray:
+        r"""Pseudoranges :math:`\lVert s_i - p\rVert + b` (..., m) in m for states or sigma points ``x`` (..., 8)
+        of this module's ordering (position p = ``x[..., (0, 2, 4)]``, clock bias b = ``x[..., 6]``, m)."""
         _, r = self._line_of_sight(x)
         return r + x[..., CLOCK_INDEX[0], None]
 
-    def jacobian(self, x):
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        r""":math:`\partial\rho/\partial x` (..., m, 8) at states ``x`` (..., 8): minus the unit lines of sight
+        :math:`-(s_i - p)^T/\lVert s_i - p\rVert` in the position columns, 1 in the clock-bias column, 0 for
+        the velocities and the clock drift (dimensionless)."""
         d, r = self._line_of_sight(x)
         jac = np.zeros(x.shape[:-1] + (self.dim, x.shape[-1]))
         jac[..., list(POSITION_INDEX)] = -d / r[..., None]
         jac[..., CLOCK_INDEX[0]] = 1.0
         return jac
 
-    def residual(self, a, b):
+    def residual(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """``a - b`` for pseudoranges (..., m) (m); no component is an angle."""
         return a - b
 
-    def average(self, values, weights):
+    def average(self, values: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        r"""Weighted mean :math:`\sum_i w_i \rho_i` of pseudorange vectors ``values`` (..., p, m) with weights
+        (p,); returns (..., m) (m)."""
         return weights @ values
 
 
@@ -310,7 +324,10 @@ class PVClockNoise:
         object.__setattr__(self, "unit", unit)
         object.__setattr__(self, "base", base)
 
-    def Q(self, levels) -> np.ndarray:
+    def Q(self, levels: np.ndarray | float) -> np.ndarray:
+        """:math:`Q(S_p)` (..., 8, 8) for acceleration spectral densities ``levels`` (any shape (...), e.g. (r,)
+        for an IMM's modes or (B, r) per run; m^2/s^3, finite, >= 0, else a ValueError naming ``levels``);
+        units m^2, m^2/s, m^2/s^2 by entry."""
         levels = as_float_array(levels, "levels")
         if np.any(~np.isfinite(levels)) or np.any(levels < 0):
             raise ValueError("levels: acceleration spectral densities must be finite and >= 0")

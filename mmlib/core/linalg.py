@@ -27,6 +27,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -70,8 +71,9 @@ def set_kernel(name: str) -> None:
 
 
 @contextlib.contextmanager
-def use_kernel(name: str):
-    """Context manager: run the body with the kernel implementation ``name``."""
+def use_kernel(name: str) -> Iterator[None]:
+    """Context manager: run the body with the kernel implementation ``name`` (``"numba"`` or ``"numpy"``,
+    else a ValueError naming ``name``), restoring the previous one on exit."""
     previous = kernel()
     set_kernel(name)
     try:
@@ -271,6 +273,9 @@ def trace(a: np.ndarray) -> np.ndarray:
 
 
 def log_det_from_cholesky(l_factor: np.ndarray) -> np.ndarray:
+    r""":math:`\log|A| = 2\sum_i \log L_{ii}` from lower Cholesky factors ``l_factor`` (..., m, m) of
+    :math:`A = LL^T` (e.g. the innovation covariance S); returns (...).  A NaN factor (a failed run)
+    gives NaN."""
     return 2.0 * np.log(np.diagonal(l_factor, axis1=-2, axis2=-1)).sum(axis=-1)
 
 
@@ -379,7 +384,8 @@ def weighted_mean(Y: np.ndarray, w: np.ndarray) -> np.ndarray:
     return w @ Y
 
 
-def weighted_covariances(dy: np.ndarray, w: np.ndarray, dx=None, add=None):
+def weighted_covariances(dy: np.ndarray, w: np.ndarray, dx: np.ndarray | None = None,
+                         add: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     r"""``(P_yy, P_xy)``: :math:`P_{yy} = \sum_p w_p\,dy_p dy_p^T + \mathrm{add}` and
     :math:`P_{xy} = \sum_p w_p\,dx_p dy_p^T` (None when ``dx`` is None).
 
@@ -402,7 +408,8 @@ def weighted_covariances(dy: np.ndarray, w: np.ndarray, dx=None, add=None):
     return (pyy if add is None else pyy + add), both[..., d:, :]
 
 
-def kalman_moments(mean, cov, nu, S, Pxz, H=None, R=None):
+def kalman_moments(mean: np.ndarray, cov: np.ndarray, nu: np.ndarray, S: np.ndarray, Pxz: np.ndarray,
+                   H: np.ndarray | None = None, R: np.ndarray | None = None) -> tuple:
     r"""The numerical part of the shared Kalman update (:func:`mmlib.core.filters.kalman_update`).
 
     ``mean`` (..., n), ``cov`` (..., n, n), residual-wrapped innovation ``nu`` (..., m), ``S`` (..., m, m),
@@ -448,7 +455,7 @@ def kalman_moments(mean, cov, nu, S, Pxz, H=None, R=None):
     return mean_p, cov_p, nis, logdet, failed
 
 
-def combine_covariances(wt, means, covs, centres):
+def combine_covariances(wt: np.ndarray, means: np.ndarray, covs: np.ndarray, centres: np.ndarray) -> np.ndarray:
     r""":math:`\mathrm{sym}\sum_i w_{ji}[P_i + (x_i - c_j)(x_i - c_j)^T]` for every j.
 
     ``wt`` (B, J, I), ``means`` (B, I, n), ``covs`` (B, I, n, n), ``centres`` (B, J, n) -> (B, J, n, n).
@@ -471,7 +478,8 @@ def combine_covariances(wt, means, covs, centres):
 # Fused steps: compiled only (the numpy path composes the generic functions above in mmlib.core.filters and
 # mmlib.core.estimation; tests/test_kernels.py checks that both paths agree).
 
-def sigma_point_predict_linear(mean, cov, points, F, Q):
+def sigma_point_predict_linear(mean: np.ndarray, cov: np.ndarray, points, F: np.ndarray,
+                               Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""Sigma-point time update through linear dynamics, fused (compiled kernel only): the rule's unit
     ``points`` (:class:`mmlib.core.rules.UnitPoints`) about ``mean`` (..., n) with covariance ``cov`` (..., n, n),
     mapped by ``F`` and ``Q`` (each broadcasting against (..., n, n)).  Returns ``(mean-, cov-)``: the
@@ -484,7 +492,8 @@ def sigma_point_predict_linear(mean, cov, points, F, Q):
     return m.reshape(lead + (n,)), c.reshape(lead + (n, n))
 
 
-def measurement_moments(X, mean, Z, points, angular, R):
+def measurement_moments(X: np.ndarray, mean: np.ndarray, Z: np.ndarray, points, angular,
+                        R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r"""Sigma-point measurement moments, fused (compiled kernel only): points ``X`` (..., M, n) about
     ``mean`` (..., n), their images ``Z`` (..., M, m), the rule's weights ``points``, the measurement's
     ``angular`` components (m,) (residuals wrapped, averaged about the first point) and noise ``R``.
@@ -498,7 +507,8 @@ def measurement_moments(X, mean, Z, points, angular, R):
     return zp.reshape(lead + (m,)), S.reshape(lead + (m, m)), Pxz.reshape(lead + (n, m))
 
 
-def imm_mix(mu, transition, means, covs):
+def imm_mix(mu: np.ndarray, transition: np.ndarray, means: np.ndarray,
+            covs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r"""IMM interaction fused (compiled kernel only): ``(c (B, r), mixed means (B, r, n), mixed covs
     (B, r, n, n))`` from mode probabilities ``mu`` (B, r), ``transition`` (r, r) (rows "from") and the mode
     estimates; the same as :func:`mmlib.core.estimation.mixing_weights` then :class:`mmlib.core.estimation.MomentMixing`."""
@@ -506,14 +516,15 @@ def imm_mix(mu, transition, means, covs):
                             _stack(covs, 3))
 
 
-def imm_output(loglik, c, means, covs, nu, S, with_cov: bool):
+def imm_output(loglik: np.ndarray, c: np.ndarray, means: np.ndarray, covs: np.ndarray, nu: np.ndarray,
+               S: np.ndarray, with_cov: bool) -> tuple:
     """The end of an IMM cycle fused (compiled kernel only): :func:`mmlib.core.estimation.imm_output`."""
     mu, marginal, underflow, mean, cov, innovation, innovation_cov = _call("imm_output", loglik.shape[0],
         _stack(loglik, 1), _stack(c, 1), _stack(means, 2), _stack(covs, 3), _stack(nu, 2), _stack(S, 3), bool(with_cov))
     return mu, marginal, underflow, mean, (cov if with_cov else None), innovation, innovation_cov
 
 
-def congruence(A, P, add):
+def congruence(A: np.ndarray, P: np.ndarray, add: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""The EKF's linearised moments ``(A P A^T + add, P A^T)``: ``A`` (..., d, n) (a Jacobian, broadcasting over
     the stack), ``P`` (..., n, n), ``add`` broadcasting against (..., d, d) (the noise Q or R).  The same
     products as the numpy path's ``A @ P @ A^T + add`` and ``P @ A^T``, compiled when :func:`kernel` is numba."""
@@ -528,7 +539,7 @@ def congruence(A, P, add):
     return A @ PAt + add, PAt
 
 
-def linear_predict(mean, cov, F, Q):
+def linear_predict(mean: np.ndarray, cov: np.ndarray, F: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""Time update through linear dynamics fused (compiled kernel only): ``(F m, F P F^T + Q)`` for ``mean``
     (..., n), ``cov`` (..., n, n) and ``F``, ``Q`` broadcasting against (..., n, n) (e.g. one per mode)."""
     lead = mean.shape[:-1]

@@ -29,11 +29,16 @@ from mmlib.core import linalg
 
 @dataclass(frozen=True)
 class CubatureMixing:
-    """CPIMM interaction (Zhou et al. 2017, Eqs. 14-19), evaluated on the 2mn cubature points."""
+    r"""CPIMM interaction (Zhou et al. 2017, Eqs. 14-19), evaluated on the 2mn cubature points.
+
+    Called as :class:`mmlib.core.estimation.MomentMixing`: ``means`` (B, r, n), ``covs`` (B, r, n, n), mixing
+    weights ``w`` (B, r_from, r_to) -> ``(mixed means (B, r, n), mixed covs (B, r, n, n))``, equal (to
+    round-off) to :math:`\sum_i \mu_{i|j}\hat x_i` and :math:`\sum_i \mu_{i|j}^2 P_i` (module docstring).  A
+    mode covariance that is not positive definite gives NaN for that run."""
 
     name: str = "cubature-principle"
 
-    def __call__(self, means, covs, w):
+    def __call__(self, means: np.ndarray, covs: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         B, r, n = means.shape
         l = r * n
         chol, _ = linalg.cholesky(covs)         # (B, r, n, n) blocks of S; a non-PD block gives NaN (reported)

@@ -25,9 +25,10 @@ from mmlib.core.linalg import _compiled as _compiled_kernels, matmul_rows
 TWO_PI = 2.0 * math.pi
 
 
-def wrap_angle(a):
+def wrap_angle(a: np.ndarray | float) -> np.ndarray:
     r"""Wrap angles to :math:`(-\pi, \pi]`: :math:`a + 2\pi\lfloor(\pi - a)/2\pi\rfloor`
-    (3-10x faster than ``np.mod``)."""
+    (3-10x faster than ``np.mod``).  ``a`` in rad, any shape (array or scalar); returns the same
+    shape, in rad."""
     return a + TWO_PI * np.floor((np.pi - a) / TWO_PI)
 
 
@@ -103,25 +104,34 @@ class LinearGaussianDynamics:
 
     @property
     def dim(self) -> int:
+        """State dimension n (the size of ``F``)."""
         return self.F.shape[0]
 
     def transition(self, x: np.ndarray) -> np.ndarray:
+        """:math:`F x` for states or sigma points ``x`` (..., n), any leading axes (e.g. (N, n) or
+        (N, p, n), N runs, p points); returns (..., n) in the state's units.  One GEMM for the whole
+        stack, the same bits per run whatever N (:func:`mmlib.core.linalg.matmul_rows`)."""
         return _apply_matrix(x, self.F)
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
+        r""":math:`\partial f/\partial x = F` at states ``x`` (..., n): ``F`` broadcast to (..., n, n), a
+        read-only view (the values of ``x`` are not used)."""
         return np.broadcast_to(self.F, x.shape[:-1] + self.F.shape)
 
-    def with_noise(self, Q) -> "LinearGaussianDynamics":
+    def with_noise(self, Q: np.ndarray) -> "LinearGaussianDynamics":
         """Same transition with another process-noise covariance ``Q`` (n, n), symmetric positive
         semi-definite (e.g. adapted online)."""
         q = check_covariance(Q, "Q", self.dim, semidefinite=True)
         return LinearGaussianDynamics(self.F.copy(), q.copy(), _psd_factor(q), self.name)
 
 
-def from_noise_gain(F, G, q, name: str = "linear") -> LinearGaussianDynamics:
+def from_noise_gain(F: np.ndarray, G: np.ndarray, q: np.ndarray | float,
+                    name: str = "linear") -> LinearGaussianDynamics:
     """Dynamics with ``Q = G q G^T``: ``F`` (n, n) transition, ``G`` (n, k) noise gain, ``q`` (k, k)
     positive semi-definite covariance of the k noise inputs (e.g. acceleration, (m/s^2)^2), or a
-    scalar >= 0 for isotropic noise ``q I``; ``name`` a string."""
+    scalar >= 0 for isotropic noise ``q I``; ``name`` a string.  The noise factor is ``G L`` with
+    ``L L^T = q`` (Cholesky, or an eigen-factor for a singular ``q``).  A non-square ``F``, a ``G``
+    with another number of rows or a ``q`` that is not a (k, k) covariance is a ValueError naming it."""
     _check_name(name)
     F = check_matrix(F, "F")
     if F.shape[0] != F.shape[1] or F.shape[0] < 1:
@@ -151,19 +161,33 @@ def acceleration_noise_gain(T: float, order: int = 2, axes: int = 2) -> np.ndarr
     return np.kron(np.eye(axes), np.array(block))
 
 
-def constant_velocity(T: float, q, G=None) -> LinearGaussianDynamics:
-    """Constant velocity, state ``[x, vx, y, vy]`` (m, m/s): ``T`` sampling interval (s, > 0), ``q``
+def constant_velocity(T: float, q: np.ndarray | float, G: np.ndarray | None = None) -> LinearGaussianDynamics:
+    r"""Constant velocity, state ``[x, vx, y, vy]`` (m, m/s): ``T`` sampling interval (s, > 0), ``q``
     acceleration-noise variance ((m/s^2)^2, scalar or (k, k)), ``G`` (4, k) noise gain (default
-    :func:`acceleration_noise_gain`)."""
+    :func:`acceleration_noise_gain`).
+
+    :math:`F = \mathrm{blkdiag}(F_1, F_1)`, :math:`F_1 = [[1, T], [0, 1]]`, :math:`Q = G q G^T`.  With the
+    default gain ``[T^2/2, T]^T`` per axis the noise is a white acceleration held constant over each
+    interval (the discrete white-noise acceleration model, Bar-Shalom et al. 2001, Sec. 6.3.2) and ``q``
+    is the variance of that acceleration per axis, in (m/s^2)^2 (e.g. ``q = 0.1**2`` for a 0.1 m/s^2
+    standard deviation): a scalar is the same variance on x and y, a (2, 2) matrix their covariance.
+    With a user ``G``, ``q`` is in the squared units of G's inputs.  Name ``"CV"``."""
     T = _check_period(T)
     F = np.kron(np.eye(2), np.array([[1.0, T], [0.0, 1.0]]))
     return from_noise_gain(F, acceleration_noise_gain(T) if G is None else G, q, "CV")
 
 
-def constant_acceleration(T: float, q, G=None) -> LinearGaussianDynamics:
-    """Constant acceleration, state ``[x, vx, ax, y, vy, ay]`` (m, m/s, m/s^2): ``T`` sampling interval
+def constant_acceleration(T: float, q: np.ndarray | float, G: np.ndarray | None = None) -> LinearGaussianDynamics:
+    r"""Constant acceleration, state ``[x, vx, ax, y, vy, ay]`` (m, m/s, m/s^2): ``T`` sampling interval
     (s, > 0), ``q`` noise variance (scalar or (k, k)), ``G`` (6, k) noise gain (default
-    :func:`acceleration_noise_gain` of order 3)."""
+    :func:`acceleration_noise_gain` of order 3).
+
+    :math:`F = \mathrm{blkdiag}(F_1, F_1)`, :math:`F_1 = [[1, T, T^2/2], [0, 1, T], [0, 0, 1]]`,
+    :math:`Q = G q G^T`.  With the default gain ``[T^2/2, T, 1]^T`` per axis the noise is the
+    acceleration increment over one interval (the discrete Wiener-process acceleration model,
+    Bar-Shalom et al. 2001) and ``q`` is its variance per axis, in (m/s^2)^2 (a scalar: the same on x
+    and y; (2, 2): their covariance).  With a user ``G``, ``q`` is in the squared units of G's inputs.
+    Name ``"CA"``."""
     T = _check_period(T)
     F1 = np.array([[1.0, T, T * T / 2.0], [0.0, 1.0, T], [0.0, 0.0, 1.0]])
     F = np.kron(np.eye(2), F1)
@@ -191,9 +215,16 @@ def coordinated_turn_matrix(T: float, omega: float) -> np.ndarray:
     ])
 
 
-def coordinated_turn(T: float, omega: float, q, G=None) -> LinearGaussianDynamics:
+def coordinated_turn(T: float, omega: float, q: np.ndarray | float,
+                     G: np.ndarray | None = None) -> LinearGaussianDynamics:
     """Coordinated turn at the known rate ``omega`` (rad/s) of :func:`coordinated_turn_matrix`, state
-    ``[x, vx, y, vy]``; ``T`` (s, > 0), ``q`` and ``G`` as in :func:`constant_velocity`."""
+    ``[x, vx, y, vy]`` (m, m/s); ``T`` (s, > 0), ``q`` and ``G`` as in :func:`constant_velocity` (with the
+    default gain ``q`` is the acceleration-noise variance per axis, (m/s^2)^2).
+
+    ``omega`` is in **rad/s**, not degrees: ``omega=3`` is a turn of 172 deg/s, while a 3 deg/s turn is
+    ``math.radians(3)`` = 0.0524 rad/s.  Positive ``omega`` turns counter-clockwise.  Transition of
+    Zhu et al. 2016, Eq. 61; ``Q = G q G^T``; the model's name states the rate in deg/s, e.g.
+    ``"CT(+3 deg/s)"``."""
     F = coordinated_turn_matrix(T, omega)
     omega = check_scalar(omega, "omega")
     return from_noise_gain(F, acceleration_noise_gain(T) if G is None else G, q,
@@ -223,16 +254,23 @@ class LinearMeasurement:
 
     @property
     def dim(self) -> int:
+        """Measurement dimension m (rows of ``H``)."""
         return self.H.shape[0]
 
     @property
     def noise_factor(self) -> np.ndarray:
+        """Lower Cholesky factor L (m, m) of ``R``, :math:`L L^T = R` (measurement units), used to draw the
+        measurement noise ``v = L e``, ``e ~ N(0, I)``."""
         return np.linalg.cholesky(self.R)
 
-    def h(self, x):
+    def h(self, x: np.ndarray) -> np.ndarray:
+        """:math:`H x` for states or sigma points ``x`` (..., n), e.g. (N, n) or (N, p, n); returns (..., m)
+        in the measurement's units (the same bits per run whatever N, :func:`mmlib.core.linalg.matmul_rows`)."""
         return _apply_matrix(x, self.H)
 
-    def jacobian(self, x):
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        r""":math:`\partial h/\partial x = H` at states ``x`` (..., n): ``H`` broadcast to (..., m, n), a
+        read-only view."""
         return np.broadcast_to(self.H, x.shape[:-1] + self.H.shape)
 
     @property
@@ -240,11 +278,13 @@ class LinearMeasurement:
         """Which components are angles (residuals wrapped): none."""
         return (False,) * self.dim
 
-    def residual(self, a, b):
+    def residual(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """``a - b`` for measurements (..., m) (broadcasting); no component is an angle, nothing is wrapped."""
         return a - b
 
-    def average(self, values, weights):
-        """Weighted mean of measurement-space points (B, m, d) with weights (m,)."""
+    def average(self, values: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        r"""Weighted mean :math:`\sum_i w_i z_i` of measurement-space points ``values`` (..., p, m), e.g. the
+        images of p sigma points, with weights ``weights`` (p,); returns (..., m)."""
         return weights @ values
 
 
@@ -277,10 +317,13 @@ def _check_position_index(value, name: str = "position_index", size: int | None 
     return tuple(int(i) for i in idx)
 
 
-def position_measurement(R, state_dim: int = 4, position_index=None) -> LinearMeasurement:
+def position_measurement(R: np.ndarray, state_dim: int = 4,
+                         position_index: tuple[int, ...] | None = None) -> LinearMeasurement:
     """Linear x-y position measurement (Zhu et al. 2016, Eq. 62): ``H`` picks the state components
     ``position_index`` (default: x and y of :func:`position_indices`) of a ``state_dim``-state;
-    ``R`` (m^2): an (m, m) covariance or the m variances, m = number of indices."""
+    ``R`` (m^2): an (m, m) covariance or the m variances, m = number of indices.  ``z = H x + v`` in m,
+    ``H`` (m, ``state_dim``); name ``"position"``.  A bad ``state_dim``, ``position_index`` or ``R`` is a
+    ValueError naming it."""
     state_dim = check_positive_int(state_dim, "state_dim")
     if position_index is None:
         position_index = position_indices(state_dim)
@@ -328,9 +371,14 @@ class RangeBearing:
 
     @property
     def noise_factor(self) -> np.ndarray:
+        """Lower Cholesky factor L (2, 2) of ``R`` (m, rad), :math:`L L^T = R`, used to draw the noise."""
         return np.linalg.cholesky(self.R)
 
-    def h(self, x):
+    def h(self, x: np.ndarray) -> np.ndarray:
+        r"""Range and bearing :math:`[\sqrt{\Delta x^2+\Delta y^2},\ \mathrm{atan2}(\Delta y, \Delta x)]` of
+        states or sigma points ``x`` (..., n) (positions in m at ``position_index``); returns (..., 2):
+        range in m, bearing in rad in :math:`[-\pi, \pi]` (``arctan2``), counter-clockwise from the +x
+        axis.  Compiled when :func:`mmlib.core.linalg.kernel` is numba."""
         i, j = self.position_index
         k = _compiled_kernels()
         if k is not None and max(i, j) < x.shape[-1]:     # (out of range: numpy's IndexError below)
@@ -340,7 +388,11 @@ class RangeBearing:
         dy = x[..., j] - self.sensor[1]
         return np.stack([np.hypot(dx, dy), np.arctan2(dy, dx)], axis=-1)
 
-    def jacobian(self, x):
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        r""":math:`\partial h/\partial x` (..., 2, n) at states ``x`` (..., n), with :math:`r^2 = \Delta x^2 +
+        \Delta y^2`: range row :math:`[\Delta x/r, \Delta y/r]` (dimensionless), bearing row
+        :math:`[-\Delta y/r^2, \Delta x/r^2]` (rad/m), in the position columns; zero elsewhere.  Not
+        finite at the sensor itself (r = 0)."""
         i, j = self.position_index
         dx = x[..., i] - self.sensor[0]
         dy = x[..., j] - self.sensor[1]
@@ -353,12 +405,18 @@ class RangeBearing:
         jac[..., 1, j] = dx / r2
         return jac
 
-    def residual(self, a, b):
+    def residual(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        r"""``a - b`` for (range m, bearing rad) measurements (..., 2), broadcasting, the bearing difference
+        wrapped to :math:`(-\pi, \pi]` (:func:`wrap_angle`); returns a new array (..., 2)."""
         d = np.subtract(a, b)
         d[..., 1] = wrap_angle(d[..., 1])
         return d
 
-    def average(self, values, weights):
+    def average(self, values: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        r"""Weighted mean of measurements ``values`` (..., p, 2) with weights (p,), taken about the first
+        point: :math:`\bar z = z_0 + \sum_i w_i\,\mathrm{residual}(z_i, z_0)` (for weights summing to 1),
+        the bearing wrapped to :math:`(-\pi, \pi]`, so that points straddling the :math:`\pm\pi` cut average
+        correctly; returns (..., 2) (m, rad)."""
         ref = values[..., :1, :]
         mean = ref[..., 0, :] + weights @ self.residual(values, ref)
         mean[..., 1] = wrap_angle(mean[..., 1])
@@ -423,6 +481,7 @@ class StackedDynamics:
 
     @property
     def dim(self) -> int:
+        """State dimension n, shared by every mode."""
         return self.models[0].dim
 
     @property
@@ -430,7 +489,10 @@ class StackedDynamics:
         """All modes linear (then ``F`` is their stack)."""
         return self.F is not None
 
-    def transition(self, points):
+    def transition(self, points: np.ndarray) -> np.ndarray:
+        r"""Each mode's ``f`` applied to its own points: ``points`` (..., r, p, n) (mode axis at -3, p points
+        per mode) give (..., r, p, n).  For linear modes any shape broadcasting against ``F`` (r, n, n) also
+        works, :math:`X F_j^T` (e.g. shared points (..., 1, p, n)); nonlinear modes need the mode axis."""
         if self.F is not None:
             if points.ndim >= 3 and points.shape[-3] == len(self.models):
                 # mode axis at -3: one GEMM per mode instead of a broadcast matmul
@@ -438,21 +500,25 @@ class StackedDynamics:
             return points @ np.swapaxes(self.F, -1, -2)
         return np.stack([m.transition(points[..., j, :, :]) for j, m in enumerate(self.models)], axis=-3)
 
-    def jacobian(self, mean):
+    def jacobian(self, mean: np.ndarray) -> np.ndarray:
+        """Each mode's Jacobian at its own mean: ``mean`` (..., r, n) -> (..., r, n, n) (for linear modes the
+        stacked ``F``, a read-only broadcast view)."""
         if self.F is not None:
             return np.broadcast_to(self.F, mean.shape[:-1] + self.F.shape[-2:])
         return np.stack([m.jacobian(mean[..., j, :]) for j, m in enumerate(self.models)], axis=-3)
 
-    def with_noise(self, Q) -> "StackedDynamics":
+    def with_noise(self, Q: np.ndarray) -> "StackedDynamics":
         """The same modes with process noise ``Q`` ((r, n, n) or (..., r, n, n), e.g. per run and
         per step); a NaN, asymmetric or indefinite ``Q`` is a ValueError naming ``Q``."""
         return StackedDynamics(self.models, Q, self.F)
 
 
-def range_bearing(R, state_dim: int = 4, sensor=(0.0, 0.0)) -> "RangeBearing":
+def range_bearing(R: np.ndarray, state_dim: int = 4,
+                  sensor: tuple[float, float] | np.ndarray = (0.0, 0.0)) -> "RangeBearing":
     """Range-bearing radar at ``sensor`` ((x, y), m) for a state of dimension ``state_dim`` (4 or 6;
     positions located by :func:`position_indices`; Liu & Wu 2017 Eq. 40, Hu et al. 2017); ``R``
-    (2, 2) covariance of (range m, bearing rad)."""
+    (2, 2) covariance of (range m, bearing rad), units (m^2, m rad, rad^2): e.g.
+    ``np.diag([10.0**2, math.radians(0.1)**2])`` for 10 m and 0.1 degree standard deviations."""
     return RangeBearing(R, sensor, position_indices(state_dim))
 
 
@@ -472,8 +538,11 @@ class SensorFault:
         _freeze(self, delta=d)
 
     def apply(self, measurement):
-        """``noise_fn(truth (B, K, n), v (B, K, m))`` for :func:`mmlib.experiment.simulate.simulate`; the measurement
-        model's dimension and the truth's runs and steps must match ``delta``."""
+        """``noise_fn(truth (B, K, n), v (B, K, m))`` for :func:`mmlib.experiment.simulate.simulate`, returning
+        ``z = h(truth) + v L^T + delta`` (B, K, m) with ``v`` standard normals and ``L`` the model's
+        ``noise_factor``; the measurement model's dimension (checked here, ValueError naming
+        ``measurement``) and the truth's runs and steps (checked per call, naming ``delta``) must match
+        ``delta``."""
         check_has(measurement, "measurement", "a measurement model", ("h", "noise_factor", "dim"))
         if measurement.dim != self.delta.shape[-1]:
             raise ValueError(f"measurement: dimension {measurement.dim} does not match the fault's "

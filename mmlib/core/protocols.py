@@ -138,7 +138,7 @@ class Estimator(Protocol):
         ``measurement`` overrides the measurement model for this step."""
 
 
-def members(protocol) -> tuple:
+def members(protocol: type) -> tuple:
     """The members a class must provide to satisfy ``protocol``, in declaration order (methods, properties and
     annotated attributes of the protocol and of the protocols it extends)."""
     names = []
@@ -152,12 +152,12 @@ def members(protocol) -> tuple:
     return tuple(names)
 
 
-def missing(obj, protocol) -> list:
+def missing(obj: Any, protocol: type) -> list:
     """The members of ``protocol`` that ``obj`` lacks (empty when it satisfies it)."""
     return [name for name in members(protocol) if not hasattr(obj, name)]
 
 
-def require(obj, name: str, protocol, what: str | None = None):
+def require(obj: Any, name: str, protocol: type, what: str | None = None) -> Any:
     """``obj`` if it provides every member of ``protocol``; else ValueError naming the argument ``name``, the
     protocol and the members it lacks."""
     lacking = missing(obj, protocol)

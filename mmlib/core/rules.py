@@ -2,7 +2,7 @@ r"""Gaussian quadrature ("sigma-point") rules as small immutable objects.
 
 A rule approximates Gaussian-weighted integrals
 
-.. math:: \int g(x)\,\mathcal N(x; m, P)\,dx \approx \sum_i w_i\, g(m + S\xi_i), \qquad P = S S^T,
+.. math:: \int g(x)\,\mathrm{N}(x; m, P)\,dx \approx \sum_i w_i\, g(m + S\xi_i), \qquad P = S S^T,
 
 with unit points :math:`\xi_i` and weights :math:`w_i` that depend only on the
 dimension ``n``.  A rule knows nothing about filtering: the generic filter in
@@ -29,7 +29,9 @@ from mmlib.core.linalg import matmul_rows, weighted_covariances
 
 @dataclass(frozen=True)
 class UnitPoints:
-    """Points and weights of a rule for a fixed dimension (read-only arrays)."""
+    """Points and weights of a rule for a fixed dimension (read-only arrays): ``xi`` (M, n) unit points in
+    :math:`N(0, I)` coordinates (dimensionless), ``wm`` (M,) mean weights, ``wc`` (M,) covariance weights
+    (NaN for the Stirling central-difference rule, which does not use them)."""
 
     xi: np.ndarray        # (m, n) unit points, N(0, I) coordinates
     wm: np.ndarray        # (m,) weights for the mean
@@ -62,14 +64,20 @@ class SigmaPointRule:
     weighted_moments = True
 
     def unit_points(self, n: int) -> UnitPoints:  # pragma: no cover - abstract
+        r"""The rule for dimension ``n`` >= 1: unit points :math:`\xi_i` (M, n) in :math:`N(0, I)` coordinates
+        (dimensionless), mean weights (M,) and covariance weights (M,) (:class:`UnitPoints`, read-only,
+        cached per (rule, n)).  A bad ``n`` is a ValueError naming ``n``."""
         raise NotImplementedError
 
     def num_points(self, n: int) -> int:
+        """Number of points M of the rule in dimension ``n`` (e.g. 2n + 1 unscented, 2n cubature,
+        2n^2 + 1 fifth-degree cubature, 2n + 2 spherical simplex-radial)."""
         return self.unit_points(n).xi.shape[0]
 
     # -- generic moment computations -------------------------------------
     def points(self, mean: np.ndarray, chol: np.ndarray) -> np.ndarray:
-        """Sigma points ``m + S xi_i``: mean (..., n), chol (..., n, n) -> (..., m, n)."""
+        """Sigma points ``m + S xi_i``: mean (..., n), chol (..., n, n) (the lower factor S of P, in the
+        state's units) -> (..., M, n), M = :meth:`num_points`, in the state's units."""
         n = mean.shape[-1]
         up = self.unit_points(n)
         # one product for the whole batch: (S xi_p)_i = sum_j S_ij xi_pj, bitwise the same per run
@@ -77,15 +85,17 @@ class SigmaPointRule:
         offsets = matmul_rows(chol, up.xi.T)
         return mean[..., None, :] + np.swapaxes(offsets, -1, -2)
 
-    def covariances(self, dx: np.ndarray, dy: np.ndarray, add=None) -> tuple[np.ndarray, np.ndarray]:
-        r"""``(P_yy + add, P_xy)`` from deviations ``dx = X_i - m`` (..., m, n) and
-        ``dy = Y_i - \bar y`` (..., m, d):  :math:`\sum_i w^c_i dy_i dy_i^T` and
+    def covariances(self, dx: np.ndarray, dy: np.ndarray,
+                    add: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        r"""``(P_yy + add, P_xy)`` ((..., d, d), (..., n, d)) from deviations ``dx = X_i - m`` (..., M, n) and
+        ``dy = Y_i - \bar y`` (..., M, d):  :math:`\sum_i w^c_i dy_i dy_i^T` and
         :math:`\sum_i w^c_i dx_i dy_i^T` (:func:`mmlib.core.linalg.weighted_covariances`); ``add`` (e.g. the
         noise R) broadcasts against (..., d, d)."""
         return weighted_covariances(dy, self.unit_points(dx.shape[-1]).wc, dx, add)
 
-    def covariance(self, dx: np.ndarray, dy: np.ndarray, add=None) -> np.ndarray:
-        """Only ``P_yy + add`` (prediction step, ``add`` e.g. the noise Q); ``dx`` is needed by rules that pair points."""
+    def covariance(self, dx: np.ndarray, dy: np.ndarray, add: np.ndarray | None = None) -> np.ndarray:
+        """Only ``P_yy + add`` (..., d, d) (prediction step, ``add`` e.g. the noise Q); ``dx`` (..., M, n) gives
+        the dimension n of the rule (and is needed by rules that pair points); ``dy`` (..., M, d)."""
         return weighted_covariances(dy, self.unit_points(dx.shape[-1]).wc, None, add)[0]
 
 
@@ -115,6 +125,8 @@ class Unscented(SigmaPointRule):
 
     @lru_cache(maxsize=None)
     def unit_points(self, n: int) -> UnitPoints:
+        r"""``2n + 1`` points (0, then :math:`+\sqrt{n+\lambda}\,e_i`, then :math:`-\sqrt{n+\lambda}\,e_i`) and
+        the weights of the class docstring; ValueError naming ``kappa`` if :math:`n + \lambda \le 0`."""
         n = check_positive_int(n, "n")
         lam = self.alpha ** 2 * (n + self.kappa) - n
         if not n + lam > 0:
@@ -139,6 +151,7 @@ class Cubature(SigmaPointRule):
 
     @lru_cache(maxsize=None)
     def unit_points(self, n: int) -> UnitPoints:
+        r"""``2n`` points :math:`+\sqrt n\,e_i` then :math:`-\sqrt n\,e_i`, weights ``1/(2n)`` (mean and covariance)."""
         n = check_positive_int(n, "n")
         eye = np.eye(n) * math.sqrt(n)
         return _frozen(np.vstack([eye, -eye]), np.full(2 * n, 0.5 / n))
@@ -167,6 +180,8 @@ class FifthDegreeCubature(SigmaPointRule):
 
     @lru_cache(maxsize=None)
     def unit_points(self, n: int) -> UnitPoints:
+        """The ``2n^2 + 1`` points and weights of the table in the class docstring (mean weights = covariance
+        weights), in the order: centre, axis pairs, then the pairs of each ``j < l``."""
         n = check_positive_int(n, "n")
         r = math.sqrt(n + 2.0)
         eye = np.eye(n)
@@ -226,6 +241,7 @@ class SphericalSimplexRadial(SigmaPointRule):
 
     @lru_cache(maxsize=None)
     def unit_points(self, n: int) -> UnitPoints:
+        r"""``2n + 2`` points :math:`\pm\sqrt n\,a_j` in the order of the class docstring, weights ``1/(2n+2)``."""
         n = check_positive_int(n, "n")
         a = regular_simplex(n) * math.sqrt(n)
         return _frozen(np.vstack([a, -a]), np.full(2 * n + 2, 1.0 / (2 * n + 2)))
@@ -274,6 +290,8 @@ class CentralDifference(SigmaPointRule):
 
     @lru_cache(maxsize=None)
     def unit_points(self, n: int) -> UnitPoints:
+        """``2n + 1`` points 0, ``+h e_j``, ``-h e_j`` (in that order), mean weights ``(h^2 - n)/h^2`` and
+        ``1/(2h^2)``; covariance weights = mean weights (``form="weighted"``) or NaN (Stirling, unused)."""
         n = check_positive_int(n, "n")
         h2 = self.h ** 2
         eye = np.eye(n) * self.h
@@ -285,14 +303,26 @@ class CentralDifference(SigmaPointRule):
 
     @property
     def weighted_moments(self) -> bool:
+        """True for ``form="weighted"`` (covariances are weighted outer products, the compiled fused kernels
+        apply); False for the Stirling form, whose covariances :meth:`covariances` computes itself."""
         return self.form == "weighted"
 
-    def covariance(self, dx, dy, add=None):
+    def covariance(self, dx: np.ndarray, dy: np.ndarray, add: np.ndarray | None = None) -> np.ndarray:
+        r"""Only :math:`P_{yy}` + ``add`` (..., d, d) of :meth:`covariances` (prediction step, ``add`` e.g. Q);
+        ``dx`` (..., 2n+1, n), ``dy`` (..., 2n+1, d) deviations of the points and of their images."""
         if self.form == "weighted":
             return SigmaPointRule.covariance(self, dx, dy, add)
         return self.covariances(dx, dy, add)[0]
 
-    def covariances(self, dx, dy, add=None):
+    def covariances(self, dx: np.ndarray, dy: np.ndarray,
+                    add: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        r"""``(P_yy + add, P_xy)`` ((..., d, d), (..., n, d)) from the deviations ``dx`` (..., 2n+1, n) of the
+        points :math:`x, x + h s_j, x - h s_j` (in that order) and ``dy`` (..., 2n+1, d) of their images.
+        Stirling form (Nørgaard et al. 2000; Hu et al. 2017, Eqs. 1-14):
+        :math:`P_{yy} = \sum_j a_j a_j^T + b_j b_j^T` with :math:`a_j = (Y_j^+ - Y_j^-)/(2h)`,
+        :math:`b_j = \frac{\sqrt{h^2-1}}{2h^2}(Y_j^+ + Y_j^- - 2Y_0)`, and :math:`P_{xy} = \sum_j s_j a_j^T`
+        (differences of images, so the centre of ``dy`` does not matter); ``form="weighted"``: the weighted
+        outer products of :meth:`SigmaPointRule.covariances`.  ``add`` broadcasts against (..., d, d)."""
         if self.form == "weighted":
             return SigmaPointRule.covariances(self, dx, dy, add)
         n = dx.shape[-1]
@@ -317,7 +347,7 @@ _RULES = {
 }
 
 
-def rule_by_name(name: str, **params) -> SigmaPointRule:
+def rule_by_name(name: str, **params: float | str) -> SigmaPointRule:
     """Look up a rule by its short name (``ukf``, ``ckf``, ``5ckf``, ``ssrckf``, ``cdkf``, any case);
     ``params`` are the rule's own parameters (e.g. ``alpha``, ``beta``, ``kappa`` for ``ukf``, ``h`` and
     ``form`` for ``cdkf``); an unknown parameter is a ValueError naming it."""

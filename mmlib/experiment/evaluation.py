@@ -35,6 +35,7 @@ class RunSet(NamedTuple):
 
     @property
     def valid(self) -> np.ndarray:
+        """(N,) bool: the runs that did not diverge (``diverged_step`` -1)."""
         return self.diverged_step < 0
 
     def divergence_summary(self) -> str:
@@ -219,7 +220,7 @@ def _evaluate_chunk(estimators: dict, make_batch: Callable, measurement_models, 
     return out
 
 
-def paired_mse_difference(a: RunSet, b: RunSet, components):
+def paired_mse_difference(a: RunSet, b: RunSet, components) -> metrics.MCValue:
     r"""Mean over runs of (time-averaged squared error of a minus that of b), with its standard
     error; ``components`` is one state index or a tuple whose squared errors are summed (e.g. x
     and y for a position error).  Runs diverged in either estimator are excluded and counted.

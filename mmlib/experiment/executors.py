@@ -81,7 +81,8 @@ def worker_count(workers: int | None = None) -> int:
 
 
 def scheduler_address() -> str | None:
-    """``$MMLIB_SCHEDULER`` (stripped), or None when unset or empty."""
+    """``$MMLIB_SCHEDULER`` (stripped), or None when unset or empty; ValueError naming MMLIB_SCHEDULER if it holds
+    whitespace."""
     address = os.environ.get(SCHEDULER_VARIABLE, "").strip()
     if address and any(c.isspace() for c in address):
         raise ValueError(f"{SCHEDULER_VARIABLE}: expected a scheduler address such as tcp://host:8786, "
@@ -142,7 +143,9 @@ def _run_task(shared: bytes, payload: bytes, state: dict, source: str | None):
 class SerialExecutor(cf.Executor):
     """Runs each task at submission, in this process, marked as a task (so that it never fans out again)."""
 
-    def submit(self, fn, /, *args, **kwargs):
+    def submit(self, fn: Callable, /, *args, **kwargs) -> cf.Future:
+        """Run ``fn(*args, **kwargs)`` now and return a done Future holding its result (or the exception it
+        raised, re-raised by ``Future.result()``)."""
         fut = cf.Future()
         try:
             with _task_scope():
@@ -282,7 +285,8 @@ def _dask_address_of(executor) -> str | None:
     return getattr(client, "scheduler", None) and getattr(client.scheduler, "address", None)
 
 
-def choose_executor(n_tasks: int, *, workers: int | None = None, executor: cf.Executor | None = None):
+def choose_executor(n_tasks: int, *, workers: int | None = None,
+                    executor: cf.Executor | None = None) -> tuple[cf.Executor | None, str]:
     """``(executor, where)`` for ``n_tasks`` tasks by the policy of this module; ``where`` describes it for
     messages.  ``workers`` is validated (and ``$WORKERS`` read) whatever is chosen, so a bad setting is always an
     error."""

@@ -7,7 +7,7 @@ delta method, :math:`\mathrm{se}(\sqrt{m}) \approx \mathrm{se}(m)/(2\sqrt m)`.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import numpy as np
 from scipy import stats
@@ -19,6 +19,9 @@ from mmlib.core._validate import (as_float_array, check_covariance, check_finite
 
 
 class MCValue(NamedTuple):
+    """A Monte Carlo estimate: ``value`` and its standard error ``stderr`` (same shape and unit), from
+    ``n_runs`` valid runs, ``n_excluded`` diverged runs left out."""
+
     value: np.ndarray
     stderr: np.ndarray
     n_runs: int          # runs used
@@ -147,7 +150,7 @@ def _steps(steps, K: int):
     return np.array([check_index(i, "steps", K) for i in arr.tolist()], dtype=int)
 
 
-def nees(err, cov, valid=None):
+def nees(err, cov, valid=None) -> np.ndarray:
     r"""Normalised estimation error squared :math:`\epsilon = e^T P^{-1} e` (dimensionless; chi-square
     with n degrees of freedom for a consistent filter), per leading index, e.g. per run and step.
 
@@ -178,7 +181,7 @@ def nees(err, cov, valid=None):
     return out
 
 
-def chi2_band(dof: int, n_runs: int, level: float = 0.95):
+def chi2_band(dof: int, n_runs: int, level: float = 0.95) -> tuple[float, float]:
     r"""Two-sided acceptance band for the run-average of a chi-square(dof) statistic over n_runs runs
     (Bar-Shalom et al. 2001, Sec. 5.4.2): :math:`[\chi^2_{Mn}((1-\alpha)/2),\ \chi^2_{Mn}((1+\alpha)/2)]/M`
     with n = ``dof`` (integer >= 1), M = ``n_runs`` (integer >= 1), :math:`\alpha` = ``level`` in (0, 1)."""
@@ -219,7 +222,7 @@ def mean_rmse_over_time(err, valid=None) -> MCValue:
     return MCValue(value, se, int(ok.sum()), int((~ok).sum()))
 
 
-def jackknife(statistic, samples, valid=None) -> MCValue:
+def jackknife(statistic: Callable, samples, valid=None) -> MCValue:
     """Delete-one-run jackknife standard error of ``statistic(samples)`` (samples: runs first);
     for statistics without a simple closed-form error, e.g. the s.d. over time of a per-step RMSE.
 

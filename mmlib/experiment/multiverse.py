@@ -57,6 +57,7 @@ class PublishedNumber(NamedTuple):
 
     @property
     def key(self) -> tuple:
+        """``(item, algorithm, quantity)``: what a universe's value must match."""
         return (self.item, self.algorithm, self.quantity)
 
 
@@ -117,19 +118,25 @@ class Multiverse:
     # -- lookups ----------------------------------------------------------------------------------------------
     @property
     def readings(self) -> tuple:
+        """The design's readings (dicts factor id -> option), the headline first."""
         return self.design.readings
 
     @property
     def headline(self) -> dict:
+        """The headline universe's result (``universes[0]``)."""
         return self.universes[0]
 
-    def value(self, universe: dict, key: tuple):
+    def value(self, universe: dict, key: tuple) -> dict | None:
+        """The entry of ``universe["values"]`` whose ``(item, algorithm, quantity)`` is ``key``
+        (:attr:`PublishedNumber.key`), or None when the universe does not compute it."""
         for v in universe["values"]:
             if (v["item"], v["algorithm"], v["quantity"]) == key:
                 return v
         return None
 
-    def effect(self, universe: dict, name: str):
+    def effect(self, universe: dict, name: str) -> dict:
+        """The entry of ``universe["effects"]`` called ``name`` (``name``, ``value``, ``stderr``, ``published``);
+        ValueError naming the known effects otherwise."""
         for e in universe["effects"]:
             if e["name"] == name:
                 return e
@@ -150,7 +157,10 @@ class Multiverse:
         """False when the universe's value is too uncertain to judge (verdict *inconclusive*)."""
         return not self.number_verdict(pub, universe).startswith(report.INCONCLUSIVE)
 
-    def distance(self, pub: PublishedNumber, universe: dict):
+    def distance(self, pub: PublishedNumber, universe: dict) -> float | None:
+        """The standardized distance of the universe's value from the printed number
+        (:func:`mmlib.experiment.report.standardized_distance`); None when the universe does not compute it,
+        ``inf`` when it computed it but could not produce a value."""
         v = self.value(universe, pub.key)
         if v is None:
             return None
@@ -198,6 +208,10 @@ class Multiverse:
         return out
 
     def numbers_summary(self) -> list:
+        """Per published number: its headline verdict and distance, the counts of universes that reproduce it
+        (``n_reproduced``), reproduce it qualitatively and are inconclusive, and ``closest``, the universe of
+        smallest absolute standardized distance among the judged ones (its reading, value, distance and verdict;
+        None if none)."""
         out = []
         for pub in self.published:
             verdicts = [self.number_verdict(pub, u) for u in self.universes]
@@ -234,6 +248,7 @@ class Multiverse:
 
     @property
     def tables(self) -> list:
+        """The published tables' names, in order of first appearance in ``published``."""
         seen = []
         for p in self.published:
             if p.table not in seen:
@@ -281,6 +296,7 @@ class Multiverse:
         return out
 
     def diverged_total(self) -> dict:
+        """Algorithm -> diverged runs summed over all universes."""
         tot: dict = {}
         for u in self.universes:
             for k, v in u["diverged"].items():
@@ -288,6 +304,7 @@ class Multiverse:
         return tot
 
     def as_dict(self) -> dict:
+        """The ``multiverse`` object of ``data/results/<paper>.json`` (see the module docstring); JSON-able."""
         return {"factors": self.space.as_dict(), "design": self.design.kind,
                 "design_description": self.design.description, "n_universes": len(self.universes),
                 "n_simulations": len(self.simulations()),

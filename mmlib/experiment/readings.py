@@ -44,6 +44,7 @@ class Deviation:
     sweep: str = ""
 
     def as_dict(self) -> dict:
+        """The fields as a JSON-able dict (``id``, ``topic``, ``paper``, ``choice``, ``reason``, ``sweep``)."""
         return asdict(self)
 
 
@@ -70,6 +71,7 @@ class Option:
         object.__setattr__(self, "changes", dict(self.changes))
 
     def as_dict(self) -> dict:
+        """``name``, ``label``, ``source`` and ``changes`` as a JSON-able dict (tuple values as lists)."""
         return {"name": self.name, "label": self.label, "source": self.source,
                 "changes": {k: list(v) if isinstance(v, tuple) else v for k, v in self.changes.items()}}
 
@@ -109,15 +111,19 @@ class Factor:
 
     @property
     def names(self) -> tuple:
+        """The options' names, in declaration order."""
         return tuple(o.name for o in self.options)
 
     def option(self, name: str) -> Option:
+        """The option called ``name``; ValueError (starting ``reading:``) listing the options otherwise."""
         for o in self.options:
             if o.name == name:
                 return o
         raise ValueError(f"reading: factor {self.id!r} has no option {name!r} (options: {list(self.names)})")
 
     def as_dict(self) -> dict:
+        """The factor as a JSON-able dict: its fields, the option names and ``option_details``
+        (:meth:`Option.as_dict` of each)."""
         return {"id": self.id, "label": self.label, "options": list(self.names), "headline": self.headline,
                 "source": self.source, "influential": self.influential, "metric_only": self.metric_only,
                 "option_details": [o.as_dict() for o in self.options]}
@@ -163,9 +169,11 @@ class ReadingSpace:
     # -- readings ---------------------------------------------------------------------------------------------
     @property
     def ids(self) -> tuple:
+        """The factor ids, in declaration order."""
         return tuple(f.id for f in self.factors)
 
     def factor(self, factor_id: str) -> Factor:
+        """The factor with id ``factor_id``; ValueError (starting ``reading:``) listing the ids otherwise."""
         for f in self.factors:
             if f.id == factor_id:
                 return f
@@ -173,6 +181,7 @@ class ReadingSpace:
 
     @property
     def headline(self) -> dict:
+        """The headline reading: factor id -> headline option name, in factor order."""
         return {f.id: f.headline for f in self.factors}
 
     @property
@@ -327,4 +336,5 @@ class ReadingSpace:
         return d
 
     def as_dict(self) -> list:
+        """:meth:`Factor.as_dict` of every factor, in order (the ``factors`` of a results file)."""
         return [f.as_dict() for f in self.factors]

@@ -139,6 +139,10 @@ def claim_verdict(difference: float, stderr: float, expected_sign: int, referenc
 
 @dataclass
 class Row:
+    """One paper-versus-replication row of a results file: the printed value ``paper`` (text, None if none),
+    our ``replicated`` value with its standard error ``stderr`` (in the quantity's unit), the ``verdict`` of the
+    verdict rule, the ids of the ``deviations`` that bear on it and a ``note``."""
+
     item: str
     algorithm: str
     quantity: str
@@ -150,15 +154,19 @@ class Row:
     note: str = ""
 
 
-def make_row(item, algorithm, quantity, paper, replicated, stderr, *, n_runs=None,
-             n_runs_paper=None, deviations=(), reason="", note="") -> Row:
+def make_row(item: str, algorithm: str, quantity: str, paper: str | None, replicated: float | None,
+             stderr: float | None, *, n_runs: int | None = None, n_runs_paper: int | None = None, deviations=(),
+             reason: str = "", note: str = "") -> Row:
+    """A :class:`Row` judged by the verdict rule (:func:`verdict`): ``replicated`` and ``stderr`` as floats (None
+    kept: the row is *not replicable*, ``reason`` saying why), ``n_runs`` ours and ``n_runs_paper`` the paper's."""
     rep = None if replicated is None else float(replicated)
     se = None if stderr is None else float(stderr)
     return Row(item, algorithm, quantity, paper, rep, se,
                verdict(paper, rep, se, n_runs, n_runs_paper, reason), list(deviations), note)
 
 
-def analytic_row(item, algorithm, quantity, paper, finding: str, holds: bool, *, deviations=()) -> Row:
+def analytic_row(item: str, algorithm: str, quantity: str, paper: str | None, finding: str, holds: bool, *,
+                 deviations=()) -> Row:
     """A row judged by analysis rather than by Monte Carlo (e.g. a complexity class): no number,
     verdict 'reproduced' or 'not reproduced', with the finding as the note."""
     return Row(item, algorithm, quantity, paper, None, None,
@@ -223,6 +231,9 @@ class Claims:
         self.items: list = []
 
     def add(self, claim: str, verdict: str, evidence: str = "") -> str:
+        """Record ``claim`` with its ``verdict`` (claim vocabulary, :func:`claim_category`) and ``evidence``;
+        returns the verdict.  ValueError for an empty claim, a verdict outside the vocabulary or a claim already
+        judged."""
         if not isinstance(claim, str) or not claim.strip():
             raise ValueError(f"claim: expected a non-empty string, got {claim!r}")
         claim_category(verdict)
@@ -238,10 +249,14 @@ class Claims:
         return len(self.items)
 
     def as_list(self) -> list:
+        """Copies of the recorded claims, ``{"claim", "verdict", "evidence"}`` each, in order."""
         return [dict(c) for c in self.items]
 
 
 def git_commit(repo: Path | None = None) -> str:
+    """The commit checked out in ``repo`` (default: the current folder), with ``-dirty`` appended when tracked
+    files other than the generated outputs (data, figures, executed notebooks, reports) are modified;
+    ``"unknown"`` outside a git checkout or without git."""
     try:
         out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
                              cwd=repo, check=True).stdout.strip()
@@ -264,6 +279,9 @@ def _version(package: str):
 
 
 def provenance(*, root_seed: int, n_runs: int, profile: str, extra: dict | None = None) -> dict:
+    """The ``provenance`` object of a results file: mmlib's git commit (:func:`git_commit`), ``root_seed``,
+    ``n_runs``, ``profile``, the Python and package versions and the linear-algebra kernel, updated with
+    ``extra``."""
     import matplotlib
     import scipy
     from mmlib.core.linalg import kernel
@@ -318,7 +336,7 @@ def atomic_write_text(path: Path, text: str, *, durable: bool = False) -> None:
             os.close(dir_fd)
 
 
-def write_results(path, *, paper: str, provenance: dict, rows, **sections) -> dict:
+def write_results(path: str | Path, *, paper: str, provenance: dict, rows, **sections) -> dict:
     """Write ``data/results/<paper>.json`` (the results contract) atomically."""
     rows = [asdict(r) if isinstance(r, Row) else dict(r) for r in rows]
     for r in rows:
@@ -331,7 +349,7 @@ def write_results(path, *, paper: str, provenance: dict, rows, **sections) -> di
     return doc
 
 
-def save_figure(fig, out_dir, stem: str, formats=("png", "svg")) -> list[str]:
+def save_figure(fig, out_dir: str | Path, stem: str, formats=("png", "svg")) -> list[str]:
     """Save a figure as PNG and SVG (deterministic SVG ids, no date), atomically per file."""
     import matplotlib
     out_dir = Path(out_dir)

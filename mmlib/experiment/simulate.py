@@ -78,10 +78,14 @@ class ManeuverSchedule:
 
     @property
     def times(self) -> np.ndarray:
+        """Measurement times t_k = kT (s) of the steps k = 1..K, shape (K,)."""
         return np.arange(1, self.n_steps + 1) * self.T
 
 
 class Scenario(NamedTuple):
+    """What :func:`simulate` returns for B runs: ``truth`` (B, K+1, n), ``measurements`` (B, K, m) and the
+    schedule's model index per step ``modes`` (K,)."""
+
     truth: np.ndarray          # (B, K+1, n), index 0 is x_0
     measurements: np.ndarray   # (B, K, m)
     modes: np.ndarray          # (K,)

@@ -26,7 +26,9 @@ def markdown_table(header, rows) -> str:
     return "\n".join(lines)
 
 
-def value_pm(value, stderr, digits=3) -> str:
+def value_pm(value: float | None, stderr: float | None, digits: int = 3) -> str:
+    """``"value ± stderr"`` with ``digits`` decimals; the value alone when ``stderr`` is None or not finite, "--"
+    when ``value`` is None."""
     if value is None:
         return "--"
     if stderr is None or not np.isfinite(stderr):
@@ -98,7 +100,10 @@ def most_reading(t: dict) -> str:
     return t["most_describe"] if t["most_n_reproduced"] else "none (no reading reproduces a cell)"
 
 
-def table_match_table(mv) -> str:
+def table_match_table(mv: Multiverse | dict) -> str:
+    """Per published table (:meth:`Multiverse.table_match`, computed or stored): its cells, the headline's cells
+    reproduced and sum of squared standardized distances, the best-matching reading with its sum and cells
+    reproduced, and the reading that reproduces the most cells."""
     rows = [[t["table"], t["n_cells"], f"{t['headline_n_reproduced']} / {t['n_cells']}", t["headline_sum"],
              t["best_sum"], t["best_describe"], f"{t['best_n_reproduced']} / {t['n_cells']}",
              f"{t['most_n_reproduced']} / {t['n_cells']}", most_reading(t)] for t in _summary(mv, "table_match")]
@@ -248,7 +253,7 @@ def table_match_figure(mv: Multiverse, *, title: str):
     return fig
 
 
-def summary_line(mv) -> str:
+def summary_line(mv: Multiverse | dict) -> str:
     """Per paper, in one line: the most cells of each published table that one reading reproduces, and
     how many claim verdicts are robust across the universes (from a Multiverse or its stored form)."""
     parts = []

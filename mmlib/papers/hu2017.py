@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import NamedTuple
+from typing import Callable, Mapping, NamedTuple
 
 import numpy as np
 
@@ -161,12 +161,12 @@ DEVIATIONS = [
 ]
 
 
-def cdkf_filter(setup: Setup):
-    """The paper's central-difference KF (Eqs. 10-17) in the set-up's form (H-11)."""
+def cdkf_filter(setup: Setup) -> SigmaPointFilter:
+    """The paper's central-difference KF (Eqs. 10-17) in the set-up's form ``cd_form`` (H-1)."""
     return SigmaPointFilter(CentralDifference(form=setup.cd_form), name="CDKF")
 
 
-def cdkf_obs_filter(setup: Setup, base=None):
+def cdkf_obs_filter(setup: Setup, base=None) -> ObservationBootstrap:
     """Observation bootstrapping (Sec. 2.2, Eqs. 18-23) over ``base`` (default: :func:`cdkf_filter`) with the set-up's
     N, variance factor, likelihood and fused covariance (H-6, H-7, H-8)."""
     return ObservationBootstrap(cdkf_filter(setup) if base is None else base, n_boot=setup.n_boot,
@@ -174,7 +174,7 @@ def cdkf_obs_filter(setup: Setup, base=None):
                                 covariance=setup.obs_covariance, name="CDKF-OBS")
 
 
-def build(setup: Setup):
+def build(setup: Setup) -> tuple:
     """Truth schedule (modes with the truth's ``q``), radar, and the five IMM estimators (mode
     models with the filters' ``q``; Eq. 7)."""
     T = setup.T
@@ -195,7 +195,7 @@ def build(setup: Setup):
     return schedule, radar, estimators
 
 
-def simulator(setup: Setup, schedule, radar):
+def simulator(setup: Setup, schedule: ManeuverSchedule, radar) -> Callable:
     """``mc -> (runs -> (truth, measurements, start means))``: truth from x0 with the truth's process noise (H-13),
     radar measurements; the filters start at the true x0 (H-9)."""
     return lambda mc: evaluation.simulator(mc, schedule, radar, setup.x0, process_noise=setup.truth_process_noise)
@@ -207,7 +207,12 @@ def bootstrap_noise(mc: MonteCarlo, runs, n_steps: int, n_boot: int, m: int) -> 
     return mc.standard_normal(runs, Stream.FILTER, (n_steps, max(n_boot, 1), m))[:, :, :n_boot]
 
 
-def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
+def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None) -> tuple:
+    """``(make_batch, estimators, schedule)`` for the runs of ``mc`` under ``setup``: ``make_batch(runs) ->
+    (truth (B, K+1, 4) in km and km/s, radar measurements (B, K, 2) in km and rad, {name: initial state})``, every
+    IMM started at the true x0 with P0 = diag(P0_sd)^2 and ``mode_probabilities0`` (the OBS filter with its
+    bootstrap noise, :func:`bootstrap_noise`); ``estimators`` those of :func:`build` named in ``names`` (all if
+    None; ValueError naming an unknown one); ``schedule`` the truth's :class:`ManeuverSchedule`."""
     schedule, radar, estimators = build(setup)
     estimators = evaluation.select(estimators, names)
     P0 = np.diag(np.square(setup.P0_sd))
@@ -252,6 +257,8 @@ def scenario(setup: Setup | None = None) -> Scenario:
 
 
 def variant(setup: Setup, **changes) -> Setup:
+    """A copy of ``setup`` with the fields ``changes`` replaced (validated again: ValueError naming a bad field
+    value; TypeError for an unknown field)."""
     return replace(setup, **changes)
 
 
@@ -373,7 +380,7 @@ MSE_EFFECTS = {KEY_EFFECT: ("IMMCDKF-OBS", "IMMCDKF"),
                "mse_cdkf_minus_ckf": ("IMMCDKF", "IMMCKF")}
 
 
-def setups(reading) -> Setup:
+def setups(reading: Mapping) -> Setup:
     """The Setup of a reading (ValueError naming an unknown or missing factor/option)."""
     return Setup(**SPACE.changes(reading))
 
@@ -389,7 +396,7 @@ class ReadingResult(NamedTuple):
     times: np.ndarray          # (K,) s
 
 
-def evaluate_reading(reading, mc: MonteCarlo, progress: bool = False, chunk_size: int = 250) -> ReadingResult:
+def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False, chunk_size: int = 250) -> ReadingResult:
     """All five IMMs on ``mc``'s runs under one reading (common random numbers: truth, measurement and
     bootstrap draws come from the per-run streams, whatever the reading), plus a second pass that keeps
     the covariances of IMMCDKF and IMMCDKF-OBS for NEES (Bar-Shalom et al. 2001, Sec. 5.4.2)."""
@@ -551,7 +558,7 @@ def paper_ratio_text(alg: str) -> str:
     return f"{ratio:.{decimals}f}"
 
 
-def judge_timing(per_run: dict, batched: dict, claims: Claims):
+def judge_timing(per_run: dict, batched: dict, claims: Claims) -> tuple[list, list]:
     """Table 1's time column as ratios to IMMCDKF (H-12): rows judged by the verdict rule with the standard
     error of the per-repeat ratios (the algorithms are interleaved in every repeat), and the two timing
     claims as part verdicts on ratio - 1 (and ratio - the paper's own ratio), never a bare comparison.
@@ -589,7 +596,7 @@ def judge_timing(per_run: dict, batched: dict, claims: Claims):
 # ------------------------------------------------------------------------------------------------------------------
 # Diagnostics shown by the notebook (no algorithm lives in the notebook)
 # ------------------------------------------------------------------------------------------------------------------
-def truth_statistics(reading, mc: MonteCarlo, n: int) -> dict:
+def truth_statistics(reading: Mapping, mc: MonteCarlo, n: int) -> dict:
     """The truth of the first ``n`` runs under a reading (H-4's plausibility argument and H-13's size): median
     over runs of the largest speed (km/s), the largest speed of all, the smallest range to the radar (km), and
     how far the truth's process noise moves the target: per run the largest distance (km) between the truth
@@ -609,7 +616,7 @@ def truth_statistics(reading, mc: MonteCarlo, n: int) -> dict:
 
 
 def coincidence(res: ReadingResult) -> dict:
-    """Largest |position estimate - IMMCDKF's| over all runs and steps (km), per other third-degree IMM."""
+    """Largest absolute difference between a position estimate and IMMCDKF's, over all runs and steps (km), per other third-degree IMM."""
     ref = res.runs["IMMCDKF"].errors[..., [0, 2]]
     return {alg: float(np.max(np.abs(res.runs[alg].errors[..., [0, 2]] - ref))) for alg in ("IMMUKF", "IMMCKF", "IMMEKF")}
 
@@ -620,7 +627,7 @@ INFLUENCE_EFFECTS = (KEY_EFFECT, "mode_probability_obs_minus_cdkf")
 
 def influence(mv, factor_id: str) -> dict:
     """How far the one-factor-at-a-time universes of ``factor_id`` move from the headline universe:
-    the largest |change| / (combined standard error) over the Table 1 cells and over
+    the largest absolute change divided by its combined standard error over the Table 1 cells and over
     :data:`INFLUENCE_EFFECTS`, and the claims whose verdict category changes.  A description, not a test of
     non-influence: the combined standard error sqrt(se_a^2 + se_b^2) ignores the positive correlation of
     common random numbers, so it overstates the standard error of the change and the ratios are *lower

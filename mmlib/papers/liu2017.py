@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, replace
-from typing import NamedTuple
+from typing import Callable, Mapping, NamedTuple
 
 import numpy as np
 
@@ -150,6 +150,8 @@ class Setup:
 
     @property
     def samples_initial_estimate(self) -> bool:
+        """Whether the filters start from a draw x0 + N(0, P0) (Stream.INITIAL) rather than the true x0 (L-6):
+        ``initial_estimate`` "sampled", or "sampled-if-unprinted" for an example that prints no x_0|0."""
         return self.initial_estimate == "sampled" or (self.initial_estimate == "sampled-if-unprinted"
                                                       and not self.printed_initial_estimate)
 
@@ -307,21 +309,21 @@ EFFECTS = ((KEY_EFFECT, "Example 1", "STSSRCKF", "SSRCKF", False),
             True))
 
 
-def setups(reading) -> dict:
+def setups(reading: Mapping) -> dict:
     """The three set-ups of Section 4.2 under a reading: {"Example 1", "Case 1", "Case 2"} -> Setup.
     ValueError names an unknown factor or option, or a factor left out."""
     changes = SPACE.changes(reading)
     return {case: replace(BASE_SETUPS[case], **changes) for case in CASES}
 
 
-def strong_tracking(base, setup: Setup, name: str):
+def strong_tracking(base, setup: Setup, name: str) -> StrongTracking:
     """The strong-tracking layer (Eqs. 20-36) over ``base`` with the set-up's softening factor beta and forgetting
     factor rho; over an EKF the Jacobian form of the fading factor (the STF of Zhou & Frank)."""
     form = {"form": "jacobian"} if isinstance(base, ExtendedKalmanFilter) else {}
     return StrongTracking(base, beta=setup.beta, rho=setup.rho, name=name, **form)
 
 
-def build(setup: Setup):
+def build(setup: Setup) -> tuple:
     """Dynamics, radar, schedule and the five filters of Table 1 (plus the plain CKF and UKF)."""
     ca = models.constant_acceleration(setup.T, setup.q_sd ** 2)
     radar = models.range_bearing(np.diag([setup.sigma_r ** 2, setup.sigma_theta ** 2]), state_dim=6)
@@ -343,7 +345,7 @@ def build(setup: Setup):
     return schedule, radar, estimators
 
 
-def simulator(setup: Setup, schedule, radar):
+def simulator(setup: Setup, schedule: ManeuverSchedule, radar) -> Callable:
     """``mc -> (runs -> (truth, measurements, start means))``: truth from x0 (with the filter's Q as process noise
     under L-3 "matched"), radar measurements, and the filters' initial means x0 or x0 + N(0, P0) drawn from the run's
     INITIAL stream (L-6), with P0 = diag(P0_sd^2)."""
@@ -361,7 +363,7 @@ def simulator(setup: Setup, schedule, radar):
     return for_mc
 
 
-def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
+def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None) -> tuple:
     """``(make_batch, estimators, schedule)`` for one set-up (:func:`simulator`, every filter started with P0)."""
     schedule, radar, estimators = build(setup)
     estimators = evaluation.select(estimators, names)
@@ -575,6 +577,7 @@ def effects(results: ReadingResults) -> list:
 
 
 def diverged(results: ReadingResults) -> dict:
+    """Diverged runs per ``"<case> <algorithm>"`` (e.g. ``"Example 1 STCKF"``), over every case of ``CASES``."""
     return {f"{case} {alg}": int((~rs.valid).sum()) for case in CASES for alg, rs in results.runs[case].items()}
 
 
@@ -681,7 +684,7 @@ def complexity_rows(printed=None, counts=None) -> list:
     return rows
 
 
-def table2(per_run: dict, batched: dict):
+def table2(per_run: dict, batched: dict) -> tuple:
     """Rows, the timing claim and a display table for Table 2 from repeated timings (dicts name ->
     seconds per run, one value per repeat).  Ratios to SSRCKF are formed per repeat (adjacent
     measurements), so their standard errors come from the repeats; the verdict rule judges them."""
@@ -711,8 +714,8 @@ def table2(per_run: dict, batched: dict):
     return rows, claim, display
 
 
-def nonlinearity_index(setup: Setup, mc: MonteCarlo, n_runs: int = 50):
-    """Median over runs of sigma_pos / range of STSSRCKF's estimate at every step (the size of the
+def nonlinearity_index(setup: Setup, mc: MonteCarlo, n_runs: int = 50) -> np.ndarray:
+    """Median over runs of sigma_pos / range of STSSRCKF's estimate at every step, shape (K,) (the size of the
     neglected terms: third-degree rules differ by ~(sigma/r)^2, the EKF by ~sigma/r)."""
     make_batch, est, _ = make_batch_fn(setup, mc, names=("STSSRCKF",))
     _, z, init = make_batch(range(min(mc.n_runs, n_runs)))

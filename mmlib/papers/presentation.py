@@ -6,17 +6,23 @@ from mmlib.experiment.views import markdown_table, value_pm
 
 
 def deviations_table(deviations) -> str:
+    """A Markdown table of :class:`~mmlib.experiment.readings.Deviation` s: id, topic, what the paper gives, our
+    choice, why, and the sweep that tests it."""
     return markdown_table(["id", "topic", "paper", "our choice", "why", "sweep"],
                           [[d.id, d.topic, d.paper, d.choice, d.reason, d.sweep or ""] for d in deviations])
 
 
 def rows_table(rows) -> str:
+    """A Markdown table of :class:`~mmlib.experiment.report.Row` s: item, algorithm, quantity, the printed value,
+    ours ± its standard error, the verdict and the deviations that bear on it."""
     return markdown_table(["item", "algorithm", "quantity", "paper", "replicated ± s.e.", "verdict", "deviations"],
                           [[r.item, r.algorithm, r.quantity, r.paper or "--", value_pm(r.replicated, r.stderr),
                             r.verdict, ", ".join(r.deviations)] for r in rows])
 
 
-def shade_intervals(ax, intervals, label="true maneuver", color="0.9"):
+def shade_intervals(ax, intervals, label: str | None = "true maneuver", color: str = "0.9") -> None:
+    """Shade each ``(start, end)`` of ``intervals`` (in the x axis's unit, e.g. s) on the matplotlib axes ``ax``,
+    behind the data; only the first span carries ``label`` in the legend."""
     for i, (a, b) in enumerate(intervals):
         ax.axvspan(a, b, color=color, zorder=0, label=label if i == 0 else None)
 
@@ -81,6 +87,7 @@ class NotebookRun:
         display(Markdown(f"**Paper:** {claim}  \n**Ours:** {ours}"))
 
 
-def plot_style():
+def plot_style() -> None:
+    """Set the notebooks' matplotlib defaults (110 dpi, a light grid, 10 pt font) in ``plt.rcParams``."""
     import matplotlib.pyplot as plt
     plt.rcParams.update({"figure.dpi": 110, "axes.grid": True, "grid.alpha": 0.3, "font.size": 10})

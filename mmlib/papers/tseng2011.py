@@ -20,7 +20,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, replace
-from typing import NamedTuple
+from typing import Callable, Mapping, NamedTuple
 
 import numpy as np
 
@@ -122,6 +122,7 @@ class Setup:
 
     @property
     def times(self) -> np.ndarray:
+        """Measurement epochs t_k = kT (s), k = 1..K, shape (K,)."""
         return np.arange(1, self.n_steps + 1) * self.T
 
 
@@ -233,14 +234,16 @@ def trajectory(setup: Setup) -> np.ndarray:
     return propagate(motion_schedule(setup), x0)[0]
 
 
-def maneuver_intervals(setup: Setup):
+def maneuver_intervals(setup: Setup) -> list:
+    """The turning segments' ``(start, end)`` times (s) of ``setup.turns``, for shading plots."""
     return [(t0, t1) for t0, t1, _ in setup.turns]
 
 
 @dataclass(frozen=True, eq=False)
 class Sky:
-    """Satellite geometry along the (deterministic) trajectory: ENU positions (K, S, 3) at the
-    measurement epochs, the in-view mask (K, S) and the per-step measurement models."""
+    """Satellite geometry along the (deterministic) trajectory: ENU positions (K, S, 3) (m) of the S satellites at
+    the measurement epochs, the in-view mask (K, S), their elevations (K, S) (rad), the per-step measurement models
+    (K pseudorange models of the satellites in view) and the satellites' names (S,)."""
 
     satellites_enu: np.ndarray
     visible: np.ndarray
@@ -250,6 +253,10 @@ class Sky:
 
 
 def sky(setup: Setup, truth_enu: np.ndarray) -> Sky:
+    """The :class:`Sky` of the set-up's constellation (nominal GPS-24, ``phasing_deg``) seen from ``site`` by a
+    receiver at ``truth_enu`` (K, 3) (m, the truth at t_1..t_K), with the elevation mask ``mask_deg`` and
+    pseudorange noise ``sigma_pr`` (m).  ValueError naming mask_deg when fewer than 4 satellites are in view at
+    some epoch."""
     frame = gnss.LocalFrame(*setup.site)
     const = gnss.nominal_gps24(setup.phasing_deg)
     sats = frame.ecef_to_enu(const.positions_ecef(setup.times))               # (K, S, 3)
@@ -299,6 +306,9 @@ class FuzzyNoiseBounds:
             raise ValueError(f"normalise: expected 'innovation' or 'measurement', got {self.normalise!r}")
 
     def dod(self, estimate, measurement) -> np.ndarray:
+        """Degrees of divergence (B, 2), ``[xi / s, eta / sqrt(s)]`` (:func:`degree_of_divergence`), of this
+        step's innovations, ``s`` the reference variance of ``normalise``: the mean of the predicted innovation
+        variances (per run) or of ``measurement.R``'s diagonal."""
         if self.normalise == "measurement":
             ref = float(np.mean(np.diag(measurement.R)))
         else:
@@ -322,11 +332,13 @@ class FuzzyNoiseBounds:
 
 
 def noise_model(setup: Setup) -> gnss.PVClockNoise:
+    """The process-noise family of the 8-state position-velocity-clock model, level = acceleration PSD (m^2/s^3),
+    with the receiver clock of ``clock_h0``, ``clock_h_minus2`` (T-5) at the sampling interval ``T`` (s)."""
     return gnss.PVClockNoise(setup.T, gnss.clock_process_noise(setup.T, setup.clock_h0, setup.clock_h_minus2))
 
 
 def fuzzy_imm(filter, noise, lower: float, upper: float, transition, setup: Setup, *, frozen: bool = False,
-              measurement=None, name: str = "FUZZY-IMMUKF"):
+              measurement=None, name: str = "FUZZY-IMMUKF") -> NoiseAdaptiveIMM:
     """The FUZZY-IMMUKF of Section 3 over any mode filter and any process-noise family ``noise`` (``level ->
     dynamics`` with ``Q(levels)``, e.g. :class:`mmlib.core.gnss.PVClockNoise`): a two-mode IMM whose modes' noise
     levels the FLAS (:func:`fuzzy_system` with its output range from ``lower`` to ``upper``, ``setup``'s breakpoints,
@@ -342,11 +354,11 @@ def fuzzy_imm(filter, noise, lower: float, upper: float, transition, setup: Setu
 
 
 def transition_matrix(setup: Setup) -> np.ndarray:
-    """The two-mode IMM's transition matrix (T-8): stay with ``p_stay``."""
+    """The two-mode IMM's transition matrix (2, 2) (T-9): stay with ``p_stay``."""
     return np.array([[setup.p_stay, 1 - setup.p_stay], [1 - setup.p_stay, setup.p_stay]])
 
 
-def build(setup: Setup, *, frozen_fuzzy: bool = False):
+def build(setup: Setup, *, frozen_fuzzy: bool = False) -> dict:
     """Estimators {UKF, IMMUKF, FUZZY-IMMUKF} (plus EKF for the coincidence check)."""
     noise = noise_model(setup)
     a, b, k = setup.ukf
@@ -367,13 +379,16 @@ def build(setup: Setup, *, frozen_fuzzy: bool = False):
 
 @dataclass(frozen=True, eq=False)
 class Experiment:
+    """One set-up ready to run: its noise-free planar truth, its :class:`Sky` and the estimators by name."""
+
     setup: Setup
     truth_plane: np.ndarray          # (K+1, 4) [e, ve, n, vn]
     sky: Sky
     estimators: dict
 
     @property
-    def measurement_models(self):
+    def measurement_models(self) -> tuple:
+        """The K per-step pseudorange models (those of the satellites in view at each epoch)."""
         return self.sky.measurement_models
 
 
@@ -396,12 +411,15 @@ def _geometry(**fields):
 
 
 def experiment(setup: Setup, names=ALGORITHMS, **build_kw) -> Experiment:
+    """The :class:`Experiment` of ``setup`` with the estimators ``names`` of :func:`build` (``build_kw``, e.g.
+    ``frozen_fuzzy=True``, passed on); the geometry is computed once per process per geometry
+    (:data:`GEOMETRY_FIELDS`)."""
     plane, sk = _geometry(**{f: getattr(setup, f) for f in GEOMETRY_FIELDS})
     est = build(setup, **build_kw)
     return Experiment(setup, plane, sk, {n: est[n] for n in names})
 
 
-def simulator(ex: Experiment):
+def simulator(ex: Experiment) -> Callable:
     """``mc -> (runs -> (truth (B, K+1, 8), [z_k (B, m_k)], start means (B, 8)))``.
 
     Per run: the clock random walk from Stream.TRUTH, pseudorange noise from Stream.MEASUREMENT
@@ -430,7 +448,7 @@ def simulator(ex: Experiment):
     return for_mc
 
 
-def make_batch_fn(ex: Experiment, mc: MonteCarlo):
+def make_batch_fn(ex: Experiment, mc: MonteCarlo) -> Callable:
     """``runs -> (truth (B, K+1, 8), [z_k (B, m_k)], {name: initial state})`` (:func:`simulator`)."""
     s = ex.setup
     P0 = np.diag(np.square(s.p0_sd))
@@ -472,17 +490,19 @@ def scenario(setup: Setup | None = None) -> Scenario:
 
 
 def variant(setup: Setup, **changes) -> Setup:
+    """A copy of ``setup`` with the fields ``changes`` replaced (validated again: ValueError naming a bad field
+    value; TypeError for an unknown field)."""
     return replace(setup, **changes)
 
 
 # ---------------------------------------------------------------- statistics
-def rms(rs, component: int):
+def rms(rs: evaluation.RunSet, component: int):
     """RMS over runs and all epochs of one state component (the paper's East/North RMS error)."""
     from mmlib.experiment import metrics
     return metrics.rmse_time_averaged(rs.errors[..., component], rs.valid)
 
 
-def rms_reduction(a, b, component: int):
+def rms_reduction(a: evaluation.RunSet, b: evaluation.RunSet, component: int):
     """Percentage reduction of the RMS error of ``a`` relative to ``b``, 100 (1 - RMS_a / RMS_b), on
     common random numbers, with a delete-one-run jackknife standard error (runs diverged in either
     are excluded)."""
@@ -646,7 +666,7 @@ def published_mse_difference(a: str, b: str) -> float:
     return sq(a) - sq(b)
 
 
-def setups(reading) -> Setup:
+def setups(reading: Mapping) -> Setup:
     """The Setup of a reading (every factor's option applied to the defaults; ValueError naming a bad
     factor or option)."""
     return Setup(**SPACE.changes(reading))
@@ -679,7 +699,7 @@ def _evaluate_one(setup: Setup, name: str, root_seed: int, n_runs: int, progress
     return rs
 
 
-def evaluate_reading(reading, mc: MonteCarlo, progress: bool = False, names=MV_ALGORITHMS) -> dict:
+def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False, names=MV_ALGORITHMS) -> dict:
     """The Monte Carlo evaluations ``{name: RunSet}`` of a reading, on the paper's per-run streams.
 
     Each estimator is evaluated alone on its canonical set-up (:func:`_canonical`): its numbers are
@@ -808,7 +828,7 @@ def summarise(results: dict, n_runs: int) -> dict:
                            n_runs=n_runs)
 
 
-def ekf_claim(results: dict):
+def ekf_claim(results: dict) -> tuple:
     """Verdict and evidence on "the UKF avoids the EKF's linearisation errors" (needs the EKF in
     ``results``): not assessable when the two coincide to far below the noise (1 mm), since there are
     then no linearisation errors to avoid; else the paired comparison."""

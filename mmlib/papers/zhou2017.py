@@ -21,6 +21,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, replace
+from typing import Callable, Mapping
 
 import numpy as np
 
@@ -281,21 +282,21 @@ def published_mse_difference(table: dict, a: str, b: str) -> float:
     return (ma * ma + sa * sa) - (mb * mb + sb * sb)
 
 
-def naukf_filter(base, setup: Setup, inflate_only: bool | None = None):
+def naukf_filter(base, setup: Setup, inflate_only: bool | None = None) -> InnovationAdaptive:
     """NAUKF (Eqs. 27-39) over ``base`` with the set-up's window, psi and Z-12 reading (``inflate_only`` overrides
     the reading)."""
     return InnovationAdaptive(base, window=setup.window, psi=setup.psi,
                               inflate_only=setup.inflate_only if inflate_only is None else inflate_only, name="NAUKF")
 
 
-def aukf_filter(base, window: int, inflate_only: bool):
+def aukf_filter(base, window: int, inflate_only: bool) -> InnovationAdaptive:
     """The classic innovation-based adaptive UKF that Table 4 compares with NAUKF (Mohamed & Schwarz 1999: no adaptive
     gene, the window of innovations before the current one)."""
     return InnovationAdaptive(base, window=window, zeta=False, include_current=False, inflate_only=inflate_only,
                               name="AUKF")
 
 
-def build(setup: Setup):
+def build(setup: Setup) -> tuple:
     """Truth schedule (printed q), radar, and the estimators (filters' models with q * filter_q_scale)."""
     T = setup.T
 
@@ -347,7 +348,7 @@ def radar_drift(range_offset, bearing_rate, times) -> models.SensorFault:
     return models.SensorFault(np.stack([dr, arrays["bearing_rate"] * t[None, :]], axis=-1))
 
 
-def radar_fault(setup: Setup, mc: MonteCarlo, runs, times):
+def radar_fault(setup: Setup, mc: MonteCarlo, runs, times) -> models.SensorFault:
     """The Case 2 fault (Eq. 2's delta h_out) of the runs, from the FAULT stream; every fault kind uses
     the same 2K + 2 normals per run (common random numbers across the Z-6 readings):
 
@@ -371,7 +372,7 @@ def radar_fault(setup: Setup, mc: MonteCarlo, runs, times):
     return models.SensorFault(np.stack([dr, dth], axis=-1))
 
 
-def simulator(setup: Setup, schedule, radar):
+def simulator(setup: Setup, schedule: ManeuverSchedule, radar) -> Callable:
     """``mc -> (runs -> (truth, measurements, start means))``: truth from x0, radar measurements with the Case 2
     fault when ``setup.faults`` (:func:`radar_fault`, the run's FAULT stream); the filters start at the true x0."""
     def for_mc(mc: MonteCarlo):
@@ -382,7 +383,12 @@ def simulator(setup: Setup, schedule, radar):
     return for_mc
 
 
-def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None):
+def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None) -> tuple:
+    """``(make_batch, estimators, schedule)`` for the runs of ``mc`` under ``setup``: ``make_batch(runs) ->
+    (truth (B, K+1, 4) in m and m/s, radar measurements (B, K, 2) in m and rad, {name: initial state})``
+    (:func:`simulator`), every IMM started at the true x0 with P0 = diag(P0_sd)^2 and ``mode_probabilities0``;
+    ``estimators`` those of :func:`build` named in ``names`` (all if None; ValueError naming an unknown one);
+    ``schedule`` the truth's :class:`ManeuverSchedule`."""
     schedule, radar, estimators = build(setup)
     estimators = evaluation.select(estimators, names)
     P0 = np.diag(np.square(setup.P0_sd))
@@ -414,11 +420,13 @@ def scenario(setup: Setup | None = None) -> Scenario:
 
 
 def variant(setup: Setup, **changes) -> Setup:
+    """A copy of ``setup`` with the fields ``changes`` replaced (validated again: ValueError naming a bad field
+    value; TypeError for an unknown field)."""
     return replace(setup, **changes)
 
 
 # ---------------------------------------------------------------- one universe
-def setups(reading) -> tuple:
+def setups(reading: Mapping) -> tuple:
     """(Case 1 set-up, Case 2 set-up) of a reading: the headline Setup with the reading's changes."""
     base = replace(Setup(), **SPACE.changes(reading))
     return replace(base, faults=False), replace(base, faults=True)
@@ -447,7 +455,7 @@ def _evaluate_cached(setup: Setup, algorithm: str, mc: MonteCarlo):
     return evaluation.evaluate(est, mb, mc, progress=False)[algorithm]
 
 
-def evaluate_algorithm(setup: Setup, algorithm: str, mc: MonteCarlo):
+def evaluate_algorithm(setup: Setup, algorithm: str, mc: MonteCarlo) -> evaluation.RunSet:
     """RunSet of one algorithm under ``setup`` on ``mc``'s runs (chunks of 250 runs, common random
     numbers).  Each algorithm runs alone on the batch every algorithm sees, so the numbers do not
     depend on which others ran; results are memoised per process by the relevant set-up
@@ -458,7 +466,7 @@ def evaluate_algorithm(setup: Setup, algorithm: str, mc: MonteCarlo):
     return _evaluate_cached(relevant_setup(setup, algorithm), algorithm, mc)
 
 
-def evaluate_reading(reading, mc: MonteCarlo, progress: bool = False) -> dict:
+def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False) -> dict:
     """Monte Carlo evaluations of a reading on ``mc``'s runs: ``{"case 1": {alg: RunSet}, "case 2": ...}``
     (Case 1: CASE1_ALGORITHMS without faults; Case 2: CASE2_ALGORITHMS with the sensor fault)."""
     case1, case2 = setups(reading)
@@ -471,11 +479,13 @@ def evaluate_reading(reading, mc: MonteCarlo, progress: bool = False) -> dict:
     return out
 
 
-def error_norms(rs, comps):
+def error_norms(rs: evaluation.RunSet, comps) -> np.ndarray:
+    """Per run and step, the Euclidean norm of the errors of the state components ``comps`` (e.g. the position's
+    x and y, in m): shape (N, K) from a RunSet's errors (N, K, n)."""
     return np.sqrt((rs.errors[..., list(comps)] ** 2).sum(-1))
 
 
-def table_stats(rs, comps):
+def table_stats(rs: evaluation.RunSet, comps) -> tuple[metrics.MCValue, metrics.MCValue]:
     """Mean and s.d. over the steps of the per-step RMSE over runs (Eq. 45, Z-10), with standard errors
     (delta method; delete-one-run jackknife)."""
     e = error_norms(rs, comps)
@@ -484,7 +494,7 @@ def table_stats(rs, comps):
     return mean, sd
 
 
-def table_rows(item, results, names, table, devs):
+def table_rows(item: str, results: dict, names, table: dict, devs) -> list:
     """Report rows of a Table 2/3-style table; an algorithm diverged in every run gets 'not reproduced'."""
     out = []
     for alg, printed_name in names:
@@ -505,7 +515,7 @@ def _steps(rs, steps):
     return rs if steps is None else rs._replace(errors=rs.errors[:, list(steps)])
 
 
-def compare(results: dict, pairs, quantities=Q4, steps=None):
+def compare(results: dict, pairs, quantities=Q4, steps=None) -> tuple[str, str]:
     """Verdict (claim vocabulary) and evidence for "a is more accurate than b" for every (a, b) in
     ``pairs``, each over ``quantities``: one part per pair and quantity from the paired time-averaged
     MSE difference on the runs valid in both (:func:`mmlib.experiment.report.claim_verdict`), and, when either
@@ -589,7 +599,7 @@ def section23_claims() -> dict:
                              "interaction produces (mmlib/core/mixing.py); analytic, no reading changes it")}
 
 
-def section23_rows(seed: int, n_mc: int = 10_000):
+def section23_rows(seed: int, n_mc: int = 10_000) -> tuple[list, dict]:
     """Table 1 rows: MSE and CP in closed form (:func:`section23_moments`), MC from ``n_mc`` samples of
     the weighted sum (the variable the paper's printed MC value describes), on a stream of the root
     seed reserved for this example; also the samples of the mixture for comparison."""
@@ -615,7 +625,7 @@ def section23_rows(seed: int, n_mc: int = 10_000):
     return rows, {"mixture_mean": float(mixture.mean()), "mixture_sd": float(mixture.std(ddof=1)), **m}
 
 
-def field_experiment_rows():
+def field_experiment_rows() -> list:
     """Tables 4-5: kept with the paper's values and the verdict 'not replicable' (Z-11)."""
     rows = []
     for table, name in ((TABLE4, "Table 4"), (TABLE5, "Table 5")):
@@ -626,7 +636,7 @@ def field_experiment_rows():
     return rows
 
 
-def judge(results: dict, n_runs: int):
+def judge(results: dict, n_runs: int) -> tuple:
     """Rows of Tables 2-3, the claims (:class:`mmlib.experiment.report.Claims`), effects and diverged-run counts of
     one reading's evaluations (``results`` from :func:`evaluate_reading`)."""
     res1, res2 = results["case 1"], results["case 2"]
@@ -699,7 +709,7 @@ def universe(reading: dict, n_runs: int, seed: int) -> dict:
     return summarise(evaluate_reading(reading, MonteCarlo(seed, n_runs)), n_runs)
 
 
-def nees_case1(reading, mc: MonteCarlo, n: int = 50) -> dict:
+def nees_case1(reading: Mapping, mc: MonteCarlo, n: int = 50) -> dict:
     """Time-averaged NEES (4 = consistent) of IMM-UKF and CPIMM-UKF in Case 1 over the first ``n`` runs."""
     case1, _ = setups(reading)
     mb, est, _ = make_batch_fn(case1, mc, names=("IMM-UKF", "CPIMM-UKF"))
@@ -727,7 +737,12 @@ class GPSAnalogue:
     inflate_only: bool = False
 
 
-def gps_analogue(an: GPSAnalogue, mc: MonteCarlo):
+def gps_analogue(an: GPSAnalogue, mc: MonteCarlo) -> tuple:
+    """``(make_batch, estimators, schedule)`` of the synthetic analogue (NOT a replication): single-model EKF, CKF,
+    UKF, AUKF and NAUKF on the CV model, measuring position and velocity [x, vx, y, vy] (m, m/s) with the fixed x
+    offset and the accumulating y drift of ``an`` drawn per run from the FAULT stream; ``make_batch(runs) ->
+    (truth (B, K+1, 4), measurements (B, K, 4), {name: initial state})``, every filter started at the true x0
+    with P0 = diag(P0_sd)^2."""
     T = an.base.T
     cv = models.constant_velocity(T, an.base.q_cv)
     gps = models.LinearMeasurement(np.eye(4), np.diag([an.pos_sd ** 2, an.vel_sd ** 2, an.pos_sd ** 2, an.vel_sd ** 2]),
@@ -754,7 +769,7 @@ def gps_analogue(an: GPSAnalogue, mc: MonteCarlo):
     return make_batch, estimators, schedule
 
 
-def gps_analogue_table(mc: MonteCarlo):
+def gps_analogue_table(mc: MonteCarlo) -> tuple[list, dict]:
     """The synthetic analogue's table (NOT a replication): x and y mean absolute errors (m, mean over runs
     with standard errors) and diverged runs of EKF, CKF, UKF, AUKF and NAUKF as printed, and of AUKF and
     NAUKF in the inflate-only reading (Z-12).  Returns (rows of cells, {filter [reading]: {"diverged": n}})."""

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Callable, Mapping
 
 import numpy as np
 
@@ -246,7 +247,7 @@ PUBLISHED = tuple(PublishedNumber("Table 1", "Table 1", alg, q, TABLE1[alg][qi])
                   for alg in RMSE_ALGORITHMS for qi, (q, _) in enumerate(QUANTITIES))
 
 
-def build(setup: Setup):
+def build(setup: Setup) -> tuple:
     """Dynamics, measurement, schedule and the estimators of Table 1."""
     w = math.radians(setup.turn_rate_deg)
     cv = models.constant_velocity(setup.T, setup.q)
@@ -272,7 +273,7 @@ def build(setup: Setup):
     return schedule, meas, estimators
 
 
-def simulator(setup: Setup, schedule, meas):
+def simulator(setup: Setup, schedule: ManeuverSchedule, meas) -> Callable:
     """``mc -> (runs -> (truth, measurements, start means))``: the truth (with process noise under Z-7), the
     position measurements and the filters' initial means (x0, or x0 + N(0, P0) from the run's INITIAL stream, Z-9)."""
     x0 = np.array(setup.x0)
@@ -289,8 +290,10 @@ def simulator(setup: Setup, schedule, meas):
     return for_mc
 
 
-def make_batch_fn(setup: Setup, mc: MonteCarlo):
-    """``runs -> (truth, measurements, initial states)`` for :func:`evaluation.evaluate`."""
+def make_batch_fn(setup: Setup, mc: MonteCarlo) -> tuple:
+    """``(make_batch, estimators, schedule)``: ``make_batch(runs) -> (truth, measurements, {name: initial state})``
+    for :func:`evaluation.evaluate` (:func:`simulator`; IMMs started with P0 and ``mode_probabilities0``, single-model
+    filters with P0), the estimators of :func:`build` and the truth's schedule."""
     schedule, meas, estimators = build(setup)
     P0 = np.diag(setup.P0_diag)
 
@@ -320,13 +323,13 @@ def scenario(setup: Setup | None = None) -> Scenario:
 # One universe: the Monte Carlo evaluation of a reading and everything judged from it.  The notebook's headline
 # rows and claims come from these same functions applied to SPACE.headline.
 # ---------------------------------------------------------------------------------------------------------------
-def setups(reading) -> Setup:
+def setups(reading: Mapping) -> Setup:
     """The Setup of a reading (``factor id -> option name``): the headline Setup with the reading's
     option changes; ValueError naming an unknown factor/option or a left-out factor."""
     return Setup(**SPACE.changes(reading))
 
 
-def evaluate_reading(reading, mc: MonteCarlo, progress: bool = False) -> dict:
+def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False) -> dict:
     """``{estimator: RunSet}`` for :data:`MV_ALGORITHMS` under ``reading``, on the runs of ``mc``
     (common random numbers: the per-run truth, measurement and initial-estimate streams do not
     depend on the reading)."""
@@ -364,7 +367,7 @@ def table1_rows(results: dict) -> list:
 
 
 def coincidence(results: dict) -> dict:
-    """Largest |difference| over runs and steps between each sigma-point IMM and the IMM-KF: estimates
+    """Largest absolute difference over runs and steps between each sigma-point IMM and the IMM-KF: estimates
     (m, m/s) and mode probabilities.  Zero up to round-off under every reading (module docstring)."""
     ref = results["IMM-KF"]
     return {"max_abs_estimate_difference_vs_IMM_KF":

@@ -45,6 +45,11 @@ from mmlib.core.linalg import trace
 
 
 class AdaptiveState(NamedTuple):
+    """State of :class:`InnovationAdaptive`: ``mean`` (B, n), ``cov`` (B, n, n); ``innovations`` (B, W, m)
+    the last W <= ``window`` innovations (newest last, None before the first update); ``count`` updates so
+    far; ``Q`` (B, n, n) the process noise of the last prediction; ``zeta`` (B,) the last inflation
+    factor of Eq. 34 (None until computed).  Inside an IMM every array has a mode axis after B."""
+
     mean: np.ndarray
     cov: np.ndarray
     innovations: Any = None    # (..., window, m) most recent innovations, newest last
@@ -55,7 +60,13 @@ class AdaptiveState(NamedTuple):
 
 @dataclass(frozen=True)
 class InnovationAdaptive(FilterLayer):
-    """Innovation-covariance-matching layer (NAUKF / IAE-AUKF); see the module docstring."""
+    """Innovation-covariance-matching layer (NAUKF / IAE-AUKF); see the module docstring.
+
+    ``base``: a :class:`mmlib.core.protocols.MomentFilter`; ``window`` >= 2 innovations in
+    :math:`\\hat C_k`; ``psi`` >= 1 the coefficient of the covariance-matching test (Eq. 32,
+    dimensionless); ``zeta``: apply the inflation of Eqs. 33-35; ``include_current``: the current
+    innovation is in the window; ``inflate_only``: the labelled non-paper variant; ``name`` a string
+    (default ``"NA"``/``"A"`` + the base's name).  Bad values are a ValueError naming the field."""
 
     base: Any
     window: int = 10
@@ -76,7 +87,16 @@ class InnovationAdaptive(FilterLayer):
         if not self.name:
             object.__setattr__(self, "name", ("NA" if self.zeta else "A") + getattr(self.base, "name", "filter"))
 
-    def update(self, state, z, measurement):
+    def update(self, state: AdaptiveState, z: np.ndarray, measurement) -> tuple:
+        r"""Measurement update with ``z`` (B, m) ((B, 1, m) inside an IMM): the base filter's prediction, the
+        innovation :math:`\tilde z = z - \hat z` appended to the window, then the shared Kalman update with
+        :math:`\bar P_{zz} = \hat C_k = \frac1W\sum \tilde z\tilde z^T` (Eqs. 27-28; ``inflate_only``: the
+        predicted S plus the positive part of :math:`\hat C_k - S`) and the unmodified :math:`P_{xz}`
+        (Eq. 37).  With ``zeta``, where the test of Eq. 32, :math:`\tilde z^T\tilde z \le \psi\,\mathrm{tr}\,S`,
+        fails, the prior covariance is first inflated to :math:`\zeta(P - Q) + Q` (Eqs. 33-35).  Until
+        ``window`` innovations exist it is the base filter's update.  A measurement of another dimension
+        restarts the window.  Returns ``(AdaptiveState, UpdateInfo)``; ValueError naming ``state`` if
+        ``zeta`` is set and no prediction recorded Q."""
         pred = self.base.predict_measurement(state, measurement)
         nu = measurement.residual(z, pred.z_pred)
         past = state.innovations

@@ -33,9 +33,11 @@ from mmlib.core._validate import as_float_array, check_bool, check_has, check_na
 from mmlib.core.estimation import IMM, IMMState
 
 
-def degree_of_divergence(innovation, noise_variance) -> np.ndarray:
+def degree_of_divergence(innovation: np.ndarray, noise_variance: np.ndarray | float) -> np.ndarray:
     r"""(B, 2): :math:`[\xi/\bar s, \eta/\sqrt{\bar s}]` for innovations (B, m) and a reference variance
-    :math:`\bar s` (scalar or (B,))."""
+    :math:`\bar s` (scalar or (B,)), in the innovation's units squared (m^2 for pseudoranges), so that
+    both components are dimensionless (Tseng et al. 2011, Sec. 3.2).  ValueError naming ``innovation``
+    for another shape, ``noise_variance`` for a value that is not > 0."""
     nu = as_float_array(innovation, "innovation")
     s2 = as_float_array(noise_variance, "noise_variance")
     if nu.ndim != 2:
@@ -48,6 +50,8 @@ def degree_of_divergence(innovation, noise_variance) -> np.ndarray:
 
 
 class NoiseAdaptiveState(NamedTuple):
+    """State of :class:`NoiseAdaptiveIMM`: the IMM's state and the levels (B, r) of the next step."""
+
     imm: IMMState
     levels: np.ndarray          # (B, r) noise level of every mode for the next step
 
@@ -86,14 +90,25 @@ class NoiseAdaptiveIMM:
 
     @property
     def measurement(self):
+        """The IMM's default measurement model (None when every step supplies its own)."""
         return self.imm.measurement
 
-    def init(self, mean, cov, mode_probabilities=None, **filter_init) -> NoiseAdaptiveState:
+    def init(self, mean: np.ndarray, cov: np.ndarray, mode_probabilities: np.ndarray | None = None,
+             **filter_init) -> NoiseAdaptiveState:
+        """The IMM's state at step 0 (:meth:`mmlib.core.estimation.IMM.init`: ``mean`` (B, n), ``cov`` (B, n, n)
+        or (n, n), ``mode_probabilities`` (r,) or (B, r)) and ``initial_levels`` repeated for every run,
+        (B, r)."""
         s = self.imm.init(mean, cov, mode_probabilities, **filter_init)
         B = s.mode_probabilities.shape[0]
         return NoiseAdaptiveState(s, np.tile(self.initial_levels, (B, 1)))
 
-    def step(self, state: NoiseAdaptiveState, z, *, with_cov: bool = True, measurement=None):
+    def step(self, state: NoiseAdaptiveState, z: np.ndarray, *, with_cov: bool = True, measurement=None) -> tuple:
+        r"""One IMM cycle with the modes' noise :math:`Q_j = Q(\ell_{k,j})` from this step's levels (B, r) (a
+        non-finite level, from a diverged run, replaced by the initial one), then the levels of step k+1
+        from ``controller(estimate, measurement)`` (unless ``frozen``).  ``z`` (B, m).  Returns
+        ``(NoiseAdaptiveState, Estimate)``, ``Estimate.diagnostics`` (B, r) the levels of this step as
+        stored in the state; a controller returning another shape than (B, r) is a ValueError naming
+        ``controller``."""
         if not isinstance(state, NoiseAdaptiveState):
             raise ValueError(f"state: expected the NoiseAdaptiveState returned by init(), got {type(state).__name__}")
         measurement = self.imm.measurement if measurement is None else measurement
@@ -112,6 +127,9 @@ class NoiseAdaptiveIMM:
 
 
 class WindowedNoiseAdaptiveState(NamedTuple):
+    """State of :class:`WindowedNoiseAdaptiveIMM`: the IMM's state, the next levels (B, r), the last W
+    normalised degrees of divergence (B, W, 2) and how many of them are real epochs (B,)."""
+
     imm: IMMState
     levels: np.ndarray          # (B, r) noise level of every mode for the next step
     dod: np.ndarray             # (B, W, 2) the last W degrees of divergence, newest last
@@ -142,12 +160,18 @@ class WindowedNoiseAdaptiveIMM(NoiseAdaptiveIMM):
         check_has(self.controller, "controller", "a controller with dod(estimate, measurement) and levels(dod) "
                   "(a windowed DOD averages between the two)", ("dod", "levels"))
 
-    def init(self, mean, cov, mode_probabilities=None, **filter_init) -> WindowedNoiseAdaptiveState:
+    def init(self, mean: np.ndarray, cov: np.ndarray, mode_probabilities: np.ndarray | None = None,
+             **filter_init) -> WindowedNoiseAdaptiveState:
+        """As :meth:`NoiseAdaptiveIMM.init`, plus an empty DOD history (B, ``window``, 2) (zeros, none filled)."""
         s = NoiseAdaptiveIMM.init(self, mean, cov, mode_probabilities, **filter_init)
         B = s.levels.shape[0]
         return WindowedNoiseAdaptiveState(s.imm, s.levels, np.zeros((B, int(self.window), 2)), np.zeros(B, dtype=int))
 
-    def step(self, state: WindowedNoiseAdaptiveState, z, *, with_cov: bool = True, measurement=None):
+    def step(self, state: WindowedNoiseAdaptiveState, z: np.ndarray, *, with_cov: bool = True,
+             measurement=None) -> tuple:
+        """One IMM cycle as :meth:`NoiseAdaptiveIMM.step`; the next levels are ``controller.levels`` of the mean
+        of ``controller.dod(estimate, measurement)`` (B, 2) over the last ``min(k, window)`` epochs.  Returns
+        ``(WindowedNoiseAdaptiveState, Estimate)``, ``Estimate.diagnostics`` (B, r) this step's levels."""
         if not isinstance(state, WindowedNoiseAdaptiveState):
             raise ValueError(f"state: expected the WindowedNoiseAdaptiveState returned by init(), "
                              f"got {type(state).__name__}")

@@ -43,6 +43,10 @@ from mmlib.core.filters import FilterLayer, MeasurementPrediction, UpdateInfo, g
 
 
 class BootstrapState(NamedTuple):
+    """State of :class:`ObservationBootstrap`: ``mean`` (B, n), ``cov`` (B, n, n), the pre-drawn standard
+    normals ``noise`` (B, K, N, m) (dimensionless) and the index ``step`` of the next step.  Inside an
+    IMM the arrays have a mode axis after B."""
+
     mean: np.ndarray
     cov: np.ndarray
     noise: Any = None        # (B, K, N, m) standard normals for the bootstrap observations
@@ -52,7 +56,11 @@ class BootstrapState(NamedTuple):
 @dataclass(frozen=True)
 class ObservationBootstrap(FilterLayer):
     """CDKF-OBS layer over ``base``: ``n_boot`` bootstrap observations per step, their
-    innovation variance ``variance_factor`` x R (2 by the text, 4 by Eq. 18)."""
+    innovation variance ``variance_factor`` x R (2 by the text, 4 by Eq. 18).
+
+    ``n_boot`` >= 0 (0: the base filter); ``variance_factor`` > 0, dimensionless; ``likelihood``
+    ``"sum"`` or ``"product"``; ``covariance`` ``"kalman"`` or ``"printed"`` (Eq. 20); ``name`` a string
+    (default the base's name + ``"-OBS"``).  Bad values are a ValueError naming the field."""
 
     base: Any
     n_boot: int = 2
@@ -71,7 +79,7 @@ class ObservationBootstrap(FilterLayer):
         if not self.name:
             object.__setattr__(self, "name", getattr(self.base, "name", "filter") + "-OBS")
 
-    def init(self, mean, cov, noise=None) -> BootstrapState:
+    def init(self, mean: np.ndarray, cov: np.ndarray, noise: np.ndarray | None = None) -> BootstrapState:
         """``noise`` (B, K, N, m): pre-drawn standard normals for K steps, N = ``n_boot`` bootstrap
         observations, m >= every step's measurement dimension (a step with m_k < m uses the first m_k)."""
         g = gaussian_state(mean, cov)
@@ -83,7 +91,15 @@ class ObservationBootstrap(FilterLayer):
                                  f"N={self.n_boot}, m), got {None if noise is None else noise.shape}")
         return BootstrapState(g.mean, g.cov, noise, 0)
 
-    def update(self, state, z, measurement):
+    def update(self, state: BootstrapState, z: np.ndarray, measurement) -> tuple:
+        r"""Measurement update with ``z`` (B, m) ((B, 1, m) inside an IMM): bootstrap observations
+        :math:`\tilde z^n = z + L\epsilon^n` (Eq. 15, :math:`LL^T = R`, :math:`\epsilon` the step's pre-drawn
+        normals), one shared Kalman update per member of :math:`\Theta` (innovation covariance
+        :math:`P_{zz} + (c-1)R` for the bootstrap members, c = ``variance_factor``), information-weighted
+        fusion of the N + 1 posteriors (Eqs. 22-24) and the likelihood of ``likelihood``.  Returns
+        ``(BootstrapState, UpdateInfo)``, the innovation, S and NIS those of the real measurement; a run
+        is failed when any member's update or the fusion fails.  ValueError naming ``noise`` when no
+        pre-drawn noise is left for this step or it is drawn for a smaller measurement dimension."""
         pred = self.base.predict_measurement(state, measurement)
         if self.n_boot == 0:
             new, info = kalman_update(state, pred, z, measurement)

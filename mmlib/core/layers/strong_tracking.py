@@ -37,6 +37,11 @@ from mmlib.core.linalg import trace
 
 
 class StrongTrackingState(NamedTuple):
+    """State of :class:`StrongTracking`: ``mean`` (B, n), ``cov`` (B, n, n), ``V`` (B, m, m) the smoothed
+    innovation outer product of Eq. 17, ``Q`` (B, n, n) the process noise of the last prediction and
+    ``fading`` (B,) the last fading factor (None before they exist).  Inside an IMM every array has a
+    mode axis after B."""
+
     mean: np.ndarray
     cov: np.ndarray
     V: Any = None            # (..., m, m) smoothed innovation outer product; None before the first update
@@ -68,8 +73,10 @@ class StrongTracking(FilterLayer):
         if not self.name:
             object.__setattr__(self, "name", "ST" + getattr(self.base, "name", "filter"))
 
-    def fading_factor(self, state, pred, V, measurement):
-        """lambda_k of Eq. 14 for the predicted ``state`` (P^l, Q) and its measurement prediction."""
+    def fading_factor(self, state: StrongTrackingState, pred, V: np.ndarray, measurement) -> np.ndarray:
+        """lambda_k of Eq. 14 for the predicted ``state`` (P^l (..., n, n), Q) and its measurement prediction
+        ``pred``, with the smoothed innovation outer product ``V`` (..., m, m): ``max(1, tr N / tr M)``
+        (1 where ``tr M <= 0``), dimensionless, shape (...)."""
         Q, R = state.Q, measurement.R
         if self.form == "jacobian":
             H = measurement.jacobian(state.mean)
@@ -85,7 +92,13 @@ class StrongTracking(FilterLayer):
             c = np.where(tr_m > 0.0, tr_n / tr_m, 1.0)
         return np.maximum(c, 1.0)
 
-    def update(self, state, z, measurement):
+    def update(self, state: StrongTrackingState, z: np.ndarray, measurement) -> tuple:
+        r"""Measurement update with ``z`` (B, m) ((B, 1, m) inside an IMM): innovation of the base filter's
+        prediction, ``V`` of Eq. 17 (restarted when the measurement dimension changes), the fading factor
+        :math:`\lambda` (:meth:`fading_factor`); where :math:`\lambda > 1` the prior covariance becomes
+        :math:`\lambda(P^l - Q) + Q` (Eq. 28) and the measurement is predicted again; then the shared Kalman
+        update.  Returns ``(StrongTrackingState, UpdateInfo)`` with ``V`` and ``fading`` recorded;
+        ValueError naming ``state`` if no prediction recorded Q."""
         if state.Q is None:
             raise ValueError("state: strong tracking needs predict() before update() (Q of Eq. 28 unknown)")
         pred = self.base.predict_measurement(state, measurement)
