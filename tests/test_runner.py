@@ -74,6 +74,8 @@ doc = {{"paper": PAPER,
 (root / "data" / "results" / (PAPER + ".json")).write_text(json.dumps(doc))
 print("figure written to", root / "figures" / PAPER / "fig01.png")
 print(tag)
+from mmlib.experiment.montecarlo import say_progress
+say_progress("progress of " + tag)
 '''
 
 
@@ -117,7 +119,7 @@ def assert_whole(root: Path, **expected: str) -> None:
 
 ALLOWED = re.compile(r"(notebooks/\w+\.py|notebooks/executed/\w+\.ipynb|data/results/\w+\.json"
                      r"|figures/\w+/fig01\.png|reports/\w+\.md|build/\.run_notebooks\.lock"
-                     r"|build/[\w/=.-]+/converted/\w+\.ipynb)")
+                     r"|build/[\w/=.-]+/converted/\w+\.ipynb|build/[\w/=.-]+/logs/\w+\.progress\.log)")
 
 
 def assert_no_leftovers(root: Path) -> None:
@@ -224,6 +226,18 @@ def test_overridden_run_goes_to_its_own_folder_never_over_committed_outputs(repo
     index = (custom / "reports" / "README.md").read_text()
     assert "alpha2001-new" in index and "beta2002" not in index      # the folder's own papers only
     assert [p.name for p in (custom / "staging").iterdir()] == []
+
+
+def test_progress_goes_to_the_runners_log_not_into_the_executed_notebook(repo):
+    """The kernel's progress lines (mmlib's say_progress) reach the runner's stderr and its log file; the executed
+    notebook, which is published, has no stderr output."""
+    proc = run(repo, "alpha2001", check=0)
+    assert "progress of alpha2001-new" in proc.stderr
+    log = next((repo / "build").glob("*/logs/alpha2001_fake.progress.log"))
+    assert log.read_text() == "progress of alpha2001-new\n"
+    nb = json.loads((repo / "notebooks" / "executed" / "alpha2001_fake.ipynb").read_text())
+    streams = [o.get("name") for c in nb["cells"] for o in c.get("outputs", [])]
+    assert "stdout" in streams and "stderr" not in streams
 
 
 # --------------------------------------------------------------------------------------------- kills and recovery
@@ -335,8 +349,9 @@ def test_failed_notebook_names_notebook_and_cell_and_promotes_nothing(repo):
     assert "ValueError: deliberate failure" in proc.stderr
     assert "partial output kept for inspection: build/full/failed/alpha2001_fake.ipynb" in proc.stderr
     after = snapshot(repo)
-    assert {k: v for k, v in after.items() if "/failed/" not in k and "/converted/" not in k} == \
-        {k: v for k, v in before.items() if "/converted/" not in k}
+    # the runner's own working files (converted inputs, progress logs) aside, nothing changed
+    assert {k: v for k, v in after.items() if not any(w in k for w in ("/failed/", "/converted/", "/logs/"))} == \
+        {k: v for k, v in before.items() if not any(w in k for w in ("/converted/", "/logs/"))}
     assert [p for p in repo.glob("build/**/staging/*")] == []
 
 

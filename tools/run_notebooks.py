@@ -415,22 +415,79 @@ def execute(src: Path, staging: Path, layout: Layout, profile: str, params: dict
     process's).  Raises NotebookFailed naming the notebook and the cell."""
     import papermill as pm
     from papermill.exceptions import PapermillExecutionError
+    # the kernel's progress lines (mmlib.experiment.montecarlo.say_progress) go to this file, and from it to the
+    # runner's log: never into the executed notebook
+    from mmlib.experiment.montecarlo import PROGRESS_LOG_ENV
     nb_in = convert(src, layout.work / "converted" / f"{src.stem}.ipynb")
     executed = staging / layout.executed_dir / f"{src.stem}.ipynb"
     executed.parent.mkdir(parents=True)
+    log = layout.work / "logs" / f"{src.stem}.progress.log"
+    log.parent.mkdir(parents=True, exist_ok=True)
+    log.write_text("")
+    tail = ProgressTail(log, stderr or sys.stderr)
     try:
         pm.execute_notebook(str(nb_in), str(executed), kernel_name=KERNEL,
                             parameters={**params, "PROFILE": profile, "OUTPUT_ROOT": str(staging)},
                             cwd=str(layout.root / "notebooks"), execution_timeout=timeout,
                             progress_bar=False, log_output=False, stdout_file=stdout or sys.stdout,
-                            stderr_file=stderr or sys.stderr)
+                            stderr_file=stderr or sys.stderr, kernel_manager_class=kernel_manager_with_env(
+                                {PROGRESS_LOG_ENV: str(log.resolve())}))
     except PapermillExecutionError as exc:
         raise NotebookFailed(f"cell {exc.cell_index} (execution count {exc.exec_count}): {exc.ename}: "
                              f"{exc.evalue}") from None
     except Exception as exc:  # kernel death, timeout, missing kernel
         raise NotebookFailed(f"{type(exc).__name__}: {exc}") from None
+    finally:
+        tail.stop()
     checkpoint("executed")
     return executed
+
+
+def kernel_manager_with_env(extra: dict):
+    """A jupyter_client kernel manager class whose kernels start with ``extra`` added to this process's
+    environment.  Per notebook, because notebooks execute in threads of one process, whose os.environ they share."""
+    from jupyter_client.manager import AsyncKernelManager
+
+    class KernelManagerWithEnv(AsyncKernelManager):
+        async def _async_pre_start_kernel(self, **kw):
+            kw["env"] = {**kw.get("env", os.environ), **extra}
+            return await super()._async_pre_start_kernel(**kw)
+
+    return KernelManagerWithEnv
+
+
+class ProgressTail:
+    """Copies the lines appended to a notebook's progress log to ``target`` (the runner's log) while it runs: the
+    progress of a long notebook is seen live, and never lands in its executed notebook as stderr output."""
+
+    def __init__(self, path: Path, target, interval: float = 0.5):
+        self.path, self.target, self.interval = path, target, interval
+        self.done, self.offset = threading.Event(), 0
+        self.thread = threading.Thread(target=self._run, name=f"tail-{path.stem}", daemon=True)
+        self.thread.start()
+
+    def _copy(self) -> None:
+        try:
+            with open(self.path, "rb") as f:
+                f.seek(self.offset)
+                data = f.read()
+        except FileNotFoundError:
+            return
+        end = data.rfind(b"\n") + 1          # whole lines only; the rest is read next time
+        if end:
+            self.offset += end
+            self.target.write(data[:end].decode("utf-8", "replace"))
+            self.target.flush()
+
+    def _run(self) -> None:
+        while not self.done.wait(self.interval):
+            self._copy()
+
+    def stop(self) -> None:
+        """Stop after copying whatever the log holds now."""
+        self.done.set()
+        self.thread.join()
+        self._copy()
 
 
 def staged_paper(staging: Path, src: Path) -> str:

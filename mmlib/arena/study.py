@@ -41,7 +41,6 @@ from __future__ import annotations
 import functools
 import math
 import re
-import sys
 from typing import NamedTuple
 
 import numpy as np
@@ -49,7 +48,7 @@ import numpy as np
 from mmlib.arena import ladder, recipes
 from mmlib.experiment import evaluation, metrics, report
 from mmlib.experiment.grid import run_grid
-from mmlib.experiment.montecarlo import MonteCarlo
+from mmlib.experiment.montecarlo import MonteCarlo, say_progress
 from mmlib.experiment.scenario import Scenario
 from mmlib.papers import hu2017, liu2017, tseng2011, zhou2017, zhu2016
 
@@ -327,7 +326,7 @@ def _every(total: int, progress, lines: int = 20):
         raise ValueError(f"progress: expected True, False or a function of one line, got {progress!r}")
     if not progress:
         return False
-    say = (lambda line: print(line, file=sys.stderr, flush=True)) if progress is True else progress
+    say = say_progress if progress is True else progress
     k = max(1, math.ceil(total / lines))
 
     def throttled(line: str):

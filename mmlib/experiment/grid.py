@@ -21,13 +21,13 @@ import functools
 import hashlib
 import json
 import os
-import sys
 import time
 from pathlib import Path
 from typing import Callable, Mapping
 
 from mmlib.core._validate import check_positive_int
 # default_workers lived here: kept importable from this module
+from mmlib.experiment.montecarlo import say_progress
 from mmlib.experiment.executors import default_workers, run_tasks, worker_count  # noqa: F401
 
 
@@ -61,6 +61,7 @@ def default_cache_dir() -> Path:
 
 
 def job_name(job: Callable) -> str:
+    """``module.qualname`` of ``job``: how the cache key and messages name it."""
     return f"{getattr(job, '__module__', '?')}.{getattr(job, '__qualname__', repr(job))}"
 
 
@@ -71,6 +72,8 @@ def key_document(*, paper: str, job: Callable, reading: Mapping, algorithms, n_r
 
 
 def cache_key(**parts) -> str:
+    """The cache file name of a universe: the first 32 hex digits of the SHA-256 of :func:`key_document`
+    ``(**parts)`` (same keyword arguments)."""
     return hashlib.sha256(json.dumps(key_document(**parts), sort_keys=True).encode()).hexdigest()[:32]
 
 
@@ -128,7 +131,7 @@ def run_grid(job: Callable, readings, *, paper: str, algorithms, n_runs: int, se
         raise ValueError(f"executor: expected a concurrent.futures.Executor, got {type(executor).__name__}")
     algorithms = list(algorithms)
     cache = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    say = (lambda line: print(line, file=sys.stderr, flush=True)) if progress is True else (progress or None)
+    say = say_progress if progress is True else (progress or None)
     tag = label or paper
     results: list = [None] * len(readings)
     key_docs = [key_document(paper=paper, job=job, reading=r, algorithms=algorithms, n_runs=n_runs, seed=seed)

@@ -13,6 +13,7 @@ between filters sharp).
 """
 from __future__ import annotations
 
+import os
 import sys
 import time
 from dataclasses import dataclass
@@ -24,6 +25,10 @@ from mmlib.core._validate import check_index, check_positive_int
 
 
 class Stream(IntEnum):
+    """The purpose ``p`` of a run's random stream (the second element of its spawn key): TRUTH (process noise of
+    the simulated truth), MEASUREMENT (measurement noise), INITIAL (sampled initial estimates), FILTER
+    (filter-internal randomness, e.g. bootstrapping) and FAULT (sensor-fault draws)."""
+
     TRUTH = 0
     MEASUREMENT = 1
     INITIAL = 2
@@ -98,17 +103,41 @@ class MonteCarlo:
         return [range(a, min(a + size, self.n_runs)) for a in range(0, self.n_runs, size)]
 
 
+#: Environment variable naming a file that receives the progress lines instead of stderr.  The notebook runner
+#: sets it for every kernel it starts, so that progress goes to the runner's log and never into an executed
+#: notebook's outputs (where it would be published as stderr blocks).
+PROGRESS_LOG_ENV = "MMLIB_PROGRESS_LOG"
+
+
+def say_progress(line: str) -> None:
+    """Write one progress line: appended to the file ``$MMLIB_PROGRESS_LOG`` names when it is set (opened and
+    closed per line, so that several processes may append), else to stderr.  Every progress line of mmlib (Monte
+    Carlo chunks, grid jobs, arena cells) goes through here."""
+    path = os.environ.get(PROGRESS_LOG_ENV)
+    if path:
+        with open(path, "a", encoding="utf-8") as log:
+            log.write(line.rstrip("\n") + "\n")
+    else:
+        print(line, file=sys.stderr, flush=True)
+
+
 class Progress:
-    """Minimal progress reporting to stderr for long Monte Carlo jobs."""
+    """Progress reporting for long Monte Carlo jobs: one line per :meth:`advance` through :func:`say_progress`
+    (or to ``stream`` when one is given); ``enabled=False`` is silent."""
 
     def __init__(self, label: str, total: int, stream=None, enabled: bool = True):
         self.label, self.total, self.done = label, total, 0
-        self.stream = sys.stderr if stream is None else stream
+        self.stream = stream
         self.enabled = enabled
         self.t0 = time.perf_counter()
 
-    def advance(self, n: int):
+    def advance(self, n: int) -> None:
+        """Count ``n`` more finished runs and, if enabled, report the total and the elapsed wall time (s)."""
         self.done += n
         if self.enabled:
             dt = time.perf_counter() - self.t0
-            print(f"  [{self.label}] {self.done}/{self.total} runs ({dt:.1f} s)", file=self.stream, flush=True)
+            line = f"  [{self.label}] {self.done}/{self.total} runs ({dt:.1f} s)"
+            if self.stream is None:
+                say_progress(line)
+            else:
+                print(line, file=self.stream, flush=True)
