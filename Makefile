@@ -1,7 +1,7 @@
 # Two commands on a fresh machine (Python 3.11 and make):
 #   make figures                  full-fidelity figures, tables and executed notebooks
 #   make test                     unit tests + smoke profile of every notebook + tolerance tests
-# Also: make figures PROFILE=smoke (writes under build/smoke/), make bench, make clean
+# Also: make figures PROFILE=smoke (writes under build/smoke/), make site, make bench, make clean
 # One paper, other settings: make figures PAPER=zhu2016 N_RUNS=500 SEED=7
 # Where it runs (outputs unchanged): make figures WORKERS=1, make figures SCHEDULER=tcp://host:8786 (Dask)
 #   (PAPER: one or more paper names; any N_RUNS or SEED sends the outputs to build/custom/<profile>-<settings>/,
@@ -19,7 +19,7 @@ RUN_ARGS = $(if $(N_RUNS),-p N_RUNS=$(N_RUNS)) $(if $(SEED),-p SEED=$(SEED)) $(P
 # scheduler receiving the Monte Carlo chunks and universes (the kernels see it as MMLIB_SCHEDULER)
 EXEC_ARGS = $(if $(filter command line,$(origin WORKERS)),--workers $(WORKERS)) $(if $(SCHEDULER),--scheduler $(SCHEDULER))
 
-.PHONY: figures test unit smoke bench clean venv recover
+.PHONY: figures test unit smoke site bench clean venv recover
 
 venv: $(STAMP)
 
@@ -33,6 +33,13 @@ $(STAMP): requirements.lock pyproject.toml
 
 figures: $(STAMP)
 	$(PY) tools/run_notebooks.py --profile $(PROFILE) $(EXEC_ARGS) $(RUN_ARGS)
+	@# the site of what was just promoted (a run with N_RUNS or SEED went to build/custom/: no site of it)
+	$(if $(N_RUNS)$(SEED),,$(PY) tools/build_site.py --profile $(PROFILE))
+
+# The offline site (build/site/index.html; PROFILE=smoke: build/site-smoke/) from the outputs in place: the papers'
+# executed notebooks as pages, the cross-paper summary, the reading spaces, the arena and the API reference
+site: $(STAMP)
+	$(PY) tools/build_site.py --profile $(PROFILE)
 
 smoke: $(STAMP)
 	$(PY) tools/run_notebooks.py --profile smoke $(EXEC_ARGS) $(RUN_ARGS)

@@ -105,18 +105,22 @@ def render(doc: dict, root: Path, out_dir: Path) -> str:
     return "\n".join(lines) + "\n"
 
 
-def render_index(docs) -> str:
-    """Cross-paper summary: verdict counts per paper and every claim verdict, one line each; the arena's findings."""
+def render_index(docs, link=None, title: str = "# All papers: what holds") -> str:
+    """Cross-paper summary: verdict counts per paper and every claim verdict, one line each; the arena's findings.
+
+    ``link(paper)`` is the Markdown link to a paper's page (default: its report, ``[<paper>.md](<paper>.md)``; the
+    site links its notebook pages instead); ``title`` the first line."""
     from mmlib.experiment.report import VERDICTS
+    link = link or (lambda paper: f"[{paper}.md]({paper}.md)")
     arena = [d for d in docs if d.get("kind") == "arena"]
     docs = [d for d in docs if d.get("kind") != "arena"]
-    lines = ["# All papers: what holds", "",
+    lines = [title, "",
              "Generated from `data/results/*.json`. Verdict rule: `mmlib/experiment/report.py`. Counts are over the comparison "
              "rows of each paper (tables; timing rows included).", "",
              markdown_table(["paper", "runs", *VERDICTS, "report"],
                             [[d["paper"], d["provenance"]["n_runs"],
                               *[sum(r["verdict"].startswith(v) for r in d["rows"]) for v in VERDICTS],
-                              f"[{d['paper']}.md]({d['paper']}.md)"] for d in docs]), ""]
+                              link(d["paper"])] for d in docs]), ""]
     with_mv = [d for d in docs if d.get("multiverse")]
     if with_mv:
         lines += ["## Reading spaces: does some reading reproduce the tables, and are the verdicts robust?", "",
@@ -149,7 +153,7 @@ def render_index(docs) -> str:
     for d in arena:
         lines += ["## The arena: every algorithm on every scenario", "",
                   f"{len(d['cells'])} cells ({sum('reason' not in c for c in d['cells'])} applicable) at "
-                  f"{d['provenance']['n_runs']} runs each: [arena.md](arena.md).", "", *d["findings"], ""]
+                  f"{d['provenance']['n_runs']} runs each: {link('arena')}.", "", *d["findings"], ""]
     return "\n".join(lines) + "\n"
 
 

@@ -1,0 +1,245 @@
+"""The site (tools/build_site.py, ``make site``) in a real browser: headless Chromium (Debian's ``chromium`` package,
+installed by .ci/run, or here when missing and the test runs as root with apt-get) driven by Playwright opens every
+page, served from 127.0.0.1, and checks:
+
+* no console error and no uncaught page error;
+* no request leaves the machine (each is intercepted: one to another host is aborted and reported), and no local
+  request fails;
+* every image loads (``complete`` with a natural width);
+* the mathematics is typeset: every ``.math`` element was processed by the bundled MathJax with no error, and no
+  ``$...$`` is left as text outside code;
+* every comparison table renders as a table (no Markdown pipe row left as text; each paper page has a table with a
+  verdict column);
+* every internal link resolves to a page of the site and, with a fragment, to an element of that page.
+
+A screenshot of the top of each paper page is written under build/site-check/ for a person to look at.  The site is
+built from the committed outputs (data/results/, notebooks/executed/) into a temporary folder, so the test also
+checks that they build (warnings are errors).
+"""
+from __future__ import annotations
+
+import functools
+import http.server
+import importlib.util
+import os
+import re
+import shutil
+import subprocess
+import sys
+import threading
+from pathlib import Path
+from urllib.parse import unquote, urljoin, urlsplit
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+CHECK_DIR = REPO / "build" / "site-check"
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                  "--disable-default-apps", "--disable-extensions", "--metrics-recording-only",
+                  "--disable-dev-shm-usage"]
+
+
+def load_builder():
+    spec = importlib.util.spec_from_file_location("build_site", REPO / "tools" / "build_site.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def chromium() -> str:
+    """Debian's Chromium; installed with apt-get when missing and this process may (root, apt-get present)."""
+    found = shutil.which("chromium")
+    if found is None and os.geteuid() == 0 and shutil.which("apt-get"):
+        env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
+        subprocess.run(["apt-get", "update", "-qq"], env=env, capture_output=True, timeout=600)
+        subprocess.run(["apt-get", "install", "-y", "-qq", "--no-install-recommends", "chromium"], env=env,
+                       capture_output=True, timeout=900)
+        found = shutil.which("chromium")
+    if found is None:
+        pytest.fail("no chromium on PATH: install Debian's chromium package (apt-get install chromium), "
+                    "as .ci/run does")
+    return found
+
+
+class QuietHandler(http.server.SimpleHTTPRequestHandler):
+    def log_message(self, *args):
+        pass
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory):
+    """The site built from the committed outputs, served on 127.0.0.1: (folder, base URL)."""
+    builder = load_builder()
+    root = tmp_path_factory.mktemp("site")
+    out = builder.build("full", out=root / "site", stage=root / "site-src")
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0),
+                                             functools.partial(QuietHandler, directory=str(out)))
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield out, f"http://127.0.0.1:{server.server_address[1]}/"
+    server.shutdown()
+
+
+@pytest.fixture(scope="module")
+def browser():
+    from playwright.sync_api import sync_playwright
+    path = chromium()
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=path, args=CHROMIUM_FLAGS, headless=True)
+        yield b
+        b.close()
+
+
+def pages(out: Path) -> list[str]:
+    return sorted(p.relative_to(out).as_posix() for p in out.rglob("*.html")
+                  if not p.relative_to(out).as_posix().startswith(("_static/", "_sources/")))
+
+
+def ids_of(path: Path) -> set[str]:
+    return set(re.findall(r'\sid="([^"]+)"', path.read_text(errors="replace")))
+
+
+# typeset state of every math element Sphinx wrote (class "math notranslate"; MathJax's own output also uses class
+# "math" inside): MathJax 2 leaves a script of type math/tex next to its output
+MATH_STATE = """() => {
+  const maths = Array.from(document.querySelectorAll('.math.notranslate'));
+  const raw = maths.filter(m => !m.querySelector('script[type^="math/tex"]')).map(m => m.textContent.slice(0, 80));
+  const errors = Array.from(document.querySelectorAll('.MathJax_Error, .mjx-merror, merror'))
+                     .map(e => e.textContent.slice(0, 80));
+  return {count: maths.length, raw: raw, errors: errors};
+}"""
+
+# text outside code that still looks like Markdown: $math$ or a pipe-table row
+LEFTOVER_TEXT = r"""() => {
+  const walker = document.createTreeWalker(document.querySelector('article') || document.body, NodeFilter.SHOW_TEXT);
+  const dollars = [], pipes = [];
+  for (let n = walker.nextNode(); n; n = walker.nextNode()) {
+    if (n.parentElement.closest('pre, code, script, style, .highlight, .MathJax, .MathJax_CHTML, .math')) continue;
+    const t = n.textContent;
+    if (/\$[^$\s][^$]*\$/.test(t)) dollars.push(t.trim().slice(0, 80));
+    if (/\|\s*-{3,}\s*\|/.test(t) || /^\s*\|.*\|.*\|\s*$/m.test(t)) pipes.push(t.trim().slice(0, 80));
+  }
+  return {dollars: dollars, pipes: pipes};
+}"""
+
+IMAGES = """() => Array.from(document.images).filter(i => !(i.complete && i.naturalWidth > 0))
+                                     .map(i => i.getAttribute('src'))"""
+
+VERDICT_TABLES = """() => Array.from(document.querySelectorAll('table')).filter(
+  t => Array.from(t.querySelectorAll('th')).some(h => /verdict/i.test(h.textContent))).length"""
+
+
+def check_page(browser, base: str, out: Path, rel: str) -> list[str]:
+    """Every problem of one page, each a sentence naming the page."""
+    problems: list[str] = []
+    context = browser.new_context(viewport={"width": 1280, "height": 1600})
+    host = urlsplit(base).netloc
+
+    def route(r):
+        if urlsplit(r.request.url).netloc == host or r.request.url.startswith(("data:", "blob:", "about:")):
+            r.continue_()
+        else:
+            problems.append(f"{rel}: request to another host: {r.request.url}")
+            r.abort()
+
+    context.route("**/*", route)
+    page = context.new_page()
+    page.on("console", lambda m: problems.append(f"{rel}: console {m.type}: {m.text}")
+            if m.type == "error" else None)
+    page.on("pageerror", lambda e: problems.append(f"{rel}: page error: {e}"))
+    page.on("response", lambda r: problems.append(f"{rel}: {r.status} for {r.url}")
+            if r.status >= 400 and urlsplit(r.url).netloc == host else None)
+    page.goto(base + rel, wait_until="load", timeout=60_000)
+    if page.evaluate("() => document.querySelectorAll('.math.notranslate').length"):
+        page.wait_for_function("() => window.MathJax && MathJax.Hub && "
+                               "(MathJax.Hub.queue.pending === 0) && !MathJax.Hub.queue.running", timeout=60_000)
+        page.evaluate("() => new Promise(done => MathJax.Hub.Queue(done))")
+        math = page.evaluate(MATH_STATE)
+        problems += [f"{rel}: math not typeset: {t!r}" for t in math["raw"][:5]]
+        problems += [f"{rel}: MathJax error: {t!r}" for t in math["errors"][:5]]
+    left = page.evaluate(LEFTOVER_TEXT)
+    problems += [f"{rel}: $...$ left as text: {t!r}" for t in left["dollars"][:5]]
+    problems += [f"{rel}: Markdown table left as text: {t!r}" for t in left["pipes"][:5]]
+    problems += [f"{rel}: image does not load: {src}" for src in page.evaluate(IMAGES)]
+    if rel.startswith("papers/"):
+        if page.evaluate(VERDICT_TABLES) == 0:
+            problems.append(f"{rel}: no comparison table with a verdict column")
+        CHECK_DIR.mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(CHECK_DIR / f"{Path(rel).stem}.png"), full_page=True,
+                        clip={"x": 0, "y": 0, "width": 1280, "height": 4000})
+    for href in page.evaluate("() => Array.from(document.querySelectorAll('a[href]'), a => a.getAttribute('href'))"):
+        problems += link_problems(base, out, rel, href)
+    context.close()
+    return problems
+
+
+@functools.lru_cache(maxsize=None)
+def _ids(path: str) -> frozenset:
+    return frozenset(ids_of(Path(path)))
+
+
+def link_problems(base: str, out: Path, rel: str, href: str) -> list[str]:
+    """A link of page ``rel`` that points into the site but to no page (or no element) of it."""
+    if href.startswith(("mailto:", "javascript:")):
+        return []
+    url = urljoin(base + rel, href)
+    if not url.startswith(base):
+        return []                                   # external: a link, never a request (checked above)
+    parts = urlsplit(url)
+    target = out / unquote(parts.path[len(urlsplit(base).path):])
+    if target.is_dir():
+        target = target / "index.html"
+    if not target.is_file():
+        return [f"{rel}: broken link {href!r} (no {target.relative_to(out).as_posix()})"]
+    if parts.fragment and target.suffix == ".html" and unquote(parts.fragment) not in _ids(str(target)):
+        return [f"{rel}: broken link {href!r} (no element #{parts.fragment} in {target.relative_to(out)})"]
+    return []
+
+
+def test_every_page_in_a_real_browser(site, browser):
+    out, base = site
+    rels = pages(out)
+    assert {"index.html", "getting-started.html", "reading-spaces.html", "arena.html", "api/index.html"} <= set(rels)
+    assert len([r for r in rels if r.startswith("papers/")]) == 5
+    problems = [p for rel in rels for p in check_page(browser, base, out, rel)]
+    assert not problems, f"{len(problems)} problem(s):\n" + "\n".join(problems[:60])
+    assert sorted(p.name for p in CHECK_DIR.glob("*.png")) == sorted(
+        f"{Path(r).stem}.png" for r in rels if r.startswith("papers/"))
+
+
+def test_the_checks_catch_what_they_look_for(site, browser, tmp_path):
+    """The checks can fail: a page with an external script, a broken link, a missing image, raw $math$ and a
+    Markdown table left as text is reported for each."""
+    out, base = site
+    bad = out / "zz-bad-page.html"
+    bad.write_text('<html><body><article><p>see $x_k$ here</p><p>| a | b |\n|---|---|</p>'
+                   '<img src="_images/none.png"><a href="nowhere.html">x</a><a href="index.html#no-such-id">y</a>'
+                   '<script src="https://cdn.example.org/x.js"></script></article></body></html>')
+    try:
+        problems = check_page(browser, base, out, "zz-bad-page.html")
+    finally:
+        bad.unlink()
+    text = "\n".join(problems)
+    for expected in ("request to another host: https://cdn.example.org/x.js", "broken link 'nowhere.html'",
+                     "no element #no-such-id", "image does not load: _images/none.png", "$...$ left as text",
+                     "Markdown table left as text", "404 for"):
+        assert expected in text, (expected, text)
+
+
+def test_site_before_any_results_says_what_to_run(tmp_path, monkeypatch):
+    builder = load_builder()
+    monkeypatch.setattr(builder, "REPO", tmp_path)
+    with pytest.raises(builder.SiteError, match=r"no results in data/results/: run `make figures` first"):
+        builder.build("full", out=tmp_path / "site")
+    with pytest.raises(builder.SiteError, match=r"run `make figures PROFILE=smoke` first"):
+        builder.build("smoke", out=tmp_path / "site")
+    assert not (tmp_path / "site").exists()
+
+
+def test_a_failing_page_is_named_with_its_notebook_and_cell(tmp_path):
+    """A Markdown cell with a broken directive fails the build; the error names the notebook and the cell."""
+    builder = load_builder()
+    line = str(tmp_path / "site-src") + "/papers/zhu2016_imm5ckf.ipynb:30002: ERROR: Unknown directive type"
+    assert builder.explain(line, tmp_path / "site-src") == \
+        "notebook papers/zhu2016_imm5ckf.ipynb, cell 3 (line 2): ERROR: Unknown directive type"

@@ -1,0 +1,258 @@
+#!/usr/bin/env python
+"""Build the offline site (``make site``): every paper as a report-like page from its executed notebook, the arena,
+the reading spaces, a getting-started guide and the API reference, into build/site/.
+
+Sources: the results and executed notebooks of a profile's outputs (``full``: the committed ones, data/results/ and
+notebooks/executed/; ``smoke``: build/smoke/), this repository's docs/ folder (the configuration and the hand-written
+pages) and mmlib's docstrings.  The builder assembles the page sources in a staging folder (build/site-src/):
+
+* ``index.md``: the cross-paper verdict summary, rendered from the results by the same code as reports/README.md;
+* ``papers/<notebook>.ipynb`` and ``arena.ipynb``: the executed notebooks, each code cell folded (its outputs and the
+  narrative first), the papermill parameter cells removed;
+* ``reading-spaces.md``: every paper's reading-space section, rendered from its results like its report;
+* ``api/<module>.md``: one page per public module of mmlib, from its docstrings (autodoc);
+
+then runs Sphinx with MyST-NB (docs/conf.py) with warnings as errors.  The site is written to a temporary folder and
+moved into place only when the build succeeded, so build/site/ is never half old and half new.
+
+Why Sphinx with MyST-NB, not Jupyter Book 2: both are maintained tools of the Jupyter ecosystem, but Jupyter Book 2
+(mystmd) is a Node.js program that fetches its site theme from the network when it builds, while Sphinx, MyST-NB and
+the furo theme are Python packages pinned in requirements.lock, build offline and render the stored outputs of
+.ipynb files directly; the same tool builds the API reference from the docstrings (autodoc).
+
+Bad input: a missing results folder or executed notebook is an error saying which command makes it; a page that fails
+to build is named with its notebook and cell (MyST-NB reports the cell as the line number divided by 10000).
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import os
+import pkgutil
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "tools"))
+
+PAPERS = ("zhu2016", "hu2017", "liu2017", "zhou2017", "tseng2011")
+#: the cell-line encoding of MyST-NB's warnings: line = cell index * 10000 + line within the cell
+CELL_LINE = 10000
+
+
+class SiteError(Exception):
+    """The site cannot be built; the message says why and what to run."""
+
+
+def sources(profile: str) -> tuple[Path, Path, str]:
+    """``(root holding data/results, folder of executed notebooks, the command that makes them)``."""
+    if profile == "full":
+        return REPO, REPO / "notebooks" / "executed", "make figures"
+    if profile == "smoke":
+        return REPO / "build" / "smoke", REPO / "build" / "smoke" / "executed", "make figures PROFILE=smoke"
+    raise SiteError(f"--profile: expected 'full' or 'smoke', got {profile!r}")
+
+
+def load_inputs(profile: str) -> tuple[list[dict], dict[str, Path]]:
+    """The results documents (papers and arena) and ``{paper: executed notebook}``; a SiteError naming what is
+    missing and the command to run first."""
+    root, executed, command = sources(profile)
+    results = root / "data" / "results"
+    docs = [json.loads(p.read_text()) for p in sorted(results.glob("*.json"))] if results.is_dir() else []
+    if not docs:
+        raise SiteError(f"no results in {results.relative_to(REPO)}/: run `{command}` first, then `make site"
+                        f"{'' if profile == 'full' else ' PROFILE=' + profile}`")
+    notebooks = {}
+    for doc in docs:
+        stem = doc["paper"]
+        found = sorted(executed.glob(f"{stem}*.ipynb")) if executed.is_dir() else []
+        if not found:
+            raise SiteError(f"{stem}: results exist but no executed notebook {executed.relative_to(REPO)}/"
+                            f"{stem}*.ipynb: run `{command}` first")
+        notebooks[stem] = found[0]
+    missing = [p for p in (*PAPERS, "arena") if p not in notebooks]
+    if missing:
+        raise SiteError(f"no results for {', '.join(missing)} in {results.relative_to(REPO)}/: run `{command}` first")
+    return docs, notebooks
+
+
+def page_link(paper: str, notebooks: dict[str, Path]) -> str:
+    """The Markdown link from the home page to a paper's (or the arena's) page."""
+    target = "arena.ipynb" if paper == "arena" else f"papers/{notebooks[paper].name}"
+    return f"[{paper}]({target})"
+
+
+def fold_notebook(src: Path, dst: Path) -> None:
+    """Copy an executed notebook as a page: papermill's parameter cells removed, every other code cell folded
+    (``hide-input``: the source behind a toggle, the outputs shown)."""
+    nb = json.loads(src.read_text())
+    for cell in nb["cells"]:
+        if cell["cell_type"] != "code":
+            continue
+        tags = cell.setdefault("metadata", {}).setdefault("tags", [])
+        if "parameters" in tags or "injected-parameters" in tags:
+            tags.append("remove-cell")
+        elif "hide-input" not in tags:
+            tags.append("hide-input")
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    dst.write_text(json.dumps(nb))
+
+
+def shift_headings(text: str, by: int) -> str:
+    """Markdown headings ``by`` levels deeper (outside fenced code)."""
+    out, fenced = [], False
+    for line in text.splitlines():
+        if line.startswith("```"):
+            fenced = not fenced
+        if not fenced and re.match(r"#{1,5} ", line):
+            line = "#" * by + line
+        out.append(line)
+    return "\n".join(out)
+
+
+def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
+    import make_report
+    summary = make_report.render_index(docs, link=lambda p: page_link(p, notebooks), title="## What holds")
+    papers = [d for d in docs if d.get("kind") != "arena"]
+    commits = sorted({d["provenance"]["git_commit"][:10] for d in docs})
+    return "\n".join([
+        "# Five tracking papers, replicated", "",
+        "Five papers on maneuvering-target tracking with interacting multiple model (IMM) and sigma-point Kalman "
+        "filters, replicated with `mmlib`, a batched filter library; every published number is set beside the "
+        "replication with its Monte Carlo standard error and a verdict from one rule "
+        "(`mmlib/experiment/report.py`), every ambiguity of the text is run as a declared reading, and every "
+        "algorithm is run on every scenario in the arena.", "",
+        f"Generated from the results of commit{'s' if len(commits) > 1 else ''} {', '.join(f'`{c}`' for c in commits)} "
+        f"({len(papers)} papers and the arena).", "",
+        "```{toctree}", ":maxdepth: 1", ":caption: Papers", "",
+        *[f"papers/{notebooks[d['paper']].stem}" for d in sorted(papers, key=lambda d: d["paper"])], "```", "",
+        "```{toctree}", ":maxdepth: 1", ":caption: Across the papers", "", "reading-spaces", "arena", "```", "",
+        "```{toctree}", ":maxdepth: 1", ":caption: The library", "", "getting-started", "api/index", "```", "",
+        summary])
+
+
+def reading_spaces_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
+    import make_report
+    lines = ["# Reading spaces", "",
+             "Where a paper is missing, contradictory or wrong, its defensible readings are declared as factors, "
+             "numbered, and all of them run (a multiverse, as in specification curves): each verdict is reported "
+             "across every reading, and the readings that reproduce the published tables are named. Each section "
+             "below is rendered from the paper's results; the paper's page shows the figures.", ""]
+    for doc in sorted((d for d in docs if d.get("multiverse")), key=lambda d: d["paper"]):
+        section = "\n".join(make_report.render_multiverse(doc["multiverse"])).replace(
+            "## Reading space (multiverse)", f"## {doc['paper']} ({page_link(doc['paper'], notebooks)})")
+        lines += [shift_headings(section, 0), ""]
+    return "\n".join(lines)
+
+
+def public_modules() -> list[str]:
+    import mmlib
+    names = []
+    for info in pkgutil.walk_packages(mmlib.__path__, "mmlib."):
+        if not any(part.startswith("_") for part in info.name.split(".")[1:]):
+            names.append(info.name)
+    return sorted(names)
+
+
+def api_pages(stage: Path) -> None:
+    layers = {"mmlib.core": "1. Estimation core", "mmlib.experiment": "2. Experiment layer",
+              "mmlib.papers": "3. Paper set-ups", "mmlib.arena": "4. The arena"}
+    modules = public_modules()
+    lines = ["# API reference", "", "Generated from the docstrings. The folders are the layers; each depends only on "
+             "those above it in this list. Units are SI inside the library (m, m/s, s, rad, rad/s) unless a "
+             "docstring says otherwise; arrays are batched over Monte Carlo runs (leading axis N).", "",
+             "```{eval-rst}", ".. automodule:: mmlib", "   :no-members:", "```", ""]
+    for package, title in layers.items():
+        members = [m for m in modules if m == package or m.startswith(package + ".")]
+        lines += [f"## {title}: `{package}`", "", "```{toctree}", ":maxdepth: 1", "",
+                  *[m for m in members], "```", ""]
+    (stage / "api").mkdir(parents=True, exist_ok=True)
+    (stage / "api" / "index.md").write_text("\n".join(lines))
+    for m in modules:
+        importlib.import_module(m)
+        (stage / "api" / f"{m}.md").write_text(
+            f"# `{m}`\n\n```{{eval-rst}}\n.. automodule:: {m}\n```\n")
+
+
+def assemble(stage: Path, docs: list[dict], notebooks: dict[str, Path]) -> None:
+    if stage.exists():
+        shutil.rmtree(stage)
+    stage.mkdir(parents=True)
+    for page in sorted((REPO / "docs").glob("*.md")):
+        shutil.copy2(page, stage / page.name)
+    (stage / "_includes").mkdir()
+    shutil.copy2(REPO / "README.md", stage / "_includes" / "README.md")     # the getting-started example
+    (stage / "index.md").write_text(index_page(docs, notebooks))
+    (stage / "reading-spaces.md").write_text(reading_spaces_page(docs, notebooks))
+    for paper, nb in notebooks.items():
+        fold_notebook(nb, stage / ("arena.ipynb" if paper == "arena" else f"papers/{nb.name}"))
+    api_pages(stage)
+    # the bundled MathJax (jupyter-server-mathjax's copy of MathJax 2.7), served from _static/mathjax/
+    import jupyter_server_mathjax
+    shutil.copytree(Path(jupyter_server_mathjax.__file__).parent / "static", stage / "_mathjax" / "mathjax")
+
+
+def explain(line: str, stage: Path) -> str:
+    """A Sphinx warning with its page relative to the staging folder and, for a notebook, its cell."""
+    line = line.replace(str(stage) + os.sep, "")
+    m = re.match(r"(?P<page>[\w./-]+\.ipynb):(?P<line>\d+)", line)
+    if m:
+        cell, within = divmod(int(m.group("line")), CELL_LINE)
+        line = (f"notebook {m.group('page')}, cell {cell} (line {within}): "
+                + line[m.end():].lstrip(": "))
+    return line
+
+
+def build(profile: str = "full", out: Path | None = None, stage: Path | None = None, quiet: bool = True) -> Path:
+    """Build the site; returns its folder.  Raises SiteError naming what is missing or which page failed."""
+    out = Path(out or REPO / "build" / ("site" if profile == "full" else f"site-{profile}"))
+    stage = Path(stage or out.parent / f"{out.name}-src")
+    docs, notebooks = load_inputs(profile)
+    assemble(stage, docs, notebooks)
+    tmp = out.parent / f".{out.name}.tmp"
+    shutil.rmtree(tmp, ignore_errors=True)
+    warnings = stage.parent / f"{out.name}-warnings.txt"
+    cmd = [sys.executable, "-m", "sphinx", "-b", "html", "-c", str(REPO / "docs"), "-W", "--keep-going",
+           "-w", str(warnings), "-j", "1",
+           *(["-q"] if quiet else []), str(stage), str(tmp)]
+    env = {**os.environ, "MMLIB_SITE_REPO": str(REPO), "MMLIB_SITE_MATHJAX": str(stage / "_mathjax"),
+           "PYTHONHASHSEED": "0"}
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    if proc.returncode != 0:
+        lines = [explain(x, stage) for x in (warnings.read_text() if warnings.exists() else "").splitlines() if x]
+        detail = "\n  ".join(lines[:40] or proc.stderr.strip().splitlines()[-20:])
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise SiteError(f"the site did not build (Sphinx exit status {proc.returncode}):\n  {detail}")
+    if out.exists():
+        old = out.parent / f".{out.name}.old"
+        shutil.rmtree(old, ignore_errors=True)
+        os.replace(out, old)
+        os.replace(tmp, out)
+        shutil.rmtree(old)
+    else:
+        os.replace(tmp, out)
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--profile", default="full", help="whose outputs: full (the committed ones) or smoke")
+    ap.add_argument("--out", default=None, help="site folder (default build/site, build/site-smoke for smoke)")
+    args = ap.parse_args(argv)
+    try:
+        out = build(args.profile, Path(args.out) if args.out else None)
+    except SiteError as exc:
+        print(f"build_site.py: error: {exc}", file=sys.stderr)
+        return 2
+    shown = out.relative_to(REPO) if out.is_relative_to(REPO) else out
+    print(f"site: {shown}/index.html (open it in a browser; it needs no network)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
