@@ -177,3 +177,15 @@ def test_a_claim_with_nothing_compared_is_not_assessable(difference, stderr):
     from mmlib.experiment import report
     assert report.claim_verdict(difference, stderr, -1) == "not comparable"
     assert report.paired_claim(difference, stderr, -1).startswith(report.NOT_ASSESSABLE)
+
+
+def test_rms_standard_error_is_nan_without_two_valid_runs_and_zero_for_exact_zeros():
+    """No valid run: value and standard error NaN (never a 0 s.e. that reads as exact); all-zero errors over
+    several runs: 0 +- 0; a single run: its value, s.e. NaN."""
+    sq = np.abs(np.random.default_rng(1).standard_normal((5, 3)))
+    none = metrics.rms_with_se(sq, valid=np.zeros(5, bool))
+    assert np.all(np.isnan(none.value)) and np.all(np.isnan(none.stderr))
+    zeros = metrics.rms_with_se(np.zeros((5, 3)))
+    assert np.all(zeros.value == 0) and np.all(zeros.stderr == 0)
+    one = metrics.rms_with_se(np.zeros((1, 3)))
+    assert np.all(one.value == 0) and np.all(np.isnan(one.stderr))

@@ -238,8 +238,19 @@ def test_site_before_any_results_says_what_to_run(tmp_path, monkeypatch):
 
 
 def test_a_failing_page_is_named_with_its_notebook_and_cell(tmp_path):
-    """A Markdown cell with a broken directive fails the build; the error names the notebook and the cell."""
+    """A real build of a notebook whose cell 2 holds an unknown directive fails, naming the notebook and cell 2."""
+    import nbformat
     builder = load_builder()
-    line = str(tmp_path / "site-src") + "/papers/zhu2016_imm5ckf.ipynb:30002: ERROR: Unknown directive type"
-    assert builder.explain(line, tmp_path / "site-src") == \
-        "notebook papers/zhu2016_imm5ckf.ipynb, cell 3 (line 2): ERROR: Unknown directive type"
+    stage = tmp_path / "site-src"
+    (stage / "papers").mkdir(parents=True)
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_markdown_cell("# A page"), nbformat.v4.new_code_cell("x = 1"),
+                nbformat.v4.new_markdown_cell("Some text.\n\n```{nosuchdirective}\n```\n")]
+    nb.metadata["kernelspec"] = {"name": "mmlib", "display_name": "mmlib (.venv)", "language": "python"}
+    nbformat.write(nb, stage / "papers" / "broken.ipynb")
+    (stage / "index.md").write_text("# Home\n\n```{toctree}\npapers/broken\n```\n")
+    with pytest.raises(builder.SiteError) as err:
+        builder.sphinx(stage, tmp_path / "html")
+    assert "notebook papers/broken.ipynb, cell 2 (index in the .ipynb, from 0): WARNING: Unknown directive type: " \
+           "'nosuchdirective'" in str(err.value)
+    assert not (tmp_path / "html").exists()

@@ -202,3 +202,15 @@ def test_gaussian_draws_have_the_asked_moments_and_do_not_depend_on_the_batch():
         mc.gaussian(range(3), Stream.INITIAL, mean[:2], cov)
     with pytest.raises(ValueError, match="^cov: "):
         mc.gaussian(range(3), Stream.INITIAL, mean, -cov)
+
+
+def test_imm_leaves_the_callers_transition_matrix_writable_and_unshared():
+    """The IMM freezes its own copy of the transition matrix, not the array the caller passed."""
+    import mmlib
+    from mmlib import models
+    P = np.array([[0.9, 0.1], [0.2, 0.8]])
+    imm = mmlib.IMM(mmlib.KalmanFilter(), [models.constant_velocity(1.0, 1.0), models.constant_velocity(1.0, 4.0)],
+                    models.LinearMeasurement(np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0]]), np.eye(2)), transition=P)
+    assert P.flags.writeable and imm.transition is not P and not imm.transition.flags.writeable
+    P[0, 0] = 0.5
+    assert imm.transition[0, 0] == 0.9

@@ -41,7 +41,8 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "tools"))
 
 PAPERS = ("zhu2016", "hu2017", "liu2017", "zhou2017", "tseng2011")
-#: the cell-line encoding of MyST-NB's warnings: line = cell index * 10000 + line within the cell
+#: the cell-line encoding of MyST-NB's warnings: "line" = (cell index + 1) * 10000 + a line within the cell (the
+#: first line of cell 0 is reported as 10002; checked by tests/test_site.py on a real build)
 CELL_LINE = 10000
 
 
@@ -202,10 +203,26 @@ def explain(line: str, stage: Path) -> str:
     line = line.replace(str(stage) + os.sep, "")
     m = re.match(r"(?P<page>[\w./-]+\.ipynb):(?P<line>\d+)", line)
     if m:
-        cell, within = divmod(int(m.group("line")), CELL_LINE)
-        line = (f"notebook {m.group('page')}, cell {cell} (line {within}): "
-                + line[m.end():].lstrip(": "))
+        cell = int(m.group("line")) // CELL_LINE - 1
+        line = f"notebook {m.group('page')}, cell {cell} (index in the .ipynb, from 0): " + line[m.end():].lstrip(": ")
     return line
+
+
+def sphinx(stage: Path, html: Path, quiet: bool = True) -> None:
+    """Run Sphinx on the staged sources into ``html`` (warnings are errors); a SiteError lists the failures, each
+    naming its page (and, in a notebook, its cell), and leaves no ``html`` folder."""
+    shutil.rmtree(html, ignore_errors=True)
+    warnings = stage.parent / f"{stage.name}-warnings.txt"
+    cmd = [sys.executable, "-m", "sphinx", "-b", "html", "-c", str(REPO / "docs"), "-W", "--keep-going",
+           "-w", str(warnings), *(["-q"] if quiet else []), str(stage), str(html)]
+    env = {**os.environ, "MMLIB_SITE_REPO": str(REPO), "MMLIB_SITE_MATHJAX": str(stage / "_mathjax"),
+           "PYTHONHASHSEED": "0"}
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    if proc.returncode != 0:
+        lines = [explain(x, stage) for x in (warnings.read_text() if warnings.exists() else "").splitlines() if x]
+        detail = "\n  ".join(dict.fromkeys(lines[:40]) or proc.stderr.strip().splitlines()[-20:])
+        shutil.rmtree(html, ignore_errors=True)
+        raise SiteError(f"the site did not build (Sphinx exit status {proc.returncode}):\n  {detail}")
 
 
 def build(profile: str = "full", out: Path | None = None, stage: Path | None = None, quiet: bool = True) -> Path:
@@ -215,19 +232,7 @@ def build(profile: str = "full", out: Path | None = None, stage: Path | None = N
     docs, notebooks = load_inputs(profile)
     assemble(stage, docs, notebooks)
     tmp = out.parent / f".{out.name}.tmp"
-    shutil.rmtree(tmp, ignore_errors=True)
-    warnings = stage.parent / f"{out.name}-warnings.txt"
-    cmd = [sys.executable, "-m", "sphinx", "-b", "html", "-c", str(REPO / "docs"), "-W", "--keep-going",
-           "-w", str(warnings), "-j", "1",
-           *(["-q"] if quiet else []), str(stage), str(tmp)]
-    env = {**os.environ, "MMLIB_SITE_REPO": str(REPO), "MMLIB_SITE_MATHJAX": str(stage / "_mathjax"),
-           "PYTHONHASHSEED": "0"}
-    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
-    if proc.returncode != 0:
-        lines = [explain(x, stage) for x in (warnings.read_text() if warnings.exists() else "").splitlines() if x]
-        detail = "\n  ".join(lines[:40] or proc.stderr.strip().splitlines()[-20:])
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise SiteError(f"the site did not build (Sphinx exit status {proc.returncode}):\n  {detail}")
+    sphinx(stage, tmp, quiet)
     if out.exists():
         old = out.parent / f".{out.name}.old"
         shutil.rmtree(old, ignore_errors=True)

@@ -403,6 +403,7 @@ class IMM:
             raise ValueError(f"mixing: expected a mixing strategy (callable), got {type(self.mixing).__name__}")
         object.__setattr__(self, "dynamics", dyn)
         object.__setattr__(self, "stacked", StackedDynamics.of(dyn))
+        T = T.copy()                   # frozen below: the caller's matrix must stay theirs (and writable)
         object.__setattr__(self, "transition", T)
         T.setflags(write=False)
 

@@ -91,7 +91,8 @@ def _rms(sq: np.ndarray, ok: np.ndarray) -> MCValue:
     m = _mean_se(sq, ok)
     root = np.sqrt(m.value)
     with np.errstate(divide="ignore", invalid="ignore"):
-        se = np.where(root > 0, m.stderr / (2.0 * root), 0.0)
+        # delta method; at a zero root the errors are all zero (s.e. 0, or NaN from a single run); no valid run: NaN
+        se = np.where(root > 0, m.stderr / (2.0 * root), np.where(root == 0, m.stderr * 0.0, np.nan))
     return MCValue(root, se, m.n_runs, m.n_excluded)
 
 
