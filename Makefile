@@ -33,8 +33,9 @@ $(STAMP): requirements.lock pyproject.toml
 
 figures: $(STAMP)
 	$(PY) tools/run_notebooks.py --profile $(PROFILE) $(EXEC_ARGS) $(RUN_ARGS)
-	@# the site of what was just promoted (a run with N_RUNS or SEED went to build/custom/: no site of it)
-	$(if $(N_RUNS)$(SEED),,$(PY) tools/build_site.py --profile $(PROFILE))
+	@# the site of what was just promoted (a run with N_RUNS or SEED went to build/custom/: no site of it; after
+	@# PAPER=... the site is rebuilt when every paper's outputs exist, and otherwise says which are missing)
+	$(if $(N_RUNS)$(SEED),,$(PY) tools/build_site.py --profile $(PROFILE) --if-complete)
 
 # The offline site (build/site/index.html; PROFILE=smoke: build/site-smoke/) from the outputs in place: the papers'
 # executed notebooks as pages, the cross-paper summary, the reading spaces, the arena and the API reference

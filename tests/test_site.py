@@ -72,7 +72,8 @@ def site(tmp_path_factory):
     """The site built from the committed outputs, served on 127.0.0.1: (folder, base URL)."""
     builder = load_builder()
     root = tmp_path_factory.mktemp("site")
-    out = builder.build("full", out=root / "site", stage=root / "site-src")
+    out = builder.build("full", out=root / "site")
+    shutil.rmtree(CHECK_DIR, ignore_errors=True)          # this run's screenshots only
     server = http.server.ThreadingHTTPServer(("127.0.0.1", 0),
                                              functools.partial(QuietHandler, directory=str(out)))
     thread = threading.Thread(target=server.serve_forever, daemon=True)
@@ -107,6 +108,11 @@ MATH_STATE = """() => {
   const raw = maths.filter(m => !m.querySelector('script[type^="math/tex"]')).map(m => m.textContent.slice(0, 80));
   const errors = Array.from(document.querySelectorAll('.MathJax_Error, .mjx-merror, merror'))
                      .map(e => e.textContent.slice(0, 80));
+  // an undefined macro is no error to MathJax (noUndefined): it is typeset in red, which its MathML records
+  const undefined = Array.from(document.querySelectorAll('[data-mathml]'))
+                         .filter(e => e.getAttribute('data-mathml').includes('mathcolor="red"'))
+                         .map(e => e.textContent.slice(0, 80));
+  errors.push(...undefined);
   return {count: maths.length, raw: raw, errors: errors};
 }"""
 
@@ -125,6 +131,11 @@ LEFTOVER_TEXT = r"""() => {
 
 IMAGES = """() => Array.from(document.images).filter(i => !(i.complete && i.naturalWidth > 0))
                                      .map(i => i.getAttribute('src'))"""
+
+# notebook pages: code cells folded (each behind a <details> toggle), no stderr output published
+NOTEBOOK_STATE = """() => ({cells: document.querySelectorAll('div.cell').length,
+  unfolded: Array.from(document.querySelectorAll('div.cell')).filter(c => !c.querySelector('details.hide')).length,
+  stderr: Array.from(document.querySelectorAll('div.output.stderr'), e => e.textContent.slice(0, 80))})"""
 
 VERDICT_TABLES = """() => Array.from(document.querySelectorAll('table')).filter(
   t => Array.from(t.querySelectorAll('th')).some(h => /verdict/i.test(h.textContent))).length"""
@@ -152,9 +163,11 @@ def check_page(browser, base: str, out: Path, rel: str) -> list[str]:
             if r.status >= 400 and urlsplit(r.url).netloc == host else None)
     page.goto(base + rel, wait_until="load", timeout=60_000)
     if page.evaluate("() => document.querySelectorAll('.math.notranslate').length"):
-        page.wait_for_function("() => window.MathJax && MathJax.Hub && "
-                               "(MathJax.Hub.queue.pending === 0) && !MathJax.Hub.queue.running", timeout=60_000)
-        page.evaluate("() => new Promise(done => MathJax.Hub.Queue(done))")
+        try:          # MathJax loaded, then everything queued before this callback (the page's typesetting) done
+            page.wait_for_function("() => window.MathJax && window.MathJax.Hub && MathJax.isReady", timeout=60_000)
+            page.evaluate("() => new Promise(done => MathJax.Hub.Queue(() => done(true)))")
+        except Exception as exc:  # noqa: BLE001 -- reported with the page, the other checks still run
+            problems.append(f"{rel}: MathJax did not load or finish typesetting: {type(exc).__name__}")
         math = page.evaluate(MATH_STATE)
         problems += [f"{rel}: math not typeset: {t!r}" for t in math["raw"][:5]]
         problems += [f"{rel}: MathJax error: {t!r}" for t in math["errors"][:5]]
@@ -162,6 +175,12 @@ def check_page(browser, base: str, out: Path, rel: str) -> list[str]:
     problems += [f"{rel}: $...$ left as text: {t!r}" for t in left["dollars"][:5]]
     problems += [f"{rel}: Markdown table left as text: {t!r}" for t in left["pipes"][:5]]
     problems += [f"{rel}: image does not load: {src}" for src in page.evaluate(IMAGES)]
+    if rel.startswith("papers/") or rel == "arena.html" or page.evaluate(
+            "() => document.querySelectorAll('div.cell').length"):
+        nb = page.evaluate(NOTEBOOK_STATE)
+        if nb["unfolded"]:
+            problems.append(f"{rel}: {nb['unfolded']} of {nb['cells']} code cells not folded")
+        problems += [f"{rel}: stderr output published: {t!r}" for t in nb["stderr"][:3]]
     if rel.startswith("papers/"):
         if page.evaluate(VERDICT_TABLES) == 0:
             problems.append(f"{rel}: no comparison table with a verdict column")
@@ -208,23 +227,46 @@ def test_every_page_in_a_real_browser(site, browser):
         f"{Path(r).stem}.png" for r in rels if r.startswith("papers/"))
 
 
-def test_the_checks_catch_what_they_look_for(site, browser, tmp_path):
-    """The checks can fail: a page with an external script, a broken link, a missing image, raw $math$ and a
-    Markdown table left as text is reported for each."""
+def test_the_checks_catch_what_they_look_for(site, browser):
+    """The checks can fail: a real page of the site (MathJax loaded) with an external script, a broken link and
+    anchor, a missing image, raw $math$, an undefined TeX macro, a Markdown table left as text, an unfolded code cell
+    and a stderr output injected is reported for each."""
     out, base = site
-    bad = out / "zz-bad-page.html"
-    bad.write_text('<html><body><article><p>see $x_k$ here</p><p>| a | b |\n|---|---|</p>'
-                   '<img src="_images/none.png"><a href="nowhere.html">x</a><a href="index.html#no-such-id">y</a>'
-                   '<script src="https://cdn.example.org/x.js"></script></article></body></html>')
+    page = (out / "api" / "mmlib.core.rules.html").read_text()      # a page that loads MathJax
+    defects = ('<p>see $x_k$ here</p><p>| a | b |\n|---|---|</p><img src="../_images/none.png">'
+               '<a href="nowhere.html">x</a><a href="../index.html#no-such-id">y</a>'
+               '<span class="math notranslate nohighlight">\\(\\undefinedmacro x\\)</span>'
+               '<div class="cell docutils container"><div class="cell_output docutils container">'
+               '<div class="output stderr"><pre>  [x] 1/2 runs</pre></div></div></div>'
+               '<script src="https://cdn.example.org/x.js"></script>')
+    assert page.count("</article>") == 1
+    bad = out / "api" / "zz-bad-page.html"
+    bad.write_text(page.replace("</article>", defects + "</article>"))
     try:
-        problems = check_page(browser, base, out, "zz-bad-page.html")
+        problems = check_page(browser, base, out, "api/zz-bad-page.html")
     finally:
         bad.unlink()
     text = "\n".join(problems)
     for expected in ("request to another host: https://cdn.example.org/x.js", "broken link 'nowhere.html'",
-                     "no element #no-such-id", "image does not load: _images/none.png", "$...$ left as text",
-                     "Markdown table left as text", "404 for"):
+                     "no element #no-such-id", "image does not load: ../_images/none.png", "$...$ left as text",
+                     "Markdown table left as text", "404 for", "MathJax error: ", "1 of 1 code cells not folded",
+                     "stderr output published: '  [x] 1/2 runs'"):
         assert expected in text, (expected, text)
+
+
+def test_committed_notebooks_are_fit_to_publish():
+    """The committed executed notebooks hold no stderr output (progress goes to the runner's log) and no path of
+    the machine that ran them."""
+    import json
+    executed = sorted((REPO / "notebooks" / "executed").glob("*.ipynb"))
+    assert len(executed) == len(list((REPO / "notebooks").glob("*.py")))
+    for path in executed:
+        text = path.read_text()
+        nb = json.loads(text)
+        stderr = [i for i, c in enumerate(nb["cells"]) for o in c.get("outputs", []) if o.get("name") == "stderr"]
+        assert not stderr, f"{path.name}: stderr output in cells {stderr}"
+        for local in (str(REPO), "/home/", "/tmp/", "/root/", "/Users/"):
+            assert local not in text, f"{path.name}: machine-local path {local!r}"
 
 
 def test_site_before_any_results_says_what_to_run(tmp_path, monkeypatch):

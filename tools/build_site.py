@@ -4,16 +4,17 @@ the reading spaces, a getting-started guide and the API reference, into build/si
 
 Sources: the results and executed notebooks of a profile's outputs (``full``: the committed ones, data/results/ and
 notebooks/executed/; ``smoke``: build/smoke/), this repository's docs/ folder (the configuration and the hand-written
-pages) and mmlib's docstrings.  The builder assembles the page sources in a staging folder (build/site-src/):
+pages) and mmlib's docstrings.  The builder assembles the page sources in a work folder (build/.site-work/src/):
 
 * ``index.md``: the cross-paper verdict summary, rendered from the results by the same code as reports/README.md;
 * ``papers/<notebook>.ipynb`` and ``arena.ipynb``: the executed notebooks, each code cell folded (its outputs and the
   narrative first), the papermill parameter cells removed;
 * ``reading-spaces.md``: every paper's reading-space section, rendered from its results like its report;
 * ``api/<module>.md``: one page per public module of mmlib, from its docstrings (autodoc);
+* ``_includes/README.md``: the README, whose end-to-end example the getting-started page includes;
 
-then runs Sphinx with MyST-NB (docs/conf.py) with warnings as errors.  The site is written to a temporary folder and
-moved into place only when the build succeeded, so build/site/ is never half old and half new.
+then runs Sphinx with MyST-NB (docs/conf.py) with warnings as errors.  The site is written to a work folder and
+moved into place only when the build succeeded, so build/site/ is never half old and half new (see :func:`build`).
 
 Why Sphinx with MyST-NB, not Jupyter Book 2: both are maintained tools of the Jupyter ecosystem, but Jupyter Book 2
 (mystmd) is a Node.js program that fetches its site theme from the network when it builds, while Sphinx, MyST-NB and
@@ -40,7 +41,6 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "tools"))
 
-PAPERS = ("zhu2016", "hu2017", "liu2017", "zhou2017", "tseng2011")
 #: the cell-line encoding of MyST-NB's warnings: "line" = (cell index + 1) * 10000 + a line within the cell (the
 #: first line of cell 0 is reported as 10002; checked by tests/test_site.py on a real build)
 CELL_LINE = 10000
@@ -60,26 +60,28 @@ def sources(profile: str) -> tuple[Path, Path, str]:
 
 
 def load_inputs(profile: str) -> tuple[list[dict], dict[str, Path]]:
-    """The results documents (papers and arena) and ``{paper: executed notebook}``; a SiteError naming what is
-    missing and the command to run first."""
+    """The results documents (papers and arena) and ``{paper: executed notebook}``, for exactly the notebook sources
+    of notebooks/*.py (``<paper>_<topic>.py``; the arena's is ``arena.py``): a stale results file or executed notebook
+    of no current source is never published.  A SiteError names what is missing and the command to run first."""
     root, executed, command = sources(profile)
     results = root / "data" / "results"
-    docs = [json.loads(p.read_text()) for p in sorted(results.glob("*.json"))] if results.is_dir() else []
-    if not docs:
-        raise SiteError(f"no results in {results.relative_to(REPO)}/: run `{command}` first, then `make site"
-                        f"{'' if profile == 'full' else ' PROFILE=' + profile}`")
-    notebooks = {}
-    for doc in docs:
-        stem = doc["paper"]
-        found = sorted(executed.glob(f"{stem}*.ipynb")) if executed.is_dir() else []
-        if not found:
-            raise SiteError(f"{stem}: results exist but no executed notebook {executed.relative_to(REPO)}/"
-                            f"{stem}*.ipynb: run `{command}` first")
-        notebooks[stem] = found[0]
-    missing = [p for p in (*PAPERS, "arena") if p not in notebooks]
-    if missing:
-        raise SiteError(f"no results for {', '.join(missing)} in {results.relative_to(REPO)}/: run `{command}` first")
-    return docs, notebooks
+    then = f"then `make site{'' if profile == 'full' else ' PROFILE=' + profile}`"
+    if not sorted(results.glob("*.json")):
+        raise SiteError(f"no results in {results.relative_to(REPO)}/: run `{command}` first, {then}")
+    docs, notebooks = [], {}
+    for src in sorted((REPO / "notebooks").glob("*.py")):
+        paper = src.stem.split("_")[0]
+        if paper in notebooks:
+            raise SiteError(f"notebooks/{src.name}: a second notebook of {paper} ({notebooks[paper].stem}.py); "
+                            f"one notebook per paper")
+        nb, doc = executed / f"{src.stem}.ipynb", results / f"{paper}.json"
+        for path in (nb, doc):
+            if not path.is_file():
+                raise SiteError(f"{paper}: no {path.relative_to(REPO)} (from notebooks/{src.name}): run `{command}` "
+                                f"first, {then}")
+        notebooks[paper] = nb
+        docs.append(json.loads(doc.read_text()))
+    return sorted(docs, key=lambda d: d["paper"]), notebooks
 
 
 def page_link(paper: str, notebooks: dict[str, Path]) -> str:
@@ -175,9 +177,11 @@ def api_pages(stage: Path) -> None:
     (stage / "api").mkdir(parents=True, exist_ok=True)
     (stage / "api" / "index.md").write_text("\n".join(lines))
     for m in modules:
-        importlib.import_module(m)
+        # a package's own page is its docstring: the names it re-exports are documented once, in their modules
+        # (documented twice, every cross-reference to them would be ambiguous)
+        package = hasattr(importlib.import_module(m), "__path__")
         (stage / "api" / f"{m}.md").write_text(
-            f"# `{m}`\n\n```{{eval-rst}}\n.. automodule:: {m}\n```\n")
+            f"# `{m}`\n\n```{{eval-rst}}\n.. automodule:: {m}\n{'   :no-members:' + chr(10) if package else ''}```\n")
 
 
 def assemble(stage: Path, docs: list[dict], notebooks: dict[str, Path]) -> None:
@@ -213,8 +217,9 @@ def sphinx(stage: Path, html: Path, quiet: bool = True) -> None:
     naming its page (and, in a notebook, its cell), and leaves no ``html`` folder."""
     shutil.rmtree(html, ignore_errors=True)
     warnings = stage.parent / f"{stage.name}-warnings.txt"
+    # doctrees (Sphinx's cache) beside the HTML, never inside it; MyST-NB puts its jupyter_execute/ there too
     cmd = [sys.executable, "-m", "sphinx", "-b", "html", "-c", str(REPO / "docs"), "-W", "--keep-going",
-           "-w", str(warnings), *(["-q"] if quiet else []), str(stage), str(html)]
+           "-w", str(warnings), "-d", str(html.parent / "doctrees"), *(["-q"] if quiet else []), str(stage), str(html)]
     env = {**os.environ, "MMLIB_SITE_REPO": str(REPO), "MMLIB_SITE_MATHJAX": str(stage / "_mathjax"),
            "PYTHONHASHSEED": "0"}
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
@@ -225,22 +230,26 @@ def sphinx(stage: Path, html: Path, quiet: bool = True) -> None:
         raise SiteError(f"the site did not build (Sphinx exit status {proc.returncode}):\n  {detail}")
 
 
-def build(profile: str = "full", out: Path | None = None, stage: Path | None = None, quiet: bool = True) -> Path:
-    """Build the site; returns its folder.  Raises SiteError naming what is missing or which page failed."""
+def build(profile: str = "full", out: Path | None = None, quiet: bool = True) -> Path:
+    """Build the site; returns its folder.  Raises SiteError naming what is missing or which page failed.
+
+    Everything but the finished site stays in a work folder beside it, ``.<site>-work/`` (the staged sources
+    ``src/``, Sphinx's ``doctrees/`` and MyST-NB's ``jupyter_execute/``, the HTML being built), held under a lock
+    (``.<site>.lock``) so that two builds never mix; the new site replaces the old one only once it is complete."""
+    import fcntl
     out = Path(out or REPO / "build" / ("site" if profile == "full" else f"site-{profile}"))
-    stage = Path(stage or out.parent / f"{out.name}-src")
     docs, notebooks = load_inputs(profile)
-    assemble(stage, docs, notebooks)
-    tmp = out.parent / f".{out.name}.tmp"
-    sphinx(stage, tmp, quiet)
-    if out.exists():
-        old = out.parent / f".{out.name}.old"
-        shutil.rmtree(old, ignore_errors=True)
-        os.replace(out, old)
-        os.replace(tmp, out)
-        shutil.rmtree(old)
-    else:
-        os.replace(tmp, out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    work = out.parent / f".{out.name}-work"
+    with open(out.parent / f".{out.name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        shutil.rmtree(work, ignore_errors=True)
+        assemble(work / "src", docs, notebooks)
+        sphinx(work / "src", work / "html", quiet)
+        if out.exists():
+            os.replace(out, work / "old")
+        os.replace(work / "html", out)
+        shutil.rmtree(work / "old", ignore_errors=True)
     return out
 
 
@@ -248,7 +257,16 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--profile", default="full", help="whose outputs: full (the committed ones) or smoke")
     ap.add_argument("--out", default=None, help="site folder (default build/site, build/site-smoke for smoke)")
+    ap.add_argument("--if-complete", action="store_true",
+                    help="when some paper's outputs are missing, say so and build nothing (exit status 0): what "
+                         "`make figures` does after running only some papers")
     args = ap.parse_args(argv)
+    if args.if_complete:
+        try:
+            load_inputs(args.profile)
+        except SiteError as exc:
+            print(f"site: not built, the outputs are incomplete: {exc}")
+            return 0
     try:
         out = build(args.profile, Path(args.out) if args.out else None)
     except SiteError as exc:

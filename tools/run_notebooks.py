@@ -393,9 +393,10 @@ class PrefixedLines:
         self.target, self.prefix, self.lock, self.pending = target, prefix, lock, ""
 
     def write(self, text: str) -> int:
-        *lines, self.pending = (self.pending + text).split("\n")
-        if lines:
-            with self.lock:
+        # under the lock as a whole: papermill's thread and the progress tail's both write to one stream
+        with self.lock:
+            *lines, self.pending = (self.pending + text).split("\n")
+            if lines:
                 self.target.write("".join(f"{self.prefix}{line}\n" for line in lines))
         return len(text)
 
