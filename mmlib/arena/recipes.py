@@ -26,11 +26,17 @@ Parameters, stated once here:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable, Sequence
+
+import numpy as np
 
 from mmlib.core.estimation import IMM, MomentMixing, SingleModel
 from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
+from mmlib.core.layers.adaptive import InnovationAdaptive
+from mmlib.core.layers.adaptive_imm import NoiseAdaptiveIMM
 from mmlib.core.layers.bootstrap import ObservationBootstrap
+from mmlib.core.layers.strong_tracking import StrongTracking
+from mmlib.core.protocols import Estimator, MomentFilter
 from mmlib.core.mixing import CubatureMixing
 from mmlib.core.rules import Cubature, FifthDegreeCubature, SphericalSimplexRadial, Unscented
 from mmlib.experiment.montecarlo import MonteCarlo
@@ -59,13 +65,13 @@ def cdkf(s: Scenario) -> SigmaPointFilter:
     return hu2017.cdkf_filter(HU)
 
 
-def naukf(s: Scenario, inflate_only: bool | None = None):
+def naukf(s: Scenario, inflate_only: bool | None = None) -> InnovationAdaptive:
     """NAUKF (Zhou et al. 2017, Eqs. 27-28) over the scenario's UKF, with the window and options of Zhou's headline
     (:func:`mmlib.papers.zhou2017.naukf_filter`); ``inflate_only=True`` is the bounded reading of factor Z-12."""
     return zhou2017.naukf_filter(ukf(s), ZHOU, inflate_only)
 
 
-def aukf(s: Scenario, inflate_only: bool | None = None):
+def aukf(s: Scenario, inflate_only: bool | None = None) -> InnovationAdaptive:
     """The classic adaptive UKF of Zhou et al.'s Table 4 over the scenario's UKF, with NAUKF's window and Z-12 reading
     (:func:`mmlib.papers.zhou2017.aukf_filter`)."""
     return zhou2017.aukf_filter(ukf(s), ZHOU.window, ZHOU.inflate_only if inflate_only is None else inflate_only)
@@ -77,7 +83,7 @@ def cdkf_obs(s: Scenario) -> ObservationBootstrap:
     return hu2017.cdkf_obs_filter(HU)
 
 
-def strong(base, name: str):
+def strong(base: MomentFilter, name: str) -> StrongTracking:
     """Strong tracking (Liu & Wu 2017) with Liu's headline beta and rho (:func:`mmlib.papers.liu2017.strong_tracking`;
     the Jacobian form over an EKF: the STF)."""
     return liu2017.strong_tracking(base, LIU, name)
@@ -97,7 +103,7 @@ class Recipe:
     description: str
     mixing: Callable = MomentMixing
 
-    def build(self, s: Scenario):
+    def build(self, s: Scenario) -> SingleModel | IMM | NoiseAdaptiveIMM:
         """The estimator on scenario ``s``; :class:`NotApplicable` (with the reason) where it cannot apply."""
         _check_scenario(s)
         reason = requirement(self, s)
@@ -202,12 +208,13 @@ def applicability(name: str, s: Scenario) -> str:
     return requirement(recipe(name), s)
 
 
-def build(name: str, s: Scenario):
+def build(name: str, s: Scenario) -> SingleModel | IMM | NoiseAdaptiveIMM:
     """Algorithm ``name`` on scenario ``s`` (:meth:`Recipe.build`)."""
     return recipe(name).build(s)
 
 
-def initial_state(estimator, s: Scenario, start, runs, mc: MonteCarlo):
+def initial_state(estimator: Estimator, s: Scenario, start: np.ndarray, runs: Sequence[int] | np.ndarray,
+                  mc: MonteCarlo) -> Any:
     """``estimator``'s state at step 0 on ``s``: means ``start`` (B, n), covariance ``s.P0``, the scenario's initial
     mode probabilities for IMMs, and for observation bootstrapping the pre-drawn standard normals of the runs' own
     FILTER stream (:func:`mmlib.papers.hu2017.bootstrap_noise`, at the scenario's largest measurement dimension)."""

@@ -41,11 +41,14 @@ from __future__ import annotations
 import functools
 import math
 import re
-from typing import NamedTuple
+import concurrent.futures as cf
+from pathlib import Path
+from typing import Callable, Iterable, NamedTuple, Sequence
 
 import numpy as np
 
 from mmlib.arena import ladder, recipes
+from mmlib.core.protocols import Estimator
 from mmlib.experiment import evaluation, metrics, report
 from mmlib.experiment.grid import run_grid
 from mmlib.experiment.montecarlo import MonteCarlo, say_progress
@@ -96,7 +99,8 @@ def evaluate_cell(algorithm: str, s: Scenario, mc: MonteCarlo, consistency: bool
     return runs[algorithm], cost_per_run_step(est, make_batch, s, min(mc.n_runs, COST_RUNS))
 
 
-def cost_per_run_step(est, make_batch, s: Scenario, n: int) -> float:
+def cost_per_run_step(est: Estimator, make_batch: Callable[[Sequence[int]], tuple], s: Scenario,
+                      n: int) -> float:
     """Thread CPU seconds per run and step of one batched run of ``est`` over the first ``n`` runs (no NEES/NIS),
     after an untimed one-run warm-up (compilation, caches)."""
     import time
@@ -127,7 +131,7 @@ def _per_run_squared(rs: evaluation.RunSet, idx) -> np.ndarray:
     return sq
 
 
-def consistency(stat: np.ndarray, dof, ok: np.ndarray, *, white: bool) -> dict:
+def consistency(stat: np.ndarray, dof: int | np.ndarray, ok: np.ndarray, *, white: bool) -> dict:
     """ANEES/ANIS summary of per-run, per-step chi-square statistics ``stat`` (N, K) with ``dof`` degrees of freedom
     (an int, or (K,) per step), over the valid runs ``ok`` (module docstring).  ``dof`` in the result is the mean
     degrees of freedom over the steps (what a consistent filter's average has as its mean); ``white`` says the
@@ -273,9 +277,10 @@ def _names(values, name: str) -> list:
     return values
 
 
-def run_arena(n_runs: int, *, scenarios=SCENARIOS, algorithms=ALGORITHMS, seed: int | None = None,
-              workers: int | None = None, executor=None, progress=True, use_cache: bool = True,
-              cache_dir=None) -> ArenaResult:
+def run_arena(n_runs: int, *, scenarios: Iterable[str] = SCENARIOS, algorithms: Iterable[str] = ALGORITHMS,
+              seed: int | None = None, workers: int | None = None, executor: cf.Executor | None = None,
+              progress: bool | Callable[[str], None] = True, use_cache: bool = True,
+              cache_dir: str | Path | None = None) -> ArenaResult:
     """Every cell of ``algorithms`` x ``scenarios`` at ``n_runs`` runs (integer >= 2), in parallel and cached
     (:func:`mmlib.experiment.grid.run_grid`), with the ranks of each scenario.  Unknown names are a ValueError listing
     the known ones.  ``seed`` overrides every scenario's root seed."""
@@ -396,7 +401,7 @@ def compare(result: ArenaResult, a: str, b: str, scenario_name: str) -> dict | N
     return out
 
 
-def ideas(result: ArenaResult, scenarios=None) -> list:
+def ideas(result: ArenaResult, scenarios: Iterable[str] | None = None) -> list:
     """Every idea of :data:`IDEAS` on every scenario where both its algorithms apply: ``[{idea, paper, a, b,
     comparisons: [compare(...)]}]``."""
     names = list(dict.fromkeys(c["scenario"] for c in result.cells)) if scenarios is None else list(scenarios)
@@ -430,7 +435,7 @@ def digest(result: ArenaResult, n_runs: int) -> dict:
     return {"n_runs": int(n_runs), "sha256": h.hexdigest(), "cells": len(result.details), "kernel": kernel()}
 
 
-def scenario_table(names=SCENARIOS, n_index_runs: int = 50, max_run_steps: int = 18_000) -> list:
+def scenario_table(names: Iterable[str] = SCENARIOS, n_index_runs: int = 50, max_run_steps: int = 18_000) -> list:
     """One row per scenario: name, title, source, steps, state and measurement dimensions, its properties and its
     computed nonlinearity index (:func:`mmlib.arena.ladder.nonlinearity_index`) over ``n_index_runs`` runs, or fewer
     where they would exceed ``max_run_steps`` run-steps (10 runs for the 1800-epoch GNSS scenario)."""

@@ -18,10 +18,17 @@ ValueError whose message starts with the argument's name.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Iterable, Sequence
 
 import numpy as np
 
 from mmlib.experiment.views import value_pm
+
+if TYPE_CHECKING:
+    import matplotlib.axes
+    import matplotlib.figure
+
+    from mmlib.arena.study import ArenaResult
 
 #: the algorithms :func:`ladder_curves` draws by default (those present in the cells)
 LADDER_ALGORITHMS = ("EKF", "UKF", "CKF", "5CKF", "IMMEKF", "IMMUKF", "IMM5CKF", "STUKF")
@@ -255,7 +262,8 @@ def _cell_grid(cells, scenarios, value_of):
     return algorithms, names, by, rows, data, kinds, diverged
 
 
-def rmse_heatmap(cells, scenarios=None, ax=None):
+def rmse_heatmap(cells: Iterable[dict] | ArenaResult, scenarios: Iterable[dict] | None = None,
+                 ax: matplotlib.axes.Axes | None = None) -> matplotlib.figure.Figure:
     """Heat map of the position RMSE of every cell relative to the best algorithm of its scenario.
 
     ``cells``: the arena's cells (module docstring; ``rmse_position`` in m).  ``scenarios``: optional scenario
@@ -302,7 +310,9 @@ def rmse_heatmap(cells, scenarios=None, ax=None):
     return fig
 
 
-def consistency_heatmap(cells, which="anees", scenarios=None, ax=None):
+def consistency_heatmap(cells: Iterable[dict] | ArenaResult, which: str = "anees",
+                        scenarios: Iterable[dict] | None = None,
+                        ax: matplotlib.axes.Axes | None = None) -> matplotlib.figure.Figure:
     """Heat map of the filters' consistency: ANEES (``which="anees"``) or ANIS (``"anis"``) over its degrees of
     freedom.
 
@@ -402,7 +412,8 @@ def _plain_log_ticks(axis, lo, hi):
     axis.set_minor_formatter(mt.NullFormatter())
 
 
-def ladder_curves(cells, scenarios, algorithms=None):
+def ladder_curves(cells: Iterable[dict] | ArenaResult, scenarios: Iterable[dict],
+                  algorithms: Sequence[str] | None = None) -> matplotlib.figure.Figure:
     """Position RMSE along the ladder's two axes, one curve per algorithm.
 
     ``cells``: the arena's cells (``rmse_position`` in m).  ``scenarios``: the scenario table
@@ -561,7 +572,7 @@ def _versus_text(vb) -> str:
     return f"{vb.get('verdict')}{diff}"
 
 
-def cell_table(cells, scenario):
+def cell_table(cells: Iterable[dict] | ArenaResult, scenario: str) -> list[dict]:
     """One scenario's cells as table rows.
 
     ``cells``: the arena's cells; ``scenario``: a scenario name present in them.  Returns a list of dicts, one per

@@ -22,6 +22,7 @@ from enum import IntEnum
 from typing import Any, NamedTuple, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mmlib.core import linalg, protocols
 from mmlib.core.linalg import matmul_rows
@@ -185,13 +186,14 @@ class SingleModel:
         if not self.name:
             object.__setattr__(self, "name", str(getattr(self.filter, "name", "") or type(self.filter).__name__))
 
-    def init(self, mean: np.ndarray, cov: np.ndarray, **filter_init):
+    def init(self, mean: np.ndarray, cov: np.ndarray, **filter_init: Any) -> Any:
         """The filter's state at step 0 from ``mean`` (B, n) and ``cov`` (B, n, n) or (n, n), in the state's
         units; ``filter_init`` goes to the filter's ``init`` (e.g. pre-drawn bootstrap noise)."""
         _check_mean_dim(mean, self.dynamics.dim)
         return self.filter.init(mean, cov, **filter_init)
 
-    def step(self, state, z: np.ndarray, *, with_cov: bool = True, measurement=None) -> tuple:
+    def step(self, state: Any, z: np.ndarray, *, with_cov: bool = True,
+             measurement: protocols.MeasurementModel | None = None) -> tuple:
         """One predict + update with the measurements ``z`` (B, m): returns ``(state, Estimate)``, the
         estimate holding the posterior mean (B, n), cov (B, n, n), log-likelihood (B,), innovation (B, m) and
         its covariance (B, m, m) and the failure codes (B,) (mode probabilities None).  ``measurement``
@@ -250,7 +252,8 @@ class KnownModeSequence:
         _check_mean_dim(mean, self.dynamics[0].dim)
         return SwitchingState(self.filter.init(mean, cov), 0)
 
-    def step(self, state: SwitchingState, z: np.ndarray, *, with_cov: bool = True, measurement=None) -> tuple:
+    def step(self, state: SwitchingState, z: np.ndarray, *, with_cov: bool = True,
+             measurement: protocols.MeasurementModel | None = None) -> tuple:
         """Step k: predict with ``dynamics[modes[k]]``, update with ``z`` (B, m); returns
         ``(SwitchingState, Estimate)`` as :meth:`SingleModel.step` does.  A step beyond ``len(modes)`` is a
         ValueError naming ``z``."""
@@ -413,7 +416,7 @@ class IMM:
         return len(self.dynamics)
 
     def init(self, mean: np.ndarray, cov: np.ndarray, mode_probabilities: np.ndarray | None = None,
-             **filter_init) -> IMMState:
+             **filter_init: Any) -> IMMState:
         """:class:`IMMState` at step 0 from ``mean`` (B, n) and ``cov`` (B, n, n) or (n, n): every mode starts
         from the same state (every per-run field repeated on a mode axis, (B, r, ...)).
         ``filter_init`` goes to the mode filter's ``init``.  ``mode_probabilities`` (r,) or (B, r), each
@@ -436,8 +439,9 @@ class IMM:
                         else f for f in base)
         return IMMState(type(base)(*stacked), np.array(mu, dtype=float))
 
-    def step(self, state: IMMState, z: np.ndarray, *, with_cov: bool = True, measurement=None,
-             dynamics=None) -> tuple:
+    def step(self, state: IMMState, z: np.ndarray, *, with_cov: bool = True,
+             measurement: protocols.MeasurementModel | None = None,
+             dynamics: StackedDynamics | None = None) -> tuple:
         """One IMM cycle (steps 1-5 of the module docstring) with the measurements ``z`` (B, m), the same for
         every mode.  Returns ``(IMMState, Estimate)``: fused mean (B, n) and cov (B, n, n), posterior mode
         probabilities (B, r), the log marginal likelihood :math:`\\log\\sum_j c_j L_j` (B,), the innovation of
@@ -590,7 +594,8 @@ def normalised_square(v: np.ndarray, S: np.ndarray) -> np.ndarray:
     return out                               # whether another run of its batch is singular
 
 
-def run(estimator, state, measurements, *, measurement_models=None, keep_cov: bool = True,
+def run(estimator: protocols.Estimator, state: tuple, measurements: ArrayLike | Sequence[ArrayLike], *,
+        measurement_models: Sequence[protocols.MeasurementModel] | None = None, keep_cov: bool = True,
         on_divergence: str = "record", consistency: bool = False, truth: np.ndarray | None = None) -> Track:
     """Run ``estimator`` over ``measurements`` (B, K, m), batched over runs.
 

@@ -37,7 +37,7 @@ import numpy as np
 
 from mmlib.core import linalg
 from mmlib.core._validate import as_float_array, check_batch_vector, check_covariance, check_has, check_name
-from mmlib.core.protocols import MomentFilter, members
+from mmlib.core.protocols import Dynamics, MeasurementModel, MomentFilter, State, members
 from mmlib.core.rules import SigmaPointRule, rule_by_name
 
 LOG_2PI = math.log(2.0 * math.pi)
@@ -96,7 +96,8 @@ def gaussian_state(mean: np.ndarray, cov: np.ndarray) -> GaussianState:
     return GaussianState(mean.copy(), cov_arr)
 
 
-def kalman_update(state, pred: MeasurementPrediction, z: np.ndarray, measurement) -> tuple:
+def kalman_update(state: State, pred: MeasurementPrediction, z: np.ndarray,
+                  measurement: MeasurementModel) -> tuple:
     r"""The one Kalman update shared by every filter (see module docstring).
 
     ``state``: the predicted state (mean (..., n), cov (..., n, n); any NamedTuple with these fields,
@@ -161,7 +162,7 @@ class ExtendedKalmanFilter(_FilterBase):
     def __post_init__(self):
         check_name(self.name)
 
-    def predict(self, state, dynamics):
+    def predict(self, state: State, dynamics: Dynamics) -> State:
         r"""Time update :math:`\hat x^- = f(\hat x)`, :math:`P^- = F P F^T + Q` with :math:`F` the Jacobian of
         ``dynamics`` at the prior mean: ``state`` mean (..., n), cov (..., n, n) (e.g. (B, n) or (B, r, n) with a
         :class:`~mmlib.core.models.StackedDynamics` of r modes); returns the state with the predicted mean
@@ -174,7 +175,7 @@ class ExtendedKalmanFilter(_FilterBase):
         mean = dynamics.transition(state.mean[..., None, :])[..., 0, :]
         return state._replace(mean=mean, cov=cov)
 
-    def predict_measurement(self, state, measurement) -> MeasurementPrediction:
+    def predict_measurement(self, state: State, measurement: MeasurementModel) -> MeasurementPrediction:
         r"""Linearised measurement moments at the predicted mean: :math:`\hat z = h(\hat x^-)` (..., m),
         :math:`S = H P^- H^T + R` (..., m, m), :math:`P_{xz} = P^- H^T` (..., n, m), and ``H`` (..., m, n), which
         selects the Joseph-form update."""
@@ -216,7 +217,7 @@ class SigmaPointFilter(_FilterBase):
         X, _failed = linalg.sigma_points(state.mean, state.cov, self.rule.unit_points(state.mean.shape[-1]).xi)
         return X
 
-    def predict(self, state, dynamics):
+    def predict(self, state: State, dynamics: Dynamics) -> State:
         r"""Time update through the rule: :math:`X_i = \hat x + S\xi_i` (:math:`SS^T = P`),
         :math:`\hat x^- = \sum_i w^m_i f(X_i)`, :math:`P^- = \mathrm{cov}_{rule}(f(X_i)) + Q`.  ``state`` mean
         (..., n), cov (..., n, n) (e.g. (B, n), or (B, r, n) with stacked mode dynamics); returns the state with
@@ -239,7 +240,7 @@ class SigmaPointFilter(_FilterBase):
         weighted sums of outer products (every rule but the Stirling central differences)."""
         return linalg.kernel() == "numba" and self.rule.weighted_moments
 
-    def predict_measurement(self, state, measurement) -> MeasurementPrediction:
+    def predict_measurement(self, state: State, measurement: MeasurementModel) -> MeasurementPrediction:
         r"""Measurement moments from fresh sigma points :math:`X_i` of the predicted state:
         :math:`\hat z` = ``measurement.average`` of :math:`h(X_i)` (..., m) (angles averaged about a reference
         point), :math:`S = \mathrm{cov}_{rule}(h(X_i)) + R` (..., m, m) and
@@ -272,13 +273,13 @@ class FilterLayer:
         check_has(self.base, "base", "a filter predicting measurement moments (protocols.MomentFilter)",
                   members(MomentFilter))
 
-    def init(self, mean: np.ndarray, cov: np.ndarray, **extra):
+    def init(self, mean: np.ndarray, cov: np.ndarray, **extra: Any) -> State:
         """The layer's ``state_type`` at step 0 from :func:`gaussian_state` of ``mean`` (B, n) and ``cov``
         (B, n, n) or (n, n); ``extra`` fills the layer's own fields."""
         g = gaussian_state(mean, cov)
         return self.state_type(g.mean, g.cov, **extra)
 
-    def predict(self, state, dynamics):
+    def predict(self, state: State, dynamics: Dynamics) -> State:
         """The base filter's time update; when the state has a ``Q`` field it records ``dynamics.Q``
         broadcast to the covariance's shape (..., n, n) (a read-only view)."""
         s = self.base.predict(state, dynamics)
@@ -286,7 +287,7 @@ class FilterLayer:
             s = s._replace(Q=np.broadcast_to(dynamics.Q, s.cov.shape))
         return s
 
-    def predict_measurement(self, state, measurement) -> MeasurementPrediction:
+    def predict_measurement(self, state: State, measurement: MeasurementModel) -> MeasurementPrediction:
         """The base filter's measurement prediction (:class:`MeasurementPrediction`), unchanged."""
         return self.base.predict_measurement(state, measurement)
 
@@ -294,7 +295,7 @@ class FilterLayer:
 _FILTER_NAMES = {"kf": "KF", "ekf": "EKF"}
 
 
-def filter_by_name(name: str, **rule_params) -> ExtendedKalmanFilter | SigmaPointFilter:
+def filter_by_name(name: str, **rule_params: Any) -> ExtendedKalmanFilter | SigmaPointFilter:
     """``kf``/``ekf`` (an :class:`ExtendedKalmanFilter` named ``KF``/``EKF``; ``rule_params`` are then not
     used) or any rule name of :func:`mmlib.core.rules.rule_by_name` (a :class:`SigmaPointFilter` named
     by the upper-cased name, ``rule_params`` passed to the rule).  Any case; an unknown name or rule

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -68,7 +69,7 @@ class Trapezoid:
         return np.clip(np.minimum(up, down), 0.0, 1.0)
 
 
-def ramp_sets(names, breakpoints: np.ndarray) -> tuple:
+def ramp_sets(names: Iterable[str], breakpoints: np.ndarray) -> tuple:
     """Sets forming a partition of unity on the real line -- a left shoulder, triangles, a right
     shoulder -- with ``breakpoints[i]`` the point where set i reaches 1 (the end of the left
     shoulder, the triangles' peaks, the start of the right shoulder).  E.g. names (N, M, L) with
@@ -175,7 +176,7 @@ class TakagiSugeno:
         # matmul_rows, not wf @ ...: the same bits for a run whatever the number of runs (one included)
         return matmul_rows(wf, self.consequents.reshape(wf.shape[1], -1)) / total
 
-    def rules(self):
+    def rules(self) -> Iterator[tuple[tuple[str, ...], np.ndarray]]:
         """Readable rule list: (antecedent set names, consequent vector)."""
         for idx in itertools.product(*(range(len(s)) for s in self.inputs)):
             yield tuple(self.inputs[i][j].name for i, j in enumerate(idx)), self.consequents[idx]

@@ -28,8 +28,13 @@ import contextlib
 import math
 import os
 from collections.abc import Iterator
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from mmlib.core.rules import UnitPoints
 
 #: The implementations of the kernels below: ``"numba"`` (compiled loops, :mod:`mmlib.core._kernels`) and
 #: ``"numpy"`` (the reference path).  They compute the same mathematics and agree to round-off
@@ -478,7 +483,7 @@ def combine_covariances(wt: np.ndarray, means: np.ndarray, covs: np.ndarray, cen
 # Fused steps: compiled only (the numpy path composes the generic functions above in mmlib.core.filters and
 # mmlib.core.estimation; tests/test_kernels.py checks that both paths agree).
 
-def sigma_point_predict_linear(mean: np.ndarray, cov: np.ndarray, points, F: np.ndarray,
+def sigma_point_predict_linear(mean: np.ndarray, cov: np.ndarray, points: UnitPoints, F: np.ndarray,
                                Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""Sigma-point time update through linear dynamics, fused (compiled kernel only): the rule's unit
     ``points`` (:class:`mmlib.core.rules.UnitPoints`) about ``mean`` (..., n) with covariance ``cov`` (..., n, n),
@@ -492,7 +497,7 @@ def sigma_point_predict_linear(mean: np.ndarray, cov: np.ndarray, points, F: np.
     return m.reshape(lead + (n,)), c.reshape(lead + (n, n))
 
 
-def measurement_moments(X: np.ndarray, mean: np.ndarray, Z: np.ndarray, points, angular,
+def measurement_moments(X: np.ndarray, mean: np.ndarray, Z: np.ndarray, points: UnitPoints, angular: ArrayLike,
                         R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r"""Sigma-point measurement moments, fused (compiled kernel only): points ``X`` (..., M, n) about
     ``mean`` (..., n), their images ``Z`` (..., M, m), the rule's weights ``points``, the measurement's

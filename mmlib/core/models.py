@@ -14,12 +14,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Callable, Sequence
 
 import numpy as np
 
 from mmlib.core._validate import (RTOL, as_float_array, check_covariance, check_finite, check_has, check_index,
                                   check_matrix, check_positive_int, check_scalar)
 from mmlib.core.linalg import _compiled as _compiled_kernels, matmul_rows
+from mmlib.core.protocols import Dynamics, MeasurementModel
 
 
 TWO_PI = 2.0 * math.pi
@@ -472,7 +474,7 @@ class StackedDynamics:
         object.__setattr__(self, "F", F)
 
     @staticmethod
-    def of(models) -> "StackedDynamics":
+    def of(models: Sequence[Dynamics]) -> "StackedDynamics":
         """Stack dynamics models (each with ``dim``, ``Q``, ``transition``, ``jacobian``; one state dimension)."""
         models = StackedDynamics._check_models(models)
         Q = np.stack([as_float_array(m.Q, f"models[{j}].Q") for j, m in enumerate(models)])
@@ -537,7 +539,7 @@ class SensorFault:
             raise ValueError(f"delta: expected shape (B, K, m) (runs, steps, measurement dimension), got {d.shape}")
         _freeze(self, delta=d)
 
-    def apply(self, measurement):
+    def apply(self, measurement: MeasurementModel) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
         """``noise_fn(truth (B, K, n), v (B, K, m))`` for :func:`mmlib.experiment.simulate.simulate`, returning
         ``z = h(truth) + v L^T + delta`` (B, K, m) with ``v`` standard normals and ``L`` the model's
         ``noise_factor``; the measurement model's dimension (checked here, ValueError naming

@@ -130,7 +130,7 @@ class Layer(MomentFilter, Protocol):
 class Estimator(Protocol):
     """What :func:`mmlib.core.estimation.run` drives over a measurement sequence."""
 
-    def init(self, mean: np.ndarray, cov: np.ndarray, *args, **kwargs) -> Any:
+    def init(self, mean: np.ndarray, cov: np.ndarray, *args: Any, **kwargs: Any) -> Any:
         """The estimator's state at step 0."""
 
     def step(self, state: Any, z: np.ndarray, *, with_cov: bool = True, measurement: Any = None) -> tuple:

@@ -2,20 +2,23 @@
 (the experiment layer; paper-agnostic)."""
 from __future__ import annotations
 
+import concurrent.futures as cf
 import gc
 import hashlib
 import time
 from collections.abc import Mapping
-from typing import Callable, NamedTuple
+from typing import Callable, Iterable, NamedTuple, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mmlib.experiment import metrics
 from mmlib.core._validate import (as_float_array, check_bool, check_finite, check_finite_runs, check_index,
                                   check_positive_int)
 from mmlib.core.estimation import run, select_runs, summarise_divergence
 from mmlib.experiment.montecarlo import MonteCarlo, Progress
-from mmlib.experiment.simulate import simulate
+from mmlib.core.protocols import MeasurementModel
+from mmlib.experiment.simulate import ManeuverSchedule, simulate
 from mmlib.experiment.executors import run_tasks
 
 
@@ -81,7 +84,7 @@ def _components(components, n: int, name: str = "components") -> list:
     return idx
 
 
-def select(estimators: dict, names=None) -> dict:
+def select(estimators: dict, names: Iterable[str] | None = None) -> dict:
     """The estimators named in ``names`` (all if None), in that order."""
     _check_mapping(estimators, "estimators", "estimators by name", nonempty=False)
     if names is None:
@@ -94,7 +97,8 @@ def select(estimators: dict, names=None) -> dict:
     return {k: estimators[_check_name(k, "names", estimators)] for k in names}
 
 
-def simulator(mc: MonteCarlo, schedule, measurement, x0, *, process_noise: bool = True,
+def simulator(mc: MonteCarlo, schedule: ManeuverSchedule, measurement: MeasurementModel, x0: ArrayLike, *,
+              process_noise: bool = True,
               fault: Callable | None = None, start: Callable | None = None) -> Callable:
     """``runs -> (truth (B, K+1, n), measurements (B, K, m), start means (B, n))``: the truth and measurements of
     the runs (:func:`mmlib.experiment.simulate.simulate`, optionally with a sensor fault
@@ -135,7 +139,8 @@ def with_initial_states(simulate_runs: Callable, estimators: dict, init_state: C
     return make_batch
 
 
-def make_batches(mc: MonteCarlo, schedule, measurement, x0, estimators: dict, init_state: Callable, *,
+def make_batches(mc: MonteCarlo, schedule: ManeuverSchedule, measurement: MeasurementModel, x0: ArrayLike,
+                 estimators: dict, init_state: Callable, *,
                  process_noise: bool = True, fault: Callable | None = None, start: Callable | None = None) -> Callable:
     """The ``make_batch(runs)`` every scenario needs: :func:`simulator` (truth, measurements and start means of the
     runs) with every estimator initialised by ``init_state(estimator, start, runs)``
@@ -149,8 +154,8 @@ def make_batches(mc: MonteCarlo, schedule, measurement, x0, estimators: dict, in
 
 
 def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_size: int = 250,
-             label: str = "", progress: bool = True, measurement_models=None, workers: int | None = None,
-             executor=None, consistency: bool = False) -> dict:
+             label: str = "", progress: bool = True, measurement_models: Sequence[MeasurementModel] | None = None,
+             workers: int | None = None, executor: cf.Executor | None = None, consistency: bool = False) -> dict:
     """Run every estimator on the same runs (common random numbers), chunk by chunk.
 
     ``make_batch(runs)`` returns ``(truth (B, K+1, n), measurements (B, K, m),
@@ -174,8 +179,9 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
 
 
 def evaluate_with_cost(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_size: int = 250,
-                       label: str = "", progress: bool = True, measurement_models=None, workers: int | None = None,
-                       executor=None, consistency: bool = False) -> tuple:
+                       label: str = "", progress: bool = True,
+                       measurement_models: Sequence[MeasurementModel] | None = None, workers: int | None = None,
+                       executor: cf.Executor | None = None, consistency: bool = False) -> tuple:
     """:func:`evaluate` and what it cost: ``({name: RunSet}, {name: CPU seconds})``, the thread CPU time of each
     estimator's runs summed over the chunks (simulation excluded; a measurement, never part of a result)."""
     _check_mapping(estimators, "estimators", "estimators by name")
@@ -220,7 +226,7 @@ def _evaluate_chunk(estimators: dict, make_batch: Callable, measurement_models, 
     return out
 
 
-def paired_mse_difference(a: RunSet, b: RunSet, components) -> metrics.MCValue:
+def paired_mse_difference(a: RunSet, b: RunSet, components: int | Sequence[int]) -> metrics.MCValue:
     r"""Mean over runs of (time-averaged squared error of a minus that of b), with its standard
     error; ``components`` is one state index or a tuple whose squared errors are summed (e.g. x
     and y for a position error).  Runs diverged in either estimator are excluded and counted.
@@ -242,7 +248,8 @@ def paired_mse_difference(a: RunSet, b: RunSet, components) -> metrics.MCValue:
     return metrics.mean_with_se(d, ok)
 
 
-def better_claim(results: dict, a: str, b: str, quantities) -> tuple[str, str]:
+def better_claim(results: dict, a: str, b: str,
+                 quantities: Iterable[tuple[str, int | Sequence[int]]]) -> tuple[str, str]:
     """Verdict and evidence for "a is more accurate than b" over ``quantities`` = [(label, components)],
     from paired differences on common random numbers (:func:`mmlib.experiment.report.claim_verdict`)."""
     from mmlib.experiment.report import claim_verdict, combine_claim_verdicts
@@ -271,7 +278,7 @@ def better_claim(results: dict, a: str, b: str, quantities) -> tuple[str, str]:
     return verdict, evidence
 
 
-def time_algorithms(estimators: dict, init: dict, measurements, *, repeats: int = 3,
+def time_algorithms(estimators: dict, init: dict, measurements: ArrayLike, *, repeats: int = 3,
                     per_repeat: int | None = None) -> tuple:
     """CPU seconds per run of each estimator, ``(one_at_a_time, batched)``: dicts name -> array with one
     value per repeat, for ratios between estimators taken per repeat (their standard error from the
@@ -372,7 +379,7 @@ def _checked_batch(batch, runs, estimators, per_step: bool):
     return truth, z, init
 
 
-def divergence_report(results) -> str:
+def divergence_report(results: Mapping[str, RunSet | Mapping]) -> str:
     """One line per estimator with diverged runs, ``name: n of N runs diverged (steps ...; cause)``, from
     ``{name: RunSet}`` (or dicts of them, names flattened to ``"outer / inner"``); ``"no run diverged"``."""
     lines = [f"{name}: {rs.divergence_summary()}" for name, rs in _flat_runsets(results, "results").items()
@@ -397,7 +404,7 @@ def _flat_runsets(results, name: str, prefix: str = "") -> dict:
     return out
 
 
-def run_digest(results, n_runs: int) -> dict:
+def run_digest(results: Mapping[str, RunSet | Mapping], n_runs: int) -> dict:
     r"""Fingerprint of the per-run numbers of the first ``n_runs`` runs of an evaluation, for proving that
     committed results come from the committed code (``tests/tolerance/test_results.py``).
 

@@ -39,9 +39,12 @@ import multiprocessing.context
 import os
 import threading
 import time
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 from mmlib.core._validate import check_positive_int
+
+if TYPE_CHECKING:
+    import distributed
 
 #: environment variable: the number of local worker processes (default: every core this process may use)
 WORKERS_VARIABLE = "WORKERS"
@@ -143,7 +146,7 @@ def _run_task(shared: bytes, payload: bytes, state: dict, source: str | None):
 class SerialExecutor(cf.Executor):
     """Runs each task at submission, in this process, marked as a task (so that it never fans out again)."""
 
-    def submit(self, fn: Callable, /, *args, **kwargs) -> cf.Future:
+    def submit(self, fn: Callable, /, *args: Any, **kwargs: Any) -> cf.Future:
         """Run ``fn(*args, **kwargs)`` now and return a done Future holding its result (or the exception it
         raised, re-raised by ``Future.result()``)."""
         fut = cf.Future()
@@ -229,7 +232,7 @@ def _import_distributed():
     return distributed
 
 
-def dask_client(address: str):
+def dask_client(address: str) -> distributed.Client:
     """The ``distributed.Client`` of this process for the scheduler at ``address``, connected on first use within
     :data:`SCHEDULER_TIMEOUT` seconds (:class:`SchedulerError` naming the address otherwise) and reused."""
     distributed = _import_distributed()

@@ -23,7 +23,7 @@ import json
 import os
 import time
 from pathlib import Path
-from typing import Callable, Mapping
+from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from mmlib.core._validate import check_positive_int
 # default_workers lived here: kept importable from this module
@@ -65,13 +65,14 @@ def job_name(job: Callable) -> str:
     return f"{getattr(job, '__module__', '?')}.{getattr(job, '__qualname__', repr(job))}"
 
 
-def key_document(*, paper: str, job: Callable, reading: Mapping, algorithms, n_runs: int, seed: int) -> dict:
+def key_document(*, paper: str, job: Callable, reading: Mapping, algorithms: Iterable[str], n_runs: int,
+                 seed: int) -> dict:
     """What a cached universe depends on; stored with the entry and checked when it is read."""
     return {"paper": paper, "job": job_name(job), "reading": dict(sorted(reading.items())),
             "algorithms": list(algorithms), "n_runs": int(n_runs), "seed": int(seed), "mmlib": source_hash()}
 
 
-def cache_key(**parts) -> str:
+def cache_key(**parts: Any) -> str:
     """The cache file name of a universe: the first 32 hex digits of the SHA-256 of :func:`key_document`
     ``(**parts)`` (same keyword arguments)."""
     return hashlib.sha256(json.dumps(key_document(**parts), sort_keys=True).encode()).hexdigest()[:32]
@@ -104,10 +105,11 @@ def _run_job(job, reading, n_runs, seed):
     return job(dict(reading), n_runs, seed)
 
 
-def run_grid(job: Callable, readings, *, paper: str, algorithms, n_runs: int, seed: int,
+def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str, algorithms: Iterable[str],
+             n_runs: int, seed: int,
              executor: cf.Executor | None = None, workers: int | None = None,
              cache_dir: str | Path | None = None, use_cache: bool = True,
-             progress: bool | Callable = True, label: str = "", result_keys=RESULT_KEYS,
+             progress: bool | Callable = True, label: str = "", result_keys: Sequence[str] = RESULT_KEYS,
              unit: str = "universe") -> list:
     """Run ``job(reading, n_runs, seed)`` for every reading; results in the order of ``readings``.
 

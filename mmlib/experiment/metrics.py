@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import Callable, NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import stats
 
 from mmlib.core.estimation import normalised_square
@@ -46,7 +47,7 @@ def _runs(value, name: str, valid, ndims=None) -> tuple[np.ndarray, np.ndarray]:
     return check_finite_runs(arr, name, ok), ok
 
 
-def mean_with_se(samples, valid=None) -> MCValue:
+def mean_with_se(samples: ArrayLike, valid: ArrayLike | None = None) -> MCValue:
     r"""Mean over runs (axis 0) and its standard error, :math:`\bar s` and
     :math:`\hat\sigma/\sqrt{n}` (sample s.d. with n - 1) over the n valid runs.
 
@@ -67,7 +68,7 @@ def _mean_se(samples: np.ndarray, ok: np.ndarray) -> MCValue:
     return MCValue(s.mean(axis=0), se, n, int((~ok).sum()))
 
 
-def timing_ratio(times, reference) -> MCValue:
+def timing_ratio(times: ArrayLike, reference: ArrayLike) -> MCValue:
     r"""Run-time ratio of one algorithm to a reference from paired repeated timings (one value per repeat):
     the median of the per-repeat ratios, with the standard error of a median,
     :math:`\sqrt{\pi/2}\,\hat\sigma/\sqrt{n}` (asymptotic, normal data), the spread estimated robustly as
@@ -96,7 +97,7 @@ def _rms(sq: np.ndarray, ok: np.ndarray) -> MCValue:
     return MCValue(root, se, m.n_runs, m.n_excluded)
 
 
-def rms_with_se(squared_errors, valid=None) -> MCValue:
+def rms_with_se(squared_errors: ArrayLike, valid: ArrayLike | None = None) -> MCValue:
     """``sqrt(mean over runs of squared_errors)`` (axis 0), delta-method standard error;
     ``squared_errors`` (M, ...) must be >= 0 in the valid runs."""
     sq, ok = _runs(squared_errors, "squared_errors", valid)
@@ -105,7 +106,7 @@ def rms_with_se(squared_errors, valid=None) -> MCValue:
     return _rms(sq, ok)
 
 
-def rmse_over_time(err, valid=None) -> MCValue:
+def rmse_over_time(err: ArrayLike, valid: ArrayLike | None = None) -> MCValue:
     r"""Per-step RMSE across runs, :math:`\mathrm{RMSE}_k = \sqrt{\frac1M\sum_m \lVert e_{m,k}\rVert^2}`
     over the M valid runs, in the unit of ``err``.
 
@@ -117,7 +118,8 @@ def rmse_over_time(err, valid=None) -> MCValue:
     return _rms(sq, ok)
 
 
-def rmse_time_averaged(err, valid=None, steps=None) -> MCValue:
+def rmse_time_averaged(err: ArrayLike, valid: ArrayLike | None = None,
+                       steps: slice | ArrayLike | None = None) -> MCValue:
     r"""Zhu et al. 2016 Eq. 64 read as
     :math:`\sqrt{\frac{1}{MK}\sum_m\sum_k e_{m,k}^2}` (runs m, steps k) per component.
 
@@ -151,7 +153,7 @@ def _steps(steps, K: int):
     return np.array([check_index(i, "steps", K) for i in arr.tolist()], dtype=int)
 
 
-def nees(err, cov, valid=None) -> np.ndarray:
+def nees(err: ArrayLike, cov: ArrayLike, valid: ArrayLike | None = None) -> np.ndarray:
     r"""Normalised estimation error squared :math:`\epsilon = e^T P^{-1} e` (dimensionless; chi-square
     with n degrees of freedom for a consistent filter), per leading index, e.g. per run and step.
 
@@ -195,7 +197,7 @@ def chi2_band(dof: int, n_runs: int, level: float = 0.95) -> tuple[float, float]
     return lo / n_runs, hi / n_runs
 
 
-def armse(err, valid=None) -> MCValue:
+def armse(err: ArrayLike, valid: ArrayLike | None = None) -> MCValue:
     r"""Accumulative RMSE (Liu & Wu 2017, Eqs. 41-42):
     :math:`\sqrt{\frac1N\sum_k \mathrm{RMSE}^2(k)}` with
     :math:`\mathrm{RMSE}^2(k) = \frac1M\sum_m \lVert e_{m,k}\rVert^2` -- ``err`` (M, K, d), the
@@ -205,7 +207,7 @@ def armse(err, valid=None) -> MCValue:
     return _rms(sq.mean(axis=1), ok)
 
 
-def mean_rmse_over_time(err, valid=None) -> MCValue:
+def mean_rmse_over_time(err: ArrayLike, valid: ArrayLike | None = None) -> MCValue:
     r"""Mean over steps of the per-step RMSE across runs (Hu et al. 2017, Table 1 "mean of RMSE"):
     :math:`\frac1K\sum_k \sqrt{m_k}`, :math:`m_k = \frac1M\sum_r e_{r,k}^2`; ``err`` (M, K).
 
@@ -223,7 +225,7 @@ def mean_rmse_over_time(err, valid=None) -> MCValue:
     return MCValue(value, se, int(ok.sum()), int((~ok).sum()))
 
 
-def jackknife(statistic: Callable, samples, valid=None) -> MCValue:
+def jackknife(statistic: Callable, samples: ArrayLike, valid: ArrayLike | None = None) -> MCValue:
     """Delete-one-run jackknife standard error of ``statistic(samples)`` (samples: runs first);
     for statistics without a simple closed-form error, e.g. the s.d. over time of a per-step RMSE.
 

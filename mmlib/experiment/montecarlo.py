@@ -18,8 +18,10 @@ import sys
 import time
 from dataclasses import dataclass
 from enum import IntEnum
+from typing import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mmlib.core._validate import check_index, check_positive_int
 
@@ -36,7 +38,7 @@ class Stream(IntEnum):
     FAULT = 4
 
 
-def check_stream(value, name: str = "stream") -> Stream:
+def check_stream(value: int | np.integer, name: str = "stream") -> Stream:
     """A :class:`Stream` member, or an integer (Python or numpy) equal to one's value; booleans, floats
     and other values are rejected."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) \
@@ -64,7 +66,7 @@ class MonteCarlo:
         stream = check_stream(stream)
         return np.random.default_rng(np.random.SeedSequence(self.root_seed, spawn_key=(run, int(stream))))
 
-    def check_runs(self, runs, name: str = "runs") -> list:
+    def check_runs(self, runs: Sequence[int] | np.ndarray, name: str = "runs") -> list:
         """``runs`` (a range, or a sequence or 1-D integer array of run indices 0..n_runs-1) as a list of ints."""
         if isinstance(runs, (str, bytes)) or not hasattr(runs, "__len__"):
             raise ValueError(f"{name}: expected a range or sequence of run indices, got {type(runs).__name__}")
@@ -72,7 +74,7 @@ class MonteCarlo:
             raise ValueError(f"{name}: expected a 1-D sequence of run indices, got shape {runs.shape}")
         return [check_index(r, name, self.n_runs) for r in runs]
 
-    def standard_normal(self, runs, stream: Stream, shape) -> np.ndarray:
+    def standard_normal(self, runs: Sequence[int] | np.ndarray, stream: Stream, shape: Sequence[int]) -> np.ndarray:
         """Per-run standard normals stacked to ``(len(runs), *shape)``: row i from run ``runs[i]``'s
         generator for ``stream``; ``shape`` a sequence of integers >= 0."""
         runs = self.check_runs(runs)
@@ -83,7 +85,8 @@ class MonteCarlo:
         return np.stack([self.generator(r, stream).standard_normal(shape) for r in runs]) \
             if len(runs) else np.zeros((0,) + shape)
 
-    def gaussian(self, runs, stream: Stream, mean, cov) -> np.ndarray:
+    def gaussian(self, runs: Sequence[int] | np.ndarray, stream: Stream, mean: ArrayLike,
+                 cov: ArrayLike) -> np.ndarray:
         r"""Per-run draws from :math:`N(\text{mean}, \text{cov})`, shape ``(len(runs), n)``:
         :math:`\text{mean} + L w` with :math:`LL^T = \text{cov}` (Cholesky) and ``w`` the run's standard normals
         of ``stream`` (e.g. a sampled initial estimate, :attr:`Stream.INITIAL`).  ``mean`` (n,) or
@@ -97,7 +100,7 @@ class MonteCarlo:
         w = self.standard_normal(runs, stream, (cov.shape[0],))
         return mean + matmul_rows(w, np.linalg.cholesky(cov).T)
 
-    def chunks(self, chunk_size: int | None = None):
+    def chunks(self, chunk_size: int | None = None) -> list[range]:
         """Consecutive run-index ranges covering all runs, ``chunk_size`` (integer >= 1, None: all) runs each."""
         size = self.n_runs if chunk_size is None else check_positive_int(chunk_size, "chunk_size")
         return [range(a, min(a + size, self.n_runs)) for a in range(0, self.n_runs, size)]

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, NamedTuple
+from typing import Any, Callable, Iterable, Mapping, NamedTuple
 
 from mmlib.experiment import report
 from mmlib.experiment.grid import run_grid
@@ -68,7 +68,8 @@ def _finite_or_none(x):
     return x if math.isfinite(x) else None
 
 
-def universe_result(*, values, claims, diverged, effects=(), n_runs: int) -> dict:
+def universe_result(*, values: Iterable[tuple], claims: Iterable[Mapping[str, Any]], diverged: Mapping[str, int],
+                    effects: Iterable[tuple] = (), n_runs: int) -> dict:
     """The JSON-able result of one universe (validated).
 
     ``values``: iterable of ``(item, algorithm, quantity, replicated, stderr)``, optionally with a
@@ -314,8 +315,9 @@ class Multiverse:
                 "table_match": self.table_match(), "diverged_total": self.diverged_total()}
 
 
-def run_multiverse(space: ReadingSpace, job: Callable, *, published, n_runs: int, seed: int, algorithms,
-                   design: str = "auto", n_runs_paper: int | None = None, **grid_options) -> Multiverse:
+def run_multiverse(space: ReadingSpace, job: Callable, *, published: Iterable[PublishedNumber], n_runs: int,
+                   seed: int, algorithms: Iterable[str], design: str = "auto", n_runs_paper: int | None = None,
+                   **grid_options: Any) -> Multiverse:
     """Run ``job`` on every universe of ``space.design(design)`` (see :func:`run_grid` for the
     executor, worker, cache and progress options)."""
     d = space.design(design)
@@ -324,7 +326,8 @@ def run_multiverse(space: ReadingSpace, job: Callable, *, published, n_runs: int
     return Multiverse(space, d, results, tuple(published), n_runs, n_runs_paper)
 
 
-def from_dict(space: ReadingSpace, doc: dict, published, n_runs_paper: int | None = None) -> Multiverse:
+def from_dict(space: ReadingSpace, doc: dict, published: Iterable[PublishedNumber],
+              n_runs_paper: int | None = None) -> Multiverse:
     """Rebuild a :class:`Multiverse` from the ``multiverse`` object of a results file."""
     readings = tuple(space.validate(u["reading"]) for u in doc["universes"])
     universes = [{k: v for k, v in u.items() if k != "reading"} for u in doc["universes"]]

@@ -206,7 +206,7 @@ class ReadingSpace:
             out[f.id] = reading[f.id]
         return out
 
-    def with_headline(self, **changes) -> dict:
+    def with_headline(self, **changes: str) -> dict:
         """The headline reading with some factors changed: ``space.with_headline(**{"L-1": "100s"})``."""
         return self.validate({**self.headline, **changes})
 

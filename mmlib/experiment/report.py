@@ -51,8 +51,12 @@ import sys
 import tempfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Iterable, Mapping, Sequence
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import matplotlib.figure
 
 REPRODUCED = "reproduced"
 QUALITATIVE = "qualitatively reproduced"
@@ -79,7 +83,7 @@ def _difference_and_sigma(paper, replicated, stderr, n_runs, n_runs_paper):
     return float(replicated) - p, math.sqrt(s * s + s_p * s_p + u * u)
 
 
-def standardized_distance(paper: str | float, replicated, stderr, n_runs: int | None = None,
+def standardized_distance(paper: str | float, replicated: float, stderr: float | None, n_runs: int | None = None,
                           n_runs_paper: int | None = None) -> float:
     """``(replicated - paper) / sigma`` with the combined standard error ``sigma`` of the verdict
     rule; +-inf when sigma is 0 and the values differ, 0 when they agree exactly."""
@@ -97,7 +101,7 @@ def verdict_category(text: str) -> str:
     return head
 
 
-def verdict(paper: str | float | None, replicated, stderr, n_runs: int | None = None,
+def verdict(paper: str | float | None, replicated: float | None, stderr: float | None, n_runs: int | None = None,
             n_runs_paper: int | None = None, reason: str = "") -> str:
     """Apply the verdict rule of this module's docstring."""
     if replicated is None or paper is None or (isinstance(replicated, float) and math.isnan(replicated)):
@@ -155,7 +159,8 @@ class Row:
 
 
 def make_row(item: str, algorithm: str, quantity: str, paper: str | None, replicated: float | None,
-             stderr: float | None, *, n_runs: int | None = None, n_runs_paper: int | None = None, deviations=(),
+             stderr: float | None, *, n_runs: int | None = None, n_runs_paper: int | None = None,
+             deviations: Iterable[str] = (),
              reason: str = "", note: str = "") -> Row:
     """A :class:`Row` judged by the verdict rule (:func:`verdict`): ``replicated`` and ``stderr`` as floats (None
     kept: the row is *not replicable*, ``reason`` saying why), ``n_runs`` ours and ``n_runs_paper`` the paper's."""
@@ -166,7 +171,7 @@ def make_row(item: str, algorithm: str, quantity: str, paper: str | None, replic
 
 
 def analytic_row(item: str, algorithm: str, quantity: str, paper: str | None, finding: str, holds: bool, *,
-                 deviations=()) -> Row:
+                 deviations: Iterable[str] = ()) -> Row:
     """A row judged by analysis rather than by Monte Carlo (e.g. a complexity class): no number,
     verdict 'reproduced' or 'not reproduced', with the finding as the note."""
     return Row(item, algorithm, quantity, paper, None, None,
@@ -191,7 +196,7 @@ def claim_category(text: str) -> str:
     return head
 
 
-def combine_claim_verdicts(verdicts) -> str:
+def combine_claim_verdicts(verdicts: Iterable[str]) -> str:
     """One claim verdict (module docstring) from the part verdicts of :func:`claim_verdict`, each
     optionally labelled as ``"<part verdict> (<quantity>)"``."""
     verdicts = list(verdicts)
@@ -336,7 +341,8 @@ def atomic_write_text(path: Path, text: str, *, durable: bool = False) -> None:
             os.close(dir_fd)
 
 
-def write_results(path: str | Path, *, paper: str, provenance: dict, rows, **sections) -> dict:
+def write_results(path: str | Path, *, paper: str, provenance: dict, rows: Iterable[Row | Mapping[str, Any]],
+                  **sections: Any) -> dict:
     """Write ``data/results/<paper>.json`` (the results contract) atomically."""
     rows = [asdict(r) if isinstance(r, Row) else dict(r) for r in rows]
     for r in rows:
@@ -349,7 +355,8 @@ def write_results(path: str | Path, *, paper: str, provenance: dict, rows, **sec
     return doc
 
 
-def save_figure(fig, out_dir: str | Path, stem: str, formats=("png", "svg")) -> list[str]:
+def save_figure(fig: matplotlib.figure.Figure, out_dir: str | Path, stem: str,
+                formats: Sequence[str] = ("png", "svg")) -> list[str]:
     """Save a figure as PNG and SVG (deterministic SVG ids, no date), atomically per file."""
     import matplotlib
     out_dir = Path(out_dir)

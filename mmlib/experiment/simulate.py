@@ -10,15 +10,16 @@ therefore covers the transitions that *start* in ``[t0, t1)``.  A jump
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple, Sequence
+from typing import Callable, Iterable, NamedTuple, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mmlib.core._validate import (as_float_array, check_applies, check_bool, check_finite, check_has, check_index,
                                   check_positive_int, check_scalar)
 from mmlib.core.linalg import matmul_rows
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
-from mmlib.core.protocols import SimulatedDynamics, members
+from mmlib.core.protocols import MeasurementModel, SimulatedDynamics, members
 
 SIMULATED_DYNAMICS_METHODS = members(SimulatedDynamics)
 
@@ -91,7 +92,7 @@ class Scenario(NamedTuple):
     modes: np.ndarray          # (K,)
 
 
-def propagate(schedule: ManeuverSchedule, x0, process_noise=None) -> np.ndarray:
+def propagate(schedule: ManeuverSchedule, x0: ArrayLike, process_noise: np.ndarray | None = None) -> np.ndarray:
     """Truth (B, K+1, n) from ``x0`` (B, n) under ``schedule``; ``process_noise`` is None (a
     deterministic trajectory) or standard normals (B, K, n_w) scaled by each step's model."""
     modes = schedule.modes()
@@ -111,8 +112,9 @@ def propagate(schedule: ManeuverSchedule, x0, process_noise=None) -> np.ndarray:
     return np.stack(truth, axis=1)
 
 
-def simulate(schedule: ManeuverSchedule, x0, measurement, mc: MonteCarlo, runs,
-             *, process_noise: bool = True, measurement_noise_fn=None) -> Scenario:
+def simulate(schedule: ManeuverSchedule, x0: ArrayLike, measurement: MeasurementModel, mc: MonteCarlo,
+             runs: Iterable[int], *, process_noise: bool = True,
+             measurement_noise_fn: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> Scenario:
     """Truth trajectories and noisy measurements for the given runs.
 
     Process noise of run r comes from its ``Stream.TRUTH`` stream, measurement noise

@@ -5,10 +5,16 @@ Markdown tables are returned as text; figures as matplotlib figures (the caller 
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any, Iterable, Sequence
+
 import numpy as np
 
 from mmlib.experiment import report
 from mmlib.experiment.multiverse import ROBUST_FRACTION, Multiverse
+from mmlib.experiment.readings import ReadingSpace
+
+if TYPE_CHECKING:
+    import matplotlib.figure
 
 
 def _cell(v) -> str:
@@ -19,7 +25,7 @@ def _cell(v) -> str:
     return str(v).replace("|", "\\|").replace("\n", " ")
 
 
-def markdown_table(header, rows) -> str:
+def markdown_table(header: Sequence[Any], rows: Iterable[Sequence[Any]]) -> str:
     """A Markdown table; ``|`` in any cell (header included) is escaped, floats get 4 digits."""
     lines = ["| " + " | ".join(_cell(h) for h in header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(_cell(v) for v in r) + " |" for r in rows]
@@ -45,7 +51,7 @@ def _summary(mv, key: str):
     return mv[key] if isinstance(mv, dict) else getattr(mv, key)()
 
 
-def factors_table(space) -> str:
+def factors_table(space: ReadingSpace | list[dict]) -> str:
     """One row per factor: id, what is ambiguous, options (headline in bold), where the paper says it.
     ``space``: a ReadingSpace or the ``factors`` list of a stored multiverse."""
     rows = []
@@ -58,7 +64,7 @@ def factors_table(space) -> str:
                            "influential"], rows)
 
 
-def options_table(space) -> str:
+def options_table(space: ReadingSpace | list[dict]) -> str:
     """One row per option: the factor, the option, what it reads, and where the paper's text supports it."""
     factors = space if isinstance(space, list) else space.as_dict()
     rows = [[f["id"], o["name"] + (" (headline)" if o["name"] == f["headline"] else ""), o["label"], o["source"]]
@@ -112,7 +118,7 @@ def table_match_table(mv: Multiverse | dict) -> str:
                            "that reading"], rows)
 
 
-def one_factor_table(mv: Multiverse, columns) -> str:
+def one_factor_table(mv: Multiverse, columns: Sequence[tuple[str, tuple]]) -> str:
     """The one-factor-at-a-time view: ``columns`` is a list of (header, key) with key a value key
     (item, algorithm, quantity) or ``("effect", name)``."""
     rows = []
@@ -133,8 +139,8 @@ def one_factor_table(mv: Multiverse, columns) -> str:
     return markdown_table(["reading (one factor changed)"] + [h for h, _ in columns] + ["diverged runs"], rows)
 
 
-def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str, published=None,
-                        interval: float = report.SIGMA_FACTOR, symlog: bool = False):
+def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str, published: float | None = None,
+                        interval: float = report.SIGMA_FACTOR, symlog: bool = False) -> matplotlib.figure.Figure:
     """Universes sorted by an effect (value ± ``interval`` standard errors; the verdict rule's band),
     the headline in red, the published value dashed, and below it which option each universe uses
     (Simonsohn, Simmons & Nelson 2020)."""
@@ -213,7 +219,7 @@ def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str,
     return fig
 
 
-def table_match_figure(mv: Multiverse, *, title: str):
+def table_match_figure(mv: Multiverse, *, title: str) -> matplotlib.figure.Figure:
     """Per published table, the sum of squared standardized distances of each universe (sorted),
     the headline and the best match marked; a smaller sum is a closer match to the whole table."""
     import matplotlib.pyplot as plt

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Callable, Mapping, NamedTuple
+from typing import Any, Callable, Iterable, Mapping, NamedTuple, Sequence
 
 import numpy as np
 
@@ -22,7 +22,8 @@ from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.core.rules import CentralDifference, Cubature, Unscented
 from mmlib.experiment.simulate import ManeuverSchedule
 from mmlib.experiment import evaluation
-from mmlib.experiment.multiverse import PublishedNumber, universe_result
+from mmlib.core.protocols import MeasurementModel, MomentFilter
+from mmlib.experiment.multiverse import Multiverse, PublishedNumber, universe_result
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 from mmlib.experiment.scenario import Scenario
 from mmlib.experiment.report import Claims, claim_verdict, combine_claim_verdicts, make_row
@@ -166,7 +167,7 @@ def cdkf_filter(setup: Setup) -> SigmaPointFilter:
     return SigmaPointFilter(CentralDifference(form=setup.cd_form), name="CDKF")
 
 
-def cdkf_obs_filter(setup: Setup, base=None) -> ObservationBootstrap:
+def cdkf_obs_filter(setup: Setup, base: MomentFilter | None = None) -> ObservationBootstrap:
     """Observation bootstrapping (Sec. 2.2, Eqs. 18-23) over ``base`` (default: :func:`cdkf_filter`) with the set-up's
     N, variance factor, likelihood and fused covariance (H-6, H-7, H-8)."""
     return ObservationBootstrap(cdkf_filter(setup) if base is None else base, n_boot=setup.n_boot,
@@ -195,19 +196,20 @@ def build(setup: Setup) -> tuple:
     return schedule, radar, estimators
 
 
-def simulator(setup: Setup, schedule: ManeuverSchedule, radar) -> Callable:
+def simulator(setup: Setup, schedule: ManeuverSchedule, radar: MeasurementModel) -> Callable:
     """``mc -> (runs -> (truth, measurements, start means))``: truth from x0 with the truth's process noise (H-13),
     radar measurements; the filters start at the true x0 (H-9)."""
     return lambda mc: evaluation.simulator(mc, schedule, radar, setup.x0, process_noise=setup.truth_process_noise)
 
 
-def bootstrap_noise(mc: MonteCarlo, runs, n_steps: int, n_boot: int, m: int) -> np.ndarray:
+def bootstrap_noise(mc: MonteCarlo, runs: Sequence[int] | np.ndarray, n_steps: int, n_boot: int,
+                    m: int) -> np.ndarray:
     """The standard normals (B, K, N, m) an observation-bootstrap layer adds to every step's measurement, from the
     run's FILTER stream (drawn for max(N, 1) observations, so a run's draws do not depend on N being 0)."""
     return mc.standard_normal(runs, Stream.FILTER, (n_steps, max(n_boot, 1), m))[:, :, :n_boot]
 
 
-def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None) -> tuple:
+def make_batch_fn(setup: Setup, mc: MonteCarlo, names: Iterable[str] | None = None) -> tuple:
     """``(make_batch, estimators, schedule)`` for the runs of ``mc`` under ``setup``: ``make_batch(runs) ->
     (truth (B, K+1, 4) in km and km/s, radar measurements (B, K, 2) in km and rad, {name: initial state})``, every
     IMM started at the true x0 with P0 = diag(P0_sd)^2 and ``mode_probabilities0`` (the OBS filter with its
@@ -256,7 +258,7 @@ def scenario(setup: Setup | None = None) -> Scenario:
                                      "motion model"})
 
 
-def variant(setup: Setup, **changes) -> Setup:
+def variant(setup: Setup, **changes: Any) -> Setup:
     """A copy of ``setup`` with the fields ``changes`` replaced (validated again: ValueError naming a bad field
     value; TypeError for an unknown field)."""
     return replace(setup, **changes)
@@ -625,7 +627,7 @@ def coincidence(res: ReadingResult) -> dict:
 INFLUENCE_EFFECTS = (KEY_EFFECT, "mode_probability_obs_minus_cdkf")
 
 
-def influence(mv, factor_id: str) -> dict:
+def influence(mv: Multiverse, factor_id: str) -> dict:
     """How far the one-factor-at-a-time universes of ``factor_id`` move from the headline universe:
     the largest absolute change divided by its combined standard error over the Table 1 cells and over
     :data:`INFLUENCE_EFFECTS`, and the claims whose verdict category changes.  A description, not a test of
@@ -659,7 +661,7 @@ def influence(mv, factor_id: str) -> dict:
             "moves": bool(changed) or max(cells, effects) >= 1.0}
 
 
-def bootstrapping_helps(mv) -> list:
+def bootstrapping_helps(mv: Multiverse) -> list:
     """The distinct simulations (:meth:`Multiverse.simulations`) in which 'IMMCDKF-OBS is more accurate than IMMCDKF'
     holds: (index of its first universe, description of its reading without the metric-only factors, key
     effect value, its standard error)."""

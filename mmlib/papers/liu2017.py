@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, replace
-from typing import Callable, Mapping, NamedTuple
+from typing import Callable, Iterable, Mapping, NamedTuple, Sequence
 
 import numpy as np
 
@@ -30,7 +30,8 @@ from mmlib.core.rules import Cubature, SphericalSimplexRadial, Unscented
 from mmlib.experiment.simulate import ManeuverSchedule
 from mmlib.core.layers.strong_tracking import StrongTracking
 from mmlib.experiment import evaluation
-from mmlib.experiment.multiverse import PublishedNumber, universe_result
+from mmlib.core.protocols import MeasurementModel, MomentFilter
+from mmlib.experiment.multiverse import Multiverse, PublishedNumber, universe_result
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 from mmlib.experiment.scenario import Scenario
 
@@ -316,7 +317,7 @@ def setups(reading: Mapping) -> dict:
     return {case: replace(BASE_SETUPS[case], **changes) for case in CASES}
 
 
-def strong_tracking(base, setup: Setup, name: str) -> StrongTracking:
+def strong_tracking(base: MomentFilter, setup: Setup, name: str) -> StrongTracking:
     """The strong-tracking layer (Eqs. 20-36) over ``base`` with the set-up's softening factor beta and forgetting
     factor rho; over an EKF the Jacobian form of the fading factor (the STF of Zhou & Frank)."""
     form = {"form": "jacobian"} if isinstance(base, ExtendedKalmanFilter) else {}
@@ -345,7 +346,7 @@ def build(setup: Setup) -> tuple:
     return schedule, radar, estimators
 
 
-def simulator(setup: Setup, schedule: ManeuverSchedule, radar) -> Callable:
+def simulator(setup: Setup, schedule: ManeuverSchedule, radar: MeasurementModel) -> Callable:
     """``mc -> (runs -> (truth, measurements, start means))``: truth from x0 (with the filter's Q as process noise
     under L-3 "matched"), radar measurements, and the filters' initial means x0 or x0 + N(0, P0) drawn from the run's
     INITIAL stream (L-6), with P0 = diag(P0_sd^2)."""
@@ -363,7 +364,7 @@ def simulator(setup: Setup, schedule: ManeuverSchedule, radar) -> Callable:
     return for_mc
 
 
-def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None) -> tuple:
+def make_batch_fn(setup: Setup, mc: MonteCarlo, names: Iterable[str] | None = None) -> tuple:
     """``(make_batch, estimators, schedule)`` for one set-up (:func:`simulator`, every filter started with P0)."""
     schedule, radar, estimators = build(setup)
     estimators = evaluation.select(estimators, names)
@@ -399,7 +400,7 @@ class ReadingResults(NamedTuple):
     runs: dict
 
 
-def evaluate_reading(reading, mc: MonteCarlo, progress: bool = False) -> ReadingResults:
+def evaluate_reading(reading: Mapping[str, str], mc: MonteCarlo, progress: bool = False) -> ReadingResults:
     """Example 1 (the five filters of Table 1 and the plain CKF) and both cases of Example 2 (the five
     filters of Table 3) under ``reading``, all on the runs of ``mc`` (common random numbers)."""
     reading = SPACE.validate(reading)
@@ -442,7 +443,7 @@ def _divergence_part(a, b):
     return report.claim_verdict(float(m.value), float(m.stderr), -1)
 
 
-def combine_parts(parts) -> str:
+def combine_parts(parts: Sequence[tuple[str, str]]) -> str:
     """One claim verdict from labelled part verdicts ``[(label, part verdict)]``; for many parts the
     detail is condensed to counts and the labels of the parts that do not hold."""
     full = report.combine_claim_verdicts(f"{v} ({lab})" for lab, v in parts)
@@ -588,7 +589,7 @@ def summarise(results: ReadingResults, n_runs: int) -> dict:
                            effects=effects(results), n_runs=n_runs)
 
 
-def universe(reading, n_runs: int, seed: int) -> dict:
+def universe(reading: Mapping[str, str], n_runs: int, seed: int) -> dict:
     """The multiverse job: one reading on ``n_runs`` runs of the root seed ``seed``."""
     return summarise(evaluate_reading(reading, MonteCarlo(seed, n_runs)), n_runs)
 
@@ -629,7 +630,7 @@ def printed_complexity_orders(text: str) -> tuple:
     raise ValueError(f"text: cannot read a complexity order from {text!r}")
 
 
-def counted_complexity_orders(counts=None) -> dict:
+def counted_complexity_orders(counts: Mapping[str, Sequence[int]] | None = None) -> dict:
     """``{filter: (order in the number of points, order in n, slope)}`` of the operations per step counted in
     ``counts`` (default :data:`TABLE2_COUNTS`).
 
@@ -657,7 +658,8 @@ def counted_complexity_orders(counts=None) -> dict:
     return out
 
 
-def complexity_rows(printed=None, counts=None) -> list:
+def complexity_rows(printed: Mapping[str, str] | None = None,
+                    counts: Mapping[str, Sequence[int]] | None = None) -> list:
     """Table 2's complexity rows, judged from the counts: the printed complexity is *reproduced* when its
     order in the number of points and its order in n both equal those of the counted operations per step
     (:func:`counted_complexity_orders`), else *not reproduced*, with the finding as the note."""
@@ -777,7 +779,7 @@ def _span(values, digits: int = 1) -> str:
     return lo if lo == hi else f"{lo}–{hi}"
 
 
-def findings(mv) -> str:
+def findings(mv: Multiverse) -> str:
     """Markdown paragraphs stating, from a :class:`~mmlib.experiment.multiverse.Multiverse` of this
     paper, whether some reading reproduces the published tables (Table 1's position column, whole
     tables) and whether each claim's verdict is robust.  Forensic: the best-matching reading is a

@@ -1,18 +1,25 @@
 """Small rendering helpers shared by the paper notebooks (Markdown tables, figure styling)."""
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Iterable
 
+from mmlib.experiment.readings import Deviation
+from mmlib.experiment.report import Row
 from mmlib.experiment.views import markdown_table, value_pm
 
+if TYPE_CHECKING:
+    import matplotlib.axes
+    import matplotlib.figure
 
-def deviations_table(deviations) -> str:
+
+def deviations_table(deviations: Iterable[Deviation]) -> str:
     """A Markdown table of :class:`~mmlib.experiment.readings.Deviation` s: id, topic, what the paper gives, our
     choice, why, and the sweep that tests it."""
     return markdown_table(["id", "topic", "paper", "our choice", "why", "sweep"],
                           [[d.id, d.topic, d.paper, d.choice, d.reason, d.sweep or ""] for d in deviations])
 
 
-def rows_table(rows) -> str:
+def rows_table(rows: Iterable[Row]) -> str:
     """A Markdown table of :class:`~mmlib.experiment.report.Row` s: item, algorithm, quantity, the printed value,
     ours ± its standard error, the verdict and the deviations that bear on it."""
     return markdown_table(["item", "algorithm", "quantity", "paper", "replicated ± s.e.", "verdict", "deviations"],
@@ -20,7 +27,8 @@ def rows_table(rows) -> str:
                             r.verdict, ", ".join(r.deviations)] for r in rows])
 
 
-def shade_intervals(ax, intervals, label: str | None = "true maneuver", color: str = "0.9") -> None:
+def shade_intervals(ax: matplotlib.axes.Axes, intervals: Iterable[tuple[float, float]],
+                    label: str | None = "true maneuver", color: str = "0.9") -> None:
     """Shade each ``(start, end)`` of ``intervals`` (in the x axis's unit, e.g. s) on the matplotlib axes ``ax``,
     behind the data; only the first span carries ``label`` in the legend."""
     for i, (a, b) in enumerate(intervals):
@@ -74,7 +82,7 @@ class NotebookRun:
         return (f"profile={self.profile} runs={self.n_runs} seed={self.seed} multiverse: {self.mv_design} design, "
                 f"{self.mv_runs} runs per universe, {self.workers} worker(s)")
 
-    def show(self, fig, stem: str, claim: str, ours: str):
+    def show(self, fig: matplotlib.figure.Figure, stem: str, claim: str, ours: str) -> None:
         """Save ``fig`` as figures/<paper>/<stem>.{png,svg}, display it with the paper's claim and ours."""
         import os
         import matplotlib.pyplot as plt

@@ -20,21 +20,24 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, replace
-from typing import Callable, Mapping, NamedTuple
+from typing import Any, Callable, Iterable, Mapping, NamedTuple, Sequence
 
 import numpy as np
 
 from mmlib.core import gnss, models
 from mmlib.experiment import report
 from mmlib.core.layers.adaptive_imm import NoiseAdaptiveIMM, WindowedNoiseAdaptiveIMM, degree_of_divergence
-from mmlib.core.estimation import IMM, SingleModel
+from mmlib.core.estimation import IMM, Estimate, SingleModel
 from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
 from mmlib.core.fuzzy import TakagiSugeno, ramp_sets
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.core.rules import Unscented
 from mmlib.experiment.simulate import ManeuverSchedule, propagate
 from mmlib.experiment import evaluation
+from mmlib.core.protocols import MeasurementModel, MomentFilter
+from mmlib.experiment.metrics import MCValue
 from mmlib.experiment.multiverse import PublishedNumber, universe_result
+from mmlib.experiment.report import Row
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 from mmlib.experiment.scenario import Scenario
 
@@ -305,7 +308,7 @@ class FuzzyNoiseBounds:
         if self.normalise not in ("innovation", "measurement"):
             raise ValueError(f"normalise: expected 'innovation' or 'measurement', got {self.normalise!r}")
 
-    def dod(self, estimate, measurement) -> np.ndarray:
+    def dod(self, estimate: Estimate, measurement: MeasurementModel) -> np.ndarray:
         """Degrees of divergence (B, 2), ``[xi / s, eta / sqrt(s)]`` (:func:`degree_of_divergence`), of this
         step's innovations, ``s`` the reference variance of ``normalise``: the mean of the predicted innovation
         variances (per run) or of ``measurement.R``'s diagonal."""
@@ -321,7 +324,7 @@ class FuzzyNoiseBounds:
         """Levels (B, 2) of the next step from this step's estimate (:meth:`levels` of :meth:`dod`)."""
         return self.levels(self.dod(estimate, measurement))
 
-    def levels(self, dod) -> np.ndarray:
+    def levels(self, dod: np.ndarray) -> np.ndarray:
         """Levels (B, 2) from degrees of divergence (B, 2); NaN for runs whose DOD is not finite (diverged runs
         stay visible)."""
         ok = np.isfinite(dod).all(axis=1)
@@ -337,8 +340,9 @@ def noise_model(setup: Setup) -> gnss.PVClockNoise:
     return gnss.PVClockNoise(setup.T, gnss.clock_process_noise(setup.T, setup.clock_h0, setup.clock_h_minus2))
 
 
-def fuzzy_imm(filter, noise, lower: float, upper: float, transition, setup: Setup, *, frozen: bool = False,
-              measurement=None, name: str = "FUZZY-IMMUKF") -> NoiseAdaptiveIMM:
+def fuzzy_imm(filter: MomentFilter, noise: Any, lower: float, upper: float, transition: np.ndarray, setup: Setup, *,
+              frozen: bool = False, measurement: MeasurementModel | None = None,
+              name: str = "FUZZY-IMMUKF") -> NoiseAdaptiveIMM:
     """The FUZZY-IMMUKF of Section 3 over any mode filter and any process-noise family ``noise`` (``level ->
     dynamics`` with ``Q(levels)``, e.g. :class:`mmlib.core.gnss.PVClockNoise`): a two-mode IMM whose modes' noise
     levels the FLAS (:func:`fuzzy_system` with its output range from ``lower`` to ``upper``, ``setup``'s breakpoints,
@@ -410,7 +414,7 @@ def _geometry(**fields):
     return plane, sk
 
 
-def experiment(setup: Setup, names=ALGORITHMS, **build_kw) -> Experiment:
+def experiment(setup: Setup, names: Iterable[str] = ALGORITHMS, **build_kw: Any) -> Experiment:
     """The :class:`Experiment` of ``setup`` with the estimators ``names`` of :func:`build` (``build_kw``, e.g.
     ``frozen_fuzzy=True``, passed on); the geometry is computed once per process per geometry
     (:data:`GEOMETRY_FIELDS`)."""
@@ -489,20 +493,20 @@ def scenario(setup: Setup | None = None) -> Scenario:
                                 "manoeuvre": "straight and circular segments at 20 m/s"})
 
 
-def variant(setup: Setup, **changes) -> Setup:
+def variant(setup: Setup, **changes: Any) -> Setup:
     """A copy of ``setup`` with the fields ``changes`` replaced (validated again: ValueError naming a bad field
     value; TypeError for an unknown field)."""
     return replace(setup, **changes)
 
 
 # ---------------------------------------------------------------- statistics
-def rms(rs: evaluation.RunSet, component: int):
+def rms(rs: evaluation.RunSet, component: int) -> MCValue:
     """RMS over runs and all epochs of one state component (the paper's East/North RMS error)."""
     from mmlib.experiment import metrics
     return metrics.rmse_time_averaged(rs.errors[..., component], rs.valid)
 
 
-def rms_reduction(a: evaluation.RunSet, b: evaluation.RunSet, component: int):
+def rms_reduction(a: evaluation.RunSet, b: evaluation.RunSet, component: int) -> MCValue:
     """Percentage reduction of the RMS error of ``a`` relative to ``b``, 100 (1 - RMS_a / RMS_b), on
     common random numbers, with a delete-one-run jackknife standard error (runs diverged in either
     are excluded)."""
@@ -527,7 +531,8 @@ def maneuver_flags(setup: Setup) -> np.ndarray:
     return (motion_schedule(setup).modes() > 0).astype(int)
 
 
-def clairvoyant_schedules(ex: Experiment, straight=(0.0, 1e-4, 1e-3), turning=(0.1, 0.3, 1.0)) -> dict:
+def clairvoyant_schedules(ex: Experiment, straight: Sequence[float] = (0.0, 1e-4, 1e-3),
+                          turning: Sequence[float] = (0.1, 0.3, 1.0)) -> dict:
     """NOT a filter one can run: the UKF told *when* the vehicle maneuvers, with process-noise level
     ``straight`` on the straight legs (down to 0, the truth's value) and ``turning`` in the turns.  The
     best schedule of the grid (chosen in hindsight) is a *reference* for what adapting Q to the
@@ -699,7 +704,8 @@ def _evaluate_one(setup: Setup, name: str, root_seed: int, n_runs: int, progress
     return rs
 
 
-def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False, names=MV_ALGORITHMS) -> dict:
+def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False,
+                     names: Iterable[str] = MV_ALGORITHMS) -> dict:
     """The Monte Carlo evaluations ``{name: RunSet}`` of a reading, on the paper's per-run streams.
 
     Each estimator is evaluated alone on its canonical set-up (:func:`_canonical`): its numbers are
@@ -711,7 +717,7 @@ def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False, n
             for name in names}
 
 
-def size_parts(rows) -> list:
+def size_parts(rows: Iterable[Row]) -> list:
     """Part verdicts (:func:`mmlib.experiment.report.claim_verdict`, labelled by axis) on a claimed *size* of
     improvement, one per reduction row: the claim is that the reduction is (at least about) the printed
     one.  A row the number rule finds reproduced or qualitatively reproduced (within 25 %) preserves the

@@ -21,9 +21,10 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, replace
-from typing import Callable, Mapping
+from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mmlib.core import estimation, models
 from mmlib.core._validate import as_float_array, check_finite
@@ -32,7 +33,8 @@ from mmlib.core.layers.adaptive import InnovationAdaptive
 from mmlib.core.estimation import IMM, MomentMixing, SingleModel
 from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
 from mmlib.core.mixing import CubatureMixing
-from mmlib.experiment.montecarlo import MonteCarlo, Stream
+from mmlib.core.protocols import MeasurementModel, MomentFilter
+from mmlib.experiment.montecarlo import MonteCarlo, Stream, say_progress
 from mmlib.core.rules import Cubature, Unscented
 from mmlib.experiment.simulate import ManeuverSchedule
 from mmlib.experiment import evaluation
@@ -282,14 +284,14 @@ def published_mse_difference(table: dict, a: str, b: str) -> float:
     return (ma * ma + sa * sa) - (mb * mb + sb * sb)
 
 
-def naukf_filter(base, setup: Setup, inflate_only: bool | None = None) -> InnovationAdaptive:
+def naukf_filter(base: MomentFilter, setup: Setup, inflate_only: bool | None = None) -> InnovationAdaptive:
     """NAUKF (Eqs. 27-39) over ``base`` with the set-up's window, psi and Z-12 reading (``inflate_only`` overrides
     the reading)."""
     return InnovationAdaptive(base, window=setup.window, psi=setup.psi,
                               inflate_only=setup.inflate_only if inflate_only is None else inflate_only, name="NAUKF")
 
 
-def aukf_filter(base, window: int, inflate_only: bool) -> InnovationAdaptive:
+def aukf_filter(base: MomentFilter, window: int, inflate_only: bool) -> InnovationAdaptive:
     """The classic innovation-based adaptive UKF that Table 4 compares with NAUKF (Mohamed & Schwarz 1999: no adaptive
     gene, the window of innovations before the current one)."""
     return InnovationAdaptive(base, window=window, zeta=False, include_current=False, inflate_only=inflate_only,
@@ -325,7 +327,7 @@ def build(setup: Setup) -> tuple:
     return schedule, radar, estimators
 
 
-def radar_drift(range_offset, bearing_rate, times) -> models.SensorFault:
+def radar_drift(range_offset: ArrayLike, bearing_rate: ArrayLike, times: ArrayLike) -> models.SensorFault:
     """Eq. 2's fault of a range-bearing radar as a :class:`mmlib.core.models.SensorFault`: range deviation
     ``delta_r`` (m, per run, constant) and bearing drift ``delta_theta_k = rate * t_k`` (rad, rate in rad/s
     per run): arrays of shape (B,) or (B, K);
@@ -348,7 +350,8 @@ def radar_drift(range_offset, bearing_rate, times) -> models.SensorFault:
     return models.SensorFault(np.stack([dr, arrays["bearing_rate"] * t[None, :]], axis=-1))
 
 
-def radar_fault(setup: Setup, mc: MonteCarlo, runs, times) -> models.SensorFault:
+def radar_fault(setup: Setup, mc: MonteCarlo, runs: Sequence[int] | np.ndarray,
+                times: Sequence[float] | np.ndarray) -> models.SensorFault:
     """The Case 2 fault (Eq. 2's delta h_out) of the runs, from the FAULT stream; every fault kind uses
     the same 2K + 2 normals per run (common random numbers across the Z-6 readings):
 
@@ -372,7 +375,7 @@ def radar_fault(setup: Setup, mc: MonteCarlo, runs, times) -> models.SensorFault
     return models.SensorFault(np.stack([dr, dth], axis=-1))
 
 
-def simulator(setup: Setup, schedule: ManeuverSchedule, radar) -> Callable:
+def simulator(setup: Setup, schedule: ManeuverSchedule, radar: MeasurementModel) -> Callable:
     """``mc -> (runs -> (truth, measurements, start means))``: truth from x0, radar measurements with the Case 2
     fault when ``setup.faults`` (:func:`radar_fault`, the run's FAULT stream); the filters start at the true x0."""
     def for_mc(mc: MonteCarlo):
@@ -383,7 +386,7 @@ def simulator(setup: Setup, schedule: ManeuverSchedule, radar) -> Callable:
     return for_mc
 
 
-def make_batch_fn(setup: Setup, mc: MonteCarlo, names=None) -> tuple:
+def make_batch_fn(setup: Setup, mc: MonteCarlo, names: Iterable[str] | None = None) -> tuple:
     """``(make_batch, estimators, schedule)`` for the runs of ``mc`` under ``setup``: ``make_batch(runs) ->
     (truth (B, K+1, 4) in m and m/s, radar measurements (B, K, 2) in m and rad, {name: initial state})``
     (:func:`simulator`), every IMM started at the true x0 with P0 = diag(P0_sd)^2 and ``mode_probabilities0``;
@@ -419,7 +422,7 @@ def scenario(setup: Setup | None = None) -> Scenario:
                                      "filters appear only in its field test, whose model is not given)"})
 
 
-def variant(setup: Setup, **changes) -> Setup:
+def variant(setup: Setup, **changes: Any) -> Setup:
     """A copy of ``setup`` with the fields ``changes`` replaced (validated again: ValueError naming a bad field
     value; TypeError for an unknown field)."""
     return replace(setup, **changes)
@@ -475,17 +478,17 @@ def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False) -
         for alg in names:
             out[key][alg] = evaluate_algorithm(setup, alg, mc)
             if progress:
-                print(f"  zhou2017 {key}: {alg} done ({mc.n_runs} runs)", flush=True)
+                say_progress(f"  zhou2017 {key}: {alg} done ({mc.n_runs} runs)")
     return out
 
 
-def error_norms(rs: evaluation.RunSet, comps) -> np.ndarray:
+def error_norms(rs: evaluation.RunSet, comps: Sequence[int]) -> np.ndarray:
     """Per run and step, the Euclidean norm of the errors of the state components ``comps`` (e.g. the position's
     x and y, in m): shape (N, K) from a RunSet's errors (N, K, n)."""
     return np.sqrt((rs.errors[..., list(comps)] ** 2).sum(-1))
 
 
-def table_stats(rs: evaluation.RunSet, comps) -> tuple[metrics.MCValue, metrics.MCValue]:
+def table_stats(rs: evaluation.RunSet, comps: Sequence[int]) -> tuple[metrics.MCValue, metrics.MCValue]:
     """Mean and s.d. over the steps of the per-step RMSE over runs (Eq. 45, Z-10), with standard errors
     (delta method; delete-one-run jackknife)."""
     e = error_norms(rs, comps)
@@ -494,7 +497,8 @@ def table_stats(rs: evaluation.RunSet, comps) -> tuple[metrics.MCValue, metrics.
     return mean, sd
 
 
-def table_rows(item: str, results: dict, names, table: dict, devs) -> list:
+def table_rows(item: str, results: dict, names: Iterable[tuple[str, str]], table: dict,
+               devs: Iterable[str]) -> list:
     """Report rows of a Table 2/3-style table; an algorithm diverged in every run gets 'not reproduced'."""
     out = []
     for alg, printed_name in names:
@@ -515,7 +519,9 @@ def _steps(rs, steps):
     return rs if steps is None else rs._replace(errors=rs.errors[:, list(steps)])
 
 
-def compare(results: dict, pairs, quantities=Q4, steps=None) -> tuple[str, str]:
+def compare(results: dict, pairs: Iterable[tuple[str, str]],
+            quantities: Iterable[tuple[str, Sequence[int]]] = Q4,
+            steps: Iterable[int] | None = None) -> tuple[str, str]:
     """Verdict (claim vocabulary) and evidence for "a is more accurate than b" for every (a, b) in
     ``pairs``, each over ``quantities``: one part per pair and quantity from the paired time-averaged
     MSE difference on the runs valid in both (:func:`mmlib.experiment.report.claim_verdict`), and, when either

@@ -35,7 +35,8 @@ from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.core.rules import Cubature, FifthDegreeCubature, Unscented
 from mmlib.experiment.simulate import ManeuverSchedule
 from mmlib.experiment import evaluation
-from mmlib.experiment.multiverse import PublishedNumber, universe_result
+from mmlib.core.protocols import MeasurementModel
+from mmlib.experiment.multiverse import Multiverse, PublishedNumber, universe_result
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 from mmlib.experiment.scenario import Scenario
 
@@ -273,7 +274,7 @@ def build(setup: Setup) -> tuple:
     return schedule, meas, estimators
 
 
-def simulator(setup: Setup, schedule: ManeuverSchedule, meas) -> Callable:
+def simulator(setup: Setup, schedule: ManeuverSchedule, meas: MeasurementModel) -> Callable:
     """``mc -> (runs -> (truth, measurements, start means))``: the truth (with process noise under Z-7), the
     position measurements and the filters' initial means (x0, or x0 + N(0, P0) from the run's INITIAL stream, Z-9)."""
     x0 = np.array(setup.x0)
@@ -515,7 +516,7 @@ def cv_steady_state_sd(setup: Setup) -> dict:
     return out
 
 
-def floor_summary(mv) -> list:
+def floor_summary(mv: Multiverse) -> list:
     """Across a multiverse: per quantity, in how many universes the smallest printed IMM value of
     Table 1 lies more than 3 combined standard errors below that universe's clairvoyant floor (all
     universes, and those where the floor is a bound, :func:`floor_is_bound`), and the range of the

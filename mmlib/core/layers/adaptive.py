@@ -42,6 +42,7 @@ import numpy as np
 from mmlib.core._validate import check_bool, check_name, check_positive_int, check_scalar
 from mmlib.core.filters import FilterLayer, MeasurementPrediction, kalman_update
 from mmlib.core.linalg import trace
+from mmlib.core.protocols import MeasurementModel
 
 
 class AdaptiveState(NamedTuple):
@@ -87,7 +88,7 @@ class InnovationAdaptive(FilterLayer):
         if not self.name:
             object.__setattr__(self, "name", ("NA" if self.zeta else "A") + getattr(self.base, "name", "filter"))
 
-    def update(self, state: AdaptiveState, z: np.ndarray, measurement) -> tuple:
+    def update(self, state: AdaptiveState, z: np.ndarray, measurement: MeasurementModel) -> tuple:
         r"""Measurement update with ``z`` (B, m) ((B, 1, m) inside an IMM): the base filter's prediction, the
         innovation :math:`\tilde z = z - \hat z` appended to the window, then the shared Kalman update with
         :math:`\bar P_{zz} = \hat C_k = \frac1W\sum \tilde z\tilde z^T` (Eqs. 27-28; ``inflate_only``: the

@@ -31,6 +31,7 @@ import numpy as np
 
 from mmlib.core._validate import as_float_array, check_bool, check_has, check_name
 from mmlib.core.estimation import IMM, IMMState
+from mmlib.core.protocols import MeasurementModel
 
 
 def degree_of_divergence(innovation: np.ndarray, noise_variance: np.ndarray | float) -> np.ndarray:
@@ -89,12 +90,12 @@ class NoiseAdaptiveIMM:
                              f"got {type(self.controller).__name__}")
 
     @property
-    def measurement(self):
+    def measurement(self) -> MeasurementModel | None:
         """The IMM's default measurement model (None when every step supplies its own)."""
         return self.imm.measurement
 
     def init(self, mean: np.ndarray, cov: np.ndarray, mode_probabilities: np.ndarray | None = None,
-             **filter_init) -> NoiseAdaptiveState:
+             **filter_init: Any) -> NoiseAdaptiveState:
         """The IMM's state at step 0 (:meth:`mmlib.core.estimation.IMM.init`: ``mean`` (B, n), ``cov`` (B, n, n)
         or (n, n), ``mode_probabilities`` (r,) or (B, r)) and ``initial_levels`` repeated for every run,
         (B, r)."""
@@ -102,7 +103,8 @@ class NoiseAdaptiveIMM:
         B = s.mode_probabilities.shape[0]
         return NoiseAdaptiveState(s, np.tile(self.initial_levels, (B, 1)))
 
-    def step(self, state: NoiseAdaptiveState, z: np.ndarray, *, with_cov: bool = True, measurement=None) -> tuple:
+    def step(self, state: NoiseAdaptiveState, z: np.ndarray, *, with_cov: bool = True,
+             measurement: MeasurementModel | None = None) -> tuple:
         r"""One IMM cycle with the modes' noise :math:`Q_j = Q(\ell_{k,j})` from this step's levels (B, r) (a
         non-finite level, from a diverged run, replaced by the initial one), then the levels of step k+1
         from ``controller(estimate, measurement)`` (unless ``frozen``).  ``z`` (B, m).  Returns
@@ -161,14 +163,14 @@ class WindowedNoiseAdaptiveIMM(NoiseAdaptiveIMM):
                   "(a windowed DOD averages between the two)", ("dod", "levels"))
 
     def init(self, mean: np.ndarray, cov: np.ndarray, mode_probabilities: np.ndarray | None = None,
-             **filter_init) -> WindowedNoiseAdaptiveState:
+             **filter_init: Any) -> WindowedNoiseAdaptiveState:
         """As :meth:`NoiseAdaptiveIMM.init`, plus an empty DOD history (B, ``window``, 2) (zeros, none filled)."""
         s = NoiseAdaptiveIMM.init(self, mean, cov, mode_probabilities, **filter_init)
         B = s.levels.shape[0]
         return WindowedNoiseAdaptiveState(s.imm, s.levels, np.zeros((B, int(self.window), 2)), np.zeros(B, dtype=int))
 
     def step(self, state: WindowedNoiseAdaptiveState, z: np.ndarray, *, with_cov: bool = True,
-             measurement=None) -> tuple:
+             measurement: MeasurementModel | None = None) -> tuple:
         """One IMM cycle as :meth:`NoiseAdaptiveIMM.step`; the next levels are ``controller.levels`` of the mean
         of ``controller.dod(estimate, measurement)`` (B, 2) over the last ``min(k, window)`` epochs.  Returns
         ``(WindowedNoiseAdaptiveState, Estimate)``, ``Estimate.diagnostics`` (B, r) this step's levels."""

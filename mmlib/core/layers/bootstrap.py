@@ -40,6 +40,7 @@ from mmlib.core import linalg
 from mmlib.core._validate import (as_float_array, check_choice, check_finite, check_name,
                                   check_positive_int, check_scalar)
 from mmlib.core.filters import FilterLayer, MeasurementPrediction, UpdateInfo, gaussian_state, kalman_update
+from mmlib.core.protocols import MeasurementModel
 
 
 class BootstrapState(NamedTuple):
@@ -91,7 +92,7 @@ class ObservationBootstrap(FilterLayer):
                                  f"N={self.n_boot}, m), got {None if noise is None else noise.shape}")
         return BootstrapState(g.mean, g.cov, noise, 0)
 
-    def update(self, state: BootstrapState, z: np.ndarray, measurement) -> tuple:
+    def update(self, state: BootstrapState, z: np.ndarray, measurement: MeasurementModel) -> tuple:
         r"""Measurement update with ``z`` (B, m) ((B, 1, m) inside an IMM): bootstrap observations
         :math:`\tilde z^n = z + L\epsilon^n` (Eq. 15, :math:`LL^T = R`, :math:`\epsilon` the step's pre-drawn
         normals), one shared Kalman update per member of :math:`\Theta` (innovation covariance

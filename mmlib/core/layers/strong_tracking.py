@@ -32,8 +32,9 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from mmlib.core._validate import check_choice, check_name, check_scalar
-from mmlib.core.filters import FilterLayer, kalman_update
+from mmlib.core.filters import FilterLayer, MeasurementPrediction, kalman_update
 from mmlib.core.linalg import trace
+from mmlib.core.protocols import MeasurementModel
 
 
 class StrongTrackingState(NamedTuple):
@@ -73,7 +74,8 @@ class StrongTracking(FilterLayer):
         if not self.name:
             object.__setattr__(self, "name", "ST" + getattr(self.base, "name", "filter"))
 
-    def fading_factor(self, state: StrongTrackingState, pred, V: np.ndarray, measurement) -> np.ndarray:
+    def fading_factor(self, state: StrongTrackingState, pred: MeasurementPrediction, V: np.ndarray,
+                      measurement: MeasurementModel) -> np.ndarray:
         """lambda_k of Eq. 14 for the predicted ``state`` (P^l (..., n, n), Q) and its measurement prediction
         ``pred``, with the smoothed innovation outer product ``V`` (..., m, m): ``max(1, tr N / tr M)``
         (1 where ``tr M <= 0``), dimensionless, shape (...)."""
@@ -92,7 +94,7 @@ class StrongTracking(FilterLayer):
             c = np.where(tr_m > 0.0, tr_n / tr_m, 1.0)
         return np.maximum(c, 1.0)
 
-    def update(self, state: StrongTrackingState, z: np.ndarray, measurement) -> tuple:
+    def update(self, state: StrongTrackingState, z: np.ndarray, measurement: MeasurementModel) -> tuple:
         r"""Measurement update with ``z`` (B, m) ((B, 1, m) inside an IMM): innovation of the base filter's
         prediction, ``V`` of Eq. 17 (restarted when the measurement dimension changes), the fading factor
         :math:`\lambda` (:meth:`fading_factor`); where :math:`\lambda > 1` the prior covariance becomes
