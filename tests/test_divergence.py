@@ -258,3 +258,18 @@ def test_bootstrap_members_keep_the_joseph_form_over_an_ekf():
     noise = np.random.default_rng(4).standard_normal((2, 4, 2, 2))
     track = m.run(m.SingleModel(filt, dyn, meas), filt.init(x0, 1e11 * np.eye(4), noise=noise), zs)
     assert not track.diverged.any()
+
+
+@pytest.mark.parametrize("likelihood", ["sum", "product"])
+def test_bootstrap_imm_likelihood_underflow_is_reported_as_such(linear_problem, likelihood):
+    """The same 1e300 measurement through bootstrapped mode filters: every member's log-likelihood is -inf, so is
+    their combination (the "sum" rule's log-sum-exp once gave -inf - -inf = NaN, reported as a non-finite state)."""
+    dyn, meas, x0, P0, zs = linear_problem
+    zs = zs.copy()
+    zs[1, 4] = 1e300
+    filt = ObservationBootstrap(m.ExtendedKalmanFilter(), n_boot=2, likelihood=likelihood)
+    imm = m.IMM(filt, [dyn, models.constant_velocity(1.0, 20.0)], meas, [[0.95, 0.05], [0.05, 0.95]])
+    noise = np.random.default_rng(5).standard_normal((x0.shape[0], zs.shape[1], 2, 2))
+    track = m.run(imm, imm.init(x0, P0, noise=noise), zs)
+    assert track.diverged_step.tolist() == [-1, 4, -1]
+    assert track.divergence_cause.tolist() == [0, Failure.LIKELIHOOD, 0]

@@ -275,3 +275,9 @@ def test_held_fixed_initial_conditions_move_no_value_by_one_standard_error():
         assert [report.claim_category(c["verdict"]) for c in u["claims"]] == \
             [report.claim_category(c["verdict"]) for c in head["claims"]], label
     assert largest_shift(universe(p_stay=0.95), head) > 3.0
+
+
+def test_an_unknown_estimator_name_is_named():
+    from conftest import raises_naming
+    with raises_naming("names"):
+        paper.experiment(SHORT, names=("UKF", "KALMAN"))

@@ -214,3 +214,15 @@ def test_imm_leaves_the_callers_transition_matrix_writable_and_unshared():
     assert P.flags.writeable and imm.transition is not P and not imm.transition.flags.writeable
     P[0, 0] = 0.5
     assert imm.transition[0, 0] == 0.9
+
+
+def test_filter_by_name_refuses_what_it_would_ignore():
+    """kf/ekf have no rule: rule parameters given to them are an error naming them (they were silently dropped),
+    and a name must be a string."""
+    import mmlib as m
+    from conftest import raises_naming
+    with raises_naming("kappa"):
+        m.filter_by_name("ekf", kappa=1.0)
+    with raises_naming("name"):
+        m.filter_by_name(3)
+    assert m.filter_by_name("ukf", kappa=1.0).name == "UKF"

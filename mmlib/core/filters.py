@@ -296,11 +296,16 @@ _FILTER_NAMES = {"kf": "KF", "ekf": "EKF"}
 
 
 def filter_by_name(name: str, **rule_params: Any) -> ExtendedKalmanFilter | SigmaPointFilter:
-    """``kf``/``ekf`` (an :class:`ExtendedKalmanFilter` named ``KF``/``EKF``; ``rule_params`` are then not
-    used) or any rule name of :func:`mmlib.core.rules.rule_by_name` (a :class:`SigmaPointFilter` named
+    """``kf``/``ekf`` (an :class:`ExtendedKalmanFilter` named ``KF``/``EKF``, which takes no ``rule_params``)
+    or any rule name of :func:`mmlib.core.rules.rule_by_name` (a :class:`SigmaPointFilter` named
     by the upper-cased name, ``rule_params`` passed to the rule).  Any case; an unknown name or rule
     parameter is a ValueError naming it."""
-    key = str(name).lower()
+    if not isinstance(name, str):
+        raise ValueError(f"name: expected a filter name (string), got {type(name).__name__}")
+    key = name.lower()
     if key in _FILTER_NAMES:
+        if rule_params:
+            raise ValueError(f"{', '.join(sorted(rule_params))}: {name!r} has no quadrature rule, so no rule "
+                             f"parameters")
         return ExtendedKalmanFilter(name=_FILTER_NAMES[key])
     return SigmaPointFilter(rule_by_name(key, **rule_params), name=str(name).upper())

@@ -420,6 +420,10 @@ def experiment(setup: Setup, names: Iterable[str] = ALGORITHMS, **build_kw: Any)
     (:data:`GEOMETRY_FIELDS`)."""
     plane, sk = _geometry(**{f: getattr(setup, f) for f in GEOMETRY_FIELDS})
     est = build(setup, **build_kw)
+    names = list(names)
+    unknown = [n for n in names if n not in est]
+    if unknown:
+        raise ValueError(f"names: unknown estimator(s) {unknown}; expected some of {sorted(est)}")
     return Experiment(setup, plane, sk, {n: est[n] for n in names})
 
 

@@ -146,7 +146,11 @@ class ObservationBootstrap(FilterLayer):
         ll = np.stack([i.loglik for i in infos], axis=-1)
         if self.likelihood == "sum":
             top = np.max(ll, axis=-1, keepdims=True)
-            loglik = (top + np.log(np.exp(ll - top).sum(axis=-1, keepdims=True)))[..., 0]
+            # every member's likelihood underflowed: the sum is -inf too (not -inf - -inf = NaN, which the IMM
+            # would report as a non-finite state instead of as likelihood underflow)
+            top = np.where(np.isneginf(top), 0.0, top)
+            with np.errstate(divide="ignore"):          # log(0) = -inf is that underflow
+                loglik = (top + np.log(np.exp(ll - top).sum(axis=-1, keepdims=True)))[..., 0]
         else:
             loglik = ll.sum(axis=-1)
         new = state._replace(mean=mean, cov=cov, step=state.step + 1)
