@@ -1,7 +1,7 @@
 """Sphinx configuration of the mmlib site (built by tools/build_site.py, `make site`).
 
-The builder assembles the page sources in build/site-src/ (this folder's pages, the executed notebooks, the generated
-summary, reading-space and API pages) and runs Sphinx there with this file as its configuration.
+The builder assembles the page sources in build/.site-work/src/ (this folder's pages, the executed notebooks, the
+generated summary, reading-space and API pages) and runs Sphinx there with this file as its configuration.
 
 Offline by construction: MathJax comes from the jupyter-server-mathjax wheel and is copied into _static/ (no CDN);
 the theme (furo) ships its own assets and uses system fonts; MyST-NB's widget JavaScript, which loads from a CDN,

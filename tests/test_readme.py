@@ -90,26 +90,21 @@ def run_block(code: str, line: int, python: str, cwd: Path, timeout: float = TIM
         return None
 
 
-def _quoted(pattern: str, text: str) -> tuple[float, float]:
-    """A number the README's prose quotes (first group of ``pattern``) and half a unit of its last digit."""
-    m = re.search(pattern, text, re.S)
-    assert m, f"README.md: the prose after the example no longer quotes {pattern!r}"
-    digits = m.group(1)
-    return float(digits), 0.5 * 10.0 ** -(len(digits.split(".")[1]) if "." in digits else 0)
-
-
 def test_the_numbers_quoted_after_the_example_are_the_ones_it_prints():
-    """The prose after the end-to-end example quotes its results; they are what the block prints, to the digits
-    quoted (a run is the same bits on every run of the same code, so only rounding separates them)."""
+    """The prose after the end-to-end example quotes its results as the block prints them, digit for digit (a run of
+    the same code gives the same bits, so a quoted number that differs is out of date)."""
     text = README.read_text()
     line, code, _ = next(b for b in BLOCKS if "mmlib.run(" in b[1])
     proc = run_block(code, line, sys.executable, ROOT)
     assert proc is not None and proc.returncode == 0, proc and proc.stderr
-    printed = {"rmse": r"position RMSE ([\d.]+)", "anees": r"ANEES ([\d.]+)", "peak": r"peak ([\d.]+)"}
-    quoted = {"rmse": r"position RMSE of about ([\d.]+) ±", "anees": r"time-averaged NEES is about\s+([\d.]+) ±",
-              "peak": r"peak\s+near ([\d.]+)"}
-    prose = text[text.index(code):]
-    for key in printed:
-        value = float(re.search(printed[key], proc.stdout).group(1))
-        quote, half_unit = _quoted(quoted[key], prose)
-        assert abs(value - quote) <= half_unit + 1e-9, f"{key}: the example prints {value}, the README says {quote}"
+    prose = text[text.index(code) + len(code):]
+    number = r"(\d+(?:\.\d+)?%?)"
+    pairs = {"RMSE": (rf"position RMSE {number} \+/- {number} m", rf"position RMSE of {number} ± {number} m"),
+             "ANEES": (rf"ANEES {number} \+/- {number}", rf"time-averaged NEES is\s+{number} ± {number}"),
+             "inside": (rf"at {number} of the", rf"at only {number} of the"),
+             "peak": (rf"peak {number}", rf"peak of\s+{number}")}
+    for key, (printed, quoted) in pairs.items():
+        got, said = re.search(printed, proc.stdout), re.search(quoted, prose)
+        assert got, f"{key}: the example no longer prints {printed!r}:\n{proc.stdout}"
+        assert said, f"{key}: the prose after the example no longer quotes {quoted!r}"
+        assert said.groups() == got.groups(), f"{key}: the example prints {got.groups()}, the README says {said.groups()}"

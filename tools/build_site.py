@@ -50,6 +50,10 @@ class SiteError(Exception):
     """The site cannot be built; the message says why and what to run."""
 
 
+class MissingOutputs(SiteError):
+    """Some notebook's results or executed notebook do not exist yet (the command that makes them is named)."""
+
+
 def sources(profile: str) -> tuple[Path, Path, str]:
     """``(root holding data/results, folder of executed notebooks, the command that makes them)``."""
     if profile == "full":
@@ -67,17 +71,19 @@ def load_inputs(profile: str) -> tuple[list[dict], dict[str, Path]]:
     results = root / "data" / "results"
     then = f"then `make site{'' if profile == 'full' else ' PROFILE=' + profile}`"
     if not sorted(results.glob("*.json")):
-        raise SiteError(f"no results in {results.relative_to(REPO)}/: run `{command}` first, {then}")
-    docs, notebooks = [], {}
-    for src in sorted((REPO / "notebooks").glob("*.py")):
+        raise MissingOutputs(f"no results in {results.relative_to(REPO)}/: run `{command}` first, {then}")
+    docs, notebooks, sources_of = [], {}, {}
+    for src in sorted((REPO / "notebooks").glob("*.py")):     # first the sources alone: one notebook per paper
         paper = src.stem.split("_")[0]
-        if paper in notebooks:
-            raise SiteError(f"notebooks/{src.name}: a second notebook of {paper} ({notebooks[paper].stem}.py); "
+        if paper in sources_of:
+            raise SiteError(f"notebooks/{src.name}: a second notebook of {paper} ({sources_of[paper].name}); "
                             f"one notebook per paper")
+        sources_of[paper] = src
+    for paper, src in sources_of.items():
         nb, doc = executed / f"{src.stem}.ipynb", results / f"{paper}.json"
         for path in (nb, doc):
             if not path.is_file():
-                raise SiteError(f"{paper}: no {path.relative_to(REPO)} (from notebooks/{src.name}): run `{command}` "
+                raise MissingOutputs(f"{paper}: no {path.relative_to(REPO)} (from notebooks/{src.name}): run `{command}` "
                                 f"first, {then}")
         notebooks[paper] = nb
         docs.append(json.loads(doc.read_text()))
@@ -264,9 +270,11 @@ def main(argv=None) -> int:
     if args.if_complete:
         try:
             load_inputs(args.profile)
-        except SiteError as exc:
+        except MissingOutputs as exc:            # only missing outputs; any other problem is an error below
             print(f"site: not built, the outputs are incomplete: {exc}")
             return 0
+        except SiteError:
+            pass
     try:
         out = build(args.profile, Path(args.out) if args.out else None)
     except SiteError as exc:
