@@ -24,25 +24,18 @@ import typing
 
 import pytest
 
-from test_docstrings import public_modules
+from test_docstrings import public_methods, public_modules, public_objects
 
 
 def public_functions(module_name: str) -> list[tuple[str, types.FunctionType]]:
-    """``(qualified name, function)`` of every public function, method and property getter of a module."""
-    mod = importlib.import_module(module_name)
+    """``(qualified name, function)`` of every public function, method and property getter of a module, as
+    tests/test_docstrings.py defines them, less the members generated elsewhere."""
     out = []
-    for name, obj in vars(mod).items():
-        if name.startswith("_") or getattr(obj, "__module__", None) != module_name:
-            continue
+    for path, obj in public_objects(module_name):
         if inspect.isfunction(obj):
-            out.append((f"{module_name}.{name}", obj))
+            out.append((path, obj))
         elif inspect.isclass(obj):
-            for attr, member in vars(obj).items():
-                if attr.startswith("_"):
-                    continue
-                fn = member.fget if isinstance(member, property) else getattr(member, "__func__", member)
-                if inspect.isfunction(fn) and fn.__module__ == module_name:
-                    out.append((f"{module_name}.{name}.{attr}", fn))
+            out += [(name, fn) for name, fn in public_methods(path, obj) if fn.__module__ == module_name]
     return out
 
 

@@ -25,26 +25,36 @@ def public_modules():
     return names
 
 
-def undocumented(module_name: str) -> list[str]:
+def public_objects(module_name: str) -> list[tuple[str, object]]:
+    """``(qualified name, object)`` of every public class and function a module defines itself (the one definition
+    of the public API, used by this test and by tests/test_annotations.py)."""
     mod = importlib.import_module(module_name)
-    missing = [] if inspect.getdoc(mod) else [module_name]
-    for name, obj in vars(mod).items():
-        if name.startswith("_") or getattr(obj, "__module__", None) != module_name:
-            continue
-        if not (inspect.isclass(obj) or inspect.isfunction(obj)):
-            continue
+    return [(f"{module_name}.{name}", obj) for name, obj in vars(mod).items()
+            if not name.startswith("_") and getattr(obj, "__module__", None) == module_name
+            and (inspect.isclass(obj) or inspect.isfunction(obj))]
+
+
+def public_methods(path: str, cls: type) -> list[tuple[str, object]]:
+    """``(qualified name, function)`` of every public method, static or class method and property getter a class
+    defines itself."""
+    out = []
+    for attr, member in vars(cls).items():
+        fn = member.fget if isinstance(member, property) else getattr(member, "__func__", member)
+        if not attr.startswith("_") and inspect.isfunction(fn):
+            out.append((f"{path}.{attr}", fn))
+    return out
+
+
+def undocumented(module_name: str) -> list[str]:
+    missing = [] if inspect.getdoc(importlib.import_module(module_name)) else [module_name]
+    for path, obj in public_objects(module_name):
         doc = (obj.__doc__ or "").strip()
         # a dataclass or NamedTuple without a docstring gets a generated one: its signature, "Name(a, b)"
         if not doc or (inspect.isclass(obj) and doc.startswith(f"{obj.__name__}(") and doc.endswith(")")
                        and "\n" not in doc):
-            missing.append(f"{module_name}.{name}")
+            missing.append(path)
         if inspect.isclass(obj):
-            for attr, member in vars(obj).items():
-                if attr.startswith("_"):
-                    continue
-                fn = member.fget if isinstance(member, property) else getattr(member, "__func__", member)
-                if inspect.isfunction(fn) and not (fn.__doc__ or "").strip():
-                    missing.append(f"{module_name}.{name}.{attr}")
+            missing += [name for name, fn in public_methods(path, obj) if not (fn.__doc__ or "").strip()]
     return missing
 
 

@@ -112,18 +112,6 @@ def fold_notebook(src: Path, dst: Path) -> None:
     dst.write_text(json.dumps(nb))
 
 
-def shift_headings(text: str, by: int) -> str:
-    """Markdown headings ``by`` levels deeper (outside fenced code)."""
-    out, fenced = [], False
-    for line in text.splitlines():
-        if line.startswith("```"):
-            fenced = not fenced
-        if not fenced and re.match(r"#{1,5} ", line):
-            line = "#" * by + line
-        out.append(line)
-    return "\n".join(out)
-
-
 def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
     import make_report
     summary = make_report.render_index(docs, link=lambda p: page_link(p, notebooks), title="## What holds")
@@ -155,7 +143,7 @@ def reading_spaces_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
     for doc in sorted((d for d in docs if d.get("multiverse")), key=lambda d: d["paper"]):
         section = "\n".join(make_report.render_multiverse(doc["multiverse"])).replace(
             "## Reading space (multiverse)", f"## {doc['paper']} ({page_link(doc['paper'], notebooks)})")
-        lines += [shift_headings(section, 0), ""]
+        lines += [section, ""]
     return "\n".join(lines)
 
 

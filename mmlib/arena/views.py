@@ -297,10 +297,7 @@ def rmse_heatmap(cells: Iterable[dict] | ArenaResult, scenarios: Iterable[dict] 
     cmap = matplotlib.colormaps["YlGnBu"]
     im = _draw_cells(ax, data, kinds, labels, diverged, cmap, norm)
     _grid(ax, algorithms, names, rows)
-    cb = fig.colorbar(im, ax=ax, extend="both", fraction=0.035, pad=0.02)
-    cb.set_label("position RMSE / best in scenario (log; > 10 clipped)")
-    cb.set_ticks([1, 1.5, 2, 3, 5, 10], labels=["1", "1.5", "2", "3", "5", "10"])
-    cb.minorticks_off()
+    _colorbar(fig, im, ax, "position RMSE / best in scenario (log; > 10 clipped)", [1, 1.5, 2, 3, 5, 10])
     _legend(ax, kinds, diverged, "RMSE")
     n = _n_runs(by.values())
     ax.set_title(f"Position RMSE relative to the best algorithm of each scenario ({n} Monte Carlo runs)",
@@ -308,6 +305,14 @@ def rmse_heatmap(cells: Iterable[dict] | ArenaResult, scenarios: Iterable[dict] 
     if own:
         fig.tight_layout()
     return fig
+
+
+def _colorbar(fig, im, ax, label: str, ticks: list[float]) -> None:
+    """The heat maps' log colour bar: ``label``, ticks at ``ticks`` written plainly, no minor ticks."""
+    cb = fig.colorbar(im, ax=ax, extend="both", fraction=0.035, pad=0.02)
+    cb.set_label(label)
+    cb.set_ticks(ticks, labels=[f"{t:g}" for t in ticks])
+    cb.minorticks_off()
 
 
 def consistency_heatmap(cells: Iterable[dict] | ArenaResult, which: str = "anees",
@@ -351,10 +356,7 @@ def consistency_heatmap(cells: Iterable[dict] | ArenaResult, which: str = "anees
     im = _draw_cells(ax, data, kinds, labels, diverged, cmap, norm, bold=inside, dots=inside)
     _grid(ax, algorithms, names, rows)
     name, stat = CONSISTENCY_NAMES[which]
-    cb = fig.colorbar(im, ax=ax, extend="both", fraction=0.035, pad=0.02)
-    cb.set_label(f"{name} / dof (log; 1 = consistent; > 1 over-confident)")
-    cb.set_ticks([0.2, 0.5, 1, 2, 5], labels=["0.2", "0.5", "1", "2", "5"])
-    cb.minorticks_off()
+    _colorbar(fig, im, ax, f"{name} / dof (log; 1 = consistent; > 1 over-confident)", [0.2, 0.5, 1, 2, 5])
     key = Line2D([], [], ls="none", marker="o", ms=3.5, color="k",
                  label=f"dot, bold: {name} inside its 95 % band")
     _legend(ax, kinds, diverged, name, extra=[key] if any(map(any, inside)) else [])
