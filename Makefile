@@ -53,6 +53,8 @@ unit: $(STAMP)
 
 test: $(STAMP)
 	$(PY) tools/run_notebooks.py --profile smoke $(EXEC_ARGS)
+	@# the committed-digest and batch-independence tests again as on an AVX2 and an SSE4.2 machine (x86-64 only)
+	$(PY) tools/emulated_tests.py
 	$(PY) -m pytest -q tests
 
 # The benchmark report (data/bench/: imm_ukf.json, scaling.json, scaling.png, notebooks.json), single-threaded:

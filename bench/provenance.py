@@ -5,7 +5,6 @@ imported (the BLAS and OpenMP runtimes read their thread counts once, when they 
 """
 from __future__ import annotations
 
-import ctypes
 import datetime
 import os
 import platform
@@ -33,30 +32,9 @@ def pin_threads() -> str:
 
 
 def _openblas() -> dict:
-    """The thread count and build of the OpenBLAS numpy loaded, asked of the library itself (Linux)."""
-    try:
-        with open("/proc/self/maps") as fh:
-            paths = sorted({line.split()[-1] for line in fh if "openblas" in line.lower() and "/" in line})
-    except OSError:
-        return {}
-    for path in paths:
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for prefix, suffix in (("scipy_openblas", "64_"), ("scipy_openblas", ""), ("openblas", "64_"), ("openblas", "")):
-            threads = getattr(lib, f"{prefix}_get_num_threads{suffix}", None)
-            if threads is None:
-                continue
-            threads.restype = ctypes.c_int
-            config = getattr(lib, f"{prefix}_get_config{suffix}")
-            config.restype = ctypes.c_char_p
-            core = getattr(lib, f"{prefix}_get_corename{suffix}", None)
-            if core is not None:
-                core.restype = ctypes.c_char_p
-            return {"openblas_threads": int(threads()), "openblas_config": config().decode(),
-                    "openblas_core": core().decode() if core is not None else None}
-    return {}
+    """The thread count and build of the OpenBLAS numpy loaded (:func:`mmlib.experiment.machine.openblas`)."""
+    from mmlib.experiment.machine import openblas
+    return openblas()
 
 
 def cpu_model() -> str:

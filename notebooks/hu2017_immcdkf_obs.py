@@ -55,7 +55,7 @@ from IPython.display import Markdown, display
 import mmlib
 from mmlib.experiment import metrics, report
 from mmlib.experiment.montecarlo import MonteCarlo
-from mmlib.experiment import evaluation, run_multiverse, views
+from mmlib.experiment import digests, evaluation, run_multiverse, views
 from mmlib.papers import hu2017 as paper
 from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                        shade_intervals, value_pm)
@@ -281,7 +281,7 @@ print(f"{mv.design.kind} design, {len(mv.universes)} universes of {nb.mv_runs} r
 sims = mv.simulations()                  # universe indices per distinct simulation (ValueError if H-11 moved a claim)
 print(f"{len(sims)} distinct simulations: {len(mv.universes) - len(sims)} universes repeat another's simulation "
       f"under a different H-11 (Table 1 metric) reading")
-same_as_headline = nb.mv_runs == nb.n_runs and json.loads(json.dumps(headline)) == mv.headline
+same_as_headline = nb.mv_runs == nb.n_runs and digests.same_numbers(mv.headline, json.loads(json.dumps(headline)))
 print("headline universe identical to the headline above:", same_as_headline)
 
 # %% [markdown]
@@ -444,7 +444,7 @@ prov = report.provenance(root_seed=nb.seed, n_runs=nb.n_runs, profile=nb.profile
                                 "multiverse_runs": nb.mv_runs, "multiverse_design": nb.mv_design})
 # digest of the headline's per-run numbers over the first smoke-size runs (the same runs in every profile):
 # tests/tolerance/test_results.py recomputes it in the smoke profile and compares it with the committed one exactly
-digest = evaluation.run_digest(res.runs, min(nb.n_runs, PROFILES["smoke"]["n_runs"]))
+digest = digests.run_digest(res.runs, min(nb.n_runs, PROFILES["smoke"]["n_runs"]))
 report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows, claims=claims.as_list(),
                      deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures, digest=digest,
                      multiverse=mv.as_dict(), headline_universe_matches=same_as_headline,

@@ -51,7 +51,7 @@ from IPython.display import Markdown, display
 import mmlib
 from mmlib.experiment import metrics, report
 from mmlib.experiment.montecarlo import MonteCarlo
-from mmlib.experiment import evaluation, run_multiverse, views
+from mmlib.experiment import digests, evaluation, run_multiverse, views
 from mmlib.papers import liu2017 as paper
 from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                        shade_intervals, value_pm)
@@ -291,7 +291,7 @@ prov = report.provenance(root_seed=nb.seed, n_runs=nb.n_runs, profile=nb.profile
                                 "multiverse_runs": nb.mv_runs, "multiverse_design": nb.mv_design})
 # digest of the headline's per-run numbers over the first smoke-size runs (the same runs in every profile):
 # tests/tolerance/test_results.py recomputes it in the smoke profile and compares it with the committed one exactly
-digest = evaluation.run_digest(headline.runs, min(nb.n_runs, PROFILES["smoke"]["n_runs"]))
+digest = digests.run_digest(headline.runs, min(nb.n_runs, PROFILES["smoke"]["n_runs"]))
 report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows, claims=claims.as_list(),
                      deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures, digest=digest,
                      multiverse=mv.as_dict(), headline_reading=paper.SPACE.headline,

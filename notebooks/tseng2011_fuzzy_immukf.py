@@ -61,7 +61,7 @@ from IPython.display import Markdown, display
 
 import mmlib
 from mmlib.experiment import metrics, report
-from mmlib.experiment import evaluation, run_multiverse, views
+from mmlib.experiment import digests, evaluation, run_multiverse, views
 from mmlib.papers import tseng2011 as paper
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
@@ -356,7 +356,7 @@ mv = run_multiverse(paper.SPACE, paper.universe, published=paper.PUBLISHED, n_ru
                     algorithms=paper.MV_ALGORITHMS, design=nb.mv_design, workers=nb.workers, progress=PROGRESS)
 print(f"{mv.design.description}; {mv.n_runs} Monte Carlo runs per universe")
 if mv.n_runs == nb.n_runs:
-    same = mv.headline == paper.summarise(res, nb.n_runs)
+    same = digests.same_numbers(mv.headline, paper.summarise(res, nb.n_runs))
     print(f"headline universe equals this notebook's headline numbers bit for bit: {same}")
     assert same, "the headline universe must equal the notebook's headline"
 
@@ -463,7 +463,7 @@ prov = report.provenance(root_seed=nb.seed, n_runs=nb.n_runs, profile=nb.profile
                                 "mmlib": mmlib.__version__})
 # digest of the headline's per-run numbers over the first smoke-size runs (the same runs in every profile):
 # tests/tolerance/test_results.py recomputes it in the smoke profile and compares it with the committed one exactly
-digest = evaluation.run_digest(res, min(nb.n_runs, PROFILES["smoke"]["n_runs"]))
+digest = digests.run_digest(res, min(nb.n_runs, PROFILES["smoke"]["n_runs"]))
 report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows, claims=claims.as_list(),
                      deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures, digest=digest,
                      multiverse=mv.as_dict(), diverged_runs=diverged, oracle_schedules=oracle_json,

@@ -5,7 +5,7 @@ import pytest
 
 import mmlib as m
 from mmlib.core import models
-from mmlib.experiment import evaluation
+from mmlib.experiment import digests, evaluation
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.experiment.simulate import ManeuverSchedule
 from conftest import raises_naming
@@ -181,17 +181,17 @@ def test_digest_of_first_runs_independent_of_run_count_and_chunking(n, n_big, ch
     small = evaluation.evaluate(est, mb, small_mc, chunk_size=chunk_small, progress=False)
     est, mb, _, _ = _problem(big_mc)
     big = evaluation.evaluate(est, mb, big_mc, chunk_size=chunk_big, progress=False)
-    ds, db = evaluation.run_digest(small, n), evaluation.run_digest(big, n)
+    ds, db = digests.run_digest(small, n), digests.run_digest(big, n)
     assert ds == db
     assert ds["n_runs"] == n and ds["algorithms"] == ["IMM-CKF", "KF"]
-    assert evaluation.run_digest(big, n + 1)["sha256"] != ds["sha256"]
+    assert digests.run_digest(big, n + 1)["sha256"] != ds["sha256"]
 
 
 def test_digest_detects_one_ulp_and_a_changed_stream_but_not_later_runs(results, monkeypatch):
-    ref = evaluation.run_digest(results, 5)
+    ref = digests.run_digest(results, 5)
     # dict order and nesting are part of the names, not of the numbers' order
-    assert evaluation.run_digest(dict(reversed(results.items())), 5) == ref
-    nested = evaluation.run_digest({"case": results}, 5)
+    assert digests.run_digest(dict(reversed(results.items())), 5) == ref
+    nested = digests.run_digest({"case": results}, 5)
     assert nested["algorithms"] == ["case / IMM-CKF", "case / KF"] and nested["sha256"] != ref["sha256"]
     # one ulp of one per-run number among the first runs changes it; any change after them does not
     a = results["KF"]
@@ -199,11 +199,11 @@ def test_digest_detects_one_ulp_and_a_changed_stream_but_not_later_runs(results,
         for where, same in ((index, False), (after, True)):
             arr = getattr(a, field).astype(float if field == "errors" else int).copy()
             arr[where] = np.nextafter(arr[where], np.inf) if field == "errors" else 3
-            got = evaluation.run_digest({**results, "KF": a._replace(**{field: arr})}, 5)
+            got = digests.run_digest({**results, "KF": a._replace(**{field: arr})}, 5)
             assert (got["sha256"] == ref["sha256"]) is same, (field, where)
     mp = results["IMM-CKF"].mode_probabilities.copy()
     mp[0, 0, 0] = np.nextafter(mp[0, 0, 0], 0)
-    assert evaluation.run_digest({**results, "IMM-CKF": results["IMM-CKF"]._replace(mode_probabilities=mp)},
+    assert digests.run_digest({**results, "IMM-CKF": results["IMM-CKF"]._replace(mode_probabilities=mp)},
                                  5)["sha256"] != ref["sha256"]
     # NaN sign/payload bits are not results: -NaN and NaN hash alike
     e = a.errors.copy()
@@ -211,8 +211,8 @@ def test_digest_detects_one_ulp_and_a_changed_stream_but_not_later_runs(results,
     e2 = e.copy()
     e2[1] = -np.nan
     div = np.where(np.arange(8) == 1, 0, -1)
-    d1 = evaluation.run_digest({"KF": a._replace(errors=e, diverged_step=div)}, 5)
-    d2 = evaluation.run_digest({"KF": a._replace(errors=e2, diverged_step=div)}, 5)
+    d1 = digests.run_digest({"KF": a._replace(errors=e, diverged_step=div)}, 5)
+    d2 = digests.run_digest({"KF": a._replace(errors=e2, diverged_step=div)}, 5)
     assert d1 == d2 and d1["diverged"] == {"KF": 1}
     # a change to the random streams (the spawn key's order swapped) changes it
     mc = MonteCarlo(5, 8)
@@ -222,15 +222,15 @@ def test_digest_detects_one_ulp_and_a_changed_stream_but_not_later_runs(results,
 
     monkeypatch.setattr(MonteCarlo, "generator", swapped)
     est, mb, _, _ = _problem(mc)
-    assert evaluation.run_digest(evaluation.evaluate(est, mb, mc, progress=False), 5)["sha256"] != ref["sha256"]
+    assert digests.run_digest(evaluation.evaluate(est, mb, mc, progress=False), 5)["sha256"] != ref["sha256"]
 
 
 def test_digest_summary_numbers(results):
-    d = evaluation.run_digest(results, 5)
+    d = digests.run_digest(results, 5)
     for name, rs in results.items():
         assert d["mean_squared_error"][name] == float(np.mean(rs.errors[:5] ** 2))
         assert d["diverged"][name] == 0
-    assert len(d["sha256"]) == 64 and d["version"] == evaluation.DIGEST_VERSION
+    assert len(d["sha256"]) == 64 and d["version"] == digests.DIGEST_VERSION
 
 
 @pytest.mark.parametrize("args, name", [
@@ -245,4 +245,4 @@ def test_digest_summary_numbers(results):
 ])
 def test_digest_bad_input(results, args, name):
     with raises_naming(name):
-        evaluation.run_digest(*args(results))
+        digests.run_digest(*args(results))

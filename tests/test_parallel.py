@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from mmlib.core import linalg
-from mmlib.experiment import evaluation, executors, run_grid
+from mmlib.experiment import digests, evaluation, executors, run_grid
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.papers import zhou2017, zhu2016
 
@@ -60,7 +60,7 @@ def test_pool_gives_the_serial_bits_whatever_workers_and_chunk_size(serial):
             got = evaluation.evaluate(estimators, make_batch, mc, chunk_size=chunk_size, workers=workers,
                                       progress=False)
             assert_same_bits(got, serial)
-    assert evaluation.run_digest(got, N_RUNS) == evaluation.run_digest(serial, N_RUNS)
+    assert digests.run_digest(got, N_RUNS) == digests.run_digest(serial, N_RUNS)
 
 
 def test_chunks_run_in_worker_processes_of_one_reused_pool():

@@ -40,14 +40,17 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 import re
 import concurrent.futures as cf
 from pathlib import Path
-from typing import Callable, Iterable, NamedTuple, Sequence
+from typing import Callable, Iterable, Mapping, NamedTuple, Sequence
 
 import numpy as np
 
 from mmlib.arena import ladder, recipes
+from mmlib.core._validate import (as_float_array, check_bool, check_has, check_mask, check_positive_int,
+                                  check_scalar)
 from mmlib.core.protocols import Estimator
 from mmlib.experiment import evaluation, metrics, report
 from mmlib.experiment.grid import run_grid
@@ -82,8 +85,10 @@ def _scenario(name: str) -> Scenario:
 
 
 def seed_of(s: Scenario, seed: int | None) -> int:
-    """The root seed of a scenario's runs: its own (a paper's root seed, the ladder's) unless ``seed`` overrides it."""
-    return s.root_seed if seed is None else int(seed)
+    """The root seed of a scenario's runs: its own (a paper's root seed, the ladder's) unless ``seed`` (None or an
+    integer >= 0) overrides it."""
+    recipes._check_scenario(s, "s")
+    return s.root_seed if seed is None else check_positive_int(seed, "seed", minimum=0)
 
 
 def evaluate_cell(algorithm: str, s: Scenario, mc: MonteCarlo, consistency: bool = True) -> tuple:
@@ -91,6 +96,9 @@ def evaluate_cell(algorithm: str, s: Scenario, mc: MonteCarlo, consistency: bool
     :data:`CHUNK_SIZE`; with NEES and NIS when ``consistency``); :class:`recipes.NotApplicable` where it cannot
     apply.  The cost is measured apart (:func:`cost_per_run_step`), so that neither the NEES/NIS bookkeeping nor the
     first call's compilation enters it."""
+    if not isinstance(mc, MonteCarlo):
+        raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
+    check_bool(consistency, "consistency")
     est = recipes.build(algorithm, s)
     make_batch = evaluation.with_initial_states(s.simulator(mc), {algorithm: est},
                                                 lambda e, start, runs: recipes.initial_state(e, s, start, runs, mc))
@@ -103,6 +111,12 @@ def cost_per_run_step(est: Estimator, make_batch: Callable[[Sequence[int]], tupl
                       n: int) -> float:
     """Thread CPU seconds per run and step of one batched run of ``est`` over the first ``n`` runs (no NEES/NIS),
     after an untimed one-run warm-up (compilation, caches)."""
+    recipes._check_scenario(s, "s")
+    check_has(est, "est", "an estimator (protocols.Estimator)", ("init", "step", "name"))
+    if not callable(make_batch):
+        raise ValueError(f"make_batch: expected a function runs -> (truth, measurements, init), got "
+                         f"{type(make_batch).__name__}")
+    n = check_positive_int(n, "n")
     import time
     from mmlib.core.estimation import run, select_runs
     _, z, init = make_batch(range(n))
@@ -137,6 +151,15 @@ def consistency(stat: np.ndarray, dof: int | np.ndarray, ok: np.ndarray, *, whit
     degrees of freedom over the steps (what a consistent filter's average has as its mean); ``white`` says the
     statistics of one run are independent in time (the NIS of a consistent filter), which makes the band of the run-
     and-time average exact; otherwise (the NEES) the band is that of a run-average at one step (module docstring)."""
+    stat = as_float_array(stat, "stat")
+    if stat.ndim != 2:
+        raise ValueError(f"stat: expected per-run, per-step statistics of shape (N, K), got {stat.shape}")
+    ok = check_mask(ok, "ok", stat.shape[0])
+    d = as_float_array(dof, "dof")
+    if d.shape not in ((), (stat.shape[1],)) or not np.all(np.isfinite(d)) or np.any(d < 1) \
+            or np.any(d != np.round(d)):
+        raise ValueError(f"dof: expected a count of components >= 1, or one per step ({stat.shape[1]},), got {dof!r}")
+    check_bool(white, "white")
     s = stat[ok]
     N, K = s.shape
     dof_k = np.broadcast_to(np.asarray(dof, dtype=float), (K,))
@@ -171,6 +194,8 @@ def consistency(stat: np.ndarray, dof: int | np.ndarray, ok: np.ndarray, *, whit
 
 def cell_metrics(rs: evaluation.RunSet, s: Scenario, cost_seconds: float) -> dict:
     """The metrics of one cell (module docstring) from its RunSet and its cost (CPU seconds per run-step)."""
+    _check_cell_inputs(rs, s)
+    check_scalar(cost_seconds, "cost_seconds", nonnegative=True)
     ok = rs.valid
     out = {"diverged": int((~ok).sum()), "divergence": rs.divergence_summary(),
            "cost_us_per_run_step": 1e6 * cost_seconds}
@@ -188,6 +213,11 @@ def cell(reading: dict, n_runs: int, seed: int) -> dict:
     """The job of one cell, ``reading = {"scenario": ..., "algorithm": ..., "seed": None or a root seed}``: its
     metrics, or the reason it does not apply (``run_grid``'s ``seed`` is the arena's; the cell uses its scenario's
     own unless the reading overrides it)."""
+    if not isinstance(reading, Mapping) or any(k not in reading for k in ("scenario", "algorithm")) \
+            or any(k not in ("scenario", "algorithm", "seed") for k in reading):
+        raise ValueError(f"reading: expected {{'scenario': ..., 'algorithm': ..., 'seed': None or a root seed}}, "
+                         f"got {reading!r}")
+    n_runs = check_positive_int(n_runs, "n_runs")
     s = scenario(reading["scenario"])
     algorithm = reading["algorithm"]
     reason = recipes.applicability(algorithm, s)
@@ -200,6 +230,14 @@ def cell(reading: dict, n_runs: int, seed: int) -> dict:
             "per_run": per_run_values(rs, s)}
 
 
+def _check_cell_inputs(rs, s) -> None:
+    if not isinstance(rs, evaluation.RunSet):
+        raise ValueError(f"rs: expected a RunSet (evaluation.evaluate), got {type(rs).__name__}")
+    recipes._check_scenario(s, "s")
+    if rs.errors.ndim != 3 or rs.errors.shape[-1] != s.dim:
+        raise ValueError(f"rs: errors of shape {rs.errors.shape}, expected (N, K, {s.dim}) for scenario {s.name!r}")
+
+
 def _listed(values) -> list:
     return [None if not math.isfinite(v) else float(v) for v in np.asarray(values, dtype=float)]
 
@@ -207,6 +245,7 @@ def _listed(values) -> list:
 def per_run_values(rs: evaluation.RunSet, s: Scenario) -> dict:
     """Per run: the time-averaged squared position and velocity errors (for paired comparisons and ranks), the
     time-averaged NEES and NIS, and the step at which it diverged (-1: never); None for a diverged run's values."""
+    _check_cell_inputs(rs, s)
     ok = rs.valid
     avg = (lambda stat: _listed(np.where(ok, np.nanmean(np.where(ok[:, None], stat, 0.0), axis=1), np.nan))
            if stat is not None else None)
@@ -225,6 +264,12 @@ def rank_scenario(cells: dict) -> dict:
     errors from zero and not negligible (at least 1 % of the worse one's mean squared error;
     :func:`mmlib.experiment.report.claim_verdict` with its reference), so that round-off between algorithms that
     coincide (every rule on a linear model) never orders them."""
+    if not isinstance(cells, Mapping):
+        raise ValueError(f"cells: expected a dict algorithm -> cell result, got {type(cells).__name__}")
+    for a, c in cells.items():
+        if not isinstance(c, Mapping) or "per_run" not in c \
+                or c["per_run"] is not None and "position_mse" not in c["per_run"]:
+            raise ValueError(f"cells: the cell of {a!r} is not a cell result (study.cell) with 'per_run'")
     per_run = {a: np.array([np.nan if v is None else v for v in c["per_run"]["position_mse"]])
                for a, c in cells.items() if c.get("per_run") is not None}
     ranked = {a: v for a, v in per_run.items() if np.isfinite(v).all() and v.size >= 2}
@@ -265,6 +310,12 @@ class ArenaResult(NamedTuple):
     details: dict = {}        #: {(scenario, algorithm): per_run_values(...)}: every per-run number (for the digest)
 
 
+def _check_result(result) -> ArenaResult:
+    if not isinstance(result, ArenaResult):
+        raise ValueError(f"result: expected an ArenaResult (run_arena), got {type(result).__name__}")
+    return result
+
+
 def _names(values, name: str) -> list:
     """A non-empty list of distinct name strings (a single string is refused: it is not a list of names)."""
     if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
@@ -286,6 +337,9 @@ def run_arena(n_runs: int, *, scenarios: Iterable[str] = SCENARIOS, algorithms: 
     the known ones.  ``seed`` overrides every scenario's root seed."""
     scenarios = _names(scenarios, "scenarios")
     algorithms = _names(algorithms, "algorithms")
+    check_bool(use_cache, "use_cache")
+    if cache_dir is not None and not isinstance(cache_dir, (str, os.PathLike)):
+        raise ValueError(f"cache_dir: expected None or a folder path, got {cache_dir!r}")
     try:
         algorithms = [recipes.recipe(a).name for a in algorithms]
     except ValueError as exc:
@@ -299,6 +353,7 @@ def run_arena(n_runs: int, *, scenarios: Iterable[str] = SCENARIOS, algorithms: 
         raise ValueError(f"n_runs: expected an integer >= 2 (a standard error needs two runs), got {n_runs!r}")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
         raise ValueError(f"seed: expected None or an integer >= 0, got {seed!r}")
+    seed = None if seed is None else int(seed)       # a numpy integer is not JSON: the readings key the cache
     readings = [{"scenario": s, "algorithm": a, "seed": seed} for s in scenarios for a in algorithms]
     # the algorithm is part of each reading, so the cache key needs no list of them: a subset reuses the cells
     results = run_grid(cell, readings, paper=PAPER, algorithms=[], n_runs=int(n_runs),
@@ -375,6 +430,10 @@ def compare(result: ArenaResult, a: str, b: str, scenario_name: str) -> dict | N
     errors, sqrt(d_a + d_b) for Poisson counts); and ``claim``, the verdict of the claim "a is more accurate than b" by
     the one rule (:func:`mmlib.experiment.report.paired_claim`; contradicted when a diverges detectably more).
     None where either does not apply."""
+    _check_result(result)
+    for value, arg in ((a, "a"), (b, "b"), (scenario_name, "scenario_name")):
+        if not isinstance(value, str):
+            raise ValueError(f"{arg}: expected a name (a string), got {value!r}")
     if (scenario_name, a) not in result.per_run or (scenario_name, b) not in result.per_run:
         return None
     va, vb = result.per_run[(scenario_name, a)], result.per_run[(scenario_name, b)]
@@ -404,7 +463,9 @@ def compare(result: ArenaResult, a: str, b: str, scenario_name: str) -> dict | N
 def ideas(result: ArenaResult, scenarios: Iterable[str] | None = None) -> list:
     """Every idea of :data:`IDEAS` on every scenario where both its algorithms apply: ``[{idea, paper, a, b,
     comparisons: [compare(...)]}]``."""
-    names = list(dict.fromkeys(c["scenario"] for c in result.cells)) if scenarios is None else list(scenarios)
+    _check_result(result)
+    names = list(dict.fromkeys(c["scenario"] for c in result.cells)) if scenarios is None else \
+        _names(scenarios, "scenarios")
     out = []
     for idea, a, b, paper in IDEAS:
         comps = [c for c in (compare(result, a, b, s) for s in names) if c is not None]
@@ -417,9 +478,11 @@ def digest(result: ArenaResult, n_runs: int) -> dict:
     squared errors, NEES, NIS (time averages) and divergence steps (:func:`per_run_values`; float64 bytes, NaN
     canonical), by scenario and algorithm: the same for a study of ``n_runs`` runs and of any larger one (the runs'
     streams are fixed and a run's numbers do not depend on its batch), so the smoke profile recomputes the committed
-    full study's digest exactly (``tests/tolerance/test_arena_results.py``)."""
+    full study's digest exactly on a machine of the same fingerprint (``machine``:
+    :func:`mmlib.experiment.machine.fingerprint`; ``tests/tolerance/test_arena_results.py``)."""
     import hashlib
     from mmlib.core.linalg import kernel
+    _check_result(result)
     if isinstance(n_runs, bool) or not isinstance(n_runs, (int, np.integer)) or not 1 <= n_runs <= result.n_runs:
         raise ValueError(f"n_runs: expected an integer from 1 to the study's {result.n_runs} runs, got {n_runs!r}")
     h = hashlib.sha256(b"mmlib-arena-digest-2")
@@ -432,7 +495,9 @@ def digest(result: ArenaResult, n_runs: int) -> dict:
             v = np.array([np.nan if x is None else x for x in values[:n_runs]], dtype=np.float64)
             h.update(f"\0{field}\0".encode())
             h.update(np.where(np.isnan(v), np.nan, v).tobytes())
-    return {"n_runs": int(n_runs), "sha256": h.hexdigest(), "cells": len(result.details), "kernel": kernel()}
+    from mmlib.experiment.machine import fingerprint
+    return {"n_runs": int(n_runs), "sha256": h.hexdigest(), "cells": len(result.details), "kernel": kernel(),
+            "machine": fingerprint()}
 
 
 def scenario_table(names: Iterable[str] = SCENARIOS, n_index_runs: int = 50, max_run_steps: int = 18_000) -> list:
@@ -469,6 +534,7 @@ PAPER_CLAIMS = (
 def paper_claims(result: ArenaResult) -> list:
     """Each paper's accuracy claims (:data:`PAPER_CLAIMS`) across the arena: per pair, the verdict of "A is more
     accurate than B" on every scenario where both algorithms apply (``compare(...)["claim"]``, the one rule)."""
+    _check_result(result)
     names = list(dict.fromkeys(c["scenario"] for c in result.cells))
     out = []
     for paper, claim, pairs in PAPER_CLAIMS:
@@ -490,6 +556,8 @@ def _scenario_list(names) -> str:
 
 def idea_summary(idea: dict) -> dict:
     """Counts of one idea's verdicts over the scenarios where it applies, and the scenarios of each verdict."""
+    if not isinstance(idea, Mapping) or any(k not in idea for k in ("idea", "paper", "a", "b", "comparisons")):
+        raise ValueError(f"idea: expected an item of ideas(...) (idea, paper, a, b, comparisons), got {idea!r}")
     groups: dict = {}
     for c in idea["comparisons"]:
         groups.setdefault(c["verdict"], []).append(c["scenario"])
@@ -501,6 +569,12 @@ def findings(result: ArenaResult, scenario_rows: list) -> list:
     """The arena's findings as Markdown bullets, every number from ``result`` and ``scenario_rows``
     (:func:`scenario_table`): which idea helps where, which algorithms are consistent, which diverge, and where the
     rules separate along the ladder."""
+    _check_result(result)
+    if isinstance(scenario_rows, (str, bytes, Mapping)) or not hasattr(scenario_rows, "__iter__") or not all(
+            isinstance(r, Mapping) and all(k in r for k in ("scenario", "nonlinearity_index", "properties"))
+            for r in scenario_rows):
+        raise ValueError("scenario_rows: expected the rows of scenario_table() (scenario, nonlinearity_index, "
+                         "properties)")
     out = []
     index = {r["scenario"]: r["nonlinearity_index"]["median"] for r in scenario_rows}
     for idea in ideas(result):

@@ -1,7 +1,7 @@
 """The experiment layer (paper-agnostic): Monte Carlo streams (``montecarlo``), truth simulation (``simulate``),
 scenarios as data (``scenario``), metrics with standard errors (``metrics``), Monte Carlo evaluation on common random
 numbers (``evaluation``), reading spaces (``readings``), the grid runner with its cache (``grid``) and executors
-(``executors``), multiverse summaries (``multiverse``), the one verdict rule and the results contract (``report``)
+(``executors``), multiverse summaries (``multiverse``), run digests and machine fingerprints (``digests``, ``machine``), the one verdict rule and the results contract (``report``)
 and their tables and figures (``views``).
 
 It depends only on the estimation core (``mmlib.core``); the paper set-ups (``mmlib.papers``) and the arena

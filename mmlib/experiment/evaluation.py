@@ -13,8 +13,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mmlib.experiment import metrics
-from mmlib.core._validate import (as_float_array, check_bool, check_finite, check_finite_runs, check_index,
-                                  check_positive_int)
+from mmlib.core._validate import (as_float_array, check_bool, check_finite, check_finite_runs, check_has,
+                                  check_index, check_positive_int)
 from mmlib.core.estimation import run, select_runs, summarise_divergence
 from mmlib.experiment.montecarlo import MonteCarlo, Progress
 from mmlib.core.protocols import MeasurementModel
@@ -106,9 +106,15 @@ def simulator(mc: MonteCarlo, schedule: ManeuverSchedule, measurement: Measureme
     What a scenario's estimators see, before any of them is initialised (:func:`make_batches` adds that)."""
     if not isinstance(mc, MonteCarlo):
         raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
+    if not isinstance(schedule, ManeuverSchedule):
+        raise ValueError(f"schedule: expected a ManeuverSchedule, got {type(schedule).__name__}")
+    check_has(measurement, "measurement", "a measurement model", ("h", "dim", "noise_factor"))
     x0 = check_finite(as_float_array(x0, "x0"), "x0")
     if x0.ndim != 1 or x0.size == 0:
         raise ValueError(f"x0: expected a state vector of shape (n,), got shape {x0.shape}")
+    if x0.size != schedule.models[0].dim:
+        raise ValueError(f"x0: expected a state vector of the schedule's dimension {schedule.models[0].dim}, got "
+                         f"shape {x0.shape}")
     _check_callable(fault, "fault", "None or a function runs -> SensorFault", optional=True)
     _check_callable(start, "start", "None or a function runs -> (B, n) start means", optional=True)
     if not isinstance(process_noise, (bool, np.bool_)):
@@ -129,6 +135,7 @@ def with_initial_states(simulate_runs: Callable, estimators: dict, init_state: C
     """``runs -> (truth, measurements, {name: initial state})`` from a :func:`simulator`-like
     ``simulate_runs(runs) -> (truth, measurements, start means)``: each estimator initialised by
     ``init_state(estimator, start, runs)``."""
+    _check_callable(simulate_runs, "simulate_runs", "a function runs -> (truth, measurements, start means)")
     _check_mapping(estimators, "estimators", "estimators by name", nonempty=False)   # none: truth only
     _check_callable(init_state, "init_state", "a function (estimator, start, runs) -> state")
 
@@ -188,6 +195,14 @@ def evaluate_with_cost(estimators: dict, make_batch: Callable, mc: MonteCarlo, *
     _check_callable(make_batch, "make_batch", "a function runs -> (truth, measurements, init)")
     check_bool(progress, "progress")
     check_bool(consistency, "consistency")
+    if not isinstance(label, str):
+        raise ValueError(f"label: expected a string, got {label!r}")
+    if measurement_models is not None:
+        if isinstance(measurement_models, (str, bytes, Mapping)) or not hasattr(measurement_models, "__len__"):
+            raise ValueError(f"measurement_models: expected None or a sequence of measurement models, one per step, "
+                             f"got {measurement_models!r}")
+        for k, model in enumerate(measurement_models):
+            check_has(model, f"measurement_models[{k}]", "a measurement model", ("h", "dim", "R"))
     if not isinstance(mc, MonteCarlo):
         raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
     chunks = mc.chunks(chunk_size)
@@ -346,10 +361,6 @@ def first_runs(rs: RunSet, n: int) -> RunSet:
                   cut(rs.divergence_cause), cut(rs.nees), cut(rs.nis), rs.nis_dof)
 
 
-#: Tag hashed first by :func:`run_digest`; change it whenever what is hashed changes.
-DIGEST_VERSION = "mmlib-run-digest-2"
-
-
 def _checked_batch(batch, runs, estimators, per_step: bool):
     """``make_batch``'s return value, checked: ``(truth (B, K+1, n), measurements, {name: initial state})``
     with B = len(runs), K steps of measurements ((B, K, m), or a sequence of K arrays (B, m_k) when
@@ -402,48 +413,3 @@ def _flat_runsets(results, name: str, prefix: str = "") -> dict:
         else:
             raise ValueError(f"{name}: entry {full!r} is a {type(value).__name__}, expected a RunSet or a dict")
     return out
-
-
-def run_digest(results: Mapping[str, RunSet | Mapping], n_runs: int) -> dict:
-    r"""Fingerprint of the per-run numbers of the first ``n_runs`` runs of an evaluation, for proving that
-    committed results come from the committed code (``tests/tolerance/test_results.py``).
-
-    ``results``: ``{name: RunSet}`` as :func:`evaluate` returns, or a dict of such dicts (e.g. per case;
-    names flattened to ``"case / name"``); ``n_runs``: integer from 1 to the runs of every RunSet.
-    Per run the streams are fixed (:mod:`mmlib.experiment.montecarlo`) and the filters give a run the same bits in
-    any batch, one run included (tests/test_batch_independence.py), so the digest of the first n runs is the same for an evaluation of
-    n runs and of any N > n runs, whatever the chunking.
-
-    ``sha256`` is the SHA-256 of, for each name in sorted order: the name, then for ``errors`` (N, K, n),
-    ``diverged_step`` (N,), ``divergence_cause`` (N,), ``mode_probabilities`` (N, K, r) and ``diagnostics``
-    (N, K, d) (the last three when present) restricted to the first n runs, the field name, the shape and the float64 bytes
-    (C order, every NaN written as the one canonical NaN: NaN sign and payload bits are not results).
-    Beside it, for a readable mismatch message, per name: ``mean_squared_error`` (mean over the valid
-    runs among the first n, the K steps and the n components of the squared error, in the squared unit
-    of the state; None if no run is valid) and ``diverged`` (runs among the first n that diverged); ``kernel``:
-    the implementation that computed them (:func:`mmlib.core.linalg.kernel`: the compiled and numpy paths agree to
-    round-off, not bit for bit, so digests compare only within one kernel)."""
-    flat = _flat_runsets(results, "results")
-    n_runs = check_positive_int(n_runs, "n_runs")
-    h = hashlib.sha256(DIGEST_VERSION.encode())
-    mse, diverged = {}, {}
-    for name in sorted(flat):
-        rs = flat[name]
-        if rs.errors.shape[0] < n_runs:
-            raise ValueError(f"n_runs: {n_runs} runs asked, but {name!r} has only {rs.errors.shape[0]}")
-        h.update(b"\0name\0" + name.encode())
-        for field in ("errors", "diverged_step", "divergence_cause", "mode_probabilities", "diagnostics"):
-            value = getattr(rs, field)
-            if value is None:
-                continue
-            arr = np.ascontiguousarray(np.asarray(value)[:n_runs], dtype=np.float64)
-            arr = np.where(np.isnan(arr), np.nan, arr)
-            h.update(f"\0{field}{arr.shape}\0".encode())
-            h.update(arr.tobytes())
-        ok = rs.valid[:n_runs]
-        diverged[name] = int((~ok).sum())
-        m = float(np.mean(rs.errors[:n_runs][ok] ** 2)) if ok.any() else None
-        mse[name] = m if m is not None and np.isfinite(m) else None
-    from mmlib.core.linalg import kernel
-    return {"version": DIGEST_VERSION, "n_runs": n_runs, "algorithms": sorted(flat), "sha256": h.hexdigest(),
-            "mean_squared_error": mse, "diverged": diverged, "kernel": kernel()}

@@ -21,7 +21,7 @@ from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.core.rules import CentralDifference, Cubature, Unscented
 from mmlib.experiment.simulate import ManeuverSchedule
-from mmlib.experiment import evaluation
+from mmlib.experiment import digests, evaluation
 from mmlib.core.protocols import MeasurementModel, MomentFilter
 from mmlib.experiment.multiverse import Multiverse, PublishedNumber, universe_result
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
@@ -676,3 +676,8 @@ def bootstrapping_helps(mv: Multiverse) -> list:
     return out
 
 
+def headline_digest(n_runs: int) -> dict:
+    """The run digest (:func:`mmlib.experiment.digests.run_digest`) of the headline universe's first
+    ``n_runs`` runs (the five IMMs) on the paper's root seed: what the notebook stores as ``digest`` in
+    ``data/results/hu2017.json``, recomputed without the notebook (tests/tolerance/test_digest.py)."""
+    return digests.run_digest(evaluate_reading(SPACE.headline, MonteCarlo(ROOT_SEED, n_runs)).runs, n_runs)

@@ -29,7 +29,7 @@ from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.core.rules import Cubature, SphericalSimplexRadial, Unscented
 from mmlib.experiment.simulate import ManeuverSchedule
 from mmlib.core.layers.strong_tracking import StrongTracking
-from mmlib.experiment import evaluation
+from mmlib.experiment import digests, evaluation
 from mmlib.core.protocols import MeasurementModel, MomentFilter
 from mmlib.experiment.multiverse import Multiverse, PublishedNumber, universe_result
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
@@ -850,3 +850,10 @@ def findings(mv: Multiverse) -> str:
                + "; ".join(f"{c['claim']} — *{report.claim_category(c['headline_verdict'])}*" for c in robust)
                + ". Reading-dependent: " + ("; ".join(f"{c['claim']} ({counts(c)})" for c in fragile) or "none") + ".")
     return "\n\n".join(out)
+
+
+def headline_digest(n_runs: int) -> dict:
+    """The run digest (:func:`mmlib.experiment.digests.run_digest`) of the headline universe's first
+    ``n_runs`` runs (Example 1 and both cases of Example 2) on the paper's root seed: what the notebook stores as ``digest`` in
+    ``data/results/liu2017.json``, recomputed without the notebook (tests/tolerance/test_digest.py)."""
+    return digests.run_digest(evaluate_reading(SPACE.headline, MonteCarlo(ROOT_SEED, n_runs)).runs, n_runs)

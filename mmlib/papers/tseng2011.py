@@ -33,7 +33,7 @@ from mmlib.core.fuzzy import TakagiSugeno, ramp_sets
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.core.rules import Unscented
 from mmlib.experiment.simulate import ManeuverSchedule, propagate
-from mmlib.experiment import evaluation
+from mmlib.experiment import digests, evaluation
 from mmlib.core.protocols import MeasurementModel, MomentFilter
 from mmlib.experiment.metrics import MCValue
 from mmlib.experiment.multiverse import PublishedNumber, universe_result
@@ -227,7 +227,7 @@ def motion_schedule(setup: Setup) -> ManeuverSchedule:
     cv = models.constant_velocity(T, 0.0)
     turns = [models.coordinated_turn(T, math.radians(deg) / (t1 - t0), 0.0) for t0, t1, deg in setup.turns]
     return ManeuverSchedule([cv] + turns, [(t0, t1, i + 1) for i, (t0, t1, _) in enumerate(setup.turns)], 0, T,
-                            setup.n_steps)
+                            setup.n_steps, truncate=True)     # a shortened set-up runs a prefix
 
 
 def trajectory(setup: Setup) -> np.ndarray:
@@ -852,3 +852,10 @@ def ekf_claim(results: dict) -> tuple:
 def universe(reading: dict, n_runs: int, seed: int) -> dict:
     """The multiverse job: one reading's universe on the paper's root seed and per-run streams."""
     return summarise(evaluate_reading(reading, MonteCarlo(seed, n_runs)), n_runs)
+
+
+def headline_digest(n_runs: int) -> dict:
+    """The run digest (:func:`mmlib.experiment.digests.run_digest`) of the headline universe's first
+    ``n_runs`` runs (the three filters and the EKF) on the paper's root seed: what the notebook stores as ``digest`` in
+    ``data/results/tseng2011.json``, recomputed without the notebook (tests/tolerance/test_digest.py)."""
+    return digests.run_digest(evaluate_reading(SPACE.headline, MonteCarlo(ROOT_SEED, n_runs), names=ALGORITHMS + ("EKF",)), n_runs)

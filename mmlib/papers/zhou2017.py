@@ -37,7 +37,7 @@ from mmlib.core.protocols import MeasurementModel, MomentFilter
 from mmlib.experiment.montecarlo import MonteCarlo, Stream, say_progress
 from mmlib.core.rules import Cubature, Unscented
 from mmlib.experiment.simulate import ManeuverSchedule
-from mmlib.experiment import evaluation
+from mmlib.experiment import digests, evaluation
 from mmlib.experiment.multiverse import PublishedNumber, universe_result
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 from mmlib.experiment.scenario import Scenario
@@ -311,7 +311,7 @@ def build(setup: Setup) -> tuple:
     truth_modes, modes = modes_for(1.0), modes_for(setup.filter_q_scale)
     radar = models.range_bearing(np.diag(setup.R_diag))
     schedule = ManeuverSchedule(truth_modes, [(a, b, i + 1) for i, (a, b, _) in enumerate(setup.turns)], 0, T,
-                                setup.n_steps)
+                                setup.n_steps, truncate=True)     # a shortened set-up runs a prefix
     Tm = np.array(setup.transition)
     ukf = SigmaPointFilter(Unscented(*setup.ukf), name="UKF")
     naukf = naukf_filter(ukf, setup)
@@ -795,3 +795,10 @@ def gps_analogue_table(mc: MonteCarlo) -> tuple[list, dict]:
             rows.append(cells)
             diverged[f"{alg} [{label}]"] = {"diverged": int((~ok).sum())}
     return rows, diverged
+
+
+def headline_digest(n_runs: int) -> dict:
+    """The run digest (:func:`mmlib.experiment.digests.run_digest`) of the headline universe's first
+    ``n_runs`` runs (both cases) on the paper's root seed: what the notebook stores as ``digest`` in
+    ``data/results/zhou2017.json``, recomputed without the notebook (tests/tolerance/test_digest.py)."""
+    return digests.run_digest(evaluate_reading(SPACE.headline, MonteCarlo(ROOT_SEED, n_runs)), n_runs)

@@ -34,7 +34,7 @@ from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.core.rules import Cubature, FifthDegreeCubature, Unscented
 from mmlib.experiment.simulate import ManeuverSchedule
-from mmlib.experiment import evaluation
+from mmlib.experiment import digests, evaluation
 from mmlib.core.protocols import MeasurementModel
 from mmlib.experiment.multiverse import Multiverse, PublishedNumber, universe_result
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
@@ -258,7 +258,7 @@ def build(setup: Setup) -> tuple:
     modes = [cv, right, left] if setup.mode_order == "right-left" else [cv, left, right]
     meas = models.position_measurement(list(setup.r))
     schedule = ManeuverSchedule(modes, [(*setup.right_turn, i_right), (*setup.left_turn, i_left)], 0,
-                                setup.T, setup.n_steps)
+                                setup.T, setup.n_steps, truncate=True)     # a shortened set-up runs a prefix
     T = np.array(setup.transition)
     single = {"CV": cv, "CT-right": right, "CT-left": left}[setup.single_model]
     estimators = {
@@ -583,3 +583,10 @@ def judge_timing(per_run: dict, batched: dict, claims: report.Claims) -> tuple:
                f"CPU-time ratio, one run at a time, {float(r5.value):.3f} ± {float(r5.stderr):.3f} over {repeats} "
                f"repeated timings (paper {float(TABLE1['IMM5CKF'][4]) / ref_paper:.2f})")
     return rows, table
+
+
+def headline_digest(n_runs: int) -> dict:
+    """The run digest (:func:`mmlib.experiment.digests.run_digest`) of the headline universe's first
+    ``n_runs`` runs (the six estimators of the headline) on the paper's root seed: what the notebook stores as ``digest`` in
+    ``data/results/zhu2016.json``, recomputed without the notebook (tests/tolerance/test_digest.py)."""
+    return digests.run_digest(evaluate_reading(SPACE.headline, MonteCarlo(ROOT_SEED, n_runs)), n_runs)

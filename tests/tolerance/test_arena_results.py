@@ -15,7 +15,9 @@ import math
 import pytest
 
 from mmlib.arena import recipes, study
-from test_results import RTOL_KERNELS, load
+from mmlib.experiment import digests, machine
+from mmlib.experiment.digests import RTOL_KERNEL
+from test_results import load
 
 FULL_RUNS = 1000
 
@@ -48,6 +50,12 @@ def test_arena_digest_matches_committed(docs):
     if s["kernel"] != f["kernel"]:
         pytest.skip(f"kernel {s['kernel']} here, {f['kernel']} for the committed results: digests compare within one "
                     f"kernel (the values are compared to Monte Carlo error below)")
+    differ = machine.differences(s["machine"], f.get("machine", {}))
+    if differ:
+        # bits are equal only on one machine fingerprint (mmlib.experiment.digests); across machines the cells are
+        # compared to Monte Carlo error plus round-off (test_arena_smoke_within_monte_carlo_error_of_full) and the
+        # papers' own headline digests to the derived round-off bound (tests/tolerance/test_digest.py)
+        pytest.skip("the committed arena comes from another machine (" + "; ".join(differ) + "): compared by value")
     assert s["sha256"] == f["sha256"], ("the committed arena results do not come from this code: regenerate them "
                                         "with 'make figures PAPER=arena'")
 
@@ -55,7 +63,10 @@ def test_arena_digest_matches_committed(docs):
 def test_arena_scenarios_and_their_index_are_the_same(docs):
     """The nonlinearity index is computed from the same first runs in either profile: equal exactly."""
     smoke, full = docs
-    assert smoke["scenarios"] == full["scenarios"]
+    other = machine.differences(smoke["digest"]["machine"], full["digest"].get("machine", {}))
+    # bit for bit on one machine fingerprint; to round-off (mmlib.experiment.digests.same_numbers) across machines
+    assert digests.same_numbers({"scenarios": smoke["scenarios"], **({"machine": other} if other else {})},
+                                {"scenarios": full["scenarios"]})
 
 
 def test_arena_applicability_is_the_same(docs):
@@ -79,7 +90,7 @@ def test_arena_smoke_within_monte_carlo_error_of_full(docs):
             if b["stderr"] is None or b["n_runs"] <= a["n_runs"]:
                 continue
             sigma = b["stderr"] * math.sqrt(b["n_runs"] / a["n_runs"] - 1.0)
-            tol = 4 * sigma + RTOL_KERNELS * abs(b["value"])
+            tol = 4 * sigma + RTOL_KERNEL * abs(b["value"])
             compared += 1
             if abs(a["value"] - b["value"]) > tol:
                 bad.append(f"{c['scenario']} {c['algorithm']} {q}: smoke {a['value']:.6g} ± {a['stderr']:.2g}, "
