@@ -9,7 +9,7 @@ import pytest
 
 import experiment_jobs as toy
 from mmlib.experiment import report
-from mmlib.experiment import Factor, Option, ReadingSpace, grid, run_grid, run_multiverse
+from mmlib.experiment import Factor, Option, ReadingSpace, grid, machine, run_grid, run_multiverse
 from mmlib.experiment.multiverse import from_dict
 
 
@@ -113,6 +113,11 @@ def test_changes_merge_and_conflict():
 
 
 # -- grid runner and cache -------------------------------------------------------------------------------------
+def _counting(calls):
+    """A stand-in for grid._run_job that records its calls and runs the toy universe here."""
+    return lambda *a: calls.append(a) or {"result": toy.toy_universe(*a[1:]), "machine": machine.fingerprint()}
+
+
 def _grid(tmp_path, **kw):
     opts = dict(paper="toy", algorithms=["alg"], n_runs=50, seed=7, cache_dir=tmp_path, progress=False)
     opts.update(kw)
@@ -133,7 +138,7 @@ def test_cache_returns_identical_numbers_without_recomputing(tmp_path, monkeypat
     files = sorted((tmp_path / "toy").glob("*.json"))
     assert len(files) == toy.SPACE.size
     calls = []
-    monkeypatch.setattr(grid, "_run_job", lambda *a: calls.append(a) or toy.toy_universe(*a[1:]))
+    monkeypatch.setattr(grid, "_run_job", _counting(calls))
     again = _grid(tmp_path, workers=1)
     assert again == first and calls == []
 
@@ -143,7 +148,7 @@ def test_cache_returns_identical_numbers_without_recomputing(tmp_path, monkeypat
 def test_cache_recomputes_when_a_key_part_changes(tmp_path, monkeypatch, change):
     _grid(tmp_path, workers=1)
     calls = []
-    monkeypatch.setattr(grid, "_run_job", lambda *a: calls.append(a) or toy.toy_universe(*a[1:]))
+    monkeypatch.setattr(grid, "_run_job", _counting(calls))
     _grid(tmp_path, workers=1, **change)
     assert len(calls) == toy.SPACE.size
 
@@ -358,9 +363,11 @@ def test_a_cache_entry_for_another_key_or_not_a_result_is_recomputed(tmp_path, m
     files[1].write_text(json.dumps(entry))
     files[2].write_text("{truncated")
     calls = []
-    monkeypatch.setattr(grid, "_run_job", lambda *a: calls.append(a) or toy.toy_universe(*a[1:]))
-    again = _grid(tmp_path, workers=1)
+    monkeypatch.setattr(grid, "_run_job", _counting(calls))
+    with pytest.warns(grid.CacheWarning) as caught:
+        again = _grid(tmp_path, workers=1)
     assert len(calls) == 3 and again == first
+    assert sorted(str(w.message).split()[2] for w in caught) == sorted(str(p) for p in files[:3])
 
 
 def test_workers_from_the_environment(monkeypatch):

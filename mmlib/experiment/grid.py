@@ -10,9 +10,21 @@ Jobs run where :mod:`mmlib.experiment.executors` puts them: this process's pool 
 spawned worker processes (one per local core by default, ``$WORKERS`` to choose, BLAS
 threads held to one per worker), the Dask cluster of ``$MMLIB_SCHEDULER``, or any
 ``concurrent.futures.Executor`` passed in.  Results are cached on disk as JSON under a key of (paper, job,
-reading, algorithms, runs, seed, the hash of mmlib's source): re-running after an edit
-that leaves ``mmlib/`` alone (a notebook's prose, say) recomputes nothing, and any edit
-of the library recomputes everything.
+the job's own code, reading, algorithms, runs, seed, the hash of mmlib's source, the machine fingerprint):
+re-running after an edit that leaves ``mmlib/`` and the job alone (a notebook's prose, say) recomputes
+nothing; any edit of the library, or of a job defined outside it (a script's or a notebook's function, a
+lambda, and the functions and values it uses outside mmlib: :func:`job_code`), recomputes what it
+touches; a cache filled on a machine of another fingerprint (:mod:`mmlib.experiment.machine`: CPU, OpenBLAS
+core, numpy SIMD level, kernel) is not served, since its numbers agree with this machine's only to round-off.
+
+Each entry carries the SHA-256 of its result.  An entry that cannot be read (not UTF-8, not JSON, another
+key, a missing field, a checksum that does not match: an edited number) is recomputed and overwritten, with
+one :class:`CacheWarning` naming the file.  A cache folder that cannot be written (read-only, or not
+creatable) gives one warning per study, which then runs uncached: every result is still returned.
+
+A result computed on a machine whose fingerprint differs from this process's (a Dask worker of another CPU)
+carries that fingerprint under ``"machine"``, so that a bit-for-bit comparison with a result of this process
+can fall back to round-off (:func:`mmlib.experiment.digests.same_numbers`).
 """
 from __future__ import annotations
 
@@ -21,11 +33,19 @@ import functools
 import hashlib
 import json
 import os
+import re
+import sys
+import sysconfig
 import time
+import types
+import warnings
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
-from mmlib.core._validate import check_positive_int
+import numpy as np
+
+from mmlib.core._validate import check_bool, check_positive_int
+from mmlib.experiment.machine import fingerprint, fingerprint_id
 # default_workers lived here: kept importable from this module
 from mmlib.experiment.montecarlo import say_progress
 from mmlib.experiment.executors import default_workers, run_tasks, worker_count  # noqa: F401
@@ -65,11 +85,188 @@ def job_name(job: Callable) -> str:
     return f"{getattr(job, '__module__', '?')}.{getattr(job, '__qualname__', repr(job))}"
 
 
+class CacheWarning(UserWarning):
+    """A cache entry was unreadable or inconsistent (and is recomputed), or the cache folder cannot be written
+    (the study runs uncached)."""
+
+
+#: a paper name: a cache sub-folder, so letters, digits, ``_``, ``.`` and ``-`` only, not starting with a dot
+PAPER_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
+
+
+def check_paper(paper: str, name: str = "paper") -> str:
+    """``paper`` if it is a valid paper name (:data:`PAPER_NAME`: no path separator, no ``..``), else ValueError."""
+    if not isinstance(paper, str) or not PAPER_NAME.fullmatch(paper):
+        raise ValueError(f"{name}: expected a paper name of letters, digits, '_', '.' and '-' (no path separator, "
+                         f"not starting with '.'), got {paper!r}")
+    return paper
+
+
+@functools.lru_cache(maxsize=1)
+def _library_roots() -> tuple:
+    paths = sysconfig.get_paths()
+    roots = {paths.get(k) for k in ("stdlib", "platstdlib", "purelib", "platlib")} | {sys.base_prefix, sys.prefix}
+    return tuple(str(Path(r).resolve()) for r in roots if r)
+
+
+def _is_mmlib(module: str) -> bool:
+    return module == "mmlib" or module.startswith("mmlib.")
+
+
+def _is_library(module: str) -> bool:
+    """Whether ``module`` is installed code (the standard library or a site package), whose changes come
+    with its version, rather than a user's script or notebook."""
+    mod = sys.modules.get(module)
+    path = getattr(mod, "__file__", None)
+    if mod is None or module == "__main__":
+        return False
+    if path is None:                                    # builtin or namespace modules
+        return True
+    path = str(Path(path).resolve())
+    return any(path.startswith(root + os.sep) for root in _library_roots())
+
+
+def _feed_value(value, h, seen: set, depth: int) -> None:
+    """Hash a data value deterministically (sets in sorted order; arrays by dtype, shape and bytes)."""
+    if depth > 50:
+        h.update(b"<deep>")
+    elif isinstance(value, (types.FunctionType, types.MethodType, functools.partial, type)) or (
+            callable(value) and not isinstance(value, (np.ndarray, np.generic))
+            and hasattr(type(value), "__call__") and type(value).__module__ not in ("builtins",)
+            and not isinstance(value, types.ModuleType) and not _is_library(type(value).__module__)):
+        _feed_callable(value, h, seen, depth + 1)
+    elif isinstance(value, types.ModuleType):
+        h.update(f"<module {value.__name__}>".encode())
+    elif value is None or isinstance(value, (bool, int, float, complex, str, bytes)):
+        h.update(f"{type(value).__name__}:{value!r}".encode())
+    elif isinstance(value, (np.ndarray, np.generic)):
+        arr = np.asarray(value)
+        h.update(f"<array {arr.dtype.str} {arr.shape}>".encode())
+        h.update(np.ascontiguousarray(arr).tobytes() if arr.dtype != object else repr(arr.tolist()).encode())
+    elif isinstance(value, (list, tuple)):
+        h.update(f"<{type(value).__name__} {len(value)}>".encode())
+        for v in value:
+            _feed_value(v, h, seen, depth + 1)
+    elif isinstance(value, (set, frozenset)):
+        h.update(f"<set {sorted(repr(v) for v in value)}>".encode())
+    elif isinstance(value, Mapping):
+        h.update(f"<{type(value).__name__} {len(value)}>".encode())
+        for k, v in value.items():
+            _feed_value(k, h, seen, depth + 1)
+            _feed_value(v, h, seen, depth + 1)
+    else:
+        import cloudpickle
+        try:
+            h.update(cloudpickle.dumps(value))
+        except Exception:                               # noqa: BLE001 -- an unpicklable value keys by its repr
+            h.update(repr(value).encode())
+
+
+def _feed_code(code: types.CodeType, h) -> None:
+    """Hash a code object without its file name and line numbers (a notebook's cells get a new file per kernel)."""
+    h.update(code.co_code)
+    h.update(repr((code.co_names, code.co_varnames, code.co_freevars, code.co_cellvars, code.co_argcount,
+                   code.co_kwonlyargcount, code.co_posonlyargcount, code.co_flags)).encode())
+    for const in code.co_consts:
+        if isinstance(const, types.CodeType):
+            _feed_code(const, h)
+        elif isinstance(const, frozenset):
+            h.update(f"<frozenset {sorted(repr(v) for v in const)}>".encode())
+        else:
+            h.update(f"{type(const).__name__}:{const!r}".encode())
+
+
+def _global_names(code: types.CodeType) -> set:
+    names = set(code.co_names)
+    for const in code.co_consts:
+        if isinstance(const, types.CodeType):
+            names |= _global_names(const)
+    return names
+
+
+def _feed_callable(fn, h, seen: set, depth: int) -> None:
+    """Hash a callable's own code, recursively through what it uses outside mmlib and installed libraries."""
+    if id(fn) in seen:
+        h.update(b"<seen>")
+        return
+    seen.add(id(fn))
+    if isinstance(fn, functools.partial):
+        h.update(b"<partial>")
+        _feed_callable(fn.func, h, seen, depth + 1)
+        _feed_value(fn.args, h, seen, depth + 1)
+        _feed_value(dict(fn.keywords), h, seen, depth + 1)
+        return
+    if isinstance(fn, types.MethodType):
+        h.update(b"<method>")
+        _feed_callable(fn.__func__, h, seen, depth + 1)
+        _feed_value(fn.__self__, h, seen, depth + 1)
+        return
+    module = getattr(fn, "__module__", None) or ""
+    name = f"{module}.{getattr(fn, '__qualname__', type(fn).__qualname__)}"
+    if _is_mmlib(module) or _is_library(module):        # mmlib: in source_hash; libraries: with their version
+        h.update(f"<ref {name}>".encode())
+        return
+    h.update(f"<def {name}>".encode())
+    if isinstance(fn, type):                              # a user's class: its own attributes
+        for key, value in sorted(vars(fn).items()):
+            if not key.startswith("__") or key in ("__init__", "__call__", "__post_init__"):
+                h.update(key.encode())
+                _feed_value(value, h, seen, depth + 1)
+        return
+    if not isinstance(fn, types.FunctionType):            # a callable instance of a user's class
+        _feed_callable(type(fn), h, seen, depth + 1)
+        _feed_value(getattr(fn, "__dict__", {}), h, seen, depth + 1)
+        return
+    _feed_code(fn.__code__, h)
+    _feed_value(fn.__defaults__, h, seen, depth + 1)
+    _feed_value(fn.__kwdefaults__, h, seen, depth + 1)
+    for cell in fn.__closure__ or ():
+        try:
+            _feed_value(cell.cell_contents, h, seen, depth + 1)
+        except ValueError:                                # an empty cell
+            h.update(b"<empty cell>")
+    for gname in sorted(_global_names(fn.__code__)):
+        if gname in fn.__globals__:
+            h.update(f"<global {gname}>".encode())
+            _feed_value(fn.__globals__[gname], h, seen, depth + 1)
+
+
+def job_code(job: Callable) -> str:
+    """The SHA-256 prefix (16 hex digits) of a job's own code, for the cache key.
+
+    A function of mmlib is keyed by its name (its code is in :func:`source_hash`), a function of an installed
+    library by its name too (its code changes with its version).  Any other callable -- a script's function,
+    a notebook's ``__main__`` function, a lambda, a closure, a ``functools.partial``, a bound method, an
+    instance with ``__call__`` -- is keyed by its byte code (without file names and line numbers), its default
+    arguments, its closure's values, and recursively every global it names: the functions and classes it
+    calls outside mmlib and the values it reads (numbers, arrays, containers).  So an edit of such a job
+    between two :func:`run_grid` calls recomputes its universes."""
+    h = hashlib.sha256(b"mmlib-job-code-1")
+    _feed_callable(job, h, set(), 0)
+    return h.hexdigest()[:16]
+
+
 def key_document(*, paper: str, job: Callable, reading: Mapping, algorithms: Iterable[str], n_runs: int,
                  seed: int) -> dict:
-    """What a cached universe depends on; stored with the entry and checked when it is read."""
-    return {"paper": paper, "job": job_name(job), "reading": dict(sorted(reading.items())),
-            "algorithms": list(algorithms), "n_runs": int(n_runs), "seed": int(seed), "mmlib": source_hash()}
+    """What a cached universe depends on; stored with the entry and checked when it is read: the paper, the
+    job's name and code (:func:`job_code`), the reading, algorithms, runs and seed, mmlib's source
+    (:func:`source_hash`) and this machine's fingerprint (:func:`mmlib.experiment.machine.fingerprint_id`)."""
+    return {"paper": check_paper(paper), "job": job_name(job), "job_code": job_code(job),
+            "reading": dict(sorted(_plain_reading(reading, "reading").items())),
+            "algorithms": _check_algorithms(algorithms), "n_runs": check_positive_int(n_runs, "n_runs"),
+            "seed": check_positive_int(seed, "seed", minimum=0), "mmlib": source_hash(), "machine": fingerprint_id()}
+
+
+def _check_algorithms(algorithms) -> list:
+    """``algorithms`` as a list of distinct names, or ValueError naming it (a bare string is not a sequence)."""
+    if isinstance(algorithms, (str, bytes)) or not isinstance(algorithms, Iterable):
+        raise ValueError(f"algorithms: expected a sequence of algorithm names, got {algorithms!r}")
+    algorithms = list(algorithms)
+    if not all(isinstance(a, str) for a in algorithms):
+        raise ValueError(f"algorithms: expected algorithm names as strings, got {algorithms!r}")
+    if len(set(algorithms)) != len(algorithms):
+        raise ValueError(f"algorithms: names repeat in {algorithms!r}")
+    return algorithms
 
 
 def cache_key(**parts: Any) -> str:
@@ -81,19 +278,48 @@ def cache_key(**parts: Any) -> str:
 RESULT_KEYS = ("values", "claims", "effects", "diverged", "n_runs")
 
 
+def result_checksum(result: Mapping) -> str:
+    """SHA-256 of a result's canonical JSON (sorted keys): stored with every cache entry and checked on reading."""
+    return hashlib.sha256(json.dumps(result, sort_keys=True, allow_nan=False).encode()).hexdigest()
+
+
 def _read_entry(path: Path, key_doc: dict, result_keys=RESULT_KEYS):
-    """The cached result, or None when the entry is missing, unreadable, written for another key or
-    lacks a key of ``result_keys`` (it is then recomputed and overwritten)."""
+    """The cached result, or None when the entry is missing (silently) or unreadable, written for another key,
+    lacking a key of ``result_keys`` or failing its checksum (with a :class:`CacheWarning` naming the file); it
+    is then recomputed and overwritten.  A result computed on a machine of another fingerprint carries it as
+    ``"machine"``."""
     try:
-        entry = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError):
+        text = path.read_bytes()
+    except (FileNotFoundError, NotADirectoryError):      # no entry (or no cache folder) yet
         return None
+    except OSError as err:
+        return _stale(path, f"cannot be read ({err.strerror or err})")
+    try:
+        entry = json.loads(text.decode("utf-8"))
+    except UnicodeDecodeError as err:
+        return _stale(path, f"is not UTF-8 (byte {err.start})")
+    except json.JSONDecodeError as err:
+        return _stale(path, f"is not JSON (line {err.lineno}, column {err.colno}: {err.msg})")
     if not isinstance(entry, dict) or entry.get("key") != json.loads(json.dumps(key_doc)):
-        return None
+        return _stale(path, "was written for another key")
     res = entry.get("result")
     if not isinstance(res, dict) or any(k not in res for k in result_keys):
-        return None
+        return _stale(path, f"lacks a result with {tuple(result_keys)}")
+    try:
+        ok = entry.get("sha256") == result_checksum(res)
+    except ValueError:                                  # NaN in a hand-edited entry
+        ok = False
+    if not ok:
+        return _stale(path, "fails its checksum (its result was edited or damaged)")
+    machine = entry.get("machine")
+    if isinstance(machine, dict) and machine != fingerprint():
+        res["machine"] = machine
     return res
+
+
+def _stale(path: Path, why: str) -> None:
+    warnings.warn(f"cache entry {path} {why}: recomputing it", CacheWarning, stacklevel=3)
+    return None
 
 
 def _write_json_atomic(path: Path, doc) -> None:
@@ -102,7 +328,27 @@ def _write_json_atomic(path: Path, doc) -> None:
 
 
 def _run_job(job, reading, n_runs, seed):
-    return job(dict(reading), n_runs, seed)
+    """Run a job where the executor put it; its result with the fingerprint of the machine that computed it."""
+    return {"result": job(dict(reading), n_runs, seed), "machine": fingerprint()}
+
+
+def _plain_reading(reading, name: str) -> dict:
+    """A reading as a dict of JSON values (numpy scalars converted), or ValueError naming the entry."""
+    if not isinstance(reading, Mapping):
+        raise ValueError(f"{name}: expected a reading (a dict of factor: option), got {type(reading).__name__}")
+    out = {}
+    for k, v in reading.items():
+        if not isinstance(k, str):
+            raise ValueError(f"{name}: expected factor names as strings, got {k!r}")
+        if isinstance(v, np.generic):
+            v = v.item()
+        try:
+            json.dumps(v, allow_nan=False)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}[{k!r}]: expected a JSON value (string, number, bool, None, list, dict), got "
+                             f"{v!r}") from None
+        out[k] = v
+    return out
 
 
 def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str, algorithms: Iterable[str],
@@ -123,15 +369,28 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
     must have (default: a universe result of :func:`mmlib.experiment.multiverse.universe_result`); ``unit``: what a
     job is called in the progress lines ("universe", "cell").
     """
-    readings = [dict(r) for r in readings]
-    check_positive_int(n_runs, "n_runs")
-    check_positive_int(seed, "seed", minimum=0)
+    if isinstance(readings, (str, bytes, Mapping)) or not isinstance(readings, Iterable):
+        raise ValueError(f"readings: expected a sequence of readings (dicts), got {type(readings).__name__}")
+    readings = [_plain_reading(r, f"readings[{i}]") for i, r in enumerate(readings)]
+    check_paper(paper)
+    n_runs = check_positive_int(n_runs, "n_runs")
+    seed = check_positive_int(seed, "seed", minimum=0)
     if not callable(job):
         raise ValueError(f"job: expected a callable job(reading, n_runs, seed), got {job!r}")
     worker_count(workers)               # a bad workers or $WORKERS is an error even when all is cached
     if executor is not None and not callable(getattr(executor, "submit", None)):
         raise ValueError(f"executor: expected a concurrent.futures.Executor, got {type(executor).__name__}")
-    algorithms = list(algorithms)
+    algorithms = _check_algorithms(algorithms)
+    if isinstance(result_keys, (str, bytes)) or not result_keys or not all(isinstance(k, str) for k in result_keys):
+        raise ValueError(f"result_keys: expected a non-empty sequence of key names, got {result_keys!r}")
+    for value, name in ((label, "label"), (unit, "unit")):
+        if not isinstance(value, str):
+            raise ValueError(f"{name}: expected a string, got {value!r}")
+    if isinstance(cache_dir, bool) or (cache_dir is not None and not isinstance(cache_dir, (str, os.PathLike))):
+        raise ValueError(f"cache_dir: expected a folder path, got {cache_dir!r}")
+    use_cache = check_bool(use_cache, "use_cache")
+    if not (isinstance(progress, bool) or callable(progress)):
+        raise ValueError(f"progress: expected True, False or a callable receiving each line, got {progress!r}")
     cache = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     say = say_progress if progress is True else (progress or None)
     tag = label or paper
@@ -154,20 +413,36 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
     t0 = time.perf_counter()
     done = 0
 
-    def finished(k, res):
+    writable = [use_cache]
+
+    def finished(k, out):
         nonlocal done
         i = todo[k]
+        res, machine = out["result"], out["machine"]
         if not isinstance(res, dict):
             raise ValueError(f"job: {job_name(job)} returned {type(res).__name__}, expected a dict")
-        results[i] = json.loads(json.dumps(res, allow_nan=False))   # the same form as from the cache
+        try:
+            results[i] = json.loads(json.dumps(res, allow_nan=False))   # the same form as from the cache
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"job: {job_name(job)} returned a result that is not plain JSON for reading "
+                             f"{readings[i]!r} ({err}; NaN and infinity are not allowed: use None)") from None
         if any(key not in results[i] for key in result_keys):
             raise ValueError(f"job: {job_name(job)} returned a dict without {tuple(result_keys)}"
                              + (" (build it with multiverse.universe_result)" if result_keys == RESULT_KEYS else ""))
-        if use_cache:
-            _write_json_atomic(cache / paper / f"{keys[i]}.json", {"key": key_docs[i], "result": results[i]})
+        if writable[0]:
+            try:
+                _write_json_atomic(cache / paper / f"{keys[i]}.json",
+                                   {"key": key_docs[i], "result": results[i], "sha256": result_checksum(results[i]),
+                                    "machine": machine})
+            except OSError as err:
+                writable[0] = False
+                warnings.warn(f"cache folder {cache / paper} cannot be written ({err.strerror or err}): this study "
+                              "runs uncached (its results are returned but not kept)", CacheWarning, stacklevel=2)
+        if machine != fingerprint():
+            results[i]["machine"] = machine
         done += 1
         if say:
-            div = res.get("diverged") or {}
+            div = results[i].get("diverged") or {}
             ndiv = sum(div.values()) if isinstance(div, dict) else 0
             say(f"  [{tag}] {unit} {done}/{len(todo)} done ({time.perf_counter() - t0:.1f} s): "
                 f"{json.dumps(readings[i], sort_keys=False)}" + (f"; diverged runs {div}" if ndiv else ""))
