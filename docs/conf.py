@@ -61,8 +61,10 @@ mathjax2_config = {"tex2jax": {"inlineMath": [["\\(", "\\)"]], "displayMath": [[
 
 html_theme = "furo"
 html_title = f"mmlib {release}: five tracking papers, replicated"
-# docs/_static, and the folder holding the bundled MathJax that the builder stages (as mathjax/)
-html_static_path = ["_static", *filter(None, [os.environ.get("MMLIB_SITE_MATHJAX")])]
+# docs/_static, the results contract's JSON Schema (served as _static/results.schema.json: the file of the package,
+# never a copy that could drift) and the folder holding the bundled MathJax that the builder stages (as mathjax/)
+html_static_path = ["_static", str(REPO / "mmlib" / "experiment" / "results.schema.json"),
+                    *filter(None, [os.environ.get("MMLIB_SITE_MATHJAX")])]
 html_css_files = ["site.css"]
 html_favicon = "_static/favicon.svg"
 html_show_sourcelink = False

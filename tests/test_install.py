@@ -35,6 +35,7 @@ print(json.dumps({
     "file": mmlib.__file__,
     "prefix": sys.prefix,
     "py_typed": [str(f.locate()) for f in importlib.metadata.files("mmlib") if f.name == "py.typed"],
+    "schema_rows": __import__("mmlib.experiment.report", fromlist=["x"]).results_schema()["properties"]["rows"]["type"],
     "optional_found": {m: importlib.util.find_spec(m) is not None for m in %r},
     "optional_imported": sorted(m for m in %r if m in sys.modules),
 }))
@@ -82,6 +83,7 @@ def test_pip_install_core_only(tmp_path):
         f"optional packages installed by `pip install .`: {[m for m, v in info['optional_found'].items() if v]}"
     assert info["optional_imported"] == []
     assert len(info["py_typed"]) == 1 and Path(info["py_typed"][0]).is_file(), info["py_typed"]
+    assert info["schema_rows"] == "array", "the results contract's JSON Schema is not installed with the package"
     assert Path(info["py_typed"][0]).resolve().parent == Path(info["file"]).resolve().parent
 
     examples = [(line, code) for line, code, _ in BLOCKS if EXAMPLE_MARKER in code]

@@ -10,6 +10,9 @@ pages) and mmlib's docstrings.  The builder assembles the page sources in a work
 * ``papers/<notebook>.ipynb`` and ``arena.ipynb``: the executed notebooks, each code cell folded (its outputs and the
   narrative first), the papermill parameter cells removed;
 * ``reading-spaces.md``: every paper's reading-space section, rendered from its results like its report;
+* ``results-contract.md`` (from docs/): the results contract, showing and linking its JSON Schema,
+  mmlib/experiment/results.schema.json (staged as ``_includes/results.schema.json``; the site also serves it as
+  ``_static/results.schema.json``, see docs/conf.py);
 * ``api/<module>.md``: one page per public module of mmlib, from its docstrings (autodoc);
 * ``_includes/README.md``: the README, whose end-to-end example the getting-started page includes;
 
@@ -21,8 +24,10 @@ Why Sphinx with MyST-NB, not Jupyter Book 2: both are maintained tools of the Ju
 the furo theme are Python packages pinned in requirements.lock, build offline and render the stored outputs of
 .ipynb files directly; the same tool builds the API reference from the docstrings (autodoc).
 
-Bad input: a missing results folder or executed notebook is an error saying which command makes it; a page that fails
-to build is named with its notebook and cell (MyST-NB reports the cell as the line number divided by 10000).
+Bad input: a missing results folder or executed notebook is an error saying which command makes it; a results file
+that is not valid JSON or breaks the results contract is an error naming the file and the place
+(:func:`mmlib.experiment.report.read_results`); a page that fails to build is named with its notebook and cell (MyST-NB
+reports the cell as the line number divided by 10000).
 """
 from __future__ import annotations
 
@@ -66,7 +71,10 @@ def sources(profile: str) -> tuple[Path, Path, str]:
 def load_inputs(profile: str) -> tuple[list[dict], dict[str, Path]]:
     """The results documents (papers and arena) and ``{paper: executed notebook}``, for exactly the notebook sources
     of notebooks/*.py (``<paper>_<topic>.py``; the arena's is ``arena.py``): a stale results file or executed notebook
-    of no current source is never published.  A SiteError names what is missing and the command to run first."""
+    of no current source is never published.  A SiteError names what is missing and the command to run first, or the
+    results file that is not valid JSON or breaks the results contract, with the place
+    (:func:`mmlib.experiment.report.read_results`)."""
+    from mmlib.experiment.report import read_results
     root, executed, command = sources(profile)
     results = root / "data" / "results"
     then = f"then `make site{'' if profile == 'full' else ' PROFILE=' + profile}`"
@@ -86,7 +94,10 @@ def load_inputs(profile: str) -> tuple[list[dict], dict[str, Path]]:
                 raise MissingOutputs(f"{paper}: no {path.relative_to(REPO)} (from notebooks/{src.name}): run `{command}` "
                                 f"first, {then}")
         notebooks[paper] = nb
-        docs.append(json.loads(doc.read_text()))
+        try:
+            docs.append(read_results(doc, name=str(doc.relative_to(REPO))))
+        except ValueError as exc:
+            raise SiteError(str(exc)) from None
     return sorted(docs, key=lambda d: d["paper"]), notebooks
 
 
@@ -129,7 +140,8 @@ def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
         "```{toctree}", ":maxdepth: 1", ":caption: Papers", "",
         *[f"papers/{notebooks[d['paper']].stem}" for d in sorted(papers, key=lambda d: d["paper"])], "```", "",
         "```{toctree}", ":maxdepth: 1", ":caption: Across the papers", "", "reading-spaces", "arena", "```", "",
-        "```{toctree}", ":maxdepth: 1", ":caption: The library", "", "getting-started", "api/index", "```", "",
+        "```{toctree}", ":maxdepth: 1", ":caption: The library", "", "getting-started", "api/index", "results-contract",
+        "```", "",
         summary])
 
 
@@ -186,6 +198,8 @@ def assemble(stage: Path, docs: list[dict], notebooks: dict[str, Path]) -> None:
         shutil.copy2(page, stage / page.name)
     (stage / "_includes").mkdir()
     shutil.copy2(REPO / "README.md", stage / "_includes" / "README.md")     # the getting-started example
+    # the results contract's JSON Schema, shown by results-contract.md
+    shutil.copy2(REPO / "mmlib" / "experiment" / "results.schema.json", stage / "_includes" / "results.schema.json")
     (stage / "index.md").write_text(index_page(docs, notebooks))
     (stage / "reading-spaces.md").write_text(reading_spaces_page(docs, notebooks))
     for paper, nb in notebooks.items():

@@ -5,11 +5,12 @@ the cross-paper summary.
 
 The notebook runner (tools/run_notebooks.py) calls :func:`paper_reports` to render a paper's reports into its
 staging folder, so that they are promoted together with the paper's results; run this script by hand only to
-re-render every report from the results already in place."""
+re-render every report from the results already in place.  Every results file is read with
+``mmlib.experiment.report.read_results``: one that is not valid JSON or breaks the results contract is an error naming
+the file and the place (exit status 2)."""
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 from pathlib import Path
@@ -17,7 +18,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from mmlib.experiment.report import atomic_write_text  # noqa: E402
+from mmlib.experiment.report import atomic_write_text, read_results  # noqa: E402
 from mmlib.experiment import views  # noqa: E402
 from mmlib.experiment.views import markdown_table, value_pm  # noqa: E402
 
@@ -157,9 +158,15 @@ def render_index(docs, link=None, title: str = "# All papers: what holds") -> st
     return "\n".join(lines) + "\n"
 
 
+def shown(path: Path) -> str:
+    """``path`` relative to the repository when inside it (as messages name files), else as it is."""
+    return str(path.relative_to(REPO)) if path.is_relative_to(REPO) else str(path)
+
+
 def load_results(root: Path, skip: str | None = None) -> list[dict]:
-    """Every results document under ``root/data/results`` (sorted by file name), except paper ``skip``."""
-    docs = [json.loads(path.read_text()) for path in sorted((root / "data" / "results").glob("*.json"))]
+    """Every results document under ``root/data/results`` (sorted by file name), except paper ``skip``, each read
+    and checked by :func:`mmlib.experiment.report.read_results` (ValueError naming the file and the place)."""
+    docs = [read_results(path, name=shown(path)) for path in sorted((root / "data" / "results").glob("*.json"))]
     return [d for d in docs if d["paper"] != skip]
 
 
@@ -178,7 +185,11 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     root = Path(args.root).resolve()
     out_dir = root / "reports"
-    docs = load_results(root)
+    try:
+        docs = load_results(root)
+    except ValueError as exc:
+        print(f"make_report.py: error: {exc}", file=sys.stderr)
+        return 2
     for doc in docs:
         target = out_dir / f"{doc['paper']}.md"
         atomic_write_text(target, render(doc, root, out_dir))

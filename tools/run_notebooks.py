@@ -24,7 +24,9 @@ finishing such a promotion (``--recover`` does only that) and removing leftover 
 so what is on disk is entirely the old or entirely the new outputs of each paper.
 
 A failed notebook is named with its cell (exit status 1); nothing of it is promoted, and its partial executed
-notebook is kept for inspection under <build folder>/failed/.
+notebook is kept for inspection under <build folder>/failed/.  So is a notebook whose results file breaks the results
+contract (mmlib/experiment/results.schema.json, checked by ``mmlib.experiment.report.read_results``): the file and the
+JSON path of the first violation are named.
 
 Execution settings change where the work runs, never a result, so they never send the outputs to build/custom/:
 ``--workers N`` (default ``$WORKERS``, else every core; ``-p WORKERS=N`` is the same setting) and ``--scheduler
@@ -491,6 +493,16 @@ class ProgressTail:
         self._copy()
 
 
+def staged_results(staging: Path, paper: str) -> dict:
+    """The results document a notebook staged, read and checked against the results contract
+    (:func:`mmlib.experiment.report.read_results`); NotebookFailed naming the file and the place otherwise."""
+    from mmlib.experiment.report import read_results
+    try:
+        return read_results(staging / "data" / "results" / f"{paper}.json", name=f"data/results/{paper}.json")
+    except ValueError as exc:
+        raise NotebookFailed(f"wrote an invalid results file: {exc}") from None
+
+
 def staged_paper(staging: Path, src: Path) -> str:
     """The paper whose outputs the notebook staged: exactly one results file, figures for that paper only, and
     the paper its file name starts with (``<paper>_<topic>.py``), whose executed notebook it replaces."""
@@ -499,7 +511,7 @@ def staged_paper(staging: Path, src: Path) -> str:
         raise NotebookFailed(f"wrote {len(results)} results files ({', '.join(p.name for p in results) or 'none'});"
                              f" expected exactly one, data/results/<paper>.json")
     paper = results[0].stem
-    doc_paper = json.loads(results[0].read_text()).get("paper")
+    doc_paper = staged_results(staging, paper)["paper"]
     if doc_paper != paper:
         raise NotebookFailed(f"data/results/{paper}.json names paper {doc_paper!r}")
     if src.stem.split("_")[0] != paper:
@@ -515,7 +527,7 @@ def stage_reports(staging: Path, layout: Layout, paper: str) -> None:
     """Render the paper's report and the cross-paper README into staging, from the new results and the other
     papers' current ones, so that they are promoted together with the results they describe."""
     import make_report
-    doc = json.loads((staging / "data" / "results" / f"{paper}.json").read_text())
+    doc = staged_results(staging, paper)
     try:
         reports = make_report.paper_reports(doc, make_report.load_results(layout.out, skip=paper), layout.out)
     except (KeyError, TypeError, ValueError) as exc:

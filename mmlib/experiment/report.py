@@ -40,18 +40,29 @@ followed by ``": "`` and detail, combined from its parts by :func:`combine_claim
 
 Run times are judged by the same rules: a timing row's standard error comes from
 repeated timings, and a timing claim is a part verdict on a ratio minus one.
+
+The results contract
+--------------------
+:func:`write_results` writes ``data/results/<paper>.json``; :func:`read_results` is the one reader of such
+files (the reports, the site, the notebook runner and the tolerance tests use it).  The contract is the JSON
+Schema (draft 2020-12) ``results.schema.json`` beside this module (:func:`results_schema`), shipped with the
+package and published on the site; a file that is not JSON, or violates the schema, is a ``ValueError`` naming
+the file and the place (line and column, byte offset, or the JSON path of the first violation).
 """
 from __future__ import annotations
 
+import copy
+import functools
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import tempfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -68,9 +79,48 @@ SIGMA_FACTOR = 3.0
 RELATIVE_BAND = 0.25
 
 
+def _printed(text, name: str) -> str:
+    """``text`` is a number as printed ('2.48', '1e-3'), else a ValueError naming ``name``."""
+    if not isinstance(text, str):
+        raise ValueError(f"{name}: expected a number as printed (a string such as '2.48'), got {text!r}")
+    try:
+        float(text)
+    except ValueError:
+        raise ValueError(f"{name}: expected a number as printed (e.g. '2.48'), got {text!r}") from None
+    return text
+
+
+def _real(x, name: str, *, none: bool = True):
+    """``x`` a real number (Python or numpy, or a 0-d array; NaN and infinities allowed), or None if ``none``;
+    a string, a bool, an array or another object is a ValueError naming ``name``."""
+    if x is None and none:
+        return x
+    ok = isinstance(x, (int, float, np.integer, np.floating)) or (isinstance(x, np.ndarray) and x.ndim == 0
+                                                                   and x.dtype.kind in "iuf")
+    if not ok or isinstance(x, (bool, np.bool_)):
+        raise ValueError(f"{name}: expected a real number{' or None' if none else ''}, got {x!r}")
+    return x
+
+
+def _check_rule(paper, replicated, stderr, n_runs, n_runs_paper) -> None:
+    """The arguments of the verdict rule: ``paper`` a printed text or a number (or None), ``replicated`` and
+    ``stderr`` numbers or None, ``n_runs`` None or an integer >= 0 (0: no valid run, e.g. all diverged),
+    ``n_runs_paper`` None or an integer >= 1."""
+    if isinstance(paper, str):
+        _printed(paper, "paper")
+    else:
+        _real(paper, "paper")
+    _real(replicated, "replicated")
+    _real(stderr, "stderr")
+    for value, arg, low in ((n_runs, "n_runs", 0), (n_runs_paper, "n_runs_paper", 1)):
+        if value is not None and (isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer))
+                                  or value < low):
+            raise ValueError(f"{arg}: expected None or an integer >= {low}, got {value!r}")
+
+
 def printed_half_unit(printed: str) -> float:
     """Half a unit of the last printed digit of a number given as text ('2.6675' -> 5e-5)."""
-    text = printed.strip().lower().split("e")[0]
+    text = _printed(printed, "printed").strip().lower().split("e")[0]
     decimals = len(text.split(".")[1]) if "." in text else 0
     return 0.5 * 10.0 ** (-decimals)
 
@@ -87,6 +137,9 @@ def standardized_distance(paper: str | float, replicated: float, stderr: float |
                           n_runs_paper: int | None = None) -> float:
     """``(replicated - paper) / sigma`` with the combined standard error ``sigma`` of the verdict
     rule; +-inf when sigma is 0 and the values differ, 0 when they agree exactly."""
+    _check_rule(paper, replicated, stderr, n_runs, n_runs_paper)
+    if paper is None or replicated is None:
+        raise ValueError(f"{'paper' if paper is None else 'replicated'}: expected a number, got None")
     diff, sigma = _difference_and_sigma(paper, replicated, stderr, n_runs, n_runs_paper)
     if sigma > 0:
         return diff / sigma
@@ -104,6 +157,9 @@ def verdict_category(text: str) -> str:
 def verdict(paper: str | float | None, replicated: float | None, stderr: float | None, n_runs: int | None = None,
             n_runs_paper: int | None = None, reason: str = "") -> str:
     """Apply the verdict rule of this module's docstring."""
+    _check_rule(paper, replicated, stderr, n_runs, n_runs_paper)
+    if not isinstance(reason, str):
+        raise ValueError(f"reason: expected a string, got {reason!r}")
     if replicated is None or paper is None or (isinstance(replicated, float) and math.isnan(replicated)):
         return f"{NOT_REPLICABLE}: {reason}" if reason else NOT_REPLICABLE
     p = float(paper)
@@ -128,6 +184,11 @@ def claim_verdict(difference: float, stderr: float, expected_sign: int, referenc
     by at least 3 standard errors, 'no detectable difference' otherwise; 'not comparable' when the
     difference or its standard error is not a finite number (fewer than two runs valid in both
     algorithms: nothing was compared, which must not read as "no difference")."""
+    _real(difference, "difference", none=False)
+    _real(stderr, "stderr", none=False)
+    _real(reference, "reference")
+    if isinstance(expected_sign, (bool, np.bool_)) or expected_sign not in (-1, 1):
+        raise ValueError(f"expected_sign: expected -1 (claim A < B) or +1 (A > B), got {expected_sign!r}")
     if not (math.isfinite(difference) and math.isfinite(stderr)):
         return "not comparable"
     if stderr == 0.0 and difference == 0.0:
@@ -164,18 +225,44 @@ def make_row(item: str, algorithm: str, quantity: str, paper: str | None, replic
              reason: str = "", note: str = "") -> Row:
     """A :class:`Row` judged by the verdict rule (:func:`verdict`): ``replicated`` and ``stderr`` as floats (None
     kept: the row is *not replicable*, ``reason`` saying why), ``n_runs`` ours and ``n_runs_paper`` the paper's."""
+    _check_row_text(item, algorithm, quantity, note)
+    deviations = _deviations(deviations)
+    _check_rule(paper, replicated, stderr, n_runs, n_runs_paper)
     rep = None if replicated is None else float(replicated)
     se = None if stderr is None else float(stderr)
     return Row(item, algorithm, quantity, paper, rep, se,
-               verdict(paper, rep, se, n_runs, n_runs_paper, reason), list(deviations), note)
+               verdict(paper, rep, se, n_runs, n_runs_paper, reason), deviations, note)
+
+
+def _check_row_text(item, algorithm, quantity, last, last_name: str = "note") -> None:
+    for value, arg in ((item, "item"), (algorithm, "algorithm"), (quantity, "quantity"), (last, last_name)):
+        if not isinstance(value, str):
+            raise ValueError(f"{arg}: expected a string, got {value!r}")
+
+
+def _deviations(deviations) -> list:
+    """Deviation ids as a list of strings: a bare string is one id, never split into its characters -- it is
+    refused (``deviations=["Z-1"]``)."""
+    if isinstance(deviations, (str, bytes)) or isinstance(deviations, Mapping) or not hasattr(deviations, "__iter__"):
+        raise ValueError(f"deviations: expected a sequence of deviation ids (e.g. ['Z-1']), got {deviations!r}")
+    out = list(deviations)
+    for d in out:
+        if not isinstance(d, str):
+            raise ValueError(f"deviations: expected deviation ids as strings, got {d!r}")
+    return out
 
 
 def analytic_row(item: str, algorithm: str, quantity: str, paper: str | None, finding: str, holds: bool, *,
                  deviations: Iterable[str] = ()) -> Row:
     """A row judged by analysis rather than by Monte Carlo (e.g. a complexity class): no number,
     verdict 'reproduced' or 'not reproduced', with the finding as the note."""
+    _check_row_text(item, algorithm, quantity, finding, "finding")
+    if paper is not None and not isinstance(paper, str):
+        raise ValueError(f"paper: expected the printed text or None, got {paper!r}")
+    if not isinstance(holds, (bool, np.bool_)):
+        raise ValueError(f"holds: expected True or False, got {holds!r}")
     return Row(item, algorithm, quantity, paper, None, None,
-               REPRODUCED if holds else f"{NOT_REPRODUCED}: {finding}", list(deviations), finding)
+               REPRODUCED if holds else f"{NOT_REPRODUCED}: {finding}", _deviations(deviations), finding)
 
 
 HOLDS = "holds"
@@ -199,9 +286,14 @@ def claim_category(text: str) -> str:
 def combine_claim_verdicts(verdicts: Iterable[str]) -> str:
     """One claim verdict (module docstring) from the part verdicts of :func:`claim_verdict`, each
     optionally labelled as ``"<part verdict> (<quantity>)"``."""
+    if isinstance(verdicts, (str, bytes)) or not hasattr(verdicts, "__iter__"):
+        raise ValueError(f"verdicts: expected a sequence of part verdicts (a list of strings), got {verdicts!r}")
     verdicts = list(verdicts)
     if not verdicts:
         raise ValueError("verdicts: a claim needs at least one part verdict")
+    for v in verdicts:
+        if not isinstance(v, str):
+            raise ValueError(f"verdicts: expected part verdicts as strings, got {v!r}")
     kinds = [v.split(" (")[0] for v in verdicts]
     for v, k in zip(verdicts, kinds):
         if k not in ("holds", "contradicted", "no detectable difference", "holds, but negligible",
@@ -241,6 +333,10 @@ class Claims:
         judged."""
         if not isinstance(claim, str) or not claim.strip():
             raise ValueError(f"claim: expected a non-empty string, got {claim!r}")
+        if not isinstance(verdict, str):
+            raise ValueError(f"verdict: expected a claim verdict (a string), got {verdict!r}")
+        if not isinstance(evidence, str):
+            raise ValueError(f"evidence: expected a string, got {evidence!r}")
         claim_category(verdict)
         if any(c["claim"] == claim for c in self.items):
             raise ValueError(f"claim: {claim!r} is already judged")
@@ -286,7 +382,15 @@ def _version(package: str):
 def provenance(*, root_seed: int, n_runs: int, profile: str, extra: dict | None = None) -> dict:
     """The ``provenance`` object of a results file: mmlib's git commit (:func:`git_commit`), ``root_seed``,
     ``n_runs``, ``profile``, the Python and package versions and the linear-algebra kernel, updated with
-    ``extra``."""
+    ``extra``.  ``root_seed`` an integer >= 0, ``n_runs`` an integer >= 1, ``profile`` a string, ``extra`` None or
+    a dict with string keys."""
+    for value, arg, low in ((root_seed, "root_seed", 0), (n_runs, "n_runs", 1)):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < low:
+            raise ValueError(f"{arg}: expected an integer >= {low}, got {value!r}")
+    if not isinstance(profile, str):
+        raise ValueError(f"profile: expected a string, got {profile!r}")
+    if extra is not None and (not isinstance(extra, Mapping) or not all(isinstance(k, str) for k in extra)):
+        raise ValueError(f"extra: expected None or a dict with string keys, got {extra!r}")
     import matplotlib
     import scipy
     from mmlib.core.linalg import kernel
@@ -320,6 +424,8 @@ def atomic_write_text(path: Path, text: str, *, durable: bool = False) -> None:
     """Write via a temporary file in the same folder and ``os.replace``: never half-written.  ``durable``:
     also flushed to disk (the file before the rename, the folder after it), so that it survives a crash
     once this returns (the notebook runner's promotion journal)."""
+    if not isinstance(text, str):
+        raise ValueError(f"text: expected a string, got {type(text).__name__}")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
@@ -355,10 +461,265 @@ def write_results(path: str | Path, *, paper: str, provenance: dict, rows: Itera
     return doc
 
 
+
+# ------------------------------------------------------------------------------------------ reading results files
+#: the JSON Schema of the results contract, a file of this package beside this module
+RESULTS_SCHEMA_FILE = "results.schema.json"
+
+# The schema is checked here by a small interpreter of the draft 2020-12 keywords it uses, so that the library reads
+# results with its core dependencies only and reports the first violation as a JSON path; the tests check that it
+# agrees with the reference validator (jsonschema) and it refuses a schema with any keyword it does not implement.
+_ANNOTATIONS = frozenset({"$schema", "$id", "$comment", "$defs", "title", "description", "examples", "default"})
+_KEYWORDS = frozenset({"$ref", "type", "enum", "const", "required", "properties", "additionalProperties", "items",
+                       "minItems", "minimum", "minLength", "pattern", "allOf", "anyOf", "oneOf", "not", "if", "then",
+                       "else"})
+_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+class _NotJSON:
+    """What ``json.loads`` makes of ``NaN``, ``Infinity`` or ``-Infinity``, which are not JSON."""
+
+    def __init__(self, token: str):
+        self.token = token
+
+
+@functools.lru_cache(maxsize=1)
+def _schema() -> dict:
+    from importlib.resources import files
+    return json.loads(files(__package__).joinpath(RESULTS_SCHEMA_FILE).read_text(encoding="utf-8"))
+
+
+def results_schema() -> dict:
+    """The JSON Schema (draft 2020-12) of the results contract, ``mmlib/experiment/results.schema.json``: what a
+    paper's ``data/results/<paper>.json`` (:func:`write_results`) and the arena's ``data/results/arena.json`` hold.
+    A new copy on every call."""
+    return copy.deepcopy(_schema())
+
+
+def _json_path(path: Sequence[str | int]) -> str:
+    """``rows[3].verdict`` for ``("rows", 3, "verdict")``; keys that are not identifiers as ``["a key"]``; ``$``
+    for the document itself."""
+    out = ""
+    for part in path:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        elif _IDENTIFIER.fullmatch(part):
+            out += f".{part}" if out else part
+        else:
+            out += f"[{json.dumps(part, ensure_ascii=False)}]"
+    return out or "$"
+
+
+def _json_type(x: Any) -> str:
+    if x is None:
+        return "null"
+    if isinstance(x, bool):
+        return "boolean"
+    if isinstance(x, int):
+        return "integer"
+    if isinstance(x, float):
+        return "number"
+    if isinstance(x, str):
+        return "string"
+    if isinstance(x, list):
+        return "array"
+    if isinstance(x, dict):
+        return "object"
+    return x.token if isinstance(x, _NotJSON) else type(x).__name__
+
+
+def _is_type(x: Any, name: str) -> bool:
+    kind = _json_type(x)
+    if name == "number":
+        return kind in ("integer", "number")
+    if name == "integer":
+        return kind == "integer" or (kind == "number" and x.is_integer())
+    return kind == name
+
+
+def _describe(x: Any) -> str:
+    kind = _json_type(x)
+    if kind in ("object", "array") or isinstance(x, _NotJSON):
+        return kind
+    text = json.dumps(x, ensure_ascii=False)
+    return f"{kind} {text if len(text) <= 60 else text[:57] + '...'}"
+
+
+def _same(a: Any, b: Any) -> bool:
+    """JSON equality: a boolean is not a number, 1 and 1.0 are the same number."""
+    if isinstance(a, bool) or isinstance(b, bool):
+        return isinstance(a, bool) and isinstance(b, bool) and a == b
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        return a == b
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    return type(a) is type(b) and a == b
+
+
+@functools.lru_cache(maxsize=None)
+def _regex(pattern: str) -> re.Pattern:
+    return re.compile(pattern)
+
+
+def _resolve(ref: str) -> Any:
+    if not ref.startswith("#"):
+        raise RuntimeError(f"results schema: $ref {ref!r} is not a reference into the schema itself")
+    node: Any = _schema()
+    for part in filter(None, ref[1:].split("/")):
+        node = node[part.replace("~1", "/").replace("~0", "~")]
+    return node
+
+
+def _violations(x: Any, schema: Any, path: tuple) -> Iterator[tuple[tuple, str]]:
+    """Every violation of ``schema`` by the instance ``x`` at ``path``, as ``(path, message)``, in document order
+    within each keyword."""
+    if schema is True:
+        return
+    if schema is False:
+        yield path, "not allowed here"
+        return
+    unknown = set(schema) - _KEYWORDS - _ANNOTATIONS
+    if unknown:
+        raise RuntimeError(f"results schema: keyword(s) {sorted(unknown)} (checking {_json_path(path)}) are not "
+                           f"implemented by mmlib.experiment.report's validator")
+    if "$ref" in schema:
+        yield from _violations(x, _resolve(schema["$ref"]), path)
+    if "type" in schema:
+        names = [schema["type"]] if isinstance(schema["type"], str) else list(schema["type"])
+        if not any(_is_type(x, n) for n in names):
+            yield path, f"expected {' or '.join(names)}, got {_describe(x)}"
+            return                    # the other keywords of this schema concern the expected type
+    if "enum" in schema and not any(_same(x, e) for e in schema["enum"]):
+        yield path, (f"expected one of {', '.join(json.dumps(e, ensure_ascii=False) for e in schema['enum'])}, "
+                     f"got {_describe(x)}")
+    if "const" in schema and not _same(x, schema["const"]):
+        yield path, f"expected {json.dumps(schema['const'], ensure_ascii=False)}, got {_describe(x)}"
+    if isinstance(x, dict):
+        for key in schema.get("required", ()):
+            if key not in x:
+                yield path + (key,), "missing"
+        props = schema.get("properties", {})
+        extra = schema.get("additionalProperties", True)
+        for key, value in x.items():
+            if key in props:
+                yield from _violations(value, props[key], path + (key,))
+            elif extra is False:
+                yield path + (key,), "not allowed here (not a key of the results contract)"
+            elif extra is not True:
+                yield from _violations(value, extra, path + (key,))
+    if isinstance(x, list):
+        if "items" in schema:
+            for i, value in enumerate(x):
+                yield from _violations(value, schema["items"], path + (i,))
+        if len(x) < schema.get("minItems", 0):
+            yield path, f"expected at least {schema['minItems']} item(s), got {len(x)}"
+    if _is_type(x, "number") and "minimum" in schema and x < schema["minimum"]:
+        yield path, f"expected a number >= {schema['minimum']}, got {_describe(x)}"
+    if isinstance(x, str):
+        if len(x) < schema.get("minLength", 0):
+            yield path, f"expected a string of at least {schema['minLength']} character(s), got {_describe(x)}"
+        if "pattern" in schema and not _regex(schema["pattern"]).search(x):
+            what = f"is not a {schema['title']}" if "title" in schema else "does not match"
+            yield path, f"{_describe(x)} {what} (pattern {schema['pattern']})"
+    for sub in schema.get("allOf", ()):
+        yield from _violations(x, sub, path)
+    for key in ("anyOf", "oneOf"):
+        if key in schema:
+            first = [next(_violations(x, sub, path), None) for sub in schema[key]]
+            matching = [sub for sub, problem in zip(schema[key], first) if problem is None]
+            if not matching:
+                alternatives = "; ".join(f"{_json_path(p)}: {m}" for p, m in first)
+                yield path, f"matches none of the alternatives ({alternatives})"
+            elif key == "oneOf" and len(matching) > 1:
+                names = "; ".join(sub.get("description", json.dumps(sub)) for sub in matching)
+                yield path, f"matches {len(matching)} alternatives where exactly one is allowed ({names})"
+    if "not" in schema and next(_violations(x, schema["not"], path), None) is None:
+        sub = schema["not"]
+        yield path, f"must not be {sub.get('description', json.dumps(sub))}; got {_describe(x)}"
+    if "if" in schema:
+        branch = "then" if next(_violations(x, schema["if"], path), None) is None else "else"
+        if branch in schema:
+            yield from _violations(x, schema[branch], path)
+
+
+def _not_json_at(x: Any, path: tuple = ()) -> tuple | None:
+    """The path of the first NaN or infinity in a parsed document, or None."""
+    if isinstance(x, _NotJSON):
+        return path
+    items = x.items() if isinstance(x, dict) else enumerate(x) if isinstance(x, list) else ()
+    for key, value in items:
+        found = _not_json_at(value, path + (key,))
+        if found is not None:
+            return found
+    return None
+
+
+def validate_results(doc: Any) -> None:
+    """Check a parsed results document against the results contract (:func:`results_schema`); ``ValueError``
+    ``"<JSON path>: <what is wrong>"`` for the first violation, e.g. ``"rows[3].verdict: missing"``."""
+    problem = next(_violations(doc, _schema(), ()), None)
+    if problem is not None:
+        raise ValueError(f"{_json_path(problem[0])}: {problem[1]}")
+
+
+def read_results(path: str | Path, *, name: str | None = None) -> dict:
+    """Read a results file, ``data/results/<paper>.json``, and check it against the results contract
+    (:func:`results_schema`); returns the document.
+
+    ``name``: how the file is called in messages (default: ``path`` as given; the tools pass the path relative to
+    the repository).  Raises ``ValueError`` naming the file and the place: ``"<name>: not UTF-8 text: byte <offset>
+    (line <n>) ..."`` (offset from 0), ``"<name>: not valid JSON: line <n>, column <m> (character <offset>): ..."``
+    (from 1, as :class:`json.JSONDecodeError` counts them; also for NaN and infinities, which write_results writes
+    as null: then at their JSON path), or ``"<name>: <JSON path>: <what is wrong>"`` for the first violation of the
+    contract, e.g. ``"data/results/hu2017.json: rows[3].verdict: missing"``.  ``OSError`` (e.g.
+    ``FileNotFoundError``) when the file cannot be read."""
+    shown = str(path) if name is None else name
+    data = Path(path).read_bytes()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise ValueError(f"{shown}: not UTF-8 text: byte {exc.start} (line {line}) is 0x{data[exc.start]:02x}: "
+                         f"{exc.reason}") from None
+    constants: list = []               # NaN, Infinity, -Infinity: parsed by Python's json, but not JSON
+    try:
+        doc = json.loads(text, parse_constant=lambda token: constants.append(token) or _NotJSON(token))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{shown}: not valid JSON: line {exc.lineno}, column {exc.colno} (character {exc.pos}): "
+                         f"{exc.msg}") from None
+    bad = _not_json_at(doc) if constants else None
+    if bad is not None:
+        token = functools.reduce(lambda node, key: node[key], bad, doc).token
+        raise ValueError(f"{shown}: not valid JSON: {_json_path(bad)}: {token} is not a JSON number (a non-finite "
+                         f"value is written as null)")
+    try:
+        validate_results(doc)
+    except ValueError as exc:
+        raise ValueError(f"{shown}: {exc}") from None
+    return doc
+
+
 def save_figure(fig: matplotlib.figure.Figure, out_dir: str | Path, stem: str,
                 formats: Sequence[str] = ("png", "svg")) -> list[str]:
-    """Save a figure as PNG and SVG (deterministic SVG ids, no date), atomically per file."""
+    """Save a figure as PNG and SVG (deterministic SVG ids, no date), atomically per file.  ``formats``: a sequence
+    of matplotlib format names (a bare string is refused, never split into letters)."""
     import matplotlib
+    import matplotlib.figure
+    if not isinstance(fig, matplotlib.figure.Figure):
+        raise ValueError(f"fig: expected a matplotlib Figure, got {type(fig).__name__}")
+    if not isinstance(out_dir, (str, os.PathLike)):
+        raise ValueError(f"out_dir: expected a folder path, got {out_dir!r}")
+    if not isinstance(stem, str) or not stem or "/" in stem:
+        raise ValueError(f"stem: expected a file name without folder or extension, got {stem!r}")
+    if isinstance(formats, (str, bytes)) or not hasattr(formats, "__iter__"):
+        raise ValueError(f"formats: expected a sequence of format names such as ('png', 'svg'), got {formats!r}")
+    formats = list(formats)
+    supported = fig.canvas.get_supported_filetypes()
+    for fmt in formats:
+        if fmt not in supported:
+            raise ValueError(f"formats: unknown format {fmt!r}; supported: {', '.join(sorted(supported))}")
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
