@@ -81,7 +81,7 @@ def problem(n_runs: int, n_steps: int = K):
     dyn = [models.constant_velocity(T, 1.0), models.coordinated_turn(T, OMEGA, 1.0),
            models.coordinated_turn(T, -OMEGA, 1.0)]
     radar = models.RangeBearing(np.diag([100.0, np.radians(0.5) ** 2]))
-    sched = ManeuverSchedule(dyn, [(30, 50, 1), (70, 85, 2)], 0, T, n_steps)
+    sched = ManeuverSchedule(dyn, [(30, 50, 1), (70, 85, 2)], 0, T, n_steps, truncate=True)   # n_steps < K: a prefix
     mc = mmlib.MonteCarlo(SEED, n_runs)
     x0 = np.array([20000.0, -150.0, 15000.0, 60.0])
     P0 = np.diag([400.0, 100.0, 400.0, 100.0])

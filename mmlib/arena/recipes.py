@@ -30,6 +30,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from mmlib.core._validate import check_has, check_names
 from mmlib.core.estimation import IMM, MomentMixing, SingleModel
 from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
 from mmlib.core.layers.adaptive import InnovationAdaptive
@@ -50,6 +51,10 @@ HU = hu2017.setups(hu2017.SPACE.headline)
 TSENG = tseng2011.setups(tseng2011.SPACE.headline)
 
 
+#: what a recipe builds on: the scenario's IMM modes, its single model, or its noise family (an IMM set online)
+KINDS = ("imm", "single", "noise-adaptive imm")
+
+
 class NotApplicable(ValueError):
     """An algorithm that cannot run on a scenario; the message says why."""
 
@@ -57,30 +62,40 @@ class NotApplicable(ValueError):
 # ------------------------------------------------------------------------------------------------ mode filters
 def ukf(s: Scenario) -> SigmaPointFilter:
     """The scenario's unscented KF, named "UKF": its own rule parameters ``s.ukf`` = (alpha, beta, kappa)."""
+    _check_scenario(s, "s")
     return SigmaPointFilter(Unscented(*s.ukf), name="UKF")
 
 
 def cdkf(s: Scenario) -> SigmaPointFilter:
     """Hu et al.'s CDKF in the form of their headline (:func:`mmlib.papers.hu2017.cdkf_filter`)."""
+    _check_scenario(s, "s")
     return hu2017.cdkf_filter(HU)
 
 
 def naukf(s: Scenario, inflate_only: bool | None = None) -> InnovationAdaptive:
     """NAUKF (Zhou et al. 2017, Eqs. 27-28) over the scenario's UKF, with the window and options of Zhou's headline
     (:func:`mmlib.papers.zhou2017.naukf_filter`); ``inflate_only=True`` is the bounded reading of factor Z-12."""
+    _check_inflate_only(inflate_only)
     return zhou2017.naukf_filter(ukf(s), ZHOU, inflate_only)
 
 
 def aukf(s: Scenario, inflate_only: bool | None = None) -> InnovationAdaptive:
     """The classic adaptive UKF of Zhou et al.'s Table 4 over the scenario's UKF, with NAUKF's window and Z-12 reading
     (:func:`mmlib.papers.zhou2017.aukf_filter`)."""
+    _check_inflate_only(inflate_only)
     return zhou2017.aukf_filter(ukf(s), ZHOU.window, ZHOU.inflate_only if inflate_only is None else inflate_only)
 
 
 def cdkf_obs(s: Scenario) -> ObservationBootstrap:
     """Observation bootstrapping (Hu et al. 2017) over the CDKF with Hu's headline N, variance factor, likelihood
     and fused covariance (:func:`mmlib.papers.hu2017.cdkf_obs_filter`)."""
+    _check_scenario(s, "s")
     return hu2017.cdkf_obs_filter(HU)
+
+
+def _check_inflate_only(value) -> None:
+    if value is not None and not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"inflate_only: expected None (the headline reading), True or False, got {value!r}")
 
 
 def strong(base: MomentFilter, name: str) -> StrongTracking:
@@ -103,6 +118,18 @@ class Recipe:
     description: str
     mixing: Callable = MomentMixing
 
+    def __post_init__(self):
+        for arg in ("name", "description"):
+            if not isinstance(getattr(self, arg), str) or not getattr(self, arg):
+                raise ValueError(f"{arg}: expected a non-empty string, got {getattr(self, arg)!r}")
+        if self.kind not in KINDS:
+            raise ValueError(f"kind: expected one of {', '.join(map(repr, KINDS))}, got {self.kind!r}")
+        for arg in ("filter", "mixing"):
+            if not callable(getattr(self, arg)):
+                raise ValueError(f"{arg}: expected a function of the scenario (or a mixing class), got "
+                                 f"{type(getattr(self, arg)).__name__}")
+        object.__setattr__(self, "papers", tuple(check_names(self.papers, "papers")))
+
     def build(self, s: Scenario) -> SingleModel | IMM | NoiseAdaptiveIMM:
         """The estimator on scenario ``s``; :class:`NotApplicable` (with the reason) where it cannot apply."""
         _check_scenario(s)
@@ -119,14 +146,16 @@ class Recipe:
                                    measurement=s.measurement, name=self.name)
 
 
-def _check_scenario(s):
+def _check_scenario(s, name: str = "scenario"):
     if not isinstance(s, Scenario):
-        raise ValueError(f"scenario: expected a Scenario (e.g. mmlib.arena.study.scenario(name)), got {s!r}")
+        raise ValueError(f"{name}: expected a Scenario (e.g. mmlib.arena.study.scenario(name)), got {s!r}")
     return s
 
 
 def requirement(recipe: Recipe, s: Scenario) -> str:
     """Why ``recipe`` cannot run on ``s`` ("" if it can)."""
+    if not isinstance(recipe, Recipe):
+        raise ValueError(f"recipe: expected a Recipe (recipes.recipe(name)), got {recipe!r}")
     _check_scenario(s)
     if recipe.kind == "single" and s.single is None:
         return "needs a single motion model: " + s.notes.get("single", "the scenario has none")
@@ -218,6 +247,11 @@ def initial_state(estimator: Estimator, s: Scenario, start: np.ndarray, runs: Se
     """``estimator``'s state at step 0 on ``s``: means ``start`` (B, n), covariance ``s.P0``, the scenario's initial
     mode probabilities for IMMs, and for observation bootstrapping the pre-drawn standard normals of the runs' own
     FILTER stream (:func:`mmlib.papers.hu2017.bootstrap_noise`, at the scenario's largest measurement dimension)."""
+    _check_scenario(s, "s")
+    if not isinstance(mc, MonteCarlo):
+        raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
+    runs = mc.check_runs(runs)
+    check_has(estimator, "estimator", "an estimator (protocols.Estimator)", ("init", "step"))
     imm = getattr(estimator, "imm", estimator)
     f = getattr(imm, "filter", None)
     extra = {}

@@ -141,8 +141,11 @@ def _text_colour(rgba) -> str:
 # ----------------------------------------------------------------------------------------------------- heat maps
 
 def _new_axes(ax, n_rows, n_cols):
+    import matplotlib.axes
     import matplotlib.pyplot as plt
     if ax is not None:
+        if not isinstance(ax, matplotlib.axes.Axes):
+            raise ValueError(f"ax: expected None or a matplotlib Axes, got {type(ax).__name__}")
         return ax.figure, ax, False
     fig, ax = plt.subplots(figsize=(max(6.0, 0.52 * n_cols + 3.6), max(3.6, 0.36 * n_rows + 2.9)))
     return fig, ax, True
@@ -442,8 +445,9 @@ def ladder_curves(cells: Iterable[dict] | ArenaResult, scenarios: Iterable[dict]
             raise ValueError(f"cells: none of the default algorithms {', '.join(LADDER_ALGORITHMS)} is in the cells;"
                              f" pass algorithms=")
     else:
-        if isinstance(algorithms, str):
-            algorithms = [algorithms]
+        if isinstance(algorithms, (str, bytes)) or not hasattr(algorithms, "__iter__"):
+            raise ValueError(f"algorithms: expected a list of algorithm names (e.g. [{algorithms!r}]), got "
+                             f"{algorithms!r}")
         algorithms = list(algorithms)
         unknown = [a for a in algorithms if a not in all_algorithms]
         if unknown or not algorithms:

@@ -232,6 +232,51 @@ def check_name(value, name: str = "name") -> str:
     return value
 
 
+def check_names(value, name: str, *, nonempty: bool = True, distinct: bool = True) -> list[str]:
+    """A sequence of labels as a list of strings.  A bare string is refused, never split into its characters
+    (``"IMM"`` is not ``["I", "M", "M"]``); ``nonempty``: at least one; ``distinct``: no label twice."""
+    if isinstance(value, (str, bytes)) or isinstance(value, np.ndarray) and value.ndim == 0 \
+            or not hasattr(value, "__iter__") or isinstance(value, dict):
+        raise ValueError(f"{name}: expected a sequence of names (a list of strings), got {value!r}")
+    out = list(value)
+    for i, v in enumerate(out):
+        if not isinstance(v, str):
+            raise ValueError(f"{name}: expected a sequence of names (a list of strings), item {i} is {v!r}")
+    if nonempty and not out:
+        raise ValueError(f"{name}: expected at least one name, got an empty sequence")
+    if distinct and len(set(out)) != len(out):
+        raise ValueError(f"{name}: repeated names in {out}")
+    return out
+
+
+def check_indices(value, name: str, size: int) -> tuple[int, ...]:
+    """A non-empty sequence of distinct integer indices into an axis of length ``size``, as a tuple of ints.
+    Floats (``(0.9, 2.5)`` is not ``(0, 2)``), booleans, negative indices and a bare string or number are
+    rejected, never truncated."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__") \
+            or isinstance(value, np.ndarray) and value.ndim != 1:
+        raise ValueError(f"{name}: expected a sequence of integer indices in 0..{size - 1}, got {value!r}")
+    out = []
+    for v in value:
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+            raise ValueError(f"{name}: expected integer indices in 0..{size - 1}, got {v!r} in {value!r}")
+        if not 0 <= int(v) < size:
+            raise ValueError(f"{name}: index {int(v)} outside 0..{size - 1} in {value!r}")
+        out.append(int(v))
+    if not out or len(set(out)) != len(out):
+        raise ValueError(f"{name}: expected a non-empty sequence of distinct indices, got {value!r}")
+    return tuple(out)
+
+
+def check_count(value, name: str, total: int | None = None) -> int:
+    """A count: an integer >= 0 (numpy integers accepted), at most ``total`` if given.  ``1.7`` is not ``1``
+    and NaN is not a count: both are rejected, never truncated."""
+    n = check_positive_int(value, name, minimum=0)
+    if total is not None and n > total:
+        raise ValueError(f"{name}: {n} of only {total}")
+    return n
+
+
 def check_applies(model, name: str, n: int) -> None:
     """``model.h`` accepts states of dimension ``n`` and returns ``model.dim`` values: probed once on a zero
     state, so that a measurement model built for another state vector (e.g. a 4-state position sensor on a

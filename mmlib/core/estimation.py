@@ -28,7 +28,8 @@ from mmlib.core import linalg, protocols
 from mmlib.core.linalg import matmul_rows
 from mmlib.core.models import StackedDynamics
 from mmlib.core._validate import (check_finite, as_float_array, check_applies, check_batch_vector, check_bool,
-                                  check_has, check_name, check_probabilities, check_transition_matrix)
+                                  check_has, check_index, check_mask, check_name, check_probabilities,
+                                  check_transition_matrix)
 
 
 class Failure(IntEnum):
@@ -101,6 +102,31 @@ def _check_state(state, name: str, fields, dim: int | None = None, kind: str = "
         mean = state.mean if "mean" in state._fields else state.modes.mean
         if np.shape(mean)[-1] != dim:
             raise ValueError(f"{name}: state dimension {np.shape(mean)[-1]} does not match the dynamics' {dim}")
+    return state
+
+
+def _filter_init(filt, mean, cov, filter_init: dict, measurement=None):
+    """``filt.init(mean, cov, **filter_init)``, a keyword the filter's ``init`` does not take being a ValueError
+    naming it (not Python's TypeError); then, when the estimator has a fixed ``measurement`` model and the filter
+    can check its state against one (``check_state_for``, e.g. pre-drawn bootstrap noise of another measurement
+    dimension), that check."""
+    import inspect
+    if filter_init:
+        try:
+            params = inspect.signature(filt.init).parameters
+        except (TypeError, ValueError):
+            params = None
+        if params is not None and not any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+            takes = [n for n, p in params.items() if p.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                                                                 inspect.Parameter.KEYWORD_ONLY)][2:]
+            for key in filter_init:
+                if key not in takes:
+                    raise ValueError(f"{key}: {type(filt).__name__}.init takes no argument {key!r} (its own: "
+                                     f"{', '.join(takes) if takes else 'none beyond mean and cov'})")
+    state = filt.init(mean, cov, **filter_init)
+    check = getattr(filt, "check_state_for", None)
+    if measurement is not None and callable(check):
+        check(state, measurement)
     return state
 
 
@@ -188,9 +214,10 @@ class SingleModel:
 
     def init(self, mean: np.ndarray, cov: np.ndarray, **filter_init: Any) -> Any:
         """The filter's state at step 0 from ``mean`` (B, n) and ``cov`` (B, n, n) or (n, n), in the state's
-        units; ``filter_init`` goes to the filter's ``init`` (e.g. pre-drawn bootstrap noise)."""
+        units; ``filter_init`` goes to the filter's ``init`` (e.g. pre-drawn bootstrap noise; a keyword it does not
+        take is a ValueError naming it)."""
         _check_mean_dim(mean, self.dynamics.dim)
-        return self.filter.init(mean, cov, **filter_init)
+        return _filter_init(self.filter, mean, cov, filter_init, self.measurement)
 
     def step(self, state: Any, z: np.ndarray, *, with_cov: bool = True,
              measurement: protocols.MeasurementModel | None = None) -> tuple:
@@ -247,10 +274,11 @@ class KnownModeSequence:
         check_name(self.name)
         object.__setattr__(self, "dynamics", dyn)
 
-    def init(self, mean: np.ndarray, cov: np.ndarray) -> SwitchingState:
-        """:class:`SwitchingState` at step 0 from ``mean`` (B, n) and ``cov`` (B, n, n) or (n, n)."""
+    def init(self, mean: np.ndarray, cov: np.ndarray, **filter_init: Any) -> SwitchingState:
+        """:class:`SwitchingState` at step 0 from ``mean`` (B, n) and ``cov`` (B, n, n) or (n, n); ``filter_init``
+        goes to the filter's ``init`` (e.g. pre-drawn bootstrap noise), as in :meth:`SingleModel.init`."""
         _check_mean_dim(mean, self.dynamics[0].dim)
-        return SwitchingState(self.filter.init(mean, cov), 0)
+        return SwitchingState(_filter_init(self.filter, mean, cov, filter_init, self.measurement), 0)
 
     def step(self, state: SwitchingState, z: np.ndarray, *, with_cov: bool = True,
              measurement: protocols.MeasurementModel | None = None) -> tuple:
@@ -423,7 +451,7 @@ class IMM:
         row a probability vector, default uniform ``1/r``; a wrong shape or a row not summing to 1 is a
         ValueError naming ``mode_probabilities``."""
         _check_mean_dim(mean, self.stacked.dim)
-        base = self.filter.init(mean, cov, **filter_init)
+        base = _filter_init(self.filter, mean, cov, filter_init, self.measurement)
         B = base.mean.shape[0]
         r = self.n_modes
         if mode_probabilities is None:
@@ -698,9 +726,28 @@ def _check_truth(truth, B: int, K: int, consistency: bool):
 
 
 def select_runs(state: Any, index: slice | np.ndarray) -> Any:
-    """The sub-batch ``index`` (slice or index array) of any (nested NamedTuple) filter state."""
+    """The sub-batch ``index`` of any (nested NamedTuple) filter state of B runs: ``index`` a slice, a 1-D
+    sequence or array of run indices 0..B-1, or a boolean mask (B,).  ValueError naming ``state`` (no per-run
+    array) or ``index`` (anything else: a float, an index beyond the runs, a mask of another length)."""
+    if not isinstance(state, (tuple, np.ndarray)):
+        raise ValueError(f"state: expected a filter or estimator state (as returned by init), got "
+                         f"{type(state).__name__}")
+    B = batch_size(state)
+    if not isinstance(index, slice):
+        arr = np.asarray(index) if not isinstance(index, (str, bytes)) else None
+        if arr is not None and arr.dtype.kind == "b":
+            index = check_mask(arr, "index", B)
+        elif arr is None or arr.ndim != 1 or (arr.size and arr.dtype.kind not in "iu"):
+            raise ValueError(f"index: expected a slice, a 1-D sequence of run indices or a boolean mask of the {B} "
+                             f"runs, got {index!r}")
+        else:
+            index = np.array([check_index(i, "index", B) for i in arr.tolist()], dtype=int)
+    return _select_runs(state, index)
+
+
+def _select_runs(state, index):
     if isinstance(state, tuple):
-        parts = [select_runs(s, index) for s in state]
+        parts = [_select_runs(s, index) for s in state]
         return type(state)(*parts) if hasattr(state, "_fields") else tuple(parts)
     if isinstance(state, np.ndarray):
         return state[index]

@@ -279,9 +279,19 @@ class FilterLayer:
         g = gaussian_state(mean, cov)
         return self.state_type(g.mean, g.cov, **extra)
 
+    def check_state(self, state: Any, name: str = "state") -> Any:
+        """``state`` is this layer's ``state_type`` (as its ``init`` returns it), else a ValueError naming ``name``: a
+        plain :class:`GaussianState` (e.g. the base filter's own ``init``) lacks the layer's fields."""
+        if self.state_type is not None and not isinstance(state, self.state_type):
+            raise ValueError(f"{name}: expected the {self.state_type.__name__} of {type(self).__name__}.init(), got "
+                             f"{type(state).__name__} (initialise with the layer's init, not its base filter's)")
+        return state
+
     def predict(self, state: State, dynamics: Dynamics) -> State:
         """The base filter's time update; when the state has a ``Q`` field it records ``dynamics.Q``
-        broadcast to the covariance's shape (..., n, n) (a read-only view)."""
+        broadcast to the covariance's shape (..., n, n) (a read-only view).  A state of another type than the
+        layer's is a ValueError naming ``state`` (:meth:`check_state`)."""
+        self.check_state(state)
         s = self.base.predict(state, dynamics)
         if "Q" in s._fields:
             s = s._replace(Q=np.broadcast_to(dynamics.Q, s.cov.shape))

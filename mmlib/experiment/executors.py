@@ -259,6 +259,8 @@ def dask_client(address: str) -> distributed.Client:
 def dask_executor(address: str | None = None) -> cf.Executor:
     """A ``concurrent.futures`` executor on the Dask cluster at ``address`` (default ``$MMLIB_SCHEDULER``), for
     ``executor=`` of :func:`run_tasks`, ``evaluate`` or ``run_grid``."""
+    if address is not None and not isinstance(address, str):
+        raise ValueError(f"address: expected a scheduler address such as tcp://host:8786, got {address!r}")
     address = address or scheduler_address()
     if not address:
         raise ValueError(f"address: no scheduler address given and {SCHEDULER_VARIABLE} is not set")
@@ -293,6 +295,7 @@ def choose_executor(n_tasks: int, *, workers: int | None = None,
     """``(executor, where)`` for ``n_tasks`` tasks by the policy of this module; ``where`` describes it for
     messages.  ``workers`` is validated (and ``$WORKERS`` read) whatever is chosen, so a bad setting is always an
     error."""
+    check_positive_int(n_tasks, "n_tasks", minimum=0)
     n_workers = worker_count(workers)
     if executor is not None:
         if not callable(getattr(executor, "submit", None)):
@@ -317,6 +320,18 @@ def run_tasks(fn: Callable, tasks: Sequence[tuple], *, shared: tuple = (), worke
     ``shared``: arguments common to every task, serialised once.  ``on_result(i, result)`` is called in this
     process as each task finishes (completion order; for progress and caching); an exception it raises, or one a
     task raises, cancels the tasks not yet started and is re-raised.  Returns the results in task order."""
+    if not callable(fn):
+        raise ValueError(f"fn: expected a function, got {type(fn).__name__}")
+    if isinstance(tasks, (str, bytes)) or not hasattr(tasks, "__iter__"):
+        raise ValueError(f"tasks: expected a sequence of argument tuples, got {tasks!r}")
+    tasks = list(tasks)
+    for i, t in enumerate(tasks):
+        if not isinstance(t, (tuple, list)):
+            raise ValueError(f"tasks: expected a sequence of argument tuples, task {i} is {t!r}")
+    if not isinstance(shared, (tuple, list)):
+        raise ValueError(f"shared: expected a tuple of arguments common to every task, got {shared!r}")
+    if on_result is not None and not callable(on_result):
+        raise ValueError(f"on_result: expected None or a function (index, result), got {type(on_result).__name__}")
     tasks = [tuple(t) for t in tasks]
     ex, where = choose_executor(len(tasks), workers=workers, executor=executor)
     results: list = [None] * len(tasks)

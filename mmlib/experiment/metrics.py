@@ -225,6 +225,16 @@ def mean_rmse_over_time(err: ArrayLike, valid: ArrayLike | None = None) -> MCVal
     return MCValue(value, se, int(ok.sum()), int((~ok).sum()))
 
 
+def _statistic_value(x) -> float:
+    """What a jackknife ``statistic`` returned, as a float: a real number (Python or numpy, or a 0-d array), else a
+    ValueError naming ``statistic``."""
+    arr = np.asarray(x) if not isinstance(x, (str, bytes)) else None
+    if arr is None or arr.shape != () or arr.dtype.kind not in "iuf":
+        raise ValueError(f"statistic: expected a function returning a real number, it returned "
+                         f"{type(x).__name__}{'' if arr is None or arr.shape == () else f' of shape {arr.shape}'}")
+    return float(x)
+
+
 def jackknife(statistic: Callable, samples: ArrayLike, valid: ArrayLike | None = None) -> MCValue:
     """Delete-one-run jackknife standard error of ``statistic(samples)`` (samples: runs first);
     for statistics without a simple closed-form error, e.g. the s.d. over time of a per-step RMSE.
@@ -238,9 +248,9 @@ def jackknife(statistic: Callable, samples: ArrayLike, valid: ArrayLike | None =
     n = s.shape[0]
     if n == 0:
         return MCValue(np.nan, np.nan, 0, int((~ok).sum()))
-    value = float(statistic(s))
+    value = _statistic_value(statistic(s))
     if n < 2:
         return MCValue(value, np.nan, n, int((~ok).sum()))
-    loo = np.array([statistic(np.delete(s, i, axis=0)) for i in range(n)])
+    loo = np.array([_statistic_value(statistic(np.delete(s, i, axis=0))) for i in range(n)])
     se = float(np.sqrt((n - 1) / n * ((loo - loo.mean()) ** 2).sum()))
     return MCValue(value, se, n, int((~ok).sum()))

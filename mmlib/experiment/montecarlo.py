@@ -91,12 +91,15 @@ class MonteCarlo:
         :math:`\text{mean} + L w` with :math:`LL^T = \text{cov}` (Cholesky) and ``w`` the run's standard normals
         of ``stream`` (e.g. a sampled initial estimate, :attr:`Stream.INITIAL`).  ``mean`` (n,) or
         (len(runs), n); the product is the same for a run in any batch, one run included."""
-        from mmlib.core._validate import as_float_array, check_covariance
+        from mmlib.core._validate import as_float_array, check_covariance, check_finite
         from mmlib.core.linalg import matmul_rows
+        runs = self.check_runs(runs)
         cov = check_covariance(cov, "cov")
-        mean = as_float_array(mean, "mean")
-        if mean.shape[-1:] != cov.shape[:1]:
-            raise ValueError(f"mean: expected vectors of length {cov.shape[0]} (cov's), got shape {mean.shape}")
+        mean = check_finite(as_float_array(mean, "mean"), "mean")
+        n = cov.shape[0]
+        if mean.shape not in ((n,), (len(runs), n)):
+            raise ValueError(f"mean: expected shape ({n},) or ({len(runs)}, {n}) for cov's {n} states and "
+                             f"{len(runs)} runs, got {mean.shape}")
         w = self.standard_normal(runs, stream, (cov.shape[0],))
         return mean + matmul_rows(w, np.linalg.cholesky(cov).T)
 
@@ -116,6 +119,8 @@ def say_progress(line: str) -> None:
     """Write one progress line: appended to the file ``$MMLIB_PROGRESS_LOG`` names when it is set (opened and
     closed per line, so that several processes may append), else to stderr.  Every progress line of mmlib (Monte
     Carlo chunks, grid jobs, arena cells) goes through here."""
+    if not isinstance(line, str):
+        raise ValueError(f"line: expected a string, got {line!r}")
     path = os.environ.get(PROGRESS_LOG_ENV)
     if path:
         with open(path, "a", encoding="utf-8") as log:
@@ -129,6 +134,13 @@ class Progress:
     (or to ``stream`` when one is given); ``enabled=False`` is silent."""
 
     def __init__(self, label: str, total: int, stream=None, enabled: bool = True):
+        if not isinstance(label, str):
+            raise ValueError(f"label: expected a string, got {label!r}")
+        check_positive_int(total, "total", minimum=0)
+        if stream is not None and not callable(getattr(stream, "write", None)):
+            raise ValueError(f"stream: expected None or a text stream (with write), got {type(stream).__name__}")
+        if not isinstance(enabled, (bool, np.bool_)):
+            raise ValueError(f"enabled: expected True or False, got {enabled!r}")
         self.label, self.total, self.done = label, total, 0
         self.stream = stream
         self.enabled = enabled
@@ -136,6 +148,7 @@ class Progress:
 
     def advance(self, n: int) -> None:
         """Count ``n`` more finished runs and, if enabled, report the total and the elapsed wall time (s)."""
+        check_positive_int(n, "n", minimum=0)
         self.done += n
         if self.enabled:
             dt = time.perf_counter() - self.t0

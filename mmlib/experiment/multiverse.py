@@ -36,6 +36,9 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Mapping, NamedTuple
 
+import numpy as np
+
+from mmlib.core._validate import as_float_array, check_count, check_names, check_positive_int
 from mmlib.experiment import report
 from mmlib.experiment.grid import run_grid
 from mmlib.experiment.readings import Design, ReadingSpace
@@ -68,6 +71,38 @@ def _finite_or_none(x):
     return x if math.isfinite(x) else None
 
 
+def _number_or_none(x, name: str):
+    """A real number (Python or numpy, or a 0-d array) as :func:`_finite_or_none` stores it (NaN and infinities:
+    None, the value could not be produced), or None; a string, a bool, an array or any other object is a
+    ValueError naming ``name``."""
+    if x is None:
+        return None
+    if isinstance(x, (bool, np.bool_)):
+        raise ValueError(f"{name}: expected a number or None, got {x!r}")
+    arr = as_float_array(x, name)
+    if arr.ndim != 0:
+        raise ValueError(f"{name}: expected a number or None, got an array of shape {arr.shape}")
+    return _finite_or_none(x)
+
+
+def _text(x, name: str) -> str:
+    if not isinstance(x, str):
+        raise ValueError(f"{name}: expected a string, got {x!r}")
+    return x
+
+
+def _items(value, name: str, what: str) -> list:
+    if isinstance(value, (str, bytes, Mapping)) or not hasattr(value, "__iter__"):
+        raise ValueError(f"{name}: expected a sequence of {what}, got {value!r}")
+    return list(value)
+
+
+def _tuple_of(entry, name: str, sizes: tuple, what: str) -> tuple:
+    if isinstance(entry, (str, bytes)) or not isinstance(entry, (tuple, list)) or len(entry) not in sizes:
+        raise ValueError(f"{name}: expected {what}, got {entry!r}")
+    return tuple(entry)
+
+
 def universe_result(*, values: Iterable[tuple], claims: Iterable[Mapping[str, Any]], diverged: Mapping[str, int],
                     effects: Iterable[tuple] = (), n_runs: int) -> dict:
     """The JSON-able result of one universe (validated).
@@ -79,24 +114,47 @@ def universe_result(*, values: Iterable[tuple], claims: Iterable[Mapping[str, An
     :class:`mmlib.experiment.report.Claims` or dicts with ``claim`` and ``verdict``; ``diverged``: algorithm
     -> number of diverged runs; ``effects``: iterable of ``(name, value, stderr)`` or
     ``(name, value, stderr, published)``."""
+    n_runs = check_positive_int(n_runs, "n_runs")
     vals = []
-    for v in values:
-        item, alg, qty, rep, se, *failed = v
-        vals.append({"item": item, "algorithm": alg, "quantity": qty, "replicated": _finite_or_none(rep),
-                     "stderr": _finite_or_none(se)})
+    for i, v in enumerate(_items(values, "values", "(item, algorithm, quantity, replicated, stderr[, failed])")):
+        item, alg, qty, rep, se, *failed = _tuple_of(v, f"values[{i}]", (5, 6),
+                                                     "(item, algorithm, quantity, replicated, stderr[, failed])")
+        vals.append({"item": _text(item, f"values[{i}].item"), "algorithm": _text(alg, f"values[{i}].algorithm"),
+                     "quantity": _text(qty, f"values[{i}].quantity"),
+                     "replicated": _number_or_none(rep, f"values[{i}].replicated"),
+                     "stderr": _number_or_none(se, f"values[{i}].stderr")})
         if failed and failed[0]:
             vals[-1]["failed"] = str(failed[0])
     cls = []
-    for c in claims:
-        report.claim_category(c["verdict"])
-        cls.append({"claim": c["claim"], "verdict": c["verdict"]})
+    for i, c in enumerate(_items(claims, "claims", "claims (Claims, or dicts with 'claim' and 'verdict')")):
+        if not isinstance(c, Mapping) or "claim" not in c or "verdict" not in c:
+            raise ValueError(f"claims[{i}]: expected a dict with 'claim' and 'verdict', got {c!r}")
+        report.claim_category(_text(c["verdict"], f"claims[{i}].verdict"))
+        cls.append({"claim": _text(c["claim"], f"claims[{i}].claim"), "verdict": c["verdict"]})
     effs = []
-    for e in effects:
-        name, value, se, *pub = e
-        effs.append({"name": name, "value": _finite_or_none(value), "stderr": _finite_or_none(se),
-                     "published": _finite_or_none(pub[0]) if pub else None})
-    div = {str(k): int(v) for k, v in dict(diverged).items()}
-    return {"values": vals, "claims": cls, "effects": effs, "diverged": div, "n_runs": int(n_runs)}
+    for i, e in enumerate(_items(effects, "effects", "(name, value, stderr[, published])")):
+        name, value, se, *pub = _tuple_of(e, f"effects[{i}]", (3, 4), "(name, value, stderr[, published])")
+        effs.append({"name": _text(name, f"effects[{i}].name"), "value": _number_or_none(value, f"effects[{i}].value"),
+                     "stderr": _number_or_none(se, f"effects[{i}].stderr"),
+                     "published": _number_or_none(pub[0], f"effects[{i}].published") if pub else None})
+    try:
+        diverged = dict(diverged)
+    except (TypeError, ValueError):
+        raise ValueError(f"diverged: expected a dict algorithm -> number of diverged runs, got {diverged!r}") from None
+    div = {str(k): check_count(v, f"diverged[{k!r}]", n_runs) for k, v in diverged.items()}
+    return {"values": vals, "claims": cls, "effects": effs, "diverged": div, "n_runs": n_runs}
+
+
+def _check_pub(pub) -> PublishedNumber:
+    if not isinstance(pub, PublishedNumber):
+        raise ValueError(f"pub: expected a PublishedNumber (an item of Multiverse.published), got {pub!r}")
+    return pub
+
+
+def _check_universe(universe) -> None:
+    if not isinstance(universe, Mapping) or "values" not in universe or "effects" not in universe:
+        raise ValueError(f"universe: expected a universe result (an item of Multiverse.universes), got "
+                         f"{type(universe).__name__}")
 
 
 @dataclass
@@ -111,10 +169,26 @@ class Multiverse:
     n_runs_paper: int | None = None
 
     def __post_init__(self):
+        if not isinstance(self.space, ReadingSpace):
+            raise ValueError(f"space: expected a ReadingSpace, got {type(self.space).__name__}")
+        if not isinstance(self.design, Design):
+            raise ValueError(f"design: expected a Design (ReadingSpace.design), got {type(self.design).__name__}")
+        if isinstance(self.universes, (str, bytes, Mapping)) or not hasattr(self.universes, "__len__"):
+            raise ValueError(f"universes: expected a list of universe results, got {type(self.universes).__name__}")
         if len(self.universes) != len(self.design.readings):
             raise ValueError("universes: one result per reading of the design is needed")
+        for i, u in enumerate(self.universes):
+            missing = [k for k in ("values", "claims", "effects", "diverged", "n_runs")
+                       if not isinstance(u, Mapping) or k not in u]
+            if missing:
+                raise ValueError(f"universes[{i}]: expected a universe result (multiverse.universe_result), "
+                                 f"lacking {', '.join(missing)}")
         if self.design.readings[0] != self.space.headline:
             raise ValueError("design: the headline must be the first universe")
+        _check_published(self.published)
+        check_positive_int(self.n_runs, "n_runs")
+        if self.n_runs_paper is not None:
+            check_positive_int(self.n_runs_paper, "n_runs_paper")
 
     # -- lookups ----------------------------------------------------------------------------------------------
     @property
@@ -130,6 +204,9 @@ class Multiverse:
     def value(self, universe: dict, key: tuple) -> dict | None:
         """The entry of ``universe["values"]`` whose ``(item, algorithm, quantity)`` is ``key``
         (:attr:`PublishedNumber.key`), or None when the universe does not compute it."""
+        _check_universe(universe)
+        if not (isinstance(key, tuple) and len(key) == 3):
+            raise ValueError(f"key: expected (item, algorithm, quantity) (PublishedNumber.key), got {key!r}")
         for v in universe["values"]:
             if (v["item"], v["algorithm"], v["quantity"]) == key:
                 return v
@@ -138,6 +215,7 @@ class Multiverse:
     def effect(self, universe: dict, name: str) -> dict:
         """The entry of ``universe["effects"]`` called ``name`` (``name``, ``value``, ``stderr``, ``published``);
         ValueError naming the known effects otherwise."""
+        _check_universe(universe)
         for e in universe["effects"]:
             if e["name"] == name:
                 return e
@@ -147,7 +225,7 @@ class Multiverse:
         """The verdict rule on one universe's value; a value the universe computed but could not produce
         (``replicated`` None, e.g. every run diverged) is *not reproduced*; a number no universe
         computes is *not replicable*."""
-        v = self.value(universe, pub.key)
+        v = self.value(universe, _check_pub(pub).key)
         if v is None:
             return report.NOT_REPLICABLE
         if v["replicated"] is None:
@@ -162,7 +240,7 @@ class Multiverse:
         """The standardized distance of the universe's value from the printed number
         (:func:`mmlib.experiment.report.standardized_distance`); None when the universe does not compute it,
         ``inf`` when it computed it but could not produce a value."""
-        v = self.value(universe, pub.key)
+        v = self.value(universe, _check_pub(pub).key)
         if v is None:
             return None
         if v["replicated"] is None:
@@ -238,7 +316,10 @@ class Multiverse:
         return out
 
     def table_distances(self, table: str) -> list:
-        """Sum over the table's replicated cells of squared standardized distances, per universe."""
+        """Sum over the table's replicated cells of squared standardized distances, per universe; ``table`` one of
+        :attr:`tables`."""
+        if table not in self.tables:
+            raise ValueError(f"table: unknown table {table!r}; published: {self.tables}")
         pubs = [p for p in self.published if p.table == table]
         out = []
         for u in self.universes:
@@ -320,15 +401,48 @@ def run_multiverse(space: ReadingSpace, job: Callable, *, published: Iterable[Pu
                    **grid_options: Any) -> Multiverse:
     """Run ``job`` on every universe of ``space.design(design)`` (see :func:`run_grid` for the
     executor, worker, cache and progress options)."""
+    if not isinstance(space, ReadingSpace):
+        raise ValueError(f"space: expected a ReadingSpace, got {type(space).__name__}")
+    algorithms = check_names(algorithms, "algorithms", nonempty=False)
+    published = _check_published(published)
+    check_positive_int(n_runs, "n_runs")
+    check_positive_int(seed, "seed", minimum=0)
+    if n_runs_paper is not None:
+        check_positive_int(n_runs_paper, "n_runs_paper")
     d = space.design(design)
     results = run_grid(job, d.readings, paper=space.paper, algorithms=algorithms, n_runs=n_runs, seed=seed,
                        **grid_options)
-    return Multiverse(space, d, results, tuple(published), n_runs, n_runs_paper)
+    return Multiverse(space, d, results, published, n_runs, n_runs_paper)
+
+
+def _check_published(published) -> tuple:
+    """``published`` as a tuple of :class:`PublishedNumber` whose ``printed`` texts are numbers."""
+    out = tuple(_items(published, "published", "PublishedNumber"))
+    for i, p in enumerate(out):
+        if not isinstance(p, PublishedNumber):
+            raise ValueError(f"published[{i}]: expected a PublishedNumber, got {p!r}")
+        for field in PublishedNumber._fields:
+            _text(getattr(p, field), f"published[{i}].{field}")
+        try:
+            float(p.printed)
+        except ValueError:
+            raise ValueError(f"published[{i}].printed: expected a number as printed (e.g. '2.48'), got "
+                             f"{p.printed!r}") from None
+    return out
 
 
 def from_dict(space: ReadingSpace, doc: dict, published: Iterable[PublishedNumber],
               n_runs_paper: int | None = None) -> Multiverse:
     """Rebuild a :class:`Multiverse` from the ``multiverse`` object of a results file."""
+    if not isinstance(space, ReadingSpace):
+        raise ValueError(f"space: expected a ReadingSpace, got {type(space).__name__}")
+    missing = [k for k in ("universes", "design", "design_description", "n_runs")
+               if not isinstance(doc, Mapping) or k not in doc]
+    if missing:
+        raise ValueError(f"doc: expected the 'multiverse' object of a results file, lacking {', '.join(missing)}")
+    for i, u in enumerate(doc["universes"]):
+        if not isinstance(u, Mapping) or "reading" not in u:
+            raise ValueError(f"doc: universe {i} has no 'reading'")
     readings = tuple(space.validate(u["reading"]) for u in doc["universes"])
     universes = [{k: v for k, v in u.items() if k != "reading"} for u in doc["universes"]]
     return Multiverse(space, Design(doc["design"], doc["design_description"], readings), universes,

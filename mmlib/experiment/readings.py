@@ -31,10 +31,51 @@ from typing import Mapping
 
 import numpy as np
 
+from mmlib.core._validate import check_bool, check_positive_int
+
+
+def _plain(value, name: str):
+    """``value`` as plain JSON data for a results file: numpy scalars become the Python equivalent (np.float64 ->
+    float, np.int64 -> int, np.bool_ -> bool, np.str_ -> str), tuples and lists are converted item by item (a tuple
+    stays a tuple), dicts need string keys; NaN, infinities and any other object (an array, a model) are a
+    ValueError naming the item, e.g. ``changes['q'][1]`` (they would fail when the results are written)."""
+    if isinstance(value, np.str_):
+        return str(value)
+    if value is None or isinstance(value, (bool, str)):
+        return value
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        x = float(value)
+        if not math.isfinite(x):
+            raise ValueError(f"{name}: expected a finite number, got {x!r} (a results file holds no NaN or infinity)")
+        return x
+    if isinstance(value, (tuple, list)):
+        out = [_plain(v, f"{name}[{i}]") for i, v in enumerate(value)]
+        return tuple(out) if isinstance(value, tuple) else out
+    if isinstance(value, Mapping):
+        for k in value:
+            if not isinstance(k, str):
+                raise ValueError(f"{name}: expected string keys, got {k!r}")
+        return {k: _plain(v, f"{name}[{k!r}]") for k, v in value.items()}
+    raise ValueError(f"{name}: expected a number, string, bool, None or a tuple, list or dict of them (JSON data), "
+                     f"got {type(value).__name__}")
+
+
+def _check_text(obj, fields, optional=()) -> None:
+    """Each of ``fields`` of ``obj`` a non-empty string (``optional`` ones may be empty)."""
+    for arg in fields:
+        value = getattr(obj, arg)
+        if not isinstance(value, str) or (arg not in optional and not value.strip()):
+            raise ValueError(f"{arg}: expected a non-empty string, got {value!r}")
+
 
 @dataclass(frozen=True)
 class Deviation:
-    """A numbered interpretation: what the paper gives, what we do, and why."""
+    """A numbered interpretation: what the paper gives, what we do, and why (every field a string; ``reason`` and
+    ``sweep`` may be empty, the others not)."""
 
     id: str
     topic: str
@@ -42,6 +83,9 @@ class Deviation:
     choice: str
     reason: str
     sweep: str = ""
+
+    def __post_init__(self):
+        _check_text(self, ("id", "topic", "paper", "choice", "reason", "sweep"), optional=("reason", "sweep"))
 
     def as_dict(self) -> dict:
         """The fields as a JSON-able dict (``id``, ``topic``, ``paper``, ``choice``, ``reason``, ``sweep``)."""
@@ -63,12 +107,10 @@ class Option:
     changes: Mapping = field(default_factory=dict)
 
     def __post_init__(self):
-        for arg in ("name", "label", "source"):
-            if not isinstance(getattr(self, arg), str) or not getattr(self, arg).strip():
-                raise ValueError(f"{arg}: expected a non-empty string, got {getattr(self, arg)!r}")
+        _check_text(self, ("name", "label", "source"))
         if not isinstance(self.changes, Mapping):
             raise ValueError(f"changes: expected a mapping of set-up fields to values, got {self.changes!r}")
-        object.__setattr__(self, "changes", dict(self.changes))
+        object.__setattr__(self, "changes", _plain(dict(self.changes), "changes"))
 
     def as_dict(self) -> dict:
         """``name``, ``label``, ``source`` and ``changes`` as a JSON-able dict (tuple values as lists)."""
@@ -96,9 +138,13 @@ class Factor:
     metric_only: bool = False
 
     def __post_init__(self):
-        for arg in ("id", "label", "source"):
-            if not isinstance(getattr(self, arg), str) or not getattr(self, arg).strip():
-                raise ValueError(f"{arg}: expected a non-empty string, got {getattr(self, arg)!r}")
+        _check_text(self, ("id", "label", "source"))
+        check_bool(self.influential, "influential")
+        check_bool(self.metric_only, "metric_only")
+        if isinstance(self.options, (str, bytes)) or not hasattr(self.options, "__iter__"):
+            raise ValueError(f"options: factor {self.id!r} needs a sequence of Option objects, got {self.options!r}")
+        if not isinstance(self.headline, str):
+            raise ValueError(f"headline: expected an option name (a string), got {self.headline!r}")
         options = tuple(self.options)
         if len(options) < 2 or not all(isinstance(o, Option) for o in options):
             raise ValueError(f"options: factor {self.id!r} needs at least two Option objects, got {self.options!r}")
@@ -138,6 +184,19 @@ class Design:
     description: str
     readings: tuple
 
+    def __post_init__(self):
+        if self.kind not in ("full", "fractional", "star"):
+            raise ValueError(f"kind: expected 'full', 'fractional' or 'star', got {self.kind!r}")
+        _check_text(self, ("description",))
+        if isinstance(self.readings, (str, bytes, Mapping)) or not hasattr(self.readings, "__iter__"):
+            raise ValueError(f"readings: expected a sequence of readings (dicts factor id -> option), got "
+                             f"{self.readings!r}")
+        readings = tuple(self.readings)
+        if not readings or not all(isinstance(r, Mapping) for r in readings):
+            raise ValueError("readings: expected a non-empty sequence of readings (dicts factor id -> option), "
+                             "the headline first")
+        object.__setattr__(self, "readings", readings)
+
     def __len__(self):
         return len(self.readings)
 
@@ -154,15 +213,17 @@ class ReadingSpace:
     budget: int | None = None
 
     def __post_init__(self):
+        _check_text(self, ("paper",))
+        if isinstance(self.factors, (str, bytes)) or not hasattr(self.factors, "__iter__"):
+            raise ValueError(f"factors: expected a non-empty sequence of Factor objects, got {self.factors!r}")
         factors = tuple(self.factors)
         if not factors or not all(isinstance(f, Factor) for f in factors):
             raise ValueError(f"factors: expected a non-empty sequence of Factor objects, got {self.factors!r}")
         ids = [f.id for f in factors]
         if len(set(ids)) != len(ids):
             raise ValueError(f"factors: repeated factor id in {ids}")
-        if self.budget is not None and (isinstance(self.budget, bool) or not isinstance(self.budget, int)
-                                        or self.budget < 1):
-            raise ValueError(f"budget: expected a positive integer or None, got {self.budget!r}")
+        if self.budget is not None:
+            object.__setattr__(self, "budget", check_positive_int(self.budget, "budget"))
         object.__setattr__(self, "factors", factors)
         object.__setattr__(self, "_designs", {})          # designs are deterministic: computed once
 

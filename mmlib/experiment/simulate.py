@@ -27,7 +27,12 @@ SIMULATED_DYNAMICS_METHODS = members(SimulatedDynamics)
 @dataclass(frozen=True, eq=False)
 class ManeuverSchedule:
     """Which of ``models`` drives each step: ``segments`` of ``(t_start, t_end, model_index)``,
-    ``default`` elsewhere."""
+    ``default`` elsewhere.
+
+    Every segment must contain the start of a step and every jump must fall on a measurement time ``t_k = kT``:
+    one that no step reaches (a mistyped time, a segment between two steps) would be silently ignored, so it is a
+    ValueError naming it.  ``truncate=True`` declares the schedule the first ``n_steps`` of a longer one (e.g. a
+    paper's set-up run for fewer steps): segments and jumps after the last step are then dropped, as intended."""
 
     models: Sequence
     segments: Sequence[tuple]
@@ -35,9 +40,11 @@ class ManeuverSchedule:
     T: float
     n_steps: int
     jumps: Sequence[tuple] = ()      # (t, state indices, values): set after the step that ends at t
+    truncate: bool = False           # the first n_steps of a longer schedule: what lies beyond is dropped
 
     def __post_init__(self):
         check_positive_int(self.n_steps, "n_steps")
+        check_bool(self.truncate, "truncate")
         if isinstance(self.models, (str, bytes)) or not hasattr(self.models, "__len__") or not len(self.models):
             raise ValueError(f"models: expected a non-empty sequence of dynamics models, got {self.models!r}")
         for j, model in enumerate(self.models):
@@ -48,6 +55,12 @@ class ManeuverSchedule:
         if any(model.dim != n for model in self.models):
             raise ValueError(f"models: every model must have the state dimension {n}, got "
                              f"{[model.dim for model in self.models]}")
+        for arg in ("segments", "jumps"):
+            value = getattr(self, arg)
+            if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+                raise ValueError(f"{arg}: expected a sequence of tuples, got {value!r}")
+        object.__setattr__(self, "T", check_scalar(self.T, "T", positive=True))    # sampling interval (s)
+        t_start = np.arange(self.n_steps) * self.T          # when each step's transition starts (module docstring)
         for i, seg in enumerate(self.segments):
             try:
                 t0, t1 = check_scalar(seg[0], "t_start"), check_scalar(seg[1], "t_end")
@@ -57,17 +70,30 @@ class ManeuverSchedule:
             except (ValueError, TypeError, IndexError) as exc:
                 raise ValueError(f"segments[{i}]: bad segment {seg!r} (need (t_start < t_end, model index < {r}): "
                                  f"{exc})") from None
+            beyond = t0 - 1e-9 > t_start[-1]                 # after the last step starts
+            if not np.any((t_start >= t0 - 1e-9) & (t_start < t1 - 1e-9)) and not (beyond and self.truncate):
+                raise ValueError(f"segments[{i}]: ({t0:g}, {t1:g}) s contains the start of none of the "
+                                 f"{self.n_steps} steps (t = 0..{t_start[-1]:g} s, T = {self.T:g} s): beyond the "
+                                 f"horizon or between two steps, it would be ignored (truncate=True: the first "
+                                 f"n_steps of a longer schedule)")
         check_index(self.default, "default", r)
-        object.__setattr__(self, "T", check_scalar(self.T, "T", positive=True))    # sampling interval (s)
+        times = self.times
         for i, jump in enumerate(self.jumps):
             try:
-                check_scalar(jump[0], "t")
+                t = check_scalar(jump[0], "t")
+                if isinstance(jump[1], (str, bytes)):
+                    raise ValueError("state indices: expected a sequence of integers")
                 idx = [check_index(j, "state index", n) for j in jump[1]]
                 values = check_finite(as_float_array(jump[2], "values"), "values")
                 if len(jump) != 3 or values.shape != (len(idx),):
                     raise ValueError("need (t, indices, values) of equal lengths")
             except (ValueError, TypeError, IndexError) as exc:
                 raise ValueError(f"jumps[{i}]: bad jump {jump!r}: {exc}") from None
+            if not np.any(np.abs(times - t) < 1e-9) and not (t - 1e-9 > times[-1] and self.truncate):
+                raise ValueError(f"jumps[{i}]: t = {t:g} s is none of the measurement times t_k = kT "
+                                 f"({times[0]:g}..{times[-1]:g} s, T = {self.T:g} s): beyond the horizon or between "
+                                 f"two steps, it would be ignored (truncate=True: the first n_steps of a longer "
+                                 f"schedule)")
 
     def modes(self) -> np.ndarray:
         """Index of the model used for step k = 1..K, shape (K,)."""
@@ -92,9 +118,27 @@ class Scenario(NamedTuple):
     modes: np.ndarray          # (K,)
 
 
+def _check_schedule(schedule) -> ManeuverSchedule:
+    if not isinstance(schedule, ManeuverSchedule):
+        raise ValueError(f"schedule: expected a ManeuverSchedule, got {type(schedule).__name__}")
+    return schedule
+
+
 def propagate(schedule: ManeuverSchedule, x0: ArrayLike, process_noise: np.ndarray | None = None) -> np.ndarray:
     """Truth (B, K+1, n) from ``x0`` (B, n) under ``schedule``; ``process_noise`` is None (a
     deterministic trajectory) or standard normals (B, K, n_w) scaled by each step's model."""
+    _check_schedule(schedule)
+    n = schedule.models[0].dim
+    x0 = check_finite(as_float_array(x0, "x0"), "x0")
+    if x0.ndim != 2 or x0.shape[1] != n:
+        raise ValueError(f"x0: expected shape (B, {n}), got {x0.shape}")
+    if process_noise is not None:
+        process_noise = check_finite(as_float_array(process_noise, "process_noise"), "process_noise")
+        n_w = max(m.noise_factor.shape[1] for m in schedule.models)
+        if process_noise.ndim != 3 or process_noise.shape[:2] != (x0.shape[0], schedule.n_steps) \
+                or process_noise.shape[2] < n_w:
+            raise ValueError(f"process_noise: expected None or standard normals of shape ({x0.shape[0]}, "
+                             f"{schedule.n_steps}, >= {n_w}), got {process_noise.shape}")
     modes = schedule.modes()
     x = np.array(x0, dtype=float)
     truth = [x]
@@ -123,6 +167,12 @@ def simulate(schedule: ManeuverSchedule, x0: ArrayLike, measurement: Measurement
     ``measurement_noise_fn(truth, noise)`` may replace the additive-noise model
     (e.g. sensor faults).
     """
+    _check_schedule(schedule)
+    if measurement_noise_fn is not None and not callable(measurement_noise_fn):
+        raise ValueError(f"measurement_noise_fn: expected None or a function (truth, noise) -> measurements, got "
+                         f"{type(measurement_noise_fn).__name__}")
+    if isinstance(runs, (str, bytes)) or not hasattr(runs, "__iter__"):
+        raise ValueError(f"runs: expected a range or sequence of run indices, got {runs!r}")
     runs = list(runs)
     check_has(measurement, "measurement", "a measurement model", ("h", "dim", "noise_factor"))
     check_applies(measurement, "measurement", schedule.models[0].dim)

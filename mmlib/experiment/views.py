@@ -5,10 +5,12 @@ Markdown tables are returned as text; figures as matplotlib figures (the caller 
 """
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any, Iterable, Sequence
 
 import numpy as np
 
+from mmlib.core._validate import check_positive_int
 from mmlib.experiment import report
 from mmlib.experiment.multiverse import ROBUST_FRACTION, Multiverse
 from mmlib.experiment.readings import ReadingSpace
@@ -25,8 +27,24 @@ def _cell(v) -> str:
     return str(v).replace("|", "\\|").replace("\n", " ")
 
 
+def _cells(row, name: str) -> list:
+    if isinstance(row, (str, bytes, dict)) or not hasattr(row, "__iter__"):
+        raise ValueError(f"{name}: expected a sequence of cells, got {row!r}")
+    return list(row)
+
+
 def markdown_table(header: Sequence[Any], rows: Iterable[Sequence[Any]]) -> str:
-    """A Markdown table; ``|`` in any cell (header included) is escaped, floats get 4 digits."""
+    """A Markdown table; ``|`` in any cell (header included) is escaped, floats get 4 digits.  ``header`` and each
+    row: sequences of cells of the header's length (a bare string is refused, never split into one letter a cell)."""
+    header = _cells(header, "header")
+    if not header:
+        raise ValueError("header: expected at least one column")
+    if isinstance(rows, (str, bytes)) or not hasattr(rows, "__iter__"):
+        raise ValueError(f"rows: expected a sequence of rows (sequences of cells), got {rows!r}")
+    rows = [_cells(r, f"rows[{i}]") for i, r in enumerate(rows)]
+    for i, r in enumerate(rows):
+        if len(r) != len(header):
+            raise ValueError(f"rows[{i}]: {len(r)} cells for the {len(header)} columns of the header")
     lines = ["| " + " | ".join(_cell(h) for h in header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(_cell(v) for v in r) + " |" for r in rows]
     return "\n".join(lines)
@@ -34,12 +52,23 @@ def markdown_table(header: Sequence[Any], rows: Iterable[Sequence[Any]]) -> str:
 
 def value_pm(value: float | None, stderr: float | None, digits: int = 3) -> str:
     """``"value ± stderr"`` with ``digits`` decimals; the value alone when ``stderr`` is None or not finite, "--"
-    when ``value`` is None."""
+    when ``value`` is None.  ``digits`` an integer >= 0."""
+    report._real(value, "value")
+    report._real(stderr, "stderr")
+    check_positive_int(digits, "digits", minimum=0)
     if value is None:
         return "--"
     if stderr is None or not np.isfinite(stderr):
         return f"{value:.{digits}f}"
     return f"{value:.{digits}f} ± {stderr:.{digits}f}"
+
+
+def _positive(x, name: str) -> float:
+    """A finite real number > 0, returned unchanged."""
+    report._real(x, name, none=False)
+    if not (math.isfinite(x) and x > 0):
+        raise ValueError(f"{name}: expected a finite number > 0, got {x!r}")
+    return x
 
 
 def _reading_text(space, reading) -> str:
@@ -48,14 +77,34 @@ def _reading_text(space, reading) -> str:
 
 def _summary(mv, key: str):
     """A summary list from a :class:`Multiverse` (computed) or from its ``as_dict()`` form (stored)."""
-    return mv[key] if isinstance(mv, dict) else getattr(mv, key)()
+    if isinstance(mv, dict):
+        if key not in mv:
+            raise ValueError(f"mv: expected a Multiverse or its as_dict() form, got a dict without {key!r}")
+        return mv[key]
+    return getattr(_multiverse(mv), key)()
+
+
+def _multiverse(mv) -> Multiverse:
+    if not isinstance(mv, Multiverse):
+        raise ValueError(f"mv: expected a Multiverse (run_multiverse), got {type(mv).__name__}")
+    return mv
+
+
+def _factors(space) -> list:
+    """The ``factors`` list of a ReadingSpace or of a stored multiverse."""
+    if isinstance(space, ReadingSpace):
+        return space.as_dict()
+    if not isinstance(space, list) or not all(isinstance(f, dict) and "option_details" in f for f in space):
+        raise ValueError(f"space: expected a ReadingSpace or the 'factors' list of a stored multiverse, got "
+                         f"{type(space).__name__}")
+    return space
 
 
 def factors_table(space: ReadingSpace | list[dict]) -> str:
     """One row per factor: id, what is ambiguous, options (headline in bold), where the paper says it.
     ``space``: a ReadingSpace or the ``factors`` list of a stored multiverse."""
     rows = []
-    factors = space if isinstance(space, list) else space.as_dict()
+    factors = _factors(space)
     for f in factors:
         opts = "; ".join((f"**{o['name']}**: {o['label']}" if o["name"] == f["headline"] else f"{o['name']}: {o['label']}")
                          for o in f["option_details"])
@@ -66,7 +115,7 @@ def factors_table(space: ReadingSpace | list[dict]) -> str:
 
 def options_table(space: ReadingSpace | list[dict]) -> str:
     """One row per option: the factor, the option, what it reads, and where the paper's text supports it."""
-    factors = space if isinstance(space, list) else space.as_dict()
+    factors = _factors(space)
     rows = [[f["id"], o["name"] + (" (headline)" if o["name"] == f["headline"] else ""), o["label"], o["source"]]
             for f in factors for o in f["option_details"]]
     return markdown_table(["factor", "option", "reading", "where the paper's text supports it"], rows)
@@ -103,6 +152,8 @@ def numbers_table(mv: Multiverse) -> str:
 
 def most_reading(t: dict) -> str:
     """The reading that reproduces the most cells of a table, or 'none' when no reading reproduces any."""
+    if not isinstance(t, dict) or "most_describe" not in t or "most_n_reproduced" not in t:
+        raise ValueError(f"t: expected an entry of Multiverse.table_match(), got {t!r}")
     return t["most_describe"] if t["most_n_reproduced"] else "none (no reading reproduces a cell)"
 
 
@@ -121,6 +172,15 @@ def table_match_table(mv: Multiverse | dict) -> str:
 def one_factor_table(mv: Multiverse, columns: Sequence[tuple[str, tuple]]) -> str:
     """The one-factor-at-a-time view: ``columns`` is a list of (header, key) with key a value key
     (item, algorithm, quantity) or ``("effect", name)``."""
+    _multiverse(mv)
+    if isinstance(columns, (str, bytes, dict)) or not hasattr(columns, "__iter__"):
+        raise ValueError(f"columns: expected a sequence of (header, key) pairs, got {columns!r}")
+    columns = list(columns)
+    for i, c in enumerate(columns):
+        if not (isinstance(c, (tuple, list)) and len(c) == 2 and isinstance(c[0], str) and isinstance(c[1], tuple)
+                and (len(c[1]) == 3 or (len(c[1]) == 2 and c[1][0] == "effect"))):
+            raise ValueError(f"columns[{i}]: expected (header, (item, algorithm, quantity)) or (header, ('effect', "
+                             f"name)), got {c!r}")
     rows = []
     for i, fid, reading in mv.one_factor_view():
         u = mv.universes[i]
@@ -146,6 +206,15 @@ def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str,
     (Simonsohn, Simmons & Nelson 2020)."""
     import matplotlib
     import matplotlib.pyplot as plt
+    _multiverse(mv)
+    for value, arg in ((effect, "effect"), (ylabel, "ylabel"), (title, "title")):
+        if not isinstance(value, str):
+            raise ValueError(f"{arg}: expected a string, got {value!r}")
+    if published is not None:
+        report._real(published, "published")
+    interval = _positive(interval, "interval")
+    if not isinstance(symlog, (bool, np.bool_)):
+        raise ValueError(f"symlog: expected True or False, got {symlog!r}")
     vals = [mv.effect(u, effect) for u in mv.universes]
     y = np.array([np.nan if v["value"] is None else v["value"] for v in vals])
     se = np.array([0.0 if v["stderr"] is None else v["stderr"] for v in vals])
@@ -223,6 +292,9 @@ def table_match_figure(mv: Multiverse, *, title: str) -> matplotlib.figure.Figur
     """Per published table, the sum of squared standardized distances of each universe (sorted),
     the headline and the best match marked; a smaller sum is a closer match to the whole table."""
     import matplotlib.pyplot as plt
+    _multiverse(mv)
+    if not isinstance(title, str):
+        raise ValueError(f"title: expected a string, got {title!r}")
     tables = [t for t in mv.tables if any(s is not None for s in mv.table_distances(t))]
     fig, axes = plt.subplots(1, len(tables), figsize=(4.2 * len(tables) + 1, 3.8), squeeze=False)
     for ax, table in zip(axes[0], tables):

@@ -97,7 +97,8 @@ class InnovationAdaptive(FilterLayer):
         fails, the prior covariance is first inflated to :math:`\zeta(P - Q) + Q` (Eqs. 33-35).  Until
         ``window`` innovations exist it is the base filter's update.  A measurement of another dimension
         restarts the window.  Returns ``(AdaptiveState, UpdateInfo)``; ValueError naming ``state`` if
-        ``zeta`` is set and no prediction recorded Q."""
+        ``zeta`` is set and no prediction recorded Q, or if it is not an :class:`AdaptiveState`."""
+        self.check_state(state)
         pred = self.base.predict_measurement(state, measurement)
         nu = measurement.residual(z, pred.z_pred)
         past = state.innovations

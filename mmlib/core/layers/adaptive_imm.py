@@ -128,6 +128,19 @@ class NoiseAdaptiveIMM:
         return NoiseAdaptiveState(imm_state, levels), est._replace(diagnostics=state.levels)
 
 
+def _array_of(value, method: str, shape: tuple, what: str) -> np.ndarray:
+    """What ``controller.<method>()`` returned, as a float array of ``shape`` (the array itself when it is one),
+    else a ValueError naming ``controller`` (not a broadcasting error one step later)."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or arr.shape != shape:
+        got = type(value).__name__ if arr is None else f"shape {arr.shape}"
+        raise ValueError(f"controller: {method}() returned {got}, expected shape {shape} {what}")
+    return arr
+
+
 class WindowedNoiseAdaptiveState(NamedTuple):
     """State of :class:`WindowedNoiseAdaptiveIMM`: the IMM's state, the next levels (B, r), the last W
     normalised degrees of divergence (B, W, 2) and how many of them are real epochs (B,)."""
@@ -184,7 +197,8 @@ class WindowedNoiseAdaptiveIMM(NoiseAdaptiveIMM):
         if self.frozen:
             return (WindowedNoiseAdaptiveState(imm_state, state.levels, state.dod, state.filled),
                     est._replace(diagnostics=state.levels))
-        dod_now = self.controller.dod(est, measurement)                                   # (B, 2)
+        dod_now = _array_of(self.controller.dod(est, measurement), "dod", state.dod.shape[::2],
+                            "(runs, [xi, eta])")                                            # (B, 2)
         history = np.concatenate([state.dod[:, 1:], dod_now[:, None]], axis=1)            # (B, W, 2)
         filled = np.minimum(state.filled + 1, int(self.window))
         W = int(self.window)
@@ -193,6 +207,6 @@ class WindowedNoiseAdaptiveIMM(NoiseAdaptiveIMM):
         else:
             recent = np.arange(W)[None, :] >= (W - filled)[:, None]                      # (B, W) real epochs
             dod = np.where(recent[..., None], history, 0.0).sum(axis=1) / filled[:, None]
-        levels = self.controller.levels(dod)
+        levels = _array_of(self.controller.levels(dod), "levels", state.levels.shape, "(runs, modes)")
         return (WindowedNoiseAdaptiveState(imm_state, levels, history, filled),
                 est._replace(diagnostics=state.levels))

@@ -69,6 +69,7 @@ class ObservationBootstrap(FilterLayer):
     likelihood: str = "sum"
     name: str = ""
     covariance: str = "kalman"
+    state_type = BootstrapState
 
     def __post_init__(self):
         self._check_base()
@@ -92,6 +93,16 @@ class ObservationBootstrap(FilterLayer):
                                  f"N={self.n_boot}, m), got {None if noise is None else noise.shape}")
         return BootstrapState(g.mean, g.cov, noise, 0)
 
+    def check_state_for(self, state: BootstrapState, measurement: MeasurementModel) -> None:
+        """ValueError naming ``noise`` when the pre-drawn noise of ``state`` (from :meth:`init`) is drawn for another
+        measurement dimension than ``measurement``'s: an estimator with one fixed sensor calls this at init, where
+        noise for more dimensions than the sensor's would silently use the first m of each draw.  (With a sensor
+        that changes per step, ``init``'s m is the largest step's, and no estimator calls this.)"""
+        self.check_state(state)
+        if self.n_boot > 0 and state.noise is not None and state.noise.shape[-1] != measurement.dim:
+            raise ValueError(f"noise: pre-drawn for measurements of dimension {state.noise.shape[-1]}, but the "
+                             f"measurement model has dimension {measurement.dim}")
+
     def update(self, state: BootstrapState, z: np.ndarray, measurement: MeasurementModel) -> tuple:
         r"""Measurement update with ``z`` (B, m) ((B, 1, m) inside an IMM): bootstrap observations
         :math:`\tilde z^n = z + L\epsilon^n` (Eq. 15, :math:`LL^T = R`, :math:`\epsilon` the step's pre-drawn
@@ -100,7 +111,9 @@ class ObservationBootstrap(FilterLayer):
         fusion of the N + 1 posteriors (Eqs. 22-24) and the likelihood of ``likelihood``.  Returns
         ``(BootstrapState, UpdateInfo)``, the innovation, S and NIS those of the real measurement; a run
         is failed when any member's update or the fusion fails.  ValueError naming ``noise`` when no
-        pre-drawn noise is left for this step or it is drawn for a smaller measurement dimension."""
+        pre-drawn noise is left for this step or it is drawn for a smaller measurement dimension; naming ``state``
+        when it is not a :class:`BootstrapState`."""
+        self.check_state(state)
         pred = self.base.predict_measurement(state, measurement)
         if self.n_boot == 0:
             new, info = kalman_update(state, pred, z, measurement)

@@ -100,7 +100,8 @@ class StrongTracking(FilterLayer):
         :math:`\lambda` (:meth:`fading_factor`); where :math:`\lambda > 1` the prior covariance becomes
         :math:`\lambda(P^l - Q) + Q` (Eq. 28) and the measurement is predicted again; then the shared Kalman
         update.  Returns ``(StrongTrackingState, UpdateInfo)`` with ``V`` and ``fading`` recorded;
-        ValueError naming ``state`` if no prediction recorded Q."""
+        ValueError naming ``state`` if no prediction recorded Q, or if it is not a :class:`StrongTrackingState`."""
+        self.check_state(state)
         if state.Q is None:
             raise ValueError("state: strong tracking needs predict() before update() (Q of Eq. 28 unknown)")
         pred = self.base.predict_measurement(state, measurement)
