@@ -192,3 +192,79 @@ def test_cache_key_bad_input(kw, name):
     base = dict(paper="toy", job=toy.toy_universe, reading=READINGS[0], algorithms=["alg"], n_runs=5, seed=1)
     with pytest.raises(ValueError, match=f"^{name}: "):
         grid.cache_key(**{**base, **kw})
+
+
+def _write_module(tmp_path, monkeypatch, name, text):
+    (tmp_path / f"{name}.py").write_text(textwrap.dedent(text))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    sys.modules.pop(name, None)
+    return importlib.import_module(name)
+
+
+def test_edits_reached_through_a_module_a_base_class_or_an_mmlib_object_change_the_key(tmp_path, monkeypatch):
+    from mmlib.core.fuzzy import Trapezoid
+    keys = []
+    for version in (1, 2):
+        helpers = _write_module(tmp_path, monkeypatch, "jc_helpers", f"def f():\n    return {version}\n")
+        assert helpers.f() == version
+        def job(reading, n_runs, seed, helpers=helpers):
+            return helpers.f()
+        keys.append(grid.job_code(job))
+    assert keys[0] != keys[1]                                  # a user's module edited
+    keys = []
+    for version in (1, 2):
+        mod = _write_module(tmp_path, monkeypatch, "jc_classes", f"""
+            class Base:
+                def value(self):
+                    return {version}
+
+            class Child(Base):
+                pass
+
+            def job(reading, n_runs, seed):
+                return Child().value()
+        """)
+        keys.append(grid.job_code(mod.job))
+    assert keys[0] != keys[1]                                  # a method of a base class edited
+    a, b = Trapezoid("m", 0, 1, 2, 3), Trapezoid("m", 0, 1, 2, 30)
+    assert grid.job_code(lambda r, n, s: a(r)) != grid.job_code(lambda r, n, s: b(r))   # an mmlib object's values
+
+
+def test_job_code_is_the_same_in_every_process(tmp_path):
+    """Objects, dataclasses and sets of strings are hashed canonically: the key does not move with the process
+    (hash randomisation, addresses), so identical runs hit the cache."""
+    (tmp_path / "jc_det.py").write_text(textwrap.dedent("""
+        import dataclasses, types
+        @dataclasses.dataclass
+        class Settings:
+            names: frozenset
+            scale: float
+        SETTINGS = Settings(frozenset({"alpha", "beta", "gamma", "delta"}), 2.0)
+        NS = types.SimpleNamespace(tags={"x", "y", "z", "w"}, obj=object)
+        def job(reading, n_runs, seed):
+            return (SETTINGS, NS, {"u", "v"})
+    """))
+    code = ("import sys; sys.path.insert(0, %r); import jc_det; from mmlib.experiment import grid; "
+            "print(grid.job_code(jc_det.job))" % str(tmp_path))
+    import os
+    import subprocess
+    outs = {subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                           env={**os.environ, "PYTHONHASHSEED": str(seed)}).stdout.strip() for seed in (1, 2, 3)}
+    assert len(outs) == 1, outs
+
+
+def test_a_lazily_filled_private_memo_does_not_change_the_key():
+    space = toy.SPACE
+    before = grid.job_code(lambda r, n, s: space.headline)
+    space.design("star")
+    assert grid.job_code(lambda r, n, s: space.headline) == before
+
+
+def test_shared_structure_is_hashed_once():
+    import time
+    x = [1.0]
+    for _ in range(40):
+        x = [x, x]                                           # 2**40 paths, 41 distinct lists
+    t0 = time.perf_counter()
+    grid.job_code(lambda r, n, s: x)
+    assert time.perf_counter() - t0 < 5.0

@@ -32,13 +32,25 @@ EMULATIONS = {
 TESTS = ("tests/tolerance/test_digest.py", "tests/test_batch_independence.py")
 
 
+def _fingerprint(env: dict) -> str:
+    """The machine fingerprint (:func:`mmlib.experiment.machine.fingerprint`) a process sees under ``env``."""
+    code = "from mmlib.experiment import machine; print(machine.fingerprint_id())"
+    return subprocess.run([sys.executable, "-c", code], cwd=REPO, env={**os.environ, **env}, capture_output=True,
+                          text=True, check=True).stdout.strip().splitlines()[-1]
+
+
 def main(argv: list[str]) -> int:
     if platform.machine() not in ("x86_64", "AMD64"):
         print(f"emulated_tests: {platform.machine()} is not x86-64; the CPU emulations do not apply, "
               "nothing to run", flush=True)
         return 0
+    native = _fingerprint({})
     for name, env in EMULATIONS.items():
         shown = " ".join(f'{k}="{v}"' for k, v in env.items())
+        if _fingerprint(env) == native:
+            print(f"emulated_tests: {name}: this machine already is one ({shown} changes nothing), skipped",
+                  flush=True)
+            continue
         print(f"emulated_tests: {name} machine ({shown})", flush=True)
         code = subprocess.call([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *TESTS, *argv],
                                cwd=REPO, env={**os.environ, **env, "MMLIB_EXPECT_EMULATED": name})

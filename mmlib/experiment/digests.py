@@ -10,22 +10,24 @@ committed one by the rule the results must meet:
   tests/test_batch_independence.py).
 * **another fingerprint (CPU, OpenBLAS core, numpy SIMD level, numba target, library versions): to
   round-off.**  Every run must diverge at the same step for the same cause, and every run's RMSE may
-  differ by at most ``RTOL_MACHINE * S``, S the algorithm's state scale (``scale``).  The bound: the code
-  that differs between CPUs (numpy's SIMD ``exp``/``log``, within 4 units in the last place of the
-  correctly rounded value; OpenBLAS's summation order over at most 9 terms) perturbs a step's estimate by at
-  most c u S with u = 2**-53 = 1.1e-16 and c ~ 10; a stable filter does not amplify a perturbation, so over
-  K steps the estimate moves at most K c u S, and the IMM's mode probabilities, mu ~ exp(log L), scale the
-  terms they weight by up to abs(log L) ~ 5e2 (an unlikely mode).  With the longest run (K = 1800 epochs,
-  tseng2011): 1800 * 10 * 1.1e-16 * 5e2 = 1e-9, hence ``RTOL_MACHINE = 1e-9``.  An RMSE is 1-Lipschitz in
-  the error vector (triangle inequality), so it inherits the estimate's bound.  Measured across the
-  emulated CPUs of ``.ci/run`` (AVX2; SSE4.2 with OpenBLAS Nehalem and Prescott cores): at most
-  1.8e-12 S (hu2017), liu2017 2e-16 S, zhu2016 0.
+  differ by at most ``RTOL_MACHINE * S``, S the algorithm's state scale (``scale``).  Where the bound comes
+  from: the code that differs between CPUs (numpy's SIMD ``exp``/``log``, a few units in the last place
+  apart; OpenBLAS's summation order) perturbs each step by a few u = 2**-53 = 1.1e-16 of S; the a-priori
+  worst case of tests/test_kernels.py (eps K cond(P) abs(log L), up to 1e-6 of S with cond(P) ~ 1e5) covers
+  any reordering but would let a real change of 1e-6 S pass.  Measured across the emulated CPUs of
+  ``.ci/run`` (AVX2; SSE4.2 with OpenBLAS Nehalem and Prescott cores), the largest per-run difference is
+  1.8e-12 S (hu2017), 2.9e-15 S (tseng2011), 2e-16 S (liu2017, zhou2017), 0 (zhu2016): the CPU-dependent
+  code is not the reordering of whole computations that the worst case assumes.  ``RTOL_MACHINE = 1e-9``
+  is therefore an empirical margin: 550 times the largest measured difference, 1000 times below the
+  worst case, re-checked under both emulations by every ``make test``.  An RMSE is 1-Lipschitz in the
+  error vector (triangle inequality), so it inherits the estimates' bound.
 * **another kernel** (``MMLIB_KERNEL``: compiled vs numpy): to ``RTOL_KERNEL * S`` per run with the same
   divergences; the compiled and numpy paths reorder whole computations (tests/test_kernels.py, where
   ``RTOL_RUN`` derives 1e-6 from eps K cond(P) abs(log L)).
 
-A swap of the random streams of two runs, or any change of an algorithm beyond round-off, moves some run's
-RMSE by a sizeable fraction of the RMSE itself, far above both bounds, and fails everywhere.
+A swap of the random streams of two runs, or a change that moves some run's RMSE by more than the bound, fails on
+every machine.  Across machines only the per-run RMSE and divergences are compared: mode probabilities and
+diagnostics are compared (in the SHA-256) on one machine only.
 """
 from __future__ import annotations
 
@@ -44,7 +46,7 @@ from mmlib.experiment.machine import differences, fingerprint
 DIGEST_VERSION = "mmlib-run-digest-2"
 
 #: per-run RMSE tolerance, in units of the state scale S, between machines of different fingerprints (module
-#: docstring: K c u abs(log L) with K = 1800, c = 10, u = 1.1e-16, abs(log L) = 5e2)
+#: docstring: 550 times the largest difference measured across emulated CPUs, 1000 times below the worst case)
 RTOL_MACHINE = 1e-9
 #: the same between the compiled and numpy kernels (tests/test_kernels.py, RTOL_RUN)
 RTOL_KERNEL = 1e-6
@@ -153,8 +155,28 @@ def compare_digests(ours: Mapping, committed: Mapping) -> DigestComparison:
     differ).  The digest version, run count and algorithm names must be equal in every case.  A committed digest
     without ``machine`` (written before fingerprints were recorded) can only be compared bit for bit."""
     for name, d in (("ours", ours), ("committed", committed)):
-        if not isinstance(d, Mapping) or any(k not in d for k in ("version", "n_runs", "algorithms", "sha256")):
+        if not isinstance(d, Mapping):
             raise ValueError(f"{name}: expected a run digest (run_digest), got {type(d).__name__}")
+        missing = [k for k in ("version", "n_runs", "algorithms", "sha256", "kernel") if k not in d]
+        if missing:
+            raise ValueError(f"{name}: not a run digest: {', '.join(missing)} missing")
+        if "machine" in d and not isinstance(d["machine"], Mapping):
+            raise ValueError(f"{name}: 'machine' must be a fingerprint dict, got {d['machine']!r}")
+        runs = d.get("runs")
+        if runs is not None:
+            if not isinstance(runs, Mapping) or set(runs) != set(d["algorithms"]):
+                raise ValueError(f"{name}: 'runs' must hold the per-run numbers of exactly the algorithms "
+                                 f"{d['algorithms']}")
+            for alg, r in runs.items():
+                if not isinstance(r, Mapping) or any(
+                        not isinstance(r.get(k), list) or len(r[k]) != d["n_runs"]
+                        for k in ("rmse", "diverged_step", "divergence_cause")):
+                    raise ValueError(f"{name}: runs[{alg!r}] must hold rmse, diverged_step and divergence_cause "
+                                     f"for each of the {d['n_runs']} runs")
+                scale = r.get("scale")
+                if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not scale > 0 \
+                        or not math.isfinite(scale):
+                    raise ValueError(f"{name}: runs[{alg!r}]['scale'] must be a positive number, got {scale!r}")
     m_ours = {**ours.get("machine", {}), "kernel": ours.get("kernel")}
     m_comm = {**committed.get("machine", {}), "kernel": committed.get("kernel")} if "machine" in committed else None
     diff = tuple(differences(m_ours, m_comm)) if m_comm is not None else (
@@ -164,6 +186,8 @@ def compare_digests(ours: Mapping, committed: Mapping) -> DigestComparison:
     if m_comm is None or not diff or "runs" not in ours or "runs" not in committed:
         if ours["sha256"] != committed["sha256"]:
             problems.append(f"sha256 of the per-run numbers: {ours['sha256']} vs {committed['sha256']}")
+        elif "runs" in ours and "runs" in committed and ours["runs"] != committed["runs"]:
+            problems.append("the per-run numbers recorded beside the SHA-256 differ (the committed ones were edited)")
         return DigestComparison("bit for bit", not problems, tuple(problems), diff, 0.0)
     kernels = ours.get("kernel") != committed.get("kernel")
     rtol = RTOL_KERNEL if kernels else RTOL_MACHINE
@@ -180,7 +204,8 @@ def compare_digests(ours: Mapping, committed: Mapping) -> DigestComparison:
             if (x is None) != (y is None):
                 problems.append(f"{alg}: run {i} RMSE {x} vs {y}")
             elif x is not None:
-                ratio = abs(x - y) / tol if tol > 0 else (math.inf if x != y else 0.0)
+                ratio = 0.0 if x == y else abs(x - y) / tol
+                ratio = math.inf if math.isnan(ratio) else ratio
                 largest = max(largest, ratio)
                 if ratio > 1.0:
                     problems.append(f"{alg}: run {i} RMSE {x!r} vs {y!r}: difference {abs(x - y):.3g} > "
@@ -219,9 +244,9 @@ def same_numbers(universe: Mapping, local: Mapping) -> bool:
     machine's fingerprint under ``"machine"`` and is compared, without that entry, to round-off: every string,
     integer and flag equal, every float within ``RTOL_KERNEL`` of the larger magnitude or ``RTOL_MACHINE`` of the
     document's largest number (differences of near-equal numbers are pure round-off)."""
-    if not isinstance(universe, Mapping) or not isinstance(local, Mapping):
-        raise ValueError(f"universe: expected two result dicts, got {type(universe).__name__} and "
-                         f"{type(local).__name__}")
+    for value, name in ((universe, "universe"), (local, "local")):
+        if not isinstance(value, Mapping):
+            raise ValueError(f"{name}: expected a result dict, got {type(value).__name__}")
     if "machine" not in universe:
         return dict(universe) == dict(local)
     doc = {k: v for k, v in universe.items() if k != "machine"}

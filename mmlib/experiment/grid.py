@@ -126,40 +126,96 @@ def _is_library(module: str) -> bool:
     return any(path.startswith(root + os.sep) for root in _library_roots())
 
 
+def _sub_hash(value, seen: set, depth: int) -> str:
+    sub = hashlib.sha256()
+    _feed_value(value, sub, seen, depth)
+    return sub.hexdigest()
+
+
+def _object_state(value) -> dict | None:
+    """An object's own state as a dict: dataclass fields, else ``__getstate__``'s dict, else its ``__dict__`` and
+    ``__slots__``, without underscore-prefixed attributes (private memos filled lazily, e.g. a design cache);
+    None when it has none of these."""
+    import dataclasses
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: getattr(value, f.name, None) for f in dataclasses.fields(value)}
+    state = {}
+    for cls in type(value).__mro__:
+        for slot in getattr(cls, "__slots__", ()):
+            if isinstance(slot, str) and not slot.startswith("_") and hasattr(value, slot):
+                state[slot] = getattr(value, slot)
+    if hasattr(value, "__dict__"):
+        state.update({k: v for k, v in vars(value).items() if not k.startswith("_")})
+    return state if state or hasattr(value, "__dict__") else None
+
+
 def _feed_value(value, h, seen: set, depth: int) -> None:
-    """Hash a data value deterministically (sets in sorted order; arrays by dtype, shape and bytes)."""
+    """Hash a data value deterministically: numbers and strings by value, arrays by dtype, shape and bytes,
+    containers element by element (sets in the sorted order of their elements' hashes), callables by their
+    code (:func:`_feed_callable`), other objects by their type and state (:func:`_object_state`); a container or
+    object met again is hashed once (shared structure costs nothing more)."""
     if depth > 50:
         h.update(b"<deep>")
-    elif isinstance(value, (types.FunctionType, types.MethodType, functools.partial, type)) or (
-            callable(value) and not isinstance(value, (np.ndarray, np.generic))
-            and hasattr(type(value), "__call__") and type(value).__module__ not in ("builtins",)
-            and not isinstance(value, types.ModuleType) and not _is_library(type(value).__module__)):
-        _feed_callable(value, h, seen, depth + 1)
-    elif isinstance(value, types.ModuleType):
-        h.update(f"<module {value.__name__}>".encode())
-    elif value is None or isinstance(value, (bool, int, float, complex, str, bytes)):
+        return
+    if value is None or isinstance(value, (bool, int, float, complex, str, bytes)):
         h.update(f"{type(value).__name__}:{value!r}".encode())
-    elif isinstance(value, (np.ndarray, np.generic)):
+        return
+    if isinstance(value, (np.ndarray, np.generic)):
         arr = np.asarray(value)
         h.update(f"<array {arr.dtype.str} {arr.shape}>".encode())
         h.update(np.ascontiguousarray(arr).tobytes() if arr.dtype != object else repr(arr.tolist()).encode())
-    elif isinstance(value, (list, tuple)):
+        return
+    if isinstance(value, types.ModuleType):
+        _feed_module(value, h, seen)
+        return
+    if id(value) in seen:
+        h.update(b"<seen>")
+        return
+    if isinstance(value, (types.FunctionType, types.MethodType, types.BuiltinFunctionType, functools.partial, type)):
+        _feed_callable(value, h, seen, depth + 1)
+        return
+    seen.add(id(value))
+    if isinstance(value, (list, tuple)):
         h.update(f"<{type(value).__name__} {len(value)}>".encode())
         for v in value:
             _feed_value(v, h, seen, depth + 1)
     elif isinstance(value, (set, frozenset)):
-        h.update(f"<set {sorted(repr(v) for v in value)}>".encode())
+        h.update(f"<set {sorted(_sub_hash(v, set(), depth + 1) for v in value)}>".encode())
     elif isinstance(value, Mapping):
         h.update(f"<{type(value).__name__} {len(value)}>".encode())
         for k, v in value.items():
             _feed_value(k, h, seen, depth + 1)
             _feed_value(v, h, seen, depth + 1)
     else:
-        import cloudpickle
+        cls = type(value)
+        h.update(f"<object {cls.__module__}.{cls.__qualname__}>".encode())
+        if not (_is_mmlib(cls.__module__) or _is_library(cls.__module__)):
+            _feed_callable(cls, h, seen, depth + 1)            # a user's class: its code too
+        state = _object_state(value)
+        if state is not None:
+            _feed_value(state, h, seen, depth + 1)
+        else:
+            import cloudpickle
+            try:
+                h.update(cloudpickle.dumps(value))
+            except Exception:                           # noqa: BLE001 -- an unpicklable value keys by its type
+                h.update(b"<opaque>")
+
+
+def _feed_module(module: types.ModuleType, h, seen: set) -> None:
+    """A module: installed libraries and mmlib by name (their code comes with a version or the source hash), a
+    user's module by the bytes of its source file."""
+    name = module.__name__
+    h.update(f"<module {name}>".encode())
+    if _is_mmlib(name) or _is_library(name) or ("module", name) in seen:
+        return
+    seen.add(("module", name))
+    path = getattr(module, "__file__", None)
+    if path:
         try:
-            h.update(cloudpickle.dumps(value))
-        except Exception:                               # noqa: BLE001 -- an unpicklable value keys by its repr
-            h.update(repr(value).encode())
+            h.update(Path(path).read_bytes())
+        except OSError:
+            h.update(b"<unreadable>")
 
 
 def _feed_code(code: types.CodeType, h) -> None:
@@ -203,19 +259,32 @@ def _feed_callable(fn, h, seen: set, depth: int) -> None:
         return
     module = getattr(fn, "__module__", None) or ""
     name = f"{module}.{getattr(fn, '__qualname__', type(fn).__qualname__)}"
-    if _is_mmlib(module) or _is_library(module):        # mmlib: in source_hash; libraries: with their version
+    if _is_mmlib(module) or _is_library(module):
+        # mmlib's code is in source_hash and a library's comes with its version: the name stands for the code, but
+        # what the caller put in (a closure's values, an instance's state) is hashed
         h.update(f"<ref {name}>".encode())
+        if isinstance(fn, types.FunctionType):
+            for cell in fn.__closure__ or ():
+                try:
+                    _feed_value(cell.cell_contents, h, seen, depth + 1)
+                except ValueError:
+                    h.update(b"<empty cell>")
+        elif not isinstance(fn, (type, types.BuiltinFunctionType)):
+            _feed_value(_object_state(fn) or {}, h, seen, depth + 1)
         return
     h.update(f"<def {name}>".encode())
-    if isinstance(fn, type):                              # a user's class: its own attributes
+    if isinstance(fn, type):                              # a user's class: its bases and every attribute it defines
+        for base in fn.__mro__[1:]:
+            if base is not object:
+                _feed_callable(base, h, seen, depth + 1)
         for key, value in sorted(vars(fn).items()):
-            if not key.startswith("__") or key in ("__init__", "__call__", "__post_init__"):
+            if key not in ("__dict__", "__weakref__", "__module__", "__qualname__", "__doc__"):
                 h.update(key.encode())
                 _feed_value(value, h, seen, depth + 1)
         return
     if not isinstance(fn, types.FunctionType):            # a callable instance of a user's class
         _feed_callable(type(fn), h, seen, depth + 1)
-        _feed_value(getattr(fn, "__dict__", {}), h, seen, depth + 1)
+        _feed_value(_object_state(fn) or {}, h, seen, depth + 1)
         return
     _feed_code(fn.__code__, h)
     _feed_value(fn.__defaults__, h, seen, depth + 1)
@@ -247,11 +316,12 @@ def job_code(job: Callable) -> str:
 
 
 def key_document(*, paper: str, job: Callable, reading: Mapping, algorithms: Iterable[str], n_runs: int,
-                 seed: int) -> dict:
+                 seed: int, code: str | None = None) -> dict:
     """What a cached universe depends on; stored with the entry and checked when it is read: the paper, the
     job's name and code (:func:`job_code`), the reading, algorithms, runs and seed, mmlib's source
-    (:func:`source_hash`) and this machine's fingerprint (:func:`mmlib.experiment.machine.fingerprint_id`)."""
-    return {"paper": check_paper(paper), "job": job_name(job), "job_code": job_code(job),
+    (:func:`source_hash`) and this machine's fingerprint (:func:`mmlib.experiment.machine.fingerprint_id`).
+    ``code``: ``job_code(job)`` when the caller has it (a study keys many readings of one job)."""
+    return {"paper": check_paper(paper), "job": job_name(job), "job_code": code or job_code(job),
             "reading": dict(sorted(_plain_reading(reading, "reading").items())),
             "algorithms": _check_algorithms(algorithms), "n_runs": check_positive_int(n_runs, "n_runs"),
             "seed": check_positive_int(seed, "seed", minimum=0), "mmlib": source_hash(), "machine": fingerprint_id()}
@@ -395,8 +465,9 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
     say = say_progress if progress is True else (progress or None)
     tag = label or paper
     results: list = [None] * len(readings)
-    key_docs = [key_document(paper=paper, job=job, reading=r, algorithms=algorithms, n_runs=n_runs, seed=seed)
-                for r in readings]
+    code = job_code(job)
+    key_docs = [key_document(paper=paper, job=job, reading=r, algorithms=algorithms, n_runs=n_runs, seed=seed,
+                             code=code) for r in readings]
     keys = [hashlib.sha256(json.dumps(k, sort_keys=True).encode()).hexdigest()[:32] for k in key_docs]
     todo = []
     for i, key in enumerate(keys):

@@ -13,7 +13,7 @@ things pick their code per CPU at run time:
 
 :func:`fingerprint` records these (and the CPU model, its flags and the library versions) as a JSON-ready
 dict; two computations are expected to agree bit for bit only when their fingerprints are equal, and to
-round-off otherwise (:func:`mmlib.experiment.evaluation.compare_digests`).  The fingerprint is stored in
+round-off otherwise (:func:`mmlib.experiment.digests.compare_digests`).  The fingerprint is stored in
 every run digest and is part of every results-cache key (:mod:`mmlib.experiment.grid`).
 """
 from __future__ import annotations

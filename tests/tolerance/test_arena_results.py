@@ -50,7 +50,8 @@ def test_arena_digest_matches_committed(docs):
     if s["kernel"] != f["kernel"]:
         pytest.skip(f"kernel {s['kernel']} here, {f['kernel']} for the committed results: digests compare within one "
                     f"kernel (the values are compared to Monte Carlo error below)")
-    differ = machine.differences(s["machine"], f.get("machine", {}))
+    assert "machine" in f, "the committed arena digest records no machine fingerprint: regenerate it ('make figures')"
+    differ = machine.differences(s["machine"], f["machine"])
     if differ:
         # bits are equal only on one machine fingerprint (mmlib.experiment.digests); across machines the cells are
         # compared to Monte Carlo error plus round-off (test_arena_smoke_within_monte_carlo_error_of_full) and the
