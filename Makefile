@@ -57,11 +57,13 @@ test: $(STAMP)
 	$(PY) tools/emulated_tests.py
 	$(PY) -m pytest -q tests
 
-# The benchmark report (data/bench/: imm_ukf.json, scaling.json, scaling.png, notebooks.json), single-threaded:
+# The benchmark report (data/bench/: imm_ukf.json, scaling.json, scaling.png, notebooks.json; cross_cpu.json: how far
+# each paper's headline moves on emulated AVX2/SSE4.2 CPUs, x86-64 only), single-threaded:
 # the script sets OMP/OPENBLAS/MKL/BLIS/NUMBA_NUM_THREADS to BENCH_THREADS (default 1) before numpy loads.
 # Options: BENCH_REPEATS (interleaved repeats per library, default 5), BENCH_MAX_RUNS (largest size, default 100000)
 bench: $(STAMP)
 	$(PY) bench/imm_ukf.py
+	$(PY) tools/emulated_tests.py --measure
 
 clean:
 	@# an interrupted promotion of the committed outputs is journaled under build/: finish it before deleting

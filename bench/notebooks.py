@@ -14,6 +14,8 @@ import json
 import re
 from pathlib import Path
 
+from mmlib.experiment.results import read_results
+
 MULTIVERSE_CALL = "run_multiverse("
 CACHE_LINE = re.compile(r"(\d+)/(\d+) universes from the cache")
 
@@ -65,7 +67,7 @@ def notebook_times(executed_dir: Path, results_dir: Path | None = None) -> dict:
         res = Path(results_dir) / f"{paper}.json" if results_dir is not None else None
         kind = None
         if res is not None and res.exists():
-            doc = json.loads(res.read_text())
+            doc = read_results(res, name=f"{Path(results_dir).name}/{res.name}")
             t["results_git_commit"] = doc.get("provenance", {}).get("git_commit")
             kind = doc.get("kind")
         (studies if kind == "arena" else papers)[paper] = t

@@ -281,6 +281,12 @@ LAYER_CASES = {
             X0, P0, noise=np.zeros((B, K, 2, 3))), "noise"),
     "windowed controller levels() of another shape": (lambda: _windowed_step(levels_shape=(B, 3)), "controller"),
     "windowed controller dod() of another shape": (lambda: _windowed_step(dod_shape=(B, 3)), "controller"),
+    "a layer over another layer": (lambda: StrongTracking(InnovationAdaptive(UKF)), "base"),
+    "layer init with an unknown keyword": (
+        lambda: m.SingleModel(StrongTracking(UKF), CV, POS).init(X0, P0, foo=1), "foo"),
+    "layer state through an IMM step": (
+        lambda: m.IMM(StrongTracking(UKF), [CV, models.constant_velocity(1.0, 20.0)], POS, TR).step(
+            m.IMM(UKF, [CV, models.constant_velocity(1.0, 20.0)], POS, TR).init(X0, P0), Z[:, 0]), "state"),
 }
 
 

@@ -1,5 +1,5 @@
 """The results contract: the JSON Schema mmlib/experiment/results.schema.json and its one reader,
-:func:`mmlib.experiment.report.read_results`.
+:func:`mmlib.experiment.results.read_results`.
 
 * every committed results file (``data/results/*.json``, whatever files are there) validates, both with the library's
   own validator and with the reference one (jsonschema, draft 2020-12); a paper's also as complete
@@ -22,11 +22,12 @@ import re
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from jsonschema import Draft202012Validator
 
-from mmlib.experiment import report
-from mmlib.experiment.report import read_results, results_schema, validate_results
+from mmlib.experiment import report, results
+from mmlib.experiment.results import read_results, results_schema, validate_results
 
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = sorted((REPO / "data" / "results").glob("*.json"))
@@ -110,7 +111,6 @@ def _subschemas(node, where="#"):
 def test_schema_is_a_documented_draft_2020_12_schema(schema):
     Draft202012Validator.check_schema(schema)
     assert schema["$schema"] == "https://json-schema.org/draft/2020-12/schema"
-    assert schema == results_schema(), "the package's schema is the file mmlib/experiment/results.schema.json"
     undocumented = [name for name, sub in schema["$defs"].items() if not (sub.get("description") or sub.get("title"))]
     assert schema["description"] and not undocumented, f"$defs without a description: {undocumented}"
     # the top-level sections of a paper and the arena are documented where they are defined
@@ -123,24 +123,15 @@ def test_schema_is_a_documented_draft_2020_12_schema(schema):
         assert not bare, f"{where}: undocumented {bare}"
 
 
-def test_the_schema_ships_with_the_package():
-    """pyproject.toml declares the schema as package data (``pip install .`` installs it beside report.py)."""
-    import fnmatch
-    import tomllib
-    data = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]
-    declared = [f"{package.replace('.', '/')}/{pattern}" for package, patterns in data.items() for pattern in patterns]
-    assert any(fnmatch.fnmatch("mmlib/experiment/results.schema.json", d) for d in declared), declared
-
-
 def test_schema_uses_only_keywords_the_library_validator_implements(schema):
-    known = report._KEYWORDS | report._ANNOTATIONS
+    known = results._KEYWORDS | results._ANNOTATIONS
     used = {(where, key) for where, sub in _subschemas(schema) for key in sub if key not in known}
     assert not used, f"keywords read_results would refuse: {sorted(used)}"
 
 
 def test_library_validator_refuses_a_keyword_it_does_not_implement():
     with pytest.raises(RuntimeError, match=r"'maxItems'.* not implemented"):
-        list(report._violations([1, 2], {"type": "array", "maxItems": 1}, ()))
+        list(results._violations([1, 2], {"type": "array", "maxItems": 1}, ()))
 
 
 def test_schema_vocabularies_are_those_of_the_code(schema):
@@ -162,18 +153,28 @@ def test_schema_vocabularies_are_those_of_the_code(schema):
     assert not claim.search("reproduced") and not claim.search("no detectable difference")
 
 
-def test_row_keys_are_those_write_results_requires(schema, tmp_path):
-    """A row key is required by the schema exactly when write_results refuses a row without it."""
+PROV = {"git_commit": "abc", "root_seed": 1, "n_runs": 10, "profile": "smoke"}
+
+
+@pytest.mark.parametrize("key", ["item", "algorithm", "quantity", "paper", "replicated", "stderr", "verdict",
+                                 "deviations"])
+def test_write_results_refuses_what_breaks_the_contract(tmp_path, key):
+    """write_results checks the document against the schema before writing: a row without a required key is a
+    ValueError naming the file and the JSON path, and nothing is written."""
     row = dataclasses.asdict(report.make_row("Table 1", "A", "RMSE (m)", "2.0", 2.01, 0.01, n_runs=10,
                                              n_runs_paper=10))
-    required = []
-    for key in row:
-        try:
-            report.write_results(tmp_path / "x.json", paper="x", provenance={}, rows=[{k: v for k, v in row.items()
-                                                                                         if k != key}])
-        except ValueError:
-            required.append(key)
-    assert required and schema["$defs"]["row"]["required"] == required
+    target = tmp_path / "x.json"
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(target))}: rows\[0\]"):
+        report.write_results(target, paper="x", provenance=PROV, rows=[{k: v for k, v in row.items() if k != key}])
+    assert not target.exists()
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), np.float64("nan")])
+def test_write_results_names_a_non_finite_number(tmp_path, value):
+    target = tmp_path / "x.json"
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(target))}: figures\.extra\.a\[1\]: .* not a finite"):
+        report.write_results(target, paper="x", provenance=PROV, rows=[], figures={"extra": {"a": [1.0, value]}})
+    assert not target.exists()
 
 
 def test_what_write_results_writes_reads_back(tmp_path):
@@ -224,6 +225,8 @@ BROKEN = [
      "figures.fig01_model_probability_immukf.files: missing"),
     ("hu2017.json", ("digest", "sha256"), "abc", 'digest.sha256: string "abc" does not match'),
     ("hu2017.json", ("digest", "mean_squared_error"), KeyError, "digest.mean_squared_error: missing"),
+    ("hu2017.json", ("digest", "machine"), KeyError, "digest.machine: missing"),
+    ("hu2017.json", ("digest", "runs", "IMMUKF", "scale"), KeyError, "digest.runs.IMMUKF.scale: missing"),
     ("hu2017.json", ("digest", "diverged", "IMMUKF"), -1, 'digest.diverged.IMMUKF: expected a number >= 0'),
     ("hu2017.json", ("multiverse", "universes", 1, "claims", 0, "verdict"), "yes",
      "multiverse.universes[1].claims[0].verdict: "),
@@ -270,8 +273,8 @@ def test_broken_document_is_rejected_naming_file_and_json_path(name, where, valu
 @pytest.mark.parametrize("name, where, value", [
     ("hu2017.json", ("rows", 0, "a_paper_extra"), {"anything": [1, None]}),
     ("hu2017.json", ("an_extra_section",), [1, "two"]),
-    ("hu2017.json", ("digest", "machine"), {"cpu": "x86-64", "flags": ["avx2"]}),
-    ("hu2017.json", ("digest", "runs"), {"IMMUKF": {"rmse": [1.5, None], "diverged_step": [-1, -1]}}),
+    ("hu2017.json", ("digest", "machine", "glibc"), "2.36"),
+    ("hu2017.json", ("digest", "note"), "a field of a later digest version"),
     ("hu2017.json", ("rows", 0, "paper"), None),
     ("hu2017.json", ("rows", 0, "paper"), 1.25),
     ("hu2017.json", ("multiverse",), KeyError),
@@ -315,15 +318,17 @@ def test_library_validator_agrees_with_jsonschema(name, reference):
     base = tiny(committed(name))
     assert reference[0].is_valid(base)
     outcomes, disagreements = [], []
-    for i, where in enumerate(_paths(base)):
+    # the second item of every array stays unmutated (tiny keeps it): mutating the first covers the same schema
+    paths = [w for w in _paths(base) if not any(isinstance(k, int) and k > 0 for k in w)]
+    for i, where in enumerate(paths):
         for value in (KeyError, MUTATIONS[i % len(MUTATIONS)], MUTATIONS[(7 * i + 3) % len(MUTATIONS)]):
             doc = _mutated(base, where, value)
-            ours = next(report._violations(doc, report._schema(), ()), None) is None
+            ours = next(results._violations(doc, results._schema(), ()), None) is None
             outcomes.append(ours)
             if ours != reference[0].is_valid(doc):
                 disagreements.append(f"{where} -> {value!r}: read_results {'accepts' if ours else 'rejects'} it")
     assert not disagreements, "\n".join(disagreements[:20])
-    assert len(outcomes) > 500 and 0.2 < outcomes.count(False) / len(outcomes) < 0.9, \
+    assert len(outcomes) > 300 and 0.2 < outcomes.count(False) / len(outcomes) < 0.9, \
         f"{outcomes.count(False)} of {len(outcomes)} mutations invalid: the mutations test too little"
 
 

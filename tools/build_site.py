@@ -26,7 +26,7 @@ the furo theme are Python packages pinned in requirements.lock, build offline an
 
 Bad input: a missing results folder or executed notebook is an error saying which command makes it; a results file
 that is not valid JSON or breaks the results contract is an error naming the file and the place
-(:func:`mmlib.experiment.report.read_results`); a page that fails to build is named with its notebook and cell (MyST-NB
+(:func:`mmlib.experiment.results.read_results`); a page that fails to build is named with its notebook and cell (MyST-NB
 reports the cell as the line number divided by 10000).
 """
 from __future__ import annotations
@@ -73,8 +73,8 @@ def load_inputs(profile: str) -> tuple[list[dict], dict[str, Path]]:
     of notebooks/*.py (``<paper>_<topic>.py``; the arena's is ``arena.py``): a stale results file or executed notebook
     of no current source is never published.  A SiteError names what is missing and the command to run first, or the
     results file that is not valid JSON or breaks the results contract, with the place
-    (:func:`mmlib.experiment.report.read_results`)."""
-    from mmlib.experiment.report import read_results
+    (:func:`mmlib.experiment.results.read_results`)."""
+    from mmlib.experiment.results import read_results
     root, executed, command = sources(profile)
     results = root / "data" / "results"
     then = f"then `make site{'' if profile == 'full' else ' PROFILE=' + profile}`"

@@ -12,9 +12,15 @@ and the batch-independence tests (``tests/test_batch_independence.py``: bit for 
 machine).  Elsewhere than x86-64 it says so and runs nothing.
 
 Usage: ``python tools/emulated_tests.py [pytest options]``; exit status that of the first failing run.
+
+``python tools/emulated_tests.py --measure`` (run by ``make bench``) instead measures how far each paper's
+headline digest moves under each emulated CPU of :data:`MEASURED` and writes ``data/bench/cross_cpu.json``: per
+machine and paper, whether the bits are equal, whether the divergences are, and the largest per-run RMSE
+difference relative to the state scale S (the quantity ``RTOL_MACHINE`` bounds) and to the RMSE.
 """
 from __future__ import annotations
 
+import json
 import os
 import platform
 import subprocess
@@ -29,7 +35,61 @@ EMULATIONS = {
     "avx2": {"OPENBLAS_CORETYPE": "Haswell", "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR"},
     "sse4.2": {"OPENBLAS_CORETYPE": "Nehalem", "NPY_DISABLE_CPU_FEATURES": "X86_V3 X86_V4 AVX512_ICL AVX512_SPR"},
 }
+#: the machines measured by --measure: the two tested ones and an older OpenBLAS core (SSE3's)
+MEASURED = {**EMULATIONS, "sse4.2-prescott": {**EMULATIONS["sse4.2"], "OPENBLAS_CORETYPE": "Prescott"}}
 TESTS = ("tests/tolerance/test_digest.py", "tests/test_batch_independence.py")
+MEASURE_OUT = REPO / "data" / "bench" / "cross_cpu.json"
+
+_DIGESTS = """
+import importlib, json, sys
+from mmlib import papers
+from mmlib.experiment import machine
+from mmlib.experiment.results import read_results
+out = {"machine": machine.fingerprint(), "digests": {}}
+for p in papers.with_headline_digest():
+    committed = read_results(f"data/results/{p}.json")["digest"]
+    out["digests"][p] = importlib.import_module(f"mmlib.papers.{p}").headline_digest(committed["n_runs"])
+json.dump(out, sys.stdout)
+"""
+
+
+def _digests(env: dict) -> dict:
+    """Every paper's headline digest and the machine fingerprint, computed in a process under ``env``."""
+    out = subprocess.run([sys.executable, "-c", _DIGESTS], cwd=REPO, env={**os.environ, **env}, capture_output=True,
+                         text=True, check=True).stdout
+    return json.loads(out)
+
+
+def movement(ours: dict, base: dict) -> dict:
+    """How far a digest moved from a reference digest of the same runs: ``bits_equal``, ``divergences_equal``
+    and the largest per-run RMSE differences ``max_over_scale`` (over the state scale S) and ``max_over_rmse``."""
+    over_s = over_r = 0.0
+    div_equal = True
+    for alg, a in ours["runs"].items():
+        b = base["runs"][alg]
+        div_equal &= a["diverged_step"] == b["diverged_step"] and a["divergence_cause"] == b["divergence_cause"]
+        for x, y in zip(a["rmse"], b["rmse"]):
+            if x is not None and y is not None and x != y:
+                over_s = max(over_s, abs(x - y) / b["scale"])
+                over_r = max(over_r, abs(x - y) / abs(y))
+    return {"bits_equal": ours["sha256"] == base["sha256"], "divergences_equal": div_equal,
+            "max_over_scale": over_s, "max_over_rmse": over_r}
+
+
+def measure() -> dict:
+    """The report written by ``--measure`` (see the module docstring)."""
+    from mmlib.experiment.digests import RTOL_MACHINE
+    native = _digests({})
+    report = {"rtol_machine": RTOL_MACHINE, "native": native["machine"], "machines": {}}
+    for name, env in MEASURED.items():
+        print(f"emulated_tests: measuring {name}", flush=True)
+        got = _digests(env)
+        report["machines"][name] = {
+            "environment": env, "fingerprint": got["machine"],
+            "papers": {p: movement(d, native["digests"][p]) for p, d in got["digests"].items()}}
+    report["largest_over_scale"] = max(m["max_over_scale"] for r in report["machines"].values()
+                                       for m in r["papers"].values())
+    return report
 
 
 def _fingerprint(env: dict) -> str:
@@ -40,6 +100,13 @@ def _fingerprint(env: dict) -> str:
 
 
 def main(argv: list[str]) -> int:
+    if argv[:1] == ["--measure"] and platform.machine() in ("x86_64", "AMD64"):
+        from mmlib.experiment.report import atomic_write_text
+        report = measure()
+        atomic_write_text(MEASURE_OUT, json.dumps(report, indent=1, sort_keys=True) + "\n")
+        print(f"emulated_tests: wrote {MEASURE_OUT.relative_to(REPO)} (largest per-run RMSE difference "
+              f"{report['largest_over_scale']:.2g} of the state scale; RTOL_MACHINE {report['rtol_machine']:g})")
+        return 0
     if platform.machine() not in ("x86_64", "AMD64"):
         print(f"emulated_tests: {platform.machine()} is not x86-64; the CPU emulations do not apply, "
               "nothing to run", flush=True)

@@ -6,7 +6,7 @@ the cross-paper summary.
 The notebook runner (tools/run_notebooks.py) calls :func:`paper_reports` to render a paper's reports into its
 staging folder, so that they are promoted together with the paper's results; run this script by hand only to
 re-render every report from the results already in place.  Every results file is read with
-``mmlib.experiment.report.read_results``: one that is not valid JSON or breaks the results contract is an error naming
+``mmlib.experiment.results.read_results``: one that is not valid JSON or breaks the results contract is an error naming
 the file and the place (exit status 2)."""
 from __future__ import annotations
 
@@ -18,7 +18,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from mmlib.experiment.report import atomic_write_text, read_results  # noqa: E402
+from mmlib.experiment.report import atomic_write_text  # noqa: E402
+from mmlib.experiment.results import read_results  # noqa: E402
 from mmlib.experiment import views  # noqa: E402
 from mmlib.experiment.views import markdown_table, value_pm  # noqa: E402
 
@@ -165,9 +166,10 @@ def shown(path: Path) -> str:
 
 def load_results(root: Path, skip: str | None = None) -> list[dict]:
     """Every results document under ``root/data/results`` (sorted by file name), except paper ``skip``, each read
-    and checked by :func:`mmlib.experiment.report.read_results` (ValueError naming the file and the place)."""
-    docs = [read_results(path, name=shown(path)) for path in sorted((root / "data" / "results").glob("*.json"))]
-    return [d for d in docs if d["paper"] != skip]
+    and checked by :func:`mmlib.experiment.results.read_results` (ValueError naming the file and the place)."""
+    # the file of paper ``skip`` is being replaced: it is not read at all (a broken old copy must not block that)
+    return [read_results(path, name=shown(path)) for path in sorted((root / "data" / "results").glob("*.json"))
+            if path.stem != skip]
 
 
 def paper_reports(doc: dict, others: list[dict], root: Path) -> dict[str, str]:

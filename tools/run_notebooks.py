@@ -25,7 +25,7 @@ so what is on disk is entirely the old or entirely the new outputs of each paper
 
 A failed notebook is named with its cell (exit status 1); nothing of it is promoted, and its partial executed
 notebook is kept for inspection under <build folder>/failed/.  So is a notebook whose results file breaks the results
-contract (mmlib/experiment/results.schema.json, checked by ``mmlib.experiment.report.read_results``): the file and the
+contract (mmlib/experiment/results.schema.json, checked by ``mmlib.experiment.results.read_results``): the file and the
 JSON path of the first violation are named.
 
 Execution settings change where the work runs, never a result, so they never send the outputs to build/custom/:
@@ -495,8 +495,8 @@ class ProgressTail:
 
 def staged_results(staging: Path, paper: str) -> dict:
     """The results document a notebook staged, read and checked against the results contract
-    (:func:`mmlib.experiment.report.read_results`); NotebookFailed naming the file and the place otherwise."""
-    from mmlib.experiment.report import read_results
+    (:func:`mmlib.experiment.results.read_results`); NotebookFailed naming the file and the place otherwise."""
+    from mmlib.experiment.results import read_results
     try:
         return read_results(staging / "data" / "results" / f"{paper}.json", name=f"data/results/{paper}.json")
     except ValueError as exc:

@@ -30,7 +30,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from mmlib.core._validate import check_has, check_names
+from mmlib.core._validate import check_bool, check_choice, check_has, check_names
 from mmlib.core.estimation import IMM, MomentMixing, SingleModel
 from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
 from mmlib.core.layers.adaptive import InnovationAdaptive
@@ -94,8 +94,8 @@ def cdkf_obs(s: Scenario) -> ObservationBootstrap:
 
 
 def _check_inflate_only(value) -> None:
-    if value is not None and not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"inflate_only: expected None (the headline reading), True or False, got {value!r}")
+    if value is not None:
+        check_bool(value, "inflate_only")
 
 
 def strong(base: MomentFilter, name: str) -> StrongTracking:
@@ -122,8 +122,7 @@ class Recipe:
         for arg in ("name", "description"):
             if not isinstance(getattr(self, arg), str) or not getattr(self, arg):
                 raise ValueError(f"{arg}: expected a non-empty string, got {getattr(self, arg)!r}")
-        if self.kind not in KINDS:
-            raise ValueError(f"kind: expected one of {', '.join(map(repr, KINDS))}, got {self.kind!r}")
+        check_choice(self.kind, "kind", KINDS)
         for arg in ("filter", "mixing"):
             if not callable(getattr(self, arg)):
                 raise ValueError(f"{arg}: expected a function of the scenario (or a mixing class), got "

@@ -49,8 +49,8 @@ from typing import Callable, Iterable, Mapping, NamedTuple, Sequence
 import numpy as np
 
 from mmlib.arena import ladder, recipes
-from mmlib.core._validate import (as_float_array, check_bool, check_has, check_mask, check_positive_int,
-                                  check_scalar)
+from mmlib.core._validate import (as_float_array, check_bool, check_has, check_mask, check_names,
+                                  check_positive_int, check_scalar)
 from mmlib.core.protocols import Estimator
 from mmlib.experiment import evaluation, metrics, report
 from mmlib.experiment.grid import run_grid
@@ -316,18 +316,6 @@ def _check_result(result) -> ArenaResult:
     return result
 
 
-def _names(values, name: str) -> list:
-    """A non-empty list of distinct name strings (a single string is refused: it is not a list of names)."""
-    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
-        raise ValueError(f"{name}: expected a list of names, got {values!r}")
-    values = list(values)
-    if not values or not all(isinstance(v, str) for v in values):
-        raise ValueError(f"{name}: expected a non-empty list of name strings, got {values!r}")
-    if len(set(values)) != len(values):
-        raise ValueError(f"{name}: repeated names in {values}")
-    return values
-
-
 def run_arena(n_runs: int, *, scenarios: Iterable[str] = SCENARIOS, algorithms: Iterable[str] = ALGORITHMS,
               seed: int | None = None, workers: int | None = None, executor: cf.Executor | None = None,
               progress: bool | Callable[[str], None] = True, use_cache: bool = True,
@@ -335,8 +323,8 @@ def run_arena(n_runs: int, *, scenarios: Iterable[str] = SCENARIOS, algorithms: 
     """Every cell of ``algorithms`` x ``scenarios`` at ``n_runs`` runs (integer >= 2), in parallel and cached
     (:func:`mmlib.experiment.grid.run_grid`), with the ranks of each scenario.  Unknown names are a ValueError listing
     the known ones.  ``seed`` overrides every scenario's root seed."""
-    scenarios = _names(scenarios, "scenarios")
-    algorithms = _names(algorithms, "algorithms")
+    scenarios = check_names(scenarios, "scenarios")
+    algorithms = check_names(algorithms, "algorithms")
     check_bool(use_cache, "use_cache")
     if cache_dir is not None and not isinstance(cache_dir, (str, os.PathLike)):
         raise ValueError(f"cache_dir: expected None or a folder path, got {cache_dir!r}")
@@ -351,9 +339,8 @@ def run_arena(n_runs: int, *, scenarios: Iterable[str] = SCENARIOS, algorithms: 
             raise ValueError(f"scenarios: unknown scenario {name!r}; known: {', '.join(SCENARIOS)}")
     if isinstance(n_runs, bool) or not isinstance(n_runs, (int, np.integer)) or n_runs < 2:
         raise ValueError(f"n_runs: expected an integer >= 2 (a standard error needs two runs), got {n_runs!r}")
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
-        raise ValueError(f"seed: expected None or an integer >= 0, got {seed!r}")
-    seed = None if seed is None else int(seed)       # a numpy integer is not JSON: the readings key the cache
+    # a numpy integer is not JSON (the readings key the cache): the check returns a Python int
+    seed = None if seed is None else check_positive_int(seed, "seed", minimum=0)
     readings = [{"scenario": s, "algorithm": a, "seed": seed} for s in scenarios for a in algorithms]
     # the algorithm is part of each reading, so the cache key needs no list of them: a subset reuses the cells
     results = run_grid(cell, readings, paper=PAPER, algorithms=[], n_runs=int(n_runs),
@@ -465,7 +452,7 @@ def ideas(result: ArenaResult, scenarios: Iterable[str] | None = None) -> list:
     comparisons: [compare(...)]}]``."""
     _check_result(result)
     names = list(dict.fromkeys(c["scenario"] for c in result.cells)) if scenarios is None else \
-        _names(scenarios, "scenarios")
+        check_names(scenarios, "scenarios")
     out = []
     for idea, a, b, paper in IDEAS:
         comps = [c for c in (compare(result, a, b, s) for s in names) if c is not None]
@@ -483,7 +470,7 @@ def digest(result: ArenaResult, n_runs: int) -> dict:
     import hashlib
     from mmlib.core.linalg import kernel
     _check_result(result)
-    if isinstance(n_runs, bool) or not isinstance(n_runs, (int, np.integer)) or not 1 <= n_runs <= result.n_runs:
+    if check_positive_int(n_runs, "n_runs") > result.n_runs:
         raise ValueError(f"n_runs: expected an integer from 1 to the study's {result.n_runs} runs, got {n_runs!r}")
     h = hashlib.sha256(b"mmlib-arena-digest-2")
     for key in sorted(result.details):
@@ -508,7 +495,7 @@ def scenario_table(names: Iterable[str] = SCENARIOS, n_index_runs: int = 50, max
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 2:
             raise ValueError(f"{name}: expected an integer >= 2, got {value!r}")
     rows = []
-    for name in _names(names, "names"):
+    for name in check_names(names, "names"):
         s = scenario(name)
         runs = max(2, min(n_index_runs, max_run_steps // s.n_steps))
         rows.append({"scenario": name, "title": s.title, "source": s.source, "n_steps": s.n_steps, "dim": s.dim,

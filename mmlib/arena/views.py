@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Iterable, Sequence
 
 import numpy as np
 
+from mmlib.core._validate import check_names
 from mmlib.experiment.views import value_pm
 
 if TYPE_CHECKING:
@@ -445,10 +446,7 @@ def ladder_curves(cells: Iterable[dict] | ArenaResult, scenarios: Iterable[dict]
             raise ValueError(f"cells: none of the default algorithms {', '.join(LADDER_ALGORITHMS)} is in the cells;"
                              f" pass algorithms=")
     else:
-        if isinstance(algorithms, (str, bytes)) or not hasattr(algorithms, "__iter__"):
-            raise ValueError(f"algorithms: expected a list of algorithm names (e.g. [{algorithms!r}]), got "
-                             f"{algorithms!r}")
-        algorithms = list(algorithms)
+        algorithms = check_names(algorithms, "algorithms")
         unknown = [a for a in algorithms if a not in all_algorithms]
         if unknown or not algorithms:
             raise ValueError(f"algorithms: {'unknown ' + ', '.join(map(repr, unknown)) if unknown else 'empty'};"

@@ -7,6 +7,9 @@ positive definite is rejected, never projected.
 """
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
+
 import numpy as np
 
 #: Relative tolerance for symmetry and row-sum checks (floating-point scale:
@@ -290,3 +293,33 @@ def check_applies(model, name: str, n: int) -> None:
     if out.shape != (1, 1, model.dim):
         raise ValueError(f"{name}: a state of dimension {n} gives measurements of shape {out.shape[2:]}, "
                          f"expected ({model.dim},)")
+
+
+def as_plain_json(value, name: str):
+    """``value`` as plain JSON data for a results file: numpy scalars become the Python equivalent (np.float64 ->
+    float, np.int64 -> int, np.bool_ -> bool, np.str_ -> str), tuples and lists are converted item by item (a tuple
+    stays a tuple), dicts need string keys; NaN, infinities and any other object (an array, a model) are a
+    ValueError naming the item, e.g. ``changes['q'][1]`` (they would fail when the results are written)."""
+    if isinstance(value, np.str_):
+        return str(value)
+    if value is None or isinstance(value, (bool, str)):
+        return value
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        x = float(value)
+        if not math.isfinite(x):
+            raise ValueError(f"{name}: expected a finite number, got {x!r} (a results file holds no NaN or infinity)")
+        return x
+    if isinstance(value, (tuple, list)):
+        out = [as_plain_json(v, f"{name}[{i}]") for i, v in enumerate(value)]
+        return tuple(out) if isinstance(value, tuple) else out
+    if isinstance(value, Mapping):
+        for k in value:
+            if not isinstance(k, str):
+                raise ValueError(f"{name}: expected string keys, got {k!r}")
+        return {k: as_plain_json(v, f"{name}[{k!r}]") for k, v in value.items()}
+    raise ValueError(f"{name}: expected a number, string, bool, None or a tuple, list or dict of them (JSON data), "
+                     f"got {type(value).__name__}")

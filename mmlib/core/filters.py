@@ -269,13 +269,24 @@ class FilterLayer:
     state_type: Any = None
 
     def _check_base(self):
-        """``self.base`` provides a :class:`mmlib.core.protocols.MomentFilter` (ValueError naming ``base``)."""
+        """``self.base`` provides a :class:`mmlib.core.protocols.MomentFilter` and is a filter, not another layer
+        (ValueError naming ``base``: a layer delegates only the time update and the measurement prediction, so an
+        inner layer's update would silently never run)."""
+        if isinstance(self.base, FilterLayer):
+            raise ValueError(f"base: {type(self).__name__} over another layer ({type(self.base).__name__}) is not "
+                             "supported: the inner layer's update would never run; give it the filter itself")
         check_has(self.base, "base", "a filter predicting measurement moments (protocols.MomentFilter)",
                   members(MomentFilter))
 
     def init(self, mean: np.ndarray, cov: np.ndarray, **extra: Any) -> State:
         """The layer's ``state_type`` at step 0 from :func:`gaussian_state` of ``mean`` (B, n) and ``cov``
-        (B, n, n) or (n, n); ``extra`` fills the layer's own fields."""
+        (B, n, n) or (n, n); ``extra`` fills the layer's own fields (a keyword that is none of them is a ValueError
+        naming it)."""
+        own = self.state_type._fields[2:]
+        for key in extra:
+            if key not in own:
+                raise ValueError(f"{key}: {type(self).__name__}.init takes no argument {key!r} (its own: "
+                                 f"{', '.join(own) if own else 'none beyond mean and cov'})")
         g = gaussian_state(mean, cov)
         return self.state_type(g.mean, g.cov, **extra)
 

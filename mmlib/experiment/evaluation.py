@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import gc
-import hashlib
 import time
 from collections.abc import Mapping
 from typing import Callable, Iterable, NamedTuple, Sequence

@@ -44,7 +44,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from mmlib.core._validate import check_bool, check_positive_int
+from mmlib.core._validate import as_plain_json, check_bool, check_names, check_positive_int
 from mmlib.experiment.machine import fingerprint, fingerprint_id
 # default_workers lived here: kept importable from this module
 from mmlib.experiment.montecarlo import say_progress
@@ -323,20 +323,9 @@ def key_document(*, paper: str, job: Callable, reading: Mapping, algorithms: Ite
     ``code``: ``job_code(job)`` when the caller has it (a study keys many readings of one job)."""
     return {"paper": check_paper(paper), "job": job_name(job), "job_code": code or job_code(job),
             "reading": dict(sorted(_plain_reading(reading, "reading").items())),
-            "algorithms": _check_algorithms(algorithms), "n_runs": check_positive_int(n_runs, "n_runs"),
+            "algorithms": check_names(algorithms, "algorithms", nonempty=False),
+            "n_runs": check_positive_int(n_runs, "n_runs"),
             "seed": check_positive_int(seed, "seed", minimum=0), "mmlib": source_hash(), "machine": fingerprint_id()}
-
-
-def _check_algorithms(algorithms) -> list:
-    """``algorithms`` as a list of distinct names, or ValueError naming it (a bare string is not a sequence)."""
-    if isinstance(algorithms, (str, bytes)) or not isinstance(algorithms, Iterable):
-        raise ValueError(f"algorithms: expected a sequence of algorithm names, got {algorithms!r}")
-    algorithms = list(algorithms)
-    if not all(isinstance(a, str) for a in algorithms):
-        raise ValueError(f"algorithms: expected algorithm names as strings, got {algorithms!r}")
-    if len(set(algorithms)) != len(algorithms):
-        raise ValueError(f"algorithms: names repeat in {algorithms!r}")
-    return algorithms
 
 
 def cache_key(**parts: Any) -> str:
@@ -403,22 +392,11 @@ def _run_job(job, reading, n_runs, seed):
 
 
 def _plain_reading(reading, name: str) -> dict:
-    """A reading as a dict of JSON values (numpy scalars converted), or ValueError naming the entry."""
+    """A reading as a dict of plain JSON values (numpy scalars converted: :func:`as_plain_json`), or ValueError
+    naming the entry."""
     if not isinstance(reading, Mapping):
         raise ValueError(f"{name}: expected a reading (a dict of factor: option), got {type(reading).__name__}")
-    out = {}
-    for k, v in reading.items():
-        if not isinstance(k, str):
-            raise ValueError(f"{name}: expected factor names as strings, got {k!r}")
-        if isinstance(v, np.generic):
-            v = v.item()
-        try:
-            json.dumps(v, allow_nan=False)
-        except (TypeError, ValueError):
-            raise ValueError(f"{name}[{k!r}]: expected a JSON value (string, number, bool, None, list, dict), got "
-                             f"{v!r}") from None
-        out[k] = v
-    return out
+    return as_plain_json(dict(reading), name)
 
 
 def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str, algorithms: Iterable[str],
@@ -450,7 +428,7 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
     worker_count(workers)               # a bad workers or $WORKERS is an error even when all is cached
     if executor is not None and not callable(getattr(executor, "submit", None)):
         raise ValueError(f"executor: expected a concurrent.futures.Executor, got {type(executor).__name__}")
-    algorithms = _check_algorithms(algorithms)
+    algorithms = check_names(algorithms, "algorithms", nonempty=False)
     if isinstance(result_keys, (str, bytes)) or not result_keys or not all(isinstance(k, str) for k in result_keys):
         raise ValueError(f"result_keys: expected a non-empty sequence of key names, got {result_keys!r}")
     for value, name in ((label, "label"), (unit, "unit")):

@@ -23,7 +23,7 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mmlib.core._validate import check_index, check_positive_int
+from mmlib.core._validate import check_bool, check_index, check_positive_int
 
 
 class Stream(IntEnum):
@@ -139,11 +139,9 @@ class Progress:
         check_positive_int(total, "total", minimum=0)
         if stream is not None and not callable(getattr(stream, "write", None)):
             raise ValueError(f"stream: expected None or a text stream (with write), got {type(stream).__name__}")
-        if not isinstance(enabled, (bool, np.bool_)):
-            raise ValueError(f"enabled: expected True or False, got {enabled!r}")
         self.label, self.total, self.done = label, total, 0
         self.stream = stream
-        self.enabled = enabled
+        self.enabled = check_bool(enabled, "enabled")
         self.t0 = time.perf_counter()
 
     def advance(self, n: int) -> None:

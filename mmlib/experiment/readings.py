@@ -31,37 +31,7 @@ from typing import Mapping
 
 import numpy as np
 
-from mmlib.core._validate import check_bool, check_positive_int
-
-
-def _plain(value, name: str):
-    """``value`` as plain JSON data for a results file: numpy scalars become the Python equivalent (np.float64 ->
-    float, np.int64 -> int, np.bool_ -> bool, np.str_ -> str), tuples and lists are converted item by item (a tuple
-    stays a tuple), dicts need string keys; NaN, infinities and any other object (an array, a model) are a
-    ValueError naming the item, e.g. ``changes['q'][1]`` (they would fail when the results are written)."""
-    if isinstance(value, np.str_):
-        return str(value)
-    if value is None or isinstance(value, (bool, str)):
-        return value
-    if isinstance(value, np.bool_):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        x = float(value)
-        if not math.isfinite(x):
-            raise ValueError(f"{name}: expected a finite number, got {x!r} (a results file holds no NaN or infinity)")
-        return x
-    if isinstance(value, (tuple, list)):
-        out = [_plain(v, f"{name}[{i}]") for i, v in enumerate(value)]
-        return tuple(out) if isinstance(value, tuple) else out
-    if isinstance(value, Mapping):
-        for k in value:
-            if not isinstance(k, str):
-                raise ValueError(f"{name}: expected string keys, got {k!r}")
-        return {k: _plain(v, f"{name}[{k!r}]") for k, v in value.items()}
-    raise ValueError(f"{name}: expected a number, string, bool, None or a tuple, list or dict of them (JSON data), "
-                     f"got {type(value).__name__}")
+from mmlib.core._validate import as_plain_json, check_bool, check_choice, check_positive_int
 
 
 def _check_text(obj, fields, optional=()) -> None:
@@ -110,7 +80,7 @@ class Option:
         _check_text(self, ("name", "label", "source"))
         if not isinstance(self.changes, Mapping):
             raise ValueError(f"changes: expected a mapping of set-up fields to values, got {self.changes!r}")
-        object.__setattr__(self, "changes", _plain(dict(self.changes), "changes"))
+        object.__setattr__(self, "changes", as_plain_json(dict(self.changes), "changes"))
 
     def as_dict(self) -> dict:
         """``name``, ``label``, ``source`` and ``changes`` as a JSON-able dict (tuple values as lists)."""
@@ -185,8 +155,7 @@ class Design:
     readings: tuple
 
     def __post_init__(self):
-        if self.kind not in ("full", "fractional", "star"):
-            raise ValueError(f"kind: expected 'full', 'fractional' or 'star', got {self.kind!r}")
+        check_choice(self.kind, "kind", ("full", "fractional", "star"))
         _check_text(self, ("description",))
         if isinstance(self.readings, (str, bytes, Mapping)) or not hasattr(self.readings, "__iter__"):
             raise ValueError(f"readings: expected a sequence of readings (dicts factor id -> option), got "

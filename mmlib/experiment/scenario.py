@@ -63,9 +63,10 @@ class Scenario:
             raise ValueError("name: a scenario needs a name")
         check_name(self.title, "title")
         check_name(self.source, "source")
-        check_positive_int(self.root_seed, "root_seed", minimum=0)
-        check_scalar(self.T, "T", positive=True)
-        check_positive_int(self.n_steps, "n_steps")
+        # stored as checked (Python int and float: a numpy scalar or 0-d array is not kept as given)
+        object.__setattr__(self, "root_seed", check_positive_int(self.root_seed, "root_seed", minimum=0))
+        object.__setattr__(self, "T", check_scalar(self.T, "T", positive=True))
+        object.__setattr__(self, "n_steps", check_positive_int(self.n_steps, "n_steps"))
         if not callable(self.simulator):
             raise ValueError(f"simulator: expected a function mc -> (runs -> (truth, measurements, start)), got "
                              f"{type(self.simulator).__name__}")

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, Iterable, Sequence
 
 import numpy as np
 
-from mmlib.core._validate import check_positive_int
+from mmlib.core._validate import check_bool, check_positive_int
 from mmlib.experiment import report
 from mmlib.experiment.multiverse import ROBUST_FRACTION, Multiverse
 from mmlib.experiment.readings import ReadingSpace
@@ -213,8 +213,7 @@ def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str,
     if published is not None:
         report._real(published, "published")
     interval = _positive(interval, "interval")
-    if not isinstance(symlog, (bool, np.bool_)):
-        raise ValueError(f"symlog: expected True or False, got {symlog!r}")
+    check_bool(symlog, "symlog")
     vals = [mv.effect(u, effect) for u in mv.universes]
     y = np.array([np.nan if v["value"] is None else v["value"] for v in vals])
     se = np.array([0.0 if v["stderr"] is None else v["stderr"] for v in vals])

@@ -16,14 +16,16 @@ from pathlib import Path
 
 import pytest
 
-from mmlib.experiment import digests, machine, report
+from mmlib import papers
+from mmlib.experiment import digests, machine
+from test_results import load
 
 REPO = Path(__file__).resolve().parents[2]
-PAPERS = ("zhu2016", "liu2017", "hu2017", "zhou2017", "tseng2011")
+PAPERS = papers.with_headline_digest()
 
 
 def committed_digest(paper: str) -> dict:
-    return report.read_results(REPO / "data" / "results" / f"{paper}.json", name=f"data/results/{paper}.json")["digest"]
+    return load(paper, "full")["digest"]
 
 
 @pytest.mark.parametrize("paper", PAPERS)

@@ -8,13 +8,14 @@ committed result or a changed algorithm moves values by far more, while the
 check stays deterministic because the seed is fixed).  Timing rows are
 machine-dependent and excluded.
 """
-import json
+import copy
+import functools
 import math
 from pathlib import Path
 
 import pytest
 
-from mmlib.experiment import digests, report
+from mmlib.experiment import digests, report, results
 
 REPO = Path(__file__).resolve().parents[2]
 PAPERS = {"zhu2016": 100, "liu2017": 200, "hu2017": 100, "zhou2017": 100, "tseng2011": 100}          # paper -> full Monte Carlo count
@@ -25,7 +26,13 @@ def load(paper, profile):
     path = (REPO / "build" / "smoke" if profile == "smoke" else REPO) / "data" / "results" / f"{paper}.json"
     if not path.exists():
         pytest.fail(f"{path.relative_to(REPO)} is missing: run 'make test' (smoke) / 'make figures' (full) first")
-    return report.read_results(path, name=str(path.relative_to(REPO)))       # names the file and place when broken
+    return copy.deepcopy(_read(path))
+
+
+@functools.cache
+def _read(path: Path) -> dict:
+    """A results file read and checked once per session (results.read_results names the file and place when broken)."""
+    return results.read_results(path, name=str(path.relative_to(REPO)))
 
 
 def monte_carlo_rows(doc):

@@ -29,7 +29,7 @@ from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
-from mmlib.core._validate import as_float_array, check_bool, check_has, check_name
+from mmlib.core._validate import as_float_array, check_bool, check_has, check_name, check_positive_int
 from mmlib.core.estimation import IMM, IMMState
 from mmlib.core.protocols import MeasurementModel
 
@@ -170,8 +170,7 @@ class WindowedNoiseAdaptiveIMM(NoiseAdaptiveIMM):
 
     def __post_init__(self):
         super().__post_init__()
-        if isinstance(self.window, bool) or not isinstance(self.window, (int, np.integer)) or self.window < 1:
-            raise ValueError(f"window: expected a positive integer, got {self.window!r}")
+        check_positive_int(self.window, "window")
         check_has(self.controller, "controller", "a controller with dod(estimate, measurement) and levels(dod) "
                   "(a windowed DOD averages between the two)", ("dod", "levels"))
 
