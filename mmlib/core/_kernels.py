@@ -2,18 +2,17 @@ r"""Compiled (numba) kernels of :mod:`mmlib.core.linalg`: the same mathematics a
 path, fused into one loop nest per filter operation.
 
 Why: the filters spend their time in many small operations on ``(B, r, n, n)`` stacks (n = 2..9).
-numpy pays microseconds of dispatch per operation for nanoseconds of arithmetic; a plain compiled
-loop per run is no better, because each run's sums are chains of dependent additions (latency
-bound: a few hundred ns per 4x4 step).  Here every kernel copies its operands into a
-**batch-innermost** layout ``(n, n, N)`` and runs each scalar operation of the algorithm as a loop
-over the N runs: independent lanes that LLVM turns into SIMD instructions, with no temporaries and
-one call per filter operation.
+numpy pays a dispatch per operation far larger than its arithmetic; a plain compiled loop per run
+is no better, because each run's sums are chains of dependent additions (latency bound).  Here every
+kernel copies its operands into a **batch-innermost** layout ``(n, n, N)`` (:func:`_inner`, back with
+:func:`_outer`) and runs each scalar operation of the algorithm as a loop over the N runs: independent
+lanes that LLVM turns into SIMD instructions, with no temporaries and one call per filter operation.
 
 Conventions shared with the numpy path (:mod:`mmlib.core.linalg`), and tested against it
 (``tests/test_kernels.py``):
 
 * the public kernels take and return stacks with the run axis first, ``(N, ...)``, C-contiguous
-  (the wrappers in :mod:`mmlib.core.linalg` broadcast and flatten leading axes);
+  (the compiled twins in :mod:`mmlib.core.linalg` broadcast and flatten leading axes);
 * a Cholesky factor is LAPACK ``potf2``'s: only the lower triangle is read; a matrix fails when a pivot
   is not > 0 (NaN included) or not finite; a failed run's outputs are NaN and it is reported, never
   patched;
@@ -23,10 +22,12 @@ Conventions shared with the numpy path (:mod:`mmlib.core.linalg`), and tested ag
   ``fastmath``, so LLVM neither reassociates sums nor contracts ``a*b + c`` into a fused multiply-add,
   and the bits do not depend on the machine's instruction set; transcendental functions (log, atan2)
   are not used in vectorised loops;
-* the two paths agree to round-off (relative ~1e-12 after a filter run of 100 steps), not bit for bit:
-  BLAS and LAPACK sum in other orders.
+* the two paths agree to round-off, not bit for bit (BLAS and LAPACK sum in other orders;
+  ``tests/test_kernels.py`` states the bounds).
 
-Which path runs is :func:`mmlib.core.linalg.kernel` (``MMLIB_KERNEL=numpy`` selects the reference path).
+Nothing here is called directly: each public kernel is the compiled twin of one operation of
+:mod:`mmlib.core.linalg`, declared there next to its numpy body, and which of the two runs is decided there
+once (:func:`mmlib.core.linalg.kernel`; ``MMLIB_KERNEL=numpy`` selects the reference path).
 """
 from __future__ import annotations
 
@@ -41,76 +42,45 @@ _TWO_PI = 2.0 * math.pi
 
 # --------------------------------------------------------------------------- layout helpers
 @njit(**_OPTS)
-def _inner2(a, N):
-    """(P, p) -> (p, N), run b taking row b % P (P divides N: an operand shared by the runs, or periodic
-    over the flattened (runs, modes) axes, e.g. one Q per mode)."""
-    P, p = a.shape
-    out = np.empty((p, N))
+def _inner(a, N):
+    """(P, ...) -> (..., N): the run axis moved innermost, run b taking ``a[b % P]`` (P divides N: an operand
+    shared by the runs, or periodic over the flattened (runs, modes) axes, e.g. one Q per mode).  ``a``
+    C-contiguous, any number of axes."""
+    P = a.shape[0]
+    flat = a.reshape((P, a.size // P))
+    k = flat.shape[1]
+    out = np.empty((k, N))
     if P == N:                      # (the common case: no modulo, writes contiguous along the runs)
-        for i in range(p):
+        for i in range(k):
             for b in range(N):
-                out[i, b] = a[b, i]
-        return out
-    for b in range(N):
-        for i in range(p):
-            out[i, b] = a[b % P, i]
-    return out
-
-
-@njit(**_OPTS)
-def _inner3(a, N):
-    """(P, p, q) -> (p, q, N), run b taking matrix b % P (see :func:`_inner2`)."""
-    P, p, q = a.shape
-    out = np.empty((p, q, N))
-    if P == N:
-        for i in range(p):
-            for j in range(q):
-                for b in range(N):
-                    out[i, j, b] = a[b, i, j]
-        return out
-    for b in range(N):
-        src = b % P
-        for i in range(p):
-            for j in range(q):
-                out[i, j, b] = a[src, i, j]
-    return out
-
-
-@njit(**_OPTS)
-def _outer2(a):
-    """(p, N) -> (N, p)."""
-    p, N = a.shape
-    out = np.empty((N, p))
-    for i in range(p):
+                out[i, b] = flat[b, i]
+    else:
         for b in range(N):
-            out[b, i] = a[i, b]
-    return out
+            src = b % P
+            for i in range(k):
+                out[i, b] = flat[src, i]
+    return out.reshape(a.shape[1:] + (N,))
 
 
 @njit(**_OPTS)
-def _outer3(a):
-    """(p, q, N) -> (N, p, q)."""
-    p, q, N = a.shape
-    out = np.empty((N, p, q))
-    for i in range(p):
-        for j in range(q):
-            for b in range(N):
-                out[b, i, j] = a[i, j, b]
-    return out
+def _outer(a):
+    """(..., N) -> (N, ...): the run axis (innermost, N runs) moved back to the front; ``a`` C-contiguous."""
+    N = a.shape[-1]
+    flat = a.reshape((a.size // N, N))
+    k = flat.shape[0]
+    out = np.empty((N, k))
+    for i in range(k):
+        for b in range(N):
+            out[b, i] = flat[i, b]
+    return out.reshape((N,) + a.shape[:-1])
 
 
 @njit(**_OPTS)
-def _nan_rows2(a, failed):
+def _nan_rows(a, failed):
+    """Every entry of ``a[b]`` NaN for the runs b with ``failed[b]`` (run axis first)."""
     for b in range(a.shape[0]):
         if failed[b]:
-            a[b, :] = np.nan
-
-
-@njit(**_OPTS)
-def _nan_rows3(a, failed):
-    for b in range(a.shape[0]):
-        if failed[b]:
-            a[b, :, :] = np.nan
+            a[b] = np.nan
 
 
 # --------------------------------------------------------------------------- batch-innermost building blocks
@@ -197,9 +167,9 @@ def cholesky(a):
     N = a.shape[0]
     L = np.empty(a.shape[1:] + (N,))
     failed = np.zeros(N, dtype=np.bool_)
-    _chol(_inner3(a, N), L, failed)
-    out = _outer3(L)
-    _nan_rows3(out, failed)
+    _chol(_inner(a, N), L, failed)
+    out = _outer(L)
+    _nan_rows(out, failed)
     return out, failed
 
 
@@ -211,15 +181,11 @@ def sigma_points(mean, cov, xi):
     M = xi.shape[0]
     L = np.empty((n, n, N))
     failed = np.zeros(N, dtype=np.bool_)
-    _chol(_inner3(cov, N), L, failed)
+    _chol(_inner(cov, N), L, failed)
     X = np.empty((M, n, N))
-    _points(_inner2(mean, N), L, xi, X)
-    out = np.empty((N, M, n))
-    for p in range(M):
-        for i in range(n):
-            for b in range(N):
-                out[b, p, i] = X[p, i, b]
-    _nan_rows3(out, failed)
+    _points(_inner(mean, N), L, xi, X)
+    out = _outer(X)
+    _nan_rows(out, failed)
     return out, failed
 
 
@@ -251,18 +217,6 @@ def weighted_mean(Y, w):
 
 
 @njit(**_OPTS)
-def _inner_points(Y):
-    """(N, M, d) -> (M, d, N)."""
-    N, M, d = Y.shape
-    out = np.empty((M, d, N))
-    for p in range(M):
-        for i in range(d):
-            for b in range(N):
-                out[p, i, b] = Y[b, p, i]
-    return out
-
-
-@njit(**_OPTS)
 def weighted_outer(dy, w, dx, add):
     r"""``(P_yy + add, P_xy)``: :math:`P_{yy} = \sum_p w_p\, dy_p dy_p^T`, :math:`P_{xy} = \sum_p w_p\,
     dx_p dy_p^T`; dy (N, M, d), w (M,), dx (N, M, n) (or (N, M, 0) for no cross term), add (N, d, d)."""
@@ -270,8 +224,8 @@ def weighted_outer(dy, w, dx, add):
     n = dx.shape[2]
     pyy = np.empty((d, d, N))
     pxy = np.empty((n, d, N))
-    _outer_sums(_inner_points(dy), w, _inner_points(dx), _inner3(add, N), pyy, pxy)
-    return _outer3(pyy), _outer3(pxy)
+    _outer_sums(_inner(dy, N), w, _inner(dx, N), _inner(add, N), pyy, pxy)
+    return _outer(pyy), _outer(pxy)
 
 
 @njit(**_OPTS)
@@ -288,10 +242,10 @@ def kalman_moments(mean, cov, nu, S, Pxz, H, R):
     N, n = mean.shape
     m = nu.shape[1]
     joseph = H.shape[1] > 0
-    P = _inner3(cov, N)
-    Sb = _inner3(S, N)
-    Pxzb = _inner3(Pxz, N)
-    nub = _inner2(nu, N)
+    P = _inner(cov, N)
+    Sb = _inner(S, N)
+    Pxzb = _inner(Pxz, N)
+    nub = _inner(nu, N)
     s_bad = np.zeros(N, dtype=np.bool_)
     L = np.empty((m, m, N))
     _chol(Sb, L, s_bad)
@@ -321,7 +275,7 @@ def kalman_moments(mean, cov, nu, S, Pxz, H, R):
             for k in range(j + 1):
                 for b in range(N):
                     A[i, j, b] += Pxzb[i, k, b] * Li[j, k, b]
-    mean_b = _inner2(mean, N)
+    mean_b = _inner(mean, N)
     for i in range(n):
         for k in range(m):
             for b in range(N):
@@ -341,8 +295,8 @@ def kalman_moments(mean, cov, nu, S, Pxz, H, R):
                     C[i, j, b] = v
                     C[j, i, b] = v
     else:
-        Hb = _inner3(H, N)
-        Rb = _inner3(R, N)
+        Hb = _inner(H, N)
+        Rb = _inner(R, N)
         K = np.zeros((n, m, N))                              # K = A Linv
         for i in range(n):
             for j in range(m):
@@ -406,10 +360,10 @@ def kalman_moments(mean, cov, nu, S, Pxz, H, R):
             logdet[b] = np.nan
     for b in range(N):
         logdet[b] = 2.0 * logdet[b]
-    mean_out = _outer2(mean_b)
-    cov_out = _outer3(C)
-    _nan_rows2(mean_out, failed)
-    _nan_rows3(cov_out, failed)
+    mean_out = _outer(mean_b)
+    cov_out = _outer(C)
+    _nan_rows(mean_out, failed)
+    _nan_rows(cov_out, failed)
     return mean_out, cov_out, nis, logdet, failed
 
 
@@ -440,44 +394,6 @@ def _combine(W, X, P, Cn, out):
 
 
 @njit(**_OPTS)
-def _inner_stack(a):
-    """(B, J, p) -> (J, p, B)."""
-    B, J, p = a.shape
-    out = np.empty((J, p, B))
-    for j in range(J):
-        for i in range(p):
-            for b in range(B):
-                out[j, i, b] = a[b, j, i]
-    return out
-
-
-@njit(**_OPTS)
-def _inner_stack4(a):
-    """(B, J, p, q) -> (J, p, q, B)."""
-    B, J, p, q = a.shape
-    out = np.empty((J, p, q, B))
-    for j in range(J):
-        for i in range(p):
-            for k in range(q):
-                for b in range(B):
-                    out[j, i, k, b] = a[b, j, i, k]
-    return out
-
-
-@njit(**_OPTS)
-def _outer_stack4(a):
-    """(J, p, q, B) -> (B, J, p, q)."""
-    J, p, q, B = a.shape
-    out = np.empty((B, J, p, q))
-    for j in range(J):
-        for i in range(p):
-            for k in range(q):
-                for b in range(B):
-                    out[b, j, i, k] = a[j, i, k, b]
-    return out
-
-
-@njit(**_OPTS)
 def combine_covariances(wt, means, covs, centres):
     r""":math:`\mathrm{sym}\sum_i w_{ji}[P_i + (x_i - c_j)(x_i - c_j)^T]`: wt (B, J, I), means (B, I, n),
     covs (B, I, n, n), centres (B, J, n) -> (B, J, n, n); every term positive semi-definite (no
@@ -485,8 +401,8 @@ def combine_covariances(wt, means, covs, centres):
     B, J, I = wt.shape
     n = means.shape[2]
     out = np.empty((J, n, n, B))
-    _combine(_inner_stack(wt), _inner_stack(means), _inner_stack4(covs), _inner_stack(centres), out)
-    return _outer_stack4(out)
+    _combine(_inner(wt, B), _inner(means, B), _inner(covs, B), _inner(centres, B), out)
+    return _outer(out)
 
 
 @njit(**_OPTS)
@@ -500,10 +416,10 @@ def sigma_point_predict_linear(mean, cov, xi, wm, wc, F, Q):
     M = xi.shape[0]
     L = np.empty((n, n, N))
     failed = np.zeros(N, dtype=np.bool_)
-    _chol(_inner3(cov, N), L, failed)
+    _chol(_inner(cov, N), L, failed)
     X = np.empty((M, n, N))
-    _points(_inner2(mean, N), L, xi, X)
-    Fb = _inner3(F, N)
+    _points(_inner(mean, N), L, xi, X)
+    Fb = _inner(F, N)
     Y = np.zeros((M, n, N))
     ybar = np.zeros((n, N))
     for p in range(M):
@@ -519,11 +435,11 @@ def sigma_point_predict_linear(mean, cov, xi, wm, wc, F, Q):
             for b in range(N):
                 Y[p, i, b] -= ybar[i, b]
     Pm = np.empty((n, n, N))
-    _outer_sums(Y, wc, np.empty((M, 0, N)), _inner3(Q, N), Pm, np.empty((0, n, N)))
-    mean_out = _outer2(ybar)
-    cov_out = _outer3(Pm)
-    _nan_rows2(mean_out, failed)
-    _nan_rows3(cov_out, failed)
+    _outer_sums(Y, wc, np.empty((M, 0, N)), _inner(Q, N), Pm, np.empty((0, n, N)))
+    mean_out = _outer(ybar)
+    cov_out = _outer(Pm)
+    _nan_rows(mean_out, failed)
+    _nan_rows(cov_out, failed)
     return mean_out, cov_out, failed
 
 
@@ -542,9 +458,9 @@ def measurement_moments(X, mean, Z, wm, wc, angular, R):
     :math:`dz_p = Z_p - \hat z` (angles wrapped).  R (N, m, m).  Returns ``(z_pred, S, Pxz)``."""
     N, M, n = X.shape
     m = Z.shape[2]
-    Zb = _inner_points(Z)
-    DX = _inner_points(X)
-    mb = _inner2(mean, N)
+    Zb = _inner(Z, N)
+    DX = _inner(X, N)
+    mb = _inner(mean, N)
     for p in range(M):
         for i in range(n):
             for b in range(N):
@@ -573,8 +489,8 @@ def measurement_moments(X, mean, Z, wm, wc, angular, R):
                     Zb[p, c, b] -= zp[c, b]
     S = np.empty((m, m, N))
     Pxz = np.empty((n, m, N))
-    _outer_sums(Zb, wc, DX, _inner3(R, N), S, Pxz)
-    return _outer2(zp), _outer3(S), _outer3(Pxz)
+    _outer_sums(Zb, wc, DX, _inner(R, N), S, Pxz)
+    return _outer(zp), _outer(S), _outer(Pxz)
 
 
 @njit(**_OPTS)
@@ -586,7 +502,7 @@ def imm_mix(mu, T, means, covs):
     mu (B, r), T (r, r) rows "from", means (B, r, n), covs (B, r, n, n) -> ``(c, mixed means, mixed covs)``."""
     B, r = mu.shape
     n = means.shape[2]
-    mub = _inner2(mu, B)
+    mub = _inner(mu, B)
     c = np.zeros((r, B))
     for j in range(r):
         for i in range(r):
@@ -599,7 +515,7 @@ def imm_mix(mu, T, means, covs):
             t = T[i, j]
             for b in range(B):
                 W[j, i, b] = t * mub[i, b] / c[j, b] if c[j, b] > 0.0 else mub[i, b]
-    Xb = _inner_stack(means)
+    Xb = _inner(means, B)
     mm = np.zeros((r, n, B))
     for j in range(r):
         for k in range(n):
@@ -607,20 +523,8 @@ def imm_mix(mu, T, means, covs):
                 for b in range(B):
                     mm[j, k, b] += W[j, i, b] * Xb[i, k, b]
     out = np.empty((r, n, n, B))
-    _combine(W, Xb, _inner_stack4(covs), mm, out)
-    return _outer2(c), _outer_stack3(mm), _outer_stack4(out)
-
-
-@njit(**_OPTS)
-def _outer_stack3(a):
-    """(J, p, B) -> (B, J, p)."""
-    J, p, B = a.shape
-    out = np.empty((B, J, p))
-    for j in range(J):
-        for i in range(p):
-            for b in range(B):
-                out[b, j, i] = a[j, i, b]
-    return out
+    _combine(W, Xb, _inner(covs, B), mm, out)
+    return _outer(c), _outer(mm), _outer(out)
 
 
 @njit(**_OPTS)
@@ -678,28 +582,28 @@ def imm_output(loglik, c, means, covs, nu, S, with_cov):
         for j in range(r):
             mub[0, j, b] = mu[b, j]
             cb[0, j, b] = c[b, j]
-    Xb = _inner_stack(means)
+    Xb = _inner(means, B)
     fused = np.zeros((1, n, B))
     for j in range(r):
         for k in range(n):
             for b in range(B):
                 fused[0, k, b] += mub[0, j, b] * Xb[j, k, b]
-    Nb = _inner_stack(nu)
+    Nb = _inner(nu, B)
     innov = np.zeros((1, m, B))
     for j in range(r):
         for k in range(m):
             for b in range(B):
                 innov[0, k, b] += cb[0, j, b] * Nb[j, k, b]
     icov = np.empty((1, m, m, B))
-    _combine(cb, Nb, _inner_stack4(S), innov, icov)
+    _combine(cb, Nb, _inner(S, B), innov, icov)
     if with_cov:
         fcov = np.empty((1, n, n, B))
-        _combine(mub, Xb, _inner_stack4(covs), fused, fcov)
-        cov_out = _outer_stack4(fcov)[:, 0]
+        _combine(mub, Xb, _inner(covs, B), fused, fcov)
+        cov_out = _outer(fcov)[:, 0]
     else:
         cov_out = np.empty((B, 0, 0))
-    return (mu, marginal, underflow, _outer_stack3(fused)[:, 0], cov_out, _outer_stack3(innov)[:, 0],
-            _outer_stack4(icov)[:, 0])
+    return (mu, marginal, underflow, _outer(fused)[:, 0], cov_out, _outer(innov)[:, 0],
+            _outer(icov)[:, 0])
 
 
 @njit(**_OPTS)
@@ -709,21 +613,21 @@ def congruence(A, P, add):
     :math:`APA^T` is computed as :math:`A(PA^T)` and symmetrised as the numpy path's sum is not."""
     N = P.shape[0]                          # (A and add may be periodic over the runs)
     d, n = A.shape[1], A.shape[2]
-    Ab = _inner3(A, N)
-    Pb = _inner3(P, N)
+    Ab = _inner(A, N)
+    Pb = _inner(P, N)
     PAt = np.zeros((n, d, N))
     for i in range(n):
         for j in range(d):
             for k in range(n):
                 for b in range(N):
                     PAt[i, j, b] += Pb[i, k, b] * Ab[j, k, b]
-    S = _inner3(add, N)
+    S = _inner(add, N)
     for i in range(d):
         for j in range(d):
             for k in range(n):
                 for b in range(N):
                     S[i, j, b] += Ab[i, k, b] * PAt[k, j, b]
-    return _outer3(S), _outer3(PAt)
+    return _outer(S), _outer(PAt)
 
 
 @njit(**_OPTS)
@@ -731,12 +635,12 @@ def linear_predict(mean, cov, F, Q):
     r"""The Kalman filter's time update through linear dynamics, fused: :math:`(F m, F P F^T + Q)` with
     :math:`FPF^T = F(PF^T)` (as :func:`congruence`): mean (N, n), cov (N, n, n), F (N, n, n), Q (N, n, n)."""
     N, n = mean.shape
-    Fb = _inner3(F, N)
-    mb = _inner2(mean, N)
+    Fb = _inner(F, N)
+    mb = _inner(mean, N)
     out = np.zeros((n, N))
     for i in range(n):
         for k in range(n):
             for b in range(N):
                 out[i, b] += Fb[i, k, b] * mb[k, b]
     S, _ = congruence(F, cov, Q)
-    return _outer2(out), S
+    return _outer(out), S

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mmlib.core import linalg, protocols
-from mmlib.core.linalg import matmul_rows
+from mmlib.core.linalg import combine_covariances, imm_output, mixing_weights  # noqa: F401  (public here too)
 from mmlib.core.models import StackedDynamics
 from mmlib.core._validate import (check_finite, as_float_array, check_applies, check_batch_vector, check_bool,
                                   check_has, check_index, check_mask, check_name, check_probabilities,
@@ -41,8 +41,8 @@ class Failure(IntEnum):
     NONFINITE = 3       # the estimate became non-finite otherwise (overflow)
 
 
-# the codes as numpy scalars: an IntEnum member as a numpy operand costs ~40 us (numpy probes it for
-# array interfaces through Enum.__getattr__), once per step in the hot loop
+# the codes as numpy scalars: an IntEnum member as a numpy operand is slow (numpy probes it for array
+# interfaces through Enum.__getattr__), and they are used once per step in the hot loop
 _NONE, _COVARIANCE, _LIKELIHOOD, _NONFINITE = (np.int8(f) for f in Failure)
 
 #: Human-readable cause of each :class:`Failure`.
@@ -227,10 +227,19 @@ class SingleModel:
         overrides the measurement model for this step; ``with_cov`` is accepted for the
         :class:`mmlib.core.protocols.Estimator` interface (the covariance is always computed).  A state,
         ``z`` or model that does not fit is a ValueError naming it."""
+        z, measurement = self._check_step(state, z, with_cov, measurement)
+        return self._step(state, z, with_cov, measurement)
+
+    def _check_step(self, state, z, with_cov, measurement) -> tuple:
+        """The inputs of :meth:`step` checked (ValueError naming the one that does not fit): ``(z, the measurement
+        model of the step)``.  :func:`run` calls it once per measurement model, then :meth:`_step`."""
         _check_state(state, "state", ("mean", "cov"), self.dynamics.dim)
         check_bool(with_cov, "with_cov")
         measurement = _step_measurement(self.measurement, measurement, self.dynamics.dim)
-        z = _check_measurement(z, measurement.dim, batch=batch_size(state))
+        return _check_measurement(z, measurement.dim, batch=batch_size(state)), measurement
+
+    def _step(self, state, z, with_cov, measurement) -> tuple:
+        """:meth:`step` on inputs :meth:`_check_step` has checked (``measurement`` the step's model, not None)."""
         state = self.filter.predict(state, self.dynamics)
         state, info = self.filter.update(state, z, measurement)
         return state, Estimate(state.mean, state.cov, None, info.loglik, info.innovation, innovation_cov=info.S,
@@ -285,12 +294,21 @@ class KnownModeSequence:
         """Step k: predict with ``dynamics[modes[k]]``, update with ``z`` (B, m); returns
         ``(SwitchingState, Estimate)`` as :meth:`SingleModel.step` does.  A step beyond ``len(modes)`` is a
         ValueError naming ``z``."""
+        z, measurement = self._check_step(state, z, with_cov, measurement)
+        return self._step(state, z, with_cov, measurement)
+
+    def _check_step(self, state, z, with_cov, measurement) -> tuple:
+        """The inputs of :meth:`step` checked: ``(z, the measurement model of the step)`` (as
+        :meth:`SingleModel._check_step`)."""
         if not isinstance(state, SwitchingState):
             raise ValueError(f"state: expected the SwitchingState returned by init(), got {type(state).__name__}")
         _check_state(state.filter_state, "state", ("mean", "cov"), self.dynamics[0].dim)
         check_bool(with_cov, "with_cov")
         measurement = _step_measurement(self.measurement, measurement, self.dynamics[0].dim)
-        z = _check_measurement(z, measurement.dim, batch=batch_size(state.filter_state))
+        return _check_measurement(z, measurement.dim, batch=batch_size(state.filter_state)), measurement
+
+    def _step(self, state, z, with_cov, measurement) -> tuple:
+        """:meth:`step` on inputs :meth:`_check_step` has checked (the step count is checked here, every step)."""
         if state.step >= len(self.modes):
             raise ValueError(f"z: step {state.step} beyond the {len(self.modes)} known modes")
         s = self.filter.predict(state.filter_state, self.dynamics[int(self.modes[state.step])])
@@ -301,21 +319,6 @@ class KnownModeSequence:
 
 
 # --------------------------------------------------------------------------- IMM
-def mixing_weights(mu: np.ndarray, transition: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    r"""``c`` (B, r) and ``w[b, i, j] = mu_{i|j}`` (B, r, r) (Zhu et al. 2016, Eq. 54):
-    :math:`c_j = \sum_i p_{ij}\mu_i`, :math:`\mu_{i|j} = p_{ij}\mu_i / c_j`, from mode probabilities ``mu``
-    (B, r) and ``transition`` (r, r) (rows "from").  A mode with :math:`c_j = 0` (unreachable) gets
-    :math:`\mu_{i|j} = \mu_i` (its estimate has zero weight later; no 0/0)."""
-    c = matmul_rows(mu, transition)          # mu @ transition, the same bits for a run whatever the batch size
-    impossible = c <= 0.0
-    if impossible.any():
-        # A mode no other mode can reach has c_j = 0: its mixed estimate gets zero weight in
-        # every later step, so any valid distribution will do; use mu itself (no 0/0 NaN).
-        w = transition[None, :, :] * mu[:, :, None] / np.where(impossible, 1.0, c)[:, None, :]
-        return c, np.where(impossible[:, None, :], mu[:, :, None], w)
-    return c, transition[None, :, :] * mu[:, :, None] / c[:, None, :]
-
-
 @dataclass(frozen=True)
 class MomentMixing:
     r"""Standard IMM interaction (Eqs. 55-56): for each target mode j,
@@ -323,8 +326,10 @@ class MomentMixing:
     :math:`x^{0j} = \sum_i \mu_{i|j} x^i`,
     :math:`P^{0j} = \sum_i \mu_{i|j}[P^i + (x^i - x^{0j})(x^i - x^{0j})^T]`.
 
-    ``means`` (B, r, n), ``covs`` (B, r, n, n), ``w`` (B, r_from, r_to) (:func:`mixing_weights`) ->
-    ``(mixed means (B, r, n), mixed covs (B, r, n, n))``, in the state's units.
+    ``means`` (B, r, n), ``covs`` (B, r, n, n), ``w`` (B, r_from, r_to) (:func:`mmlib.core.linalg.mixing_weights`)
+    -> ``(mixed means (B, r, n), mixed covs (B, r, n, n))``, in the state's units
+    (:func:`mmlib.core.linalg.mix_moments`; an IMM with this mixing takes the fused
+    :func:`mmlib.core.linalg.imm_mix`).
     Alternative strategies (e.g. cubature-principle mixing, Zhou et al. 2017)
     implement the same call."""
 
@@ -334,50 +339,7 @@ class MomentMixing:
         check_name(self.name)
 
     def __call__(self, means: np.ndarray, covs: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        wt = np.swapaxes(w, -1, -2)                                   # (B, j, i)
-        mixed_mean = wt @ means                                       # (B, j, n)
-        return mixed_mean, combine_covariances(wt, means, covs, mixed_mean)
-
-
-def combine_covariances(wt: np.ndarray, means: np.ndarray, covs: np.ndarray, centres: np.ndarray) -> np.ndarray:
-    r""":math:`\sum_i w_{ji}[P_i + (x_i - c_j)(x_i - c_j)^T]` for every j (:func:`mmlib.core.linalg.combine_covariances`).
-
-    ``wt`` (B, J, I), ``means`` (B, I, n), ``covs`` (B, I, n, n), ``centres`` (B, J, n) -> (B, J, n, n),
-    symmetrised."""
-    return linalg.combine_covariances(wt, means, covs, centres)
-
-
-def imm_output(loglik: np.ndarray, c: np.ndarray, means: np.ndarray, covs: np.ndarray, nu: np.ndarray,
-               S: np.ndarray, with_cov: bool = True) -> tuple:
-    r"""The end of an IMM cycle (Zhu et al. 2016, Eqs. 57-59): mode probabilities :math:`\mu_j \propto c_j L_j`
-    (in logs, about the largest term), the log marginal likelihood :math:`\log p(z_k | z_{1:k-1}) =
-    \log\sum_j c_j L_j`, the fused estimate :math:`\sum_j \mu_j x_j` with (if ``with_cov``, else None) its
-    covariance :math:`\sum_j \mu_j[P_j + (x_j - \hat x)(x_j - \hat x)^T]`, and the innovation against the
-    predicted measurement of the mixture prior, :math:`z - \sum_j c_j \hat z_j = \sum_j c_j \nu_j`, with its
-    predicted covariance :math:`\sum_j c_j[S_j + (\nu_j - \nu)(\nu_j - \nu)^T]` (as :math:`\hat z_j - \hat z = \nu - \nu_j`).
-
-    ``loglik``, ``c`` (B, r); ``means`` (B, r, n); ``covs`` (B, r, n, n); ``nu`` (B, r, m); ``S`` (B, r, m, m).
-    Returns ``(mu, marginal, underflow, mean, cov, innovation, innovation_cov)``; ``underflow`` (B,): every
-    mode's likelihood underflowed (:math:`\log L_j = -\infty` for all j), the run's ``mu`` is then NaN.
-    Compiled when :func:`mmlib.core.linalg.kernel` is numba (:func:`mmlib.core.linalg.imm_output`)."""
-    if linalg.kernel() == "numba":
-        return linalg.imm_output(loglik, c, means, covs, nu, S, with_cov)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        logpost = loglik + np.log(c)                                  # (B, r)
-        top = np.max(logpost, axis=1, keepdims=True)
-        post = np.exp(logpost - top)
-        total = post.sum(axis=1, keepdims=True)
-        mu = post / total
-        marginal = (top + np.log(total))[:, 0]                        # log p(z_k | z_1:k-1)
-    underflow = (top[:, 0] == -np.inf)
-    if underflow.any():
-        mu = np.where(underflow[:, None], np.nan, mu)
-    fused_mean = (mu[:, None, :] @ means)[:, 0]
-    fused_cov = (combine_covariances(mu[:, None, :], means, covs, fused_mean[:, None, :])[:, 0]
-                 if with_cov else None)
-    innovation = (c[:, :, None] * nu).sum(axis=1)
-    innovation_cov = combine_covariances(c[:, None, :], nu, S, innovation[:, None, :])[:, 0]
-    return mu, marginal, underflow, fused_mean, fused_cov, innovation, innovation_cov
+        return linalg.mix_moments(means, covs, w)
 
 
 class IMMState(NamedTuple):
@@ -478,29 +440,43 @@ class IMM:
         ``measurement`` overrides the measurement model for this step; ``dynamics`` overrides the
         stacked mode dynamics (a :class:`~mmlib.core.models.StackedDynamics`, e.g. with per-run adapted Q
         broadcasting to (B, r, n, n))."""
+        z, measurement = self._check_step(state, z, with_cov, measurement)
+        if dynamics is not None:
+            self._check_dynamics(state, dynamics)
+        return self._step(state, z, with_cov, measurement, dynamics)
+
+    def _check_step(self, state, z, with_cov, measurement) -> tuple:
+        """The inputs of :meth:`step` but ``dynamics`` checked: ``(z, the measurement model of the step)`` (as
+        :meth:`SingleModel._check_step`)."""
         if not isinstance(state, IMMState):
             raise ValueError(f"state: expected the IMMState returned by init(), got {type(state).__name__}")
         _check_state(state.modes, "state", ("mean", "cov"), self.stacked.dim, "IMM mode-filter state")
         check_bool(with_cov, "with_cov")
         measurement = _step_measurement(self.measurement, measurement, self.stacked.dim)
-        z = _check_measurement(z, measurement.dim, batch=state.mode_probabilities.shape[0])
-        if dynamics is not None:
-            check_has(dynamics, "dynamics", "stacked mode dynamics (mmlib.core.models.StackedDynamics)",
-                      ("transition", "jacobian", "Q", "dim"))
-            B, r, n = state.modes.mean.shape
-            if dynamics.dim != n:
-                raise ValueError(f"dynamics: state dimension {dynamics.dim}, the IMM's is {n}")
-            if len(getattr(dynamics, "models", ())) != r:
-                raise ValueError(f"dynamics: {len(getattr(dynamics, 'models', ()))} mode models for an IMM of {r} modes")
-            try:
-                fits = np.broadcast_shapes(np.shape(dynamics.Q), (B, r, n, n)) == (B, r, n, n)
-            except ValueError:
-                fits = False
-            if not fits:
-                raise ValueError(f"dynamics: Q of shape {np.shape(dynamics.Q)} does not broadcast to "
-                                 f"({B}, {r}, {n}, {n}) (runs, modes, state, state)")
+        return _check_measurement(z, measurement.dim, batch=state.mode_probabilities.shape[0]), measurement
+
+    def _check_dynamics(self, state, dynamics) -> None:
+        """A ``dynamics`` override of :meth:`step`: stacked mode dynamics of the IMM's state dimension and modes,
+        whose Q broadcasts to (B, r, n, n) (ValueError naming ``dynamics``)."""
+        check_has(dynamics, "dynamics", "stacked mode dynamics (mmlib.core.models.StackedDynamics)",
+                  ("transition", "jacobian", "Q", "dim"))
+        B, r, n = state.modes.mean.shape
+        if dynamics.dim != n:
+            raise ValueError(f"dynamics: state dimension {dynamics.dim}, the IMM's is {n}")
+        if len(getattr(dynamics, "models", ())) != r:
+            raise ValueError(f"dynamics: {len(getattr(dynamics, 'models', ()))} mode models for an IMM of {r} modes")
+        try:
+            fits = np.broadcast_shapes(np.shape(dynamics.Q), (B, r, n, n)) == (B, r, n, n)
+        except ValueError:
+            fits = False
+        if not fits:
+            raise ValueError(f"dynamics: Q of shape {np.shape(dynamics.Q)} does not broadcast to "
+                             f"({B}, {r}, {n}, {n}) (runs, modes, state, state)")
+
+    def _step(self, state, z, with_cov, measurement, dynamics=None) -> tuple:
+        """:meth:`step` on inputs :meth:`_check_step` (and :meth:`_check_dynamics`) have checked."""
         modes = state.modes
-        if type(self.mixing) is MomentMixing and linalg.kernel() == "numba":
+        if type(self.mixing) is MomentMixing:
             c, mixed_means, mixed_covs = linalg.imm_mix(state.mode_probabilities, self.transition, modes.mean,
                                                         modes.cov)
         else:
@@ -632,7 +608,8 @@ def run(estimator: protocols.Estimator, state: tuple, measurements: ArrayLike | 
     units (e.g. m for positions, (m, rad) for range-bearing), finite.  Returns a :class:`Track`:
     ``mean`` (B, K, n), ``cov`` (B, K, n, n) (None with ``keep_cov=False``), mode probabilities
     (B, K, r) for an IMM.  Bad input (shapes, a non-finite measurement, an unknown ``on_divergence``) is
-    a ValueError naming the argument.
+    a ValueError naming the argument.  Every input is checked once, here or at the first step that uses it:
+    the estimators of this module are then stepped without checking again at every step.
 
     ``consistency=True`` records every step's NIS and, with ``truth`` (B, K+1, n) the true states x_0..x_K
     (or (B, K, n), x_1..x_K), its NEES (:class:`Track`), computed on the fly: the covariances need not be kept.
@@ -676,9 +653,19 @@ def run(estimator: protocols.Estimator, state: tuple, measurements: ArrayLike | 
     diverged_step = np.full(B, -1)
     cause = np.zeros(B, dtype=np.int8)
     with_cov = keep_cov or x_true is not None
+    # this module's estimators split step() into _check_step() and _step(): the state, the flag and each measurement
+    # model are checked once, at the first step that uses them (the measurements were checked whole above); any
+    # other estimator's step() runs every step, checking its inputs or not
+    check, advance = getattr(estimator, "_check_step", None), getattr(estimator, "_step", None)
+    models: dict = {}                       # id(a step's measurement model; None: the default) -> the model
     for k, (z_k, model_k) in enumerate(steps):
-        state, est = (estimator.step(state, z_k, with_cov=with_cov) if model_k is None
-                      else estimator.step(state, z_k, with_cov=with_cov, measurement=model_k))
+        if check is None or advance is None:
+            state, est = (estimator.step(state, z_k, with_cov=with_cov) if model_k is None
+                          else estimator.step(state, z_k, with_cov=with_cov, measurement=model_k))
+        else:
+            if id(model_k) not in models:
+                z_k, models[id(model_k)] = check(state, z_k, with_cov, model_k)
+            state, est = advance(state, z_k, with_cov, models[id(model_k)])
         failure = np.zeros(B, dtype=np.int8) if est.failure is None else est.failure
         bad = (~np.isfinite(est.mean).all(axis=1) | (failure != _NONE)) & (diverged_step < 0)
         if bad.any():

@@ -166,8 +166,9 @@ class ExtendedKalmanFilter(_FilterBase):
         r"""Time update :math:`\hat x^- = f(\hat x)`, :math:`P^- = F P F^T + Q` with :math:`F` the Jacobian of
         ``dynamics`` at the prior mean: ``state`` mean (..., n), cov (..., n, n) (e.g. (B, n) or (B, r, n) with a
         :class:`~mmlib.core.models.StackedDynamics` of r modes); returns the state with the predicted mean
-        and cov (other fields kept).  Linear dynamics use the fused compiled kernel when numba is selected."""
-        if linalg.kernel() == "numba" and getattr(dynamics, "is_linear", False):
+        and cov (other fields kept).  Linear dynamics (``is_linear``, with ``F``) take the fused
+        :func:`mmlib.core.linalg.linear_predict`."""
+        if getattr(dynamics, "is_linear", False):
             mean, cov = linalg.linear_predict(state.mean, state.cov, dynamics.F, dynamics.Q)
             return state._replace(mean=mean, cov=cov)
         F = dynamics.jacobian(state.mean)
@@ -222,35 +223,33 @@ class SigmaPointFilter(_FilterBase):
         :math:`\hat x^- = \sum_i w^m_i f(X_i)`, :math:`P^- = \mathrm{cov}_{rule}(f(X_i)) + Q`.  ``state`` mean
         (..., n), cov (..., n, n) (e.g. (B, n), or (B, r, n) with stacked mode dynamics); returns the state with
         the predicted mean and cov (other fields kept).  A run whose P is not positive definite gets NaN
-        points, hence a NaN prediction.  Linear dynamics use the fused compiled kernel when it applies."""
-        if self._fused() and getattr(dynamics, "is_linear", False):
-            mean, cov = linalg.sigma_point_predict_linear(state.mean, state.cov,
-                                                          self.rule.unit_points(state.mean.shape[-1]),
-                                                          dynamics.F, dynamics.Q)
+        points, hence a NaN prediction.  Linear dynamics (``is_linear``, with ``F``) and a rule whose
+        covariances are weighted outer products (``weighted_moments``: every rule but the Stirling central
+        differences) take the fused :func:`mmlib.core.linalg.sigma_point_predict_linear`."""
+        up = self.rule.unit_points(state.mean.shape[-1])
+        if self.rule.weighted_moments and getattr(dynamics, "is_linear", False):
+            mean, cov = linalg.sigma_point_predict_linear(state.mean, state.cov, up.xi, up.wm, up.wc, dynamics.F,
+                                                          dynamics.Q)
             return state._replace(mean=mean, cov=cov)
         X = self._points(state)
         Y = dynamics.transition(X)
-        wm = self.rule.unit_points(state.mean.shape[-1]).wm
-        mean = linalg.weighted_mean(Y, wm)
+        mean = linalg.weighted_mean(Y, up.wm)
         cov = self.rule.covariance(X - state.mean[..., None, :], Y - mean[..., None, :], add=dynamics.Q)
         return state._replace(mean=mean, cov=cov)
-
-    def _fused(self) -> bool:
-        """Whether the compiled fused kernels apply: numba selected and a rule whose covariances are
-        weighted sums of outer products (every rule but the Stirling central differences)."""
-        return linalg.kernel() == "numba" and self.rule.weighted_moments
 
     def predict_measurement(self, state: State, measurement: MeasurementModel) -> MeasurementPrediction:
         r"""Measurement moments from fresh sigma points :math:`X_i` of the predicted state:
         :math:`\hat z` = ``measurement.average`` of :math:`h(X_i)` (..., m) (angles averaged about a reference
         point), :math:`S = \mathrm{cov}_{rule}(h(X_i)) + R` (..., m, m) and
-        :math:`P_{xz} = \mathrm{cross}_{rule}(X_i, h(X_i))` (..., n, m), deviations residual-wrapped; no ``H``."""
+        :math:`P_{xz} = \mathrm{cross}_{rule}(X_i, h(X_i))` (..., n, m), deviations residual-wrapped; no ``H``.
+        A measurement model that states its ``angular`` components, with a ``weighted_moments`` rule, takes the
+        fused :func:`mmlib.core.linalg.measurement_moments` (its average and residual by those flags)."""
         X = self._points(state)
         Z = measurement.h(X)
         up = self.rule.unit_points(state.mean.shape[-1])
         angular = getattr(measurement, "angular", None)
-        if angular is not None and self._fused():
-            z_pred, S, pxz = linalg.measurement_moments(X, state.mean, Z, up, angular, measurement.R)
+        if angular is not None and self.rule.weighted_moments:
+            z_pred, S, pxz = linalg.measurement_moments(X, state.mean, Z, up.wm, up.wc, angular, measurement.R)
             return MeasurementPrediction(z_pred, S, pxz)
         wm = up.wm
         z_pred = measurement.average(Z, wm)

@@ -1,40 +1,40 @@
-"""Batched small-matrix linear algebra with divergence reporting, in two implementations.
+r"""Batched small-matrix linear algebra with divergence reporting, in two implementations.
 
 Layout: the batch (Monte Carlo run) axis is the leading axis, ``(B, n, n)`` (any leading axes, e.g.
 runs and modes, are flattened into one stack).
 
-**Two kernels, one mathematics** (:func:`kernel`, ``MMLIB_KERNEL``):
+**Two kernels, one mathematics** (:func:`kernel`, ``MMLIB_KERNEL``).  Every operation below that has a
+compiled form is declared here as a pair: its numpy body, the reference path (LAPACK gufuncs and
+``matmul`` on the leading-batch layout), and right after it its compiled twin, which flattens the stack
+and calls the loop nest of :mod:`mmlib.core._kernels` (batch innermost, vectorised across the runs).
+Callers call the operation and never choose; the choice is made in one place, the dispatch that
+``_operation`` builds, from :func:`kernel`: ``"numba"`` (default when numba imports) or ``"numpy"``.
 
-* ``"numba"`` (default when numba imports): the compiled kernels of :mod:`mmlib.core._kernels`, each filter
-  operation fused into one batch-innermost loop nest vectorised across the runs;
-* ``"numpy"``: the reference path, LAPACK gufuncs and ``matmul`` on the leading-batch layout (measured on
-  the 2-core reference machine, numpy 2.4, n = 4: ``np.linalg.cholesky`` on a ``(100, 4, 4)`` stack
-  ~38 us; ``matmul`` 5x faster than ``einsum`` for these shapes).
-
-Measured on the IMM-UKF benchmark (3 modes, 100 runs, 100 steps): ~150 ms per study with the numpy path,
-~45 ms with the compiled one.  The paths agree to round-off (``tests/test_kernels.py``); each gives a run
-the same bits in any batch (``tests/test_batch_independence.py``).  The fused kernels
-(:func:`sigma_point_predict_linear`, :func:`measurement_moments`, :func:`imm_mix`, :func:`imm_output`) exist
-only compiled: on the numpy path the filters compose the generic functions instead.
+The fused operations (:func:`linear_predict`, :func:`sigma_point_predict_linear`,
+:func:`measurement_moments`, :func:`imm_mix`, :func:`imm_output`) do a whole filter step in one
+compiled call; their numpy bodies compose the generic operations exactly as a filter step does
+(``tests/test_kernels.py`` checks that bit for bit).  The two paths agree to round-off, not bit for bit
+(BLAS and LAPACK sum in other orders; ``tests/test_kernels.py``); each gives a run the same bits in any
+batch (``tests/test_batch_independence.py``).
 
 A matrix that is not positive definite never raises inside the batch: the
 affected runs are returned in a mask and their factor is NaN, so that the
 divergence propagates to that run only and is *reported* by the caller
 (:func:`mmlib.core.estimation.run`) instead of being patched.
+
+This module imports nothing else of :mod:`mmlib` (its compiled twins load :mod:`mmlib.core._kernels` on
+first use): it is the bottom of the estimation core's imports.
 """
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import os
-from collections.abc import Iterator
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike
-
-if TYPE_CHECKING:
-    from mmlib.core.rules import UnitPoints
 
 #: The implementations of the kernels below: ``"numba"`` (compiled loops, :mod:`mmlib.core._kernels`) and
 #: ``"numpy"`` (the reference path).  They compute the same mathematics and agree to round-off
@@ -71,7 +71,7 @@ def set_kernel(name: str) -> None:
     if name not in KERNELS:
         raise ValueError(f"name: expected one of {KERNELS}, got {name!r}")
     if name == "numba":
-        from mmlib.core import _kernels
+        _compiled_module()
     _KERNEL[0] = name
 
 
@@ -87,13 +87,33 @@ def use_kernel(name: str) -> Iterator[None]:
         _KERNEL[0] = previous
 
 
+def _operation(numpy_body: Callable) -> Callable:
+    """Declare an operation by its numpy body; ``@<operation>.compiled`` on the function after it declares its
+    compiled twin.  The operation calls the implementation :func:`kernel` names: the one place where the
+    compiled/numpy choice is made.  ``<operation>.implementations`` maps ``"numpy"`` and ``"numba"`` to the two
+    (``tests/test_kernels.py`` compares them).  The numpy bodies run only on the numpy path, so the operations
+    they call are the numpy ones too."""
+    implementations = {"numpy": numpy_body}
+
+    @functools.wraps(numpy_body)
+    def operation(*args, **kwargs):
+        return implementations[_KERNEL[0]](*args, **kwargs)
+
+    def compiled(twin: Callable) -> Callable:
+        implementations["numba"] = twin
+        return twin
+
+    operation.implementations = implementations
+    operation.compiled = compiled
+    return operation
+
+
+# --------------------------------------------------------------------------- calling the compiled kernels
 _KERNELS_MODULE: list = []
 
 
-def _compiled():
-    """The compiled kernels module when numba is selected, else None."""
-    if _KERNEL[0] != "numba":
-        return None
+def _compiled_module():
+    """:mod:`mmlib.core._kernels`, imported on first use (it imports numba)."""
     if not _KERNELS_MODULE:
         from mmlib.core import _kernels
         _KERNELS_MODULE.append(_kernels)
@@ -101,10 +121,9 @@ def _compiled():
 
 
 #: Runs per compiled-kernel call for large stacks: a kernel's batch-innermost temporaries for this many runs
-#: (e.g. 9 sigma points x 4 states x 1024 runs x 8 bytes = 295 KB) stay within the core's L2 cache, and the
-#: Python cost of a call is paid a few times per step, not hundreds.  Measured on the reference machine (IMM-UKF,
-#: 10,000 runs in chunks of 2,000, CPU seconds, busy machine): 3.6 s with blocks of 256 runs, 3.3 s with 512,
-#: 2.9 s with 1,024, 3.4-3.8 s with 2,048 and more (unblocked: 6,000 runs x 3 modes per call).
+#: (e.g. 9 sigma points x 4 states x 1024 runs x 8 bytes = 295 KB) stay within a core's L2 cache, and the
+#: Python cost of a call is paid a few times per step, not hundreds.  A tuning choice only: a run's numbers do
+#: not depend on it (``tests/test_kernels.py``).
 BLOCK = 1024
 
 
@@ -132,7 +151,7 @@ _CHECKED: set = set()
 
 
 def _check_shapes(name: str, n_runs: int, args) -> None:
-    key = (name, n_runs) + tuple(getattr(a, "shape", None) for a in args)
+    key = (name, n_runs, *[getattr(a, "shape", None) for a in args])
     if key in _CHECKED:
         return
     sizes = {"N": n_runs}
@@ -165,7 +184,7 @@ def _call(name: str, n_runs: int, *args):
     are passed whole, the block length being a multiple of their period); outputs are concatenated.  A run's
     numbers do not depend on the blocking (the kernels compute every run from its own operands)."""
     _check_shapes(name, n_runs, args)
-    fn = getattr(_compiled(), name)
+    fn = getattr(_compiled_module(), name)
     if n_runs <= 2 * BLOCK:
         return fn(*args)
     step, sliced = 1, []
@@ -210,11 +229,61 @@ def _periodic(a, tail_ndim: int, lead) -> np.ndarray:
     return a.reshape((-1,) + a.shape[a.ndim - tail_ndim:])
 
 
+def _contiguous(a) -> np.ndarray:
+    """``a`` as a C-contiguous float64 array (a rule constant or a shared matrix, passed whole)."""
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+# --------------------------------------------------------------------------- numpy only (no compiled form)
 def symmetrize(a: np.ndarray) -> np.ndarray:
     """(A + A^T)/2 over the last two axes (round-off hygiene, not a PD repair)."""
     return 0.5 * (a + np.swapaxes(a, -1, -2))
 
 
+def trace(a: np.ndarray) -> np.ndarray:
+    """Trace over the last two axes."""
+    return np.trace(a, axis1=-2, axis2=-1)
+
+
+def log_det_from_cholesky(l_factor: np.ndarray) -> np.ndarray:
+    r""":math:`\log\det A = 2\sum_i \log L_{ii}` from lower Cholesky factors ``l_factor`` (..., m, m) of
+    :math:`A = LL^T` (e.g. the innovation covariance S); returns (...).  A NaN factor (a failed run)
+    gives NaN."""
+    return 2.0 * np.log(np.diagonal(l_factor, axis1=-2, axis2=-1)).sum(axis=-1)
+
+
+def tril_inverse(l_factor: np.ndarray) -> np.ndarray:
+    """Inverse of lower-triangular matrices (..., m, m) by forward substitution.
+
+    Written as O(m^3) element-wise array operations over the batch: for the 2x2 and
+    3x3 innovation factors of tracking filters this is faster than a LAPACK call per
+    matrix, and every run's result is independent of the batch size.
+    """
+    m = l_factor.shape[-1]
+    inv = np.zeros_like(l_factor)
+    diag_inv = 1.0 / np.diagonal(l_factor, axis1=-2, axis2=-1)
+    for i in range(m):
+        inv[..., i, i] = diag_inv[..., i]
+        for j in range(i):
+            acc = l_factor[..., i, j] * inv[..., j, j]
+            for k in range(j + 1, i):
+                acc = acc + l_factor[..., i, k] * inv[..., k, j]
+            inv[..., i, j] = -acc * diag_inv[..., i]
+    return inv
+
+
+_TWO_PI = 2.0 * math.pi
+
+
+def wrap_angle(a: np.ndarray | float) -> np.ndarray:
+    r"""Wrap angles to :math:`(-\pi, \pi]`: :math:`a + 2\pi\lfloor(\pi - a)/2\pi\rfloor` (faster than
+    ``np.mod``).  ``a`` in rad, any shape (array or scalar); returns the same shape, in rad.  Also
+    :func:`mmlib.core.models.wrap_angle`."""
+    return a + _TWO_PI * np.floor((np.pi - a) / _TWO_PI)
+
+
+# --------------------------------------------------------------------------- generic operations
+@_operation
 def cholesky(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Lower Cholesky factors of a stack ``(..., n, n)``.
 
@@ -230,11 +299,6 @@ def cholesky(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     the diagonal of the factor is what is checked.  The fast path is one LAPACK call for the
     whole stack.
     """
-    k = _compiled()
-    if k is not None:
-        flat = _stack(a, 2)
-        L, failed = _call("cholesky", flat.shape[0], flat)
-        return L.reshape(a.shape), failed.reshape(a.shape[:-2])
     try:
         L = np.linalg.cholesky(a)
         failed = _nonfinite_diagonal(L)
@@ -246,6 +310,13 @@ def cholesky(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     lead = a.shape[:-2]
     out, failed = _cholesky_slow(a.reshape((-1,) + a.shape[-2:]))
     return out.reshape(a.shape), failed.reshape(lead)
+
+
+@cholesky.compiled
+def _cholesky_compiled(a):
+    flat = _stack(a, 2)
+    L, failed = _call("cholesky", flat.shape[0], flat)
+    return L.reshape(a.shape), failed.reshape(a.shape[:-2])
 
 
 def _nonfinite_diagonal(L):
@@ -272,42 +343,11 @@ def _cholesky_slow(a):
     return out, failed
 
 
-def trace(a: np.ndarray) -> np.ndarray:
-    """Trace over the last two axes."""
-    return np.trace(a, axis1=-2, axis2=-1)
-
-
-def log_det_from_cholesky(l_factor: np.ndarray) -> np.ndarray:
-    r""":math:`\log|A| = 2\sum_i \log L_{ii}` from lower Cholesky factors ``l_factor`` (..., m, m) of
-    :math:`A = LL^T` (e.g. the innovation covariance S); returns (...).  A NaN factor (a failed run)
-    gives NaN."""
-    return 2.0 * np.log(np.diagonal(l_factor, axis1=-2, axis2=-1)).sum(axis=-1)
-
-
-def tril_inverse(l_factor: np.ndarray) -> np.ndarray:
-    """Inverse of lower-triangular matrices (..., m, m) by forward substitution.
-
-    Written as O(m^3) element-wise array operations over the batch: for the 2x2 and
-    3x3 innovation factors of tracking filters this is ~10x faster than a LAPACK
-    call per matrix, and every run's result is independent of the batch size.
-    """
-    m = l_factor.shape[-1]
-    inv = np.zeros_like(l_factor)
-    diag_inv = 1.0 / np.diagonal(l_factor, axis1=-2, axis2=-1)
-    for i in range(m):
-        inv[..., i, i] = diag_inv[..., i]
-        for j in range(i):
-            acc = l_factor[..., i, j] * inv[..., j, j]
-            for k in range(j + 1, i):
-                acc = acc + l_factor[..., i, k] * inv[..., k, j]
-            inv[..., i, j] = -acc * diag_inv[..., i]
-    return inv
-
-
 #: Inner dimension from which :func:`matmul_rows` stops trusting GEMM (see there).
 GEMM_MAX_INNER = 15
 
 
+@_operation
 def matmul_rows(x: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``x @ b`` for row vectors ``x`` (..., k) over any leading axes and one matrix ``b`` (k, d),
     every row with the same bits whatever the number of rows: a Monte Carlo run computed alone
@@ -316,28 +356,23 @@ def matmul_rows(x: np.ndarray, b: np.ndarray) -> np.ndarray:
     Why not a plain ``@``: numpy hands a one-row product (1, k) @ (k, d), and a one-column product
     (M, k) @ (k, 1), to BLAS ``gemv``, whose summation order is not ``gemm``'s and, for one column,
     changes with M: a run alone in its batch got other bits than in a batch of two or more
-    (~1e-16 per product, ~1e-11 after a filter run).  Here, for k <= ``GEMM_MAX_INNER``, the
+    (about one ulp per product, more after a filter run).  Here, for k <= ``GEMM_MAX_INNER``, the
     product is one GEMM (rows, k) x (k, d) over all leading axes, a single row (column) computed
     as two rows (columns) with a copy of itself so that it takes the ``gemm`` path every other
     batch size takes.  For such short inner dimensions OpenBLAS's ``gemm`` computes each row from
-    that row alone in an order that does not depend on the number of rows (measured, OpenBLAS
-    0.3.31 on x86-64 AVX-512: k <= 15, any d, 2 to 200,000 rows); from k = 16 on its row results
-    can depend on the number of rows modulo 4, so longer products are accumulated in numpy
-    instead, one inner index at a time (sequential, no BLAS: the same bits for any number of rows
-    by construction).  Every product of the library has k <= 9 (states, modes, fuzzy rules).
+    that row alone in an order that does not depend on the number of rows (OpenBLAS 0.3.31 on
+    x86-64 AVX-512: k <= 15, any d, 2 to 200,000 rows); from k = 16 on its row results can depend on
+    the number of rows modulo 4, so longer products are accumulated in numpy instead, one inner
+    index at a time (sequential, no BLAS: the same bits for any number of rows by construction).
+    Every product of the library has k <= 9 (states, modes, fuzzy rules).
     ``tests/test_batch_independence.py`` checks this function and every estimator of every paper
-    at B = 1, 2, 3 and 64.
+    at B = 1, 2, 3 and 64, on the machine at hand.
 
-    Chosen for speed: the GEMM keeps the cost of the former single GEMM (padding costs one small
-    copy, only for a one-row or one-column product).  The alternatives that do not rely on
-    ``gemm``'s row independence, a per-row stacked matmul ``x[..., None, :] @ b`` (one BLAS call
-    per row) or the numpy accumulation used for k > 15, are 4-7x slower on the ~1000-row products
-    of a batch of sigma points and slowed the IMM-UKF benchmark by 10-20 %."""
-    kern = _compiled()
-    if kern is not None:
-        flat = _stack(x, 1)
-        out = _call("matmul_rows", flat.shape[0], flat, np.ascontiguousarray(b, dtype=np.float64))
-        return out.reshape(x.shape[:-1] + (b.shape[-1],))
+    Chosen for speed: the GEMM keeps the cost of a single GEMM (padding costs one small copy, only
+    for a one-row or one-column product).  The alternatives that do not rely on ``gemm``'s row
+    independence, a per-row stacked matmul ``x[..., None, :] @ b`` (one BLAS call per row) or the
+    numpy accumulation used for k > 15, are several times slower on the ~1000-row products of a
+    batch of sigma points."""
     rows = x.reshape(-1, x.shape[-1])
     n_rows, k, n_cols = rows.shape[0], rows.shape[1], b.shape[-1]
     if k > GEMM_MAX_INNER:
@@ -356,39 +391,53 @@ def matmul_rows(x: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out.reshape(x.shape[:-1] + (n_cols,))
 
 
-# --------------------------------------------------------------------------- fused filter kernels
-# Each has a numpy reference implementation here and a compiled one in mmlib.core._kernels (selected by kernel()).
+@matmul_rows.compiled
+def _matmul_rows_compiled(x, b):
+    flat = _stack(x, 1)
+    out = _call("matmul_rows", flat.shape[0], flat, _contiguous(b))
+    return out.reshape(x.shape[:-1] + (b.shape[-1],))
 
+
+def offset_points(mean: np.ndarray, chol: np.ndarray, xi: np.ndarray) -> np.ndarray:
+    r"""Sigma points :math:`X_p = m + L\xi_p` from a factor: ``mean`` (..., n), ``chol`` (..., n, n) (the lower
+    factor L of the covariance), unit points ``xi`` (M, n) -> (..., M, n), in the state's units.  One
+    :func:`matmul_rows` for the whole stack, :math:`(L\xi_p)_i = \sum_j L_{ij}\xi_{pj}`: a run's points have
+    the same bits whatever the batch size, one run and a one-dimensional state included."""
+    offsets = matmul_rows(chol, xi.T)
+    return mean[..., None, :] + np.swapaxes(offsets, -1, -2)
+
+
+@_operation
 def sigma_points(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""Sigma points :math:`X_p = m + L\xi_p` with :math:`LL^T = P` (:func:`cholesky`), for a stack.
 
     ``mean`` (..., n), ``cov`` (..., n, n), unit points ``xi`` (M, n) -> ``(X (..., M, n), failed (...))``;
     the points of a run whose covariance is not positive definite are NaN (its ``failed`` is True)."""
-    lead = mean.shape[:-1]
-    n = mean.shape[-1]
-    k = _compiled()
-    if k is not None:
-        flat = _stack(mean, 1)
-        X, failed = _call("sigma_points", flat.shape[0], flat, _stack(cov, 2, lead),
-                          np.ascontiguousarray(xi, dtype=np.float64))
-        return X.reshape(lead + (xi.shape[0], n)), failed.reshape(lead)
     chol, failed = cholesky(cov)
-    # one GEMM for the whole batch: (L xi_p)_i = sum_j L_ij xi_pj, batch-size independent (matmul_rows)
-    offsets = matmul_rows(chol, xi.T)
-    return mean[..., None, :] + np.swapaxes(offsets, -1, -2), failed
+    return offset_points(mean, chol, xi), failed
 
 
+@sigma_points.compiled
+def _sigma_points_compiled(mean, cov, xi):
+    lead = mean.shape[:-1]
+    flat = _stack(mean, 1)
+    X, failed = _call("sigma_points", flat.shape[0], flat, _stack(cov, 2, lead), _contiguous(xi))
+    return X.reshape(lead + (xi.shape[0], mean.shape[-1])), failed.reshape(lead)
+
+
+@_operation
 def weighted_mean(Y: np.ndarray, w: np.ndarray) -> np.ndarray:
     r""":math:`\sum_p w_p Y_p`: ``Y`` (..., M, d), weights ``w`` (M,) -> (..., d)."""
-    k = _compiled()
-    if k is not None:
-        lead = Y.shape[:-2]
-        flat = _stack(Y, 2)
-        return _call("weighted_mean", flat.shape[0], flat, np.ascontiguousarray(w, dtype=np.float64)).reshape(
-            lead + Y.shape[-1:])
     return w @ Y
 
 
+@weighted_mean.compiled
+def _weighted_mean_compiled(Y, w):
+    flat = _stack(Y, 2)
+    return _call("weighted_mean", flat.shape[0], flat, _contiguous(w)).reshape(Y.shape[:-2] + Y.shape[-1:])
+
+
+@_operation
 def weighted_covariances(dy: np.ndarray, w: np.ndarray, dx: np.ndarray | None = None,
                          add: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     r"""``(P_yy, P_xy)``: :math:`P_{yy} = \sum_p w_p\,dy_p dy_p^T + \mathrm{add}` and
@@ -396,14 +445,7 @@ def weighted_covariances(dy: np.ndarray, w: np.ndarray, dx: np.ndarray | None = 
 
     ``dy`` (..., M, d), ``w`` (M,), ``dx`` (..., M, n) with the same leading axes, ``add`` broadcasting
     against (..., d, d) (e.g. the noise Q or R) or None."""
-    lead, d = dy.shape[:-2], dy.shape[-1]
-    k = _compiled()
-    if k is not None:
-        dx_s = np.empty((int(np.prod(lead, dtype=np.int64)), dy.shape[-2], 0)) if dx is None else _stack(dx, 2, lead)
-        add_s = _periodic(add, 2, lead) if add is not None else np.zeros((1, d, d))
-        flat = _stack(dy, 2)
-        pyy, pxy = _call("weighted_outer", flat.shape[0], flat, np.ascontiguousarray(w, dtype=np.float64), dx_s, add_s)
-        return pyy.reshape(lead + (d, d)), (None if dx is None else pxy.reshape(lead + (dx.shape[-1], d)))
+    d = dy.shape[-1]
     wdy = dy * w[:, None]
     if dx is None:
         pyy = np.swapaxes(dy, -1, -2) @ wdy
@@ -413,6 +455,17 @@ def weighted_covariances(dy: np.ndarray, w: np.ndarray, dx: np.ndarray | None = 
     return (pyy if add is None else pyy + add), both[..., d:, :]
 
 
+@weighted_covariances.compiled
+def _weighted_covariances_compiled(dy, w, dx=None, add=None):
+    lead, d = dy.shape[:-2], dy.shape[-1]
+    dx_s = np.empty((int(np.prod(lead, dtype=np.int64)), dy.shape[-2], 0)) if dx is None else _stack(dx, 2, lead)
+    add_s = _periodic(add, 2, lead) if add is not None else np.zeros((1, d, d))
+    flat = _stack(dy, 2)
+    pyy, pxy = _call("weighted_outer", flat.shape[0], flat, _contiguous(w), dx_s, add_s)
+    return pyy.reshape(lead + (d, d)), (None if dx is None else pxy.reshape(lead + (dx.shape[-1], d)))
+
+
+@_operation
 def kalman_moments(mean: np.ndarray, cov: np.ndarray, nu: np.ndarray, S: np.ndarray, Pxz: np.ndarray,
                    H: np.ndarray | None = None, R: np.ndarray | None = None) -> tuple:
     r"""The numerical part of the shared Kalman update (:func:`mmlib.core.filters.kalman_update`).
@@ -424,20 +477,7 @@ def kalman_moments(mean: np.ndarray, cov: np.ndarray, nu: np.ndarray, S: np.ndar
     :math:`\mathrm{sym}((I - KH)P(I - KH)^T + KRK^T)` (Bar-Shalom et al. 2001, Eq. 5.2.3-18).
     Returns ``(mean+, cov+, nis (...), logdet_S (...), failed (...))``: a run fails when S or :math:`P^+`
     has no Cholesky factor (:func:`cholesky`); its mean and covariance are NaN."""
-    lead = mean.shape[:-1]
-    n, m = mean.shape[-1], nu.shape[-1]
-    k = _compiled()
-    if k is not None:
-        if H is None:
-            Hs = Rs = np.empty((1, 0, 0))
-        else:
-            Hs, Rs = _periodic(H, 2, lead), _periodic(R, 2, lead)
-        flat = _stack(mean, 1)
-        out = _call("kalman_moments", flat.shape[0], flat, _periodic(cov, 2, lead), _periodic(nu, 1, lead),
-                    _periodic(S, 2, lead), _periodic(Pxz, 2, lead), Hs, Rs)
-        mean_p, cov_p, nis, logdet, failed = out
-        return (mean_p.reshape(lead + (n,)), cov_p.reshape(lead + (n, n)), nis.reshape(lead), logdet.reshape(lead),
-                failed.reshape(lead))
+    n = mean.shape[-1]
     chol_s, s_failed = cholesky(S)
     linv = tril_inverse(chol_s)
     a = Pxz @ np.swapaxes(linv, -1, -2)                         # (..., n, m)
@@ -460,6 +500,23 @@ def kalman_moments(mean: np.ndarray, cov: np.ndarray, nu: np.ndarray, S: np.ndar
     return mean_p, cov_p, nis, logdet, failed
 
 
+@kalman_moments.compiled
+def _kalman_moments_compiled(mean, cov, nu, S, Pxz, H=None, R=None):
+    lead = mean.shape[:-1]
+    n = mean.shape[-1]
+    if H is None:
+        Hs = Rs = np.empty((1, 0, 0))
+    else:
+        Hs, Rs = _periodic(H, 2, lead), _periodic(R, 2, lead)
+    flat = _stack(mean, 1)
+    mean_p, cov_p, nis, logdet, failed = _call("kalman_moments", flat.shape[0], flat, _periodic(cov, 2, lead),
+                                               _periodic(nu, 1, lead), _periodic(S, 2, lead),
+                                               _periodic(Pxz, 2, lead), Hs, Rs)
+    return (mean_p.reshape(lead + (n,)), cov_p.reshape(lead + (n, n)), nis.reshape(lead), logdet.reshape(lead),
+            failed.reshape(lead))
+
+
+@_operation
 def combine_covariances(wt: np.ndarray, means: np.ndarray, covs: np.ndarray, centres: np.ndarray) -> np.ndarray:
     r""":math:`\mathrm{sym}\sum_i w_{ji}[P_i + (x_i - c_j)(x_i - c_j)^T]` for every j.
 
@@ -467,10 +524,6 @@ def combine_covariances(wt: np.ndarray, means: np.ndarray, covs: np.ndarray, cen
     Deviations are taken from each centre, :math:`d_{ji} = x_i - c_j`: every term is positive
     semi-definite, so the sum stays so to round-off (no subtraction of :math:`cc^T`, which can cancel
     and give a negative variance).  Every product is per run (batch-size independent)."""
-    k = _compiled()
-    if k is not None:
-        return _call("combine_covariances", wt.shape[0], _stack(wt, 2), _stack(means, 2), _stack(covs, 3),
-                     _stack(centres, 2))
     B, J, I = wt.shape
     n = means.shape[-1]
     pooled = (wt @ covs.reshape(B, I, n * n)).reshape(B, J, n, n)
@@ -480,75 +533,226 @@ def combine_covariances(wt: np.ndarray, means: np.ndarray, covs: np.ndarray, cen
     return 0.5 * (spread + np.swapaxes(spread, -1, -2))
 
 
-# Fused steps: compiled only (the numpy path composes the generic functions above in mmlib.core.filters and
-# mmlib.core.estimation; tests/test_kernels.py checks that both paths agree).
-
-def sigma_point_predict_linear(mean: np.ndarray, cov: np.ndarray, points: UnitPoints, F: np.ndarray,
-                               Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    r"""Sigma-point time update through linear dynamics, fused (compiled kernel only): the rule's unit
-    ``points`` (:class:`mmlib.core.rules.UnitPoints`) about ``mean`` (..., n) with covariance ``cov`` (..., n, n),
-    mapped by ``F`` and ``Q`` (each broadcasting against (..., n, n)).  Returns ``(mean-, cov-)``: the
-    moments :func:`sigma_points`, ``F X``, :func:`weighted_mean` and :func:`weighted_covariances` give."""
-    lead = mean.shape[:-1]
-    n = mean.shape[-1]
-    flat = _stack(mean, 1)
-    m, c, _ = _call("sigma_point_predict_linear", flat.shape[0], flat, _stack(cov, 2, lead), points.xi, points.wm,
-                                                  points.wc, _periodic(F, 2, lead), _periodic(Q, 2, lead))
-    return m.reshape(lead + (n,)), c.reshape(lead + (n, n))
+@combine_covariances.compiled
+def _combine_covariances_compiled(wt, means, covs, centres):
+    return _call("combine_covariances", wt.shape[0], _stack(wt, 2), _stack(means, 2), _stack(covs, 3),
+                 _stack(centres, 2))
 
 
-def measurement_moments(X: np.ndarray, mean: np.ndarray, Z: np.ndarray, points: UnitPoints, angular: ArrayLike,
-                        R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    r"""Sigma-point measurement moments, fused (compiled kernel only): points ``X`` (..., M, n) about
-    ``mean`` (..., n), their images ``Z`` (..., M, m), the rule's weights ``points``, the measurement's
-    ``angular`` components (m,) (residuals wrapped, averaged about the first point) and noise ``R``.
-    Returns ``(z_pred (..., m), S (..., m, m), Pxz (..., n, m))``."""
-    lead = mean.shape[:-1]
-    n, m = mean.shape[-1], Z.shape[-1]
-    flat = _stack(mean, 1)
-    zp, S, Pxz = _call("measurement_moments", flat.shape[0], _stack(X, 2), flat, _stack(Z, 2, lead),
-                                              points.wm, points.wc, np.asarray(angular, dtype=np.bool_),
-                                              _periodic(R, 2, lead))
-    return zp.reshape(lead + (m,)), S.reshape(lead + (m, m)), Pxz.reshape(lead + (n, m))
-
-
-def imm_mix(mu: np.ndarray, transition: np.ndarray, means: np.ndarray,
-            covs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    r"""IMM interaction fused (compiled kernel only): ``(c (B, r), mixed means (B, r, n), mixed covs
-    (B, r, n, n))`` from mode probabilities ``mu`` (B, r), ``transition`` (r, r) (rows "from") and the mode
-    estimates; the same as :func:`mmlib.core.estimation.mixing_weights` then :class:`mmlib.core.estimation.MomentMixing`."""
-    return _call("imm_mix", mu.shape[0], _stack(mu, 1), np.ascontiguousarray(transition, dtype=np.float64), _stack(means, 2),
-                            _stack(covs, 3))
-
-
-def imm_output(loglik: np.ndarray, c: np.ndarray, means: np.ndarray, covs: np.ndarray, nu: np.ndarray,
-               S: np.ndarray, with_cov: bool) -> tuple:
-    """The end of an IMM cycle fused (compiled kernel only): :func:`mmlib.core.estimation.imm_output`."""
-    mu, marginal, underflow, mean, cov, innovation, innovation_cov = _call("imm_output", loglik.shape[0],
-        _stack(loglik, 1), _stack(c, 1), _stack(means, 2), _stack(covs, 3), _stack(nu, 2), _stack(S, 3), bool(with_cov))
-    return mu, marginal, underflow, mean, (cov if with_cov else None), innovation, innovation_cov
-
-
+@_operation
 def congruence(A: np.ndarray, P: np.ndarray, add: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""The EKF's linearised moments ``(A P A^T + add, P A^T)``: ``A`` (..., d, n) (a Jacobian, broadcasting over
-    the stack), ``P`` (..., n, n), ``add`` broadcasting against (..., d, d) (the noise Q or R).  The same
-    products as the numpy path's ``A @ P @ A^T + add`` and ``P @ A^T``, compiled when :func:`kernel` is numba."""
-    lead = P.shape[:-2]
-    d, n = A.shape[-2], A.shape[-1]
-    k = _compiled()
-    if k is not None:
-        flat = _stack(P, 2)
-        S, PAt = _call("congruence", flat.shape[0], _periodic(A, 2, lead), flat, _periodic(add, 2, lead))
-        return S.reshape(lead + (d, d)), PAt.reshape(lead + (n, d))
+    the stack), ``P`` (..., n, n), ``add`` broadcasting against (..., d, d) (the noise Q or R);
+    :math:`APA^T` computed as :math:`A(PA^T)`."""
     PAt = P @ np.swapaxes(A, -1, -2)
     return A @ PAt + add, PAt
 
 
+@congruence.compiled
+def _congruence_compiled(A, P, add):
+    lead = P.shape[:-2]
+    d, n = A.shape[-2], A.shape[-1]
+    flat = _stack(P, 2)
+    S, PAt = _call("congruence", flat.shape[0], _periodic(A, 2, lead), flat, _periodic(add, 2, lead))
+    return S.reshape(lead + (d, d)), PAt.reshape(lead + (n, d))
+
+
+@_operation
+def range_bearing(x: np.ndarray, i: int, j: int, sensor: np.ndarray) -> np.ndarray:
+    r"""Range and bearing :math:`(\sqrt{\Delta x^2 + \Delta y^2}, \operatorname{atan2}(\Delta y, \Delta x))` of
+    the points ``x`` (..., n) from a sensor at ``sensor`` (2,) (m), with :math:`\Delta x = x_i - s_x`,
+    :math:`\Delta y = x_j - s_y` -> (..., 2) (m, rad in :math:`[-\pi, \pi]`), ``hypot`` and ``atan2`` of the C
+    library on either path (:meth:`mmlib.core.models.RangeBearing.h`).  An index beyond the state is an
+    IndexError."""
+    dx = x[..., i] - sensor[0]
+    dy = x[..., j] - sensor[1]
+    return np.stack([np.hypot(dx, dy), np.arctan2(dy, dx)], axis=-1)
+
+
+@range_bearing.compiled
+def _range_bearing_compiled(x, i, j, sensor):
+    n = x.shape[-1]
+    for index in (i, j):                   # the kernel does not check bounds
+        if not -n <= index < n:
+            raise IndexError(f"index {index} is out of bounds for axis {x.ndim - 1} with size {n}")
+    flat = _contiguous(x).reshape(-1, n)
+    out = _compiled_module().range_bearing(flat, i, j, float(sensor[0]), float(sensor[1]))
+    return out.reshape(x.shape[:-1] + (2,))
+
+
+# --------------------------------------------------------------------------- fused filter steps
+def linear_transition(x: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """:math:`F x` for states or sigma points ``x`` (..., n): ``F`` (n, n) one matrix for all, or (r, n, n) one
+    per mode, applied to the mode axis of ``x`` at -3 ((..., r, p, n), one :func:`matmul_rows` per mode), or
+    broadcast (``x @ F^T``) when ``x`` has no such axis.  Returns (..., n); a run's numbers do not depend on
+    the batch size (:func:`matmul_rows`).  The transition of the linear models of :mod:`mmlib.core.models`."""
+    if F.ndim == 2:
+        return matmul_rows(x, F.T)
+    if x.ndim >= 3 and x.shape[-3] == F.shape[0]:
+        return np.stack([matmul_rows(x[..., j, :, :], Fj.T) for j, Fj in enumerate(F)], axis=-3)
+    return x @ np.swapaxes(F, -1, -2)
+
+
+@_operation
 def linear_predict(mean: np.ndarray, cov: np.ndarray, F: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    r"""Time update through linear dynamics fused (compiled kernel only): ``(F m, F P F^T + Q)`` for ``mean``
-    (..., n), ``cov`` (..., n, n) and ``F``, ``Q`` broadcasting against (..., n, n) (e.g. one per mode)."""
+    r"""The Kalman time update through linear dynamics, :math:`(Fm, FPF^T + Q)`: ``mean`` (..., n), ``cov``
+    (..., n, n), ``F`` (n, n) or (r, n, n) (one per mode, against a mode axis at -2 of ``mean``, as in
+    :func:`linear_transition`) and ``Q`` broadcasting against (..., n, n).  The numpy body is the EKF's time
+    update (:func:`congruence` of the Jacobian F, :func:`linear_transition` of the mean)."""
+    cov_p, _ = congruence(np.broadcast_to(F, mean.shape[:-1] + F.shape[-2:]), cov, Q)
+    return linear_transition(mean[..., None, :], F)[..., 0, :], cov_p
+
+
+@linear_predict.compiled
+def _linear_predict_compiled(mean, cov, F, Q):
     lead = mean.shape[:-1]
     n = mean.shape[-1]
     flat = _stack(mean, 1)
-    m, c = _call("linear_predict", flat.shape[0], flat, _stack(cov, 2, lead), _periodic(F, 2, lead), _periodic(Q, 2, lead))
+    m, c = _call("linear_predict", flat.shape[0], flat, _stack(cov, 2, lead), _periodic(F, 2, lead),
+                 _periodic(Q, 2, lead))
     return m.reshape(lead + (n,)), c.reshape(lead + (n, n))
+
+
+@_operation
+def sigma_point_predict_linear(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray, wc: np.ndarray,
+                               F: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r"""Sigma-point time update through linear dynamics: the unit points ``xi`` (M, n) about ``mean`` (..., n)
+    with covariance ``cov`` (..., n, n) (:func:`sigma_points`), mapped by ``F`` (:func:`linear_transition`),
+    :math:`\hat x^- = \sum_p w^m_p Y_p` and :math:`P^- = \sum_p w^c_p (Y_p - \hat x^-)(Y_p - \hat x^-)^T + Q`
+    with the rule's weights ``wm``, ``wc`` (M,) and ``Q`` broadcasting against (..., n, n).  Returns
+    ``(mean-, cov-)``; a run whose covariance is not positive definite gets NaN moments."""
+    X, _ = sigma_points(mean, cov, xi)
+    Y = linear_transition(X, F)
+    mean_p = weighted_mean(Y, wm)
+    cov_p, _ = weighted_covariances(Y - mean_p[..., None, :], wc, None, Q)
+    return mean_p, cov_p
+
+
+@sigma_point_predict_linear.compiled
+def _sigma_point_predict_linear_compiled(mean, cov, xi, wm, wc, F, Q):
+    lead = mean.shape[:-1]
+    n = mean.shape[-1]
+    flat = _stack(mean, 1)
+    m, c, _ = _call("sigma_point_predict_linear", flat.shape[0], flat, _stack(cov, 2, lead), _contiguous(xi),
+                    _contiguous(wm), _contiguous(wc), _periodic(F, 2, lead), _periodic(Q, 2, lead))
+    return m.reshape(lead + (n,)), c.reshape(lead + (n, n))
+
+
+@_operation
+def measurement_moments(X: np.ndarray, mean: np.ndarray, Z: np.ndarray, wm: np.ndarray, wc: np.ndarray,
+                        angular: ArrayLike, R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""Sigma-point measurement moments: points ``X`` (..., M, n) about ``mean`` (..., n), their images ``Z``
+    (..., M, m), the rule's weights ``wm``, ``wc`` (M,), the measurement's ``angular`` components (m,) and
+    noise ``R`` broadcasting against (..., m, m).  :math:`\hat z = \sum_p w^m_p Z_p`, taken about the first
+    point when a component is an angle (:math:`Z_0 + \sum_p w^m_p\,\mathrm{res}(Z_p, Z_0)`, the angles
+    wrapped to :math:`(-\pi, \pi]`, :func:`wrap_angle`), :math:`dz_p = \mathrm{res}(Z_p, \hat z)`,
+    :math:`S = \sum_p w^c_p\,dz_p dz_p^T + R`, :math:`P_{xz} = \sum_p w^c_p (X_p - m)\,dz_p^T`: the
+    ``average`` and ``residual`` of :mod:`mmlib.core.models`'s measurement models.  Returns
+    ``(z_pred (..., m), S (..., m, m), Pxz (..., n, m))``."""
+    angles = [c for c, flag in enumerate(angular) if flag]
+    if angles:
+        ref = Z[..., :1, :]
+        z_pred = _wrapped(ref[..., 0, :] + wm @ _wrapped(np.subtract(Z, ref), angles), angles)
+        dz = _wrapped(np.subtract(Z, z_pred[..., None, :]), angles)
+    else:
+        z_pred = wm @ Z
+        dz = Z - z_pred[..., None, :]
+    S, Pxz = weighted_covariances(dz, wc, X - mean[..., None, :], R)
+    return z_pred, S, Pxz
+
+
+def _wrapped(d: np.ndarray, angles) -> np.ndarray:
+    """``d`` with its components ``angles`` (last axis) wrapped to (-pi, pi], in place."""
+    for c in angles:
+        d[..., c] = wrap_angle(d[..., c])
+    return d
+
+
+@measurement_moments.compiled
+def _measurement_moments_compiled(X, mean, Z, wm, wc, angular, R):
+    lead = mean.shape[:-1]
+    n, m = mean.shape[-1], Z.shape[-1]
+    flat = _stack(mean, 1)
+    zp, S, Pxz = _call("measurement_moments", flat.shape[0], _stack(X, 2), flat, _stack(Z, 2, lead),
+                       _contiguous(wm), _contiguous(wc), np.asarray(angular, dtype=np.bool_), _periodic(R, 2, lead))
+    return zp.reshape(lead + (m,)), S.reshape(lead + (m, m)), Pxz.reshape(lead + (n, m))
+
+
+def mixing_weights(mu: np.ndarray, transition: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r"""``c`` (B, r) and ``w[b, i, j] = mu_{i|j}`` (B, r, r) (Zhu et al. 2016, Eq. 54):
+    :math:`c_j = \sum_i p_{ij}\mu_i`, :math:`\mu_{i|j} = p_{ij}\mu_i / c_j`, from mode probabilities ``mu``
+    (B, r) and ``transition`` (r, r) (rows "from").  A mode with :math:`c_j = 0` (unreachable) gets
+    :math:`\mu_{i|j} = \mu_i` (its estimate has zero weight later; no 0/0)."""
+    c = matmul_rows(mu, transition)          # mu @ transition, the same bits for a run whatever the batch size
+    impossible = c <= 0.0
+    if impossible.any():
+        # A mode no other mode can reach has c_j = 0: its mixed estimate gets zero weight in
+        # every later step, so any valid distribution will do; use mu itself (no 0/0 NaN).
+        w = transition[None, :, :] * mu[:, :, None] / np.where(impossible, 1.0, c)[:, None, :]
+        return c, np.where(impossible[:, None, :], mu[:, :, None], w)
+    return c, transition[None, :, :] * mu[:, :, None] / c[:, None, :]
+
+
+def mix_moments(means: np.ndarray, covs: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r"""The standard IMM interaction (Zhu et al. 2016, Eqs. 55-56): :math:`x^{0j} = \sum_i \mu_{i|j} x^i` and
+    :math:`P^{0j} = \sum_i \mu_{i|j}[P^i + (x^i - x^{0j})(x^i - x^{0j})^T]` (:func:`combine_covariances`) from
+    ``means`` (B, r, n), ``covs`` (B, r, n, n) and ``w`` (B, r_from, r_to) (:func:`mixing_weights`) ->
+    ``(mixed means (B, r, n), mixed covs (B, r, n, n))``."""
+    wt = np.swapaxes(w, -1, -2)                                   # (B, j, i)
+    mixed_mean = wt @ means                                       # (B, j, n)
+    return mixed_mean, combine_covariances(wt, means, covs, mixed_mean)
+
+
+@_operation
+def imm_mix(mu: np.ndarray, transition: np.ndarray, means: np.ndarray,
+            covs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""IMM interaction: ``(c (B, r), mixed means (B, r, n), mixed covs (B, r, n, n))`` from mode probabilities
+    ``mu`` (B, r), ``transition`` (r, r) (rows "from") and the mode estimates ``means`` (B, r, n), ``covs``
+    (B, r, n, n): :func:`mixing_weights` then :func:`mix_moments`."""
+    c, w = mixing_weights(mu, transition)
+    return (c,) + mix_moments(means, covs, w)
+
+
+@imm_mix.compiled
+def _imm_mix_compiled(mu, transition, means, covs):
+    return _call("imm_mix", mu.shape[0], _stack(mu, 1), _contiguous(transition), _stack(means, 2), _stack(covs, 3))
+
+
+@_operation
+def imm_output(loglik: np.ndarray, c: np.ndarray, means: np.ndarray, covs: np.ndarray, nu: np.ndarray,
+               S: np.ndarray, with_cov: bool = True) -> tuple:
+    r"""The end of an IMM cycle (Zhu et al. 2016, Eqs. 57-59): mode probabilities :math:`\mu_j \propto c_j L_j`
+    (in logs, about the largest term), the log marginal likelihood :math:`\log p(z_k | z_{1:k-1}) =
+    \log\sum_j c_j L_j`, the fused estimate :math:`\sum_j \mu_j x_j` with (if ``with_cov``, else None) its
+    covariance :math:`\sum_j \mu_j[P_j + (x_j - \hat x)(x_j - \hat x)^T]`, and the innovation against the
+    predicted measurement of the mixture prior, :math:`z - \sum_j c_j \hat z_j = \sum_j c_j \nu_j`, with its
+    predicted covariance :math:`\sum_j c_j[S_j + (\nu_j - \nu)(\nu_j - \nu)^T]` (as
+    :math:`\hat z_j - \hat z = \nu - \nu_j`).
+
+    ``loglik``, ``c`` (B, r); ``means`` (B, r, n); ``covs`` (B, r, n, n); ``nu`` (B, r, m); ``S`` (B, r, m, m).
+    Returns ``(mu, marginal, underflow, mean, cov, innovation, innovation_cov)``; ``underflow`` (B,): every
+    mode's likelihood underflowed (:math:`\log L_j = -\infty` for all j), the run's ``mu`` is then NaN."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        logpost = loglik + np.log(c)                                  # (B, r)
+        top = np.max(logpost, axis=1, keepdims=True)
+        post = np.exp(logpost - top)
+        total = post.sum(axis=1, keepdims=True)
+        mu = post / total
+        marginal = (top + np.log(total))[:, 0]                        # log p(z_k | z_1:k-1)
+    underflow = (top[:, 0] == -np.inf)
+    if underflow.any():
+        mu = np.where(underflow[:, None], np.nan, mu)
+    fused_mean = (mu[:, None, :] @ means)[:, 0]
+    fused_cov = (combine_covariances(mu[:, None, :], means, covs, fused_mean[:, None, :])[:, 0]
+                 if with_cov else None)
+    innovation = (c[:, :, None] * nu).sum(axis=1)
+    innovation_cov = combine_covariances(c[:, None, :], nu, S, innovation[:, None, :])[:, 0]
+    return mu, marginal, underflow, fused_mean, fused_cov, innovation, innovation_cov
+
+
+@imm_output.compiled
+def _imm_output_compiled(loglik, c, means, covs, nu, S, with_cov=True):
+    mu, marginal, underflow, mean, cov, innovation, innovation_cov = _call(
+        "imm_output", loglik.shape[0], _stack(loglik, 1), _stack(c, 1), _stack(means, 2), _stack(covs, 3),
+        _stack(nu, 2), _stack(S, 3), bool(with_cov))
+    return mu, marginal, underflow, mean, (cov if with_cov else None), innovation, innovation_cov

@@ -17,28 +17,16 @@ from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mmlib.core._validate import (RTOL, as_float_array, check_covariance, check_finite, check_has, check_index,
                                   check_matrix, check_positive_int, check_scalar)
-from mmlib.core.linalg import _compiled as _compiled_kernels, matmul_rows
+from mmlib.core import linalg
+from mmlib.core.linalg import linear_transition, matmul_rows, wrap_angle
 from mmlib.core.protocols import Dynamics, MeasurementModel
 
 
 TWO_PI = 2.0 * math.pi
-
-
-def wrap_angle(a: np.ndarray | float) -> np.ndarray:
-    r"""Wrap angles to :math:`(-\pi, \pi]`: :math:`a + 2\pi\lfloor(\pi - a)/2\pi\rfloor`
-    (3-10x faster than ``np.mod``).  ``a`` in rad, any shape (array or scalar); returns the same
-    shape, in rad."""
-    return a + TWO_PI * np.floor((np.pi - a) / TWO_PI)
-
-
-def _apply_matrix(x, A):
-    """``x @ A.T`` over any leading axes (x (..., n), A (d, n)) by :func:`mmlib.core.linalg.matmul_rows`:
-    one GEMM for the whole batch, whose rows have the same bits whatever the batch size (one run
-    included, where a plain ``@`` would take BLAS's gemv path)."""
-    return matmul_rows(x, A.T)
 
 
 def _psd_factor(q: np.ndarray) -> np.ndarray:
@@ -112,8 +100,8 @@ class LinearGaussianDynamics:
     def transition(self, x: np.ndarray) -> np.ndarray:
         """:math:`F x` for states or sigma points ``x`` (..., n), any leading axes (e.g. (N, n) or
         (N, p, n), N runs, p points); returns (..., n) in the state's units.  One GEMM for the whole
-        stack, the same bits per run whatever N (:func:`mmlib.core.linalg.matmul_rows`)."""
-        return _apply_matrix(x, self.F)
+        stack, the same bits per run whatever N (:func:`mmlib.core.linalg.linear_transition`)."""
+        return linear_transition(x, self.F)
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         r""":math:`\partial f/\partial x = F` at states ``x`` (..., n): ``F`` broadcast to (..., n, n), a
@@ -268,7 +256,7 @@ class LinearMeasurement:
     def h(self, x: np.ndarray) -> np.ndarray:
         """:math:`H x` for states or sigma points ``x`` (..., n), e.g. (N, n) or (N, p, n); returns (..., m)
         in the measurement's units (the same bits per run whatever N, :func:`mmlib.core.linalg.matmul_rows`)."""
-        return _apply_matrix(x, self.H)
+        return matmul_rows(x, self.H.T)
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         r""":math:`\partial h/\partial x = H` at states ``x`` (..., n): ``H`` broadcast to (..., m, n), a
@@ -368,7 +356,7 @@ class RangeBearing:
 
     dim = 2
     #: which components are angles: the bearing (its residuals are wrapped to (-pi, pi], its average is
-    #: taken about a reference point); the compiled kernels of mmlib.core.linalg read this
+    #: taken about a reference point); mmlib.core.linalg.measurement_moments reads this
     angular = (False, True)
 
     @property
@@ -380,15 +368,9 @@ class RangeBearing:
         r"""Range and bearing :math:`[\sqrt{\Delta x^2+\Delta y^2},\ \mathrm{atan2}(\Delta y, \Delta x)]` of
         states or sigma points ``x`` (..., n) (positions in m at ``position_index``); returns (..., 2):
         range in m, bearing in rad in :math:`[-\pi, \pi]` (``arctan2``), counter-clockwise from the +x
-        axis.  Compiled when :func:`mmlib.core.linalg.kernel` is numba."""
+        axis (:func:`mmlib.core.linalg.range_bearing`)."""
         i, j = self.position_index
-        k = _compiled_kernels()
-        if k is not None and max(i, j) < x.shape[-1]:     # (out of range: numpy's IndexError below)
-            flat = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, x.shape[-1])
-            return k.range_bearing(flat, i, j, float(self.sensor[0]), float(self.sensor[1])).reshape(x.shape[:-1] + (2,))
-        dx = x[..., i] - self.sensor[0]
-        dy = x[..., j] - self.sensor[1]
-        return np.stack([np.hypot(dx, dy), np.arctan2(dy, dx)], axis=-1)
+        return linalg.range_bearing(x, i, j, self.sensor)
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         r""":math:`\partial h/\partial x` (..., 2, n) at states ``x`` (..., n), with :math:`r^2 = \Delta x^2 +
@@ -496,10 +478,7 @@ class StackedDynamics:
         per mode) give (..., r, p, n).  For linear modes any shape broadcasting against ``F`` (r, n, n) also
         works, :math:`X F_j^T` (e.g. shared points (..., 1, p, n)); nonlinear modes need the mode axis."""
         if self.F is not None:
-            if points.ndim >= 3 and points.shape[-3] == len(self.models):
-                # mode axis at -3: one GEMM per mode instead of a broadcast matmul
-                return np.stack([_apply_matrix(points[..., j, :, :], F) for j, F in enumerate(self.F)], axis=-3)
-            return points @ np.swapaxes(self.F, -1, -2)
+            return linear_transition(points, self.F)     # mode axis at -3: one GEMM per mode
         return np.stack([m.transition(points[..., j, :, :]) for j, m in enumerate(self.models)], axis=-3)
 
     def jacobian(self, mean: np.ndarray) -> np.ndarray:
@@ -528,7 +507,7 @@ def range_bearing(R: np.ndarray, state_dim: int = 4,
 class SensorFault:
     """An additive sensor fault of any measurement model: ``z = h(x) + v + delta``, ``delta`` (B, K, m) per run
     and step, finite, in the measurement's units (m and rad for a range-bearing radar); e.g. the range
-    deviation and bearing drift of Zhou et al. 2017, Eq. 2 (built by :func:`mmlib.papers.zhou2017.radar_drift`).
+    deviation and bearing drift of Zhou et al. 2017, Eq. 2 (built by :func:`radar_drift`).
     Use as ``simulate(..., measurement_noise_fn=fault.apply(measurement))``."""
 
     delta: np.ndarray
@@ -556,3 +535,26 @@ class SensorFault:
                                  f"(runs, steps) {np.shape(truth)[:-1]}")
             return measurement.h(truth) + v @ measurement.noise_factor.T + self.delta
         return noise_fn
+
+
+def radar_drift(range_offset: ArrayLike, bearing_rate: ArrayLike, times: ArrayLike) -> SensorFault:
+    """Eq. 2's fault of a range-bearing radar as a :class:`mmlib.core.SensorFault`: range deviation
+    ``delta_r`` (m, per run, constant) and bearing drift ``delta_theta_k = rate * t_k`` (rad, rate in rad/s
+    per run): arrays of shape (B,) or (B, K);
+    ``times`` (K,) the measurement times t_k (s)."""
+    t = check_finite(as_float_array(times, "times"), "times")
+    if t.ndim != 1 or t.size < 1:
+        raise ValueError(f"times: expected shape (K,) with K >= 1, got {t.shape}")
+    K = t.shape[0]
+    arrays = {}
+    for name, value in (("range_offset", range_offset), ("bearing_rate", bearing_rate)):
+        a = check_finite(as_float_array(value, name), name)
+        if a.ndim not in (1, 2) or a.shape[0] < 1 or (a.ndim == 2 and a.shape[1] != K):
+            raise ValueError(f"{name}: expected shape (B,) or (B, {K}) (per run, or per run and step), "
+                             f"got {a.shape}")
+        arrays[name] = a.reshape(a.shape[0], -1)
+    B = arrays["range_offset"].shape[0]
+    if arrays["bearing_rate"].shape[0] != B:
+        raise ValueError(f"bearing_rate: expected {B} runs (as range_offset), got shape {np.shape(bearing_rate)}")
+    dr = np.broadcast_to(arrays["range_offset"], (B, K))
+    return SensorFault(np.stack([dr, arrays["bearing_rate"] * t[None, :]], axis=-1))

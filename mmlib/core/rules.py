@@ -24,7 +24,7 @@ from itertools import combinations
 import numpy as np
 
 from mmlib.core._validate import check_positive_int, check_scalar
-from mmlib.core.linalg import matmul_rows, weighted_covariances
+from mmlib.core.linalg import offset_points, weighted_covariances
 
 
 @dataclass(frozen=True)
@@ -59,8 +59,8 @@ class SigmaPointRule:
 
     name = "rule"
     degree = 3
-    #: True when the rule's covariances are the weighted outer products of :meth:`covariances` (the
-    #: compiled kernels of :mod:`mmlib.core.linalg` implement that form; a rule that overrides it says False)
+    #: True when the rule's covariances are the weighted outer products of :meth:`covariances` (the fused
+    #: operations of :mod:`mmlib.core.linalg` implement that form; a rule that overrides it says False)
     weighted_moments = True
 
     def unit_points(self, n: int) -> UnitPoints:  # pragma: no cover - abstract
@@ -77,13 +77,9 @@ class SigmaPointRule:
     # -- generic moment computations -------------------------------------
     def points(self, mean: np.ndarray, chol: np.ndarray) -> np.ndarray:
         """Sigma points ``m + S xi_i``: mean (..., n), chol (..., n, n) (the lower factor S of P, in the
-        state's units) -> (..., M, n), M = :meth:`num_points`, in the state's units."""
-        n = mean.shape[-1]
-        up = self.unit_points(n)
-        # one product for the whole batch: (S xi_p)_i = sum_j S_ij xi_pj, bitwise the same per run
-        # whatever the batch size, one run and a one-dimensional state included (linalg.matmul_rows)
-        offsets = matmul_rows(chol, up.xi.T)
-        return mean[..., None, :] + np.swapaxes(offsets, -1, -2)
+        state's units) -> (..., M, n), M = :meth:`num_points`, in the state's units
+        (:func:`mmlib.core.linalg.offset_points`)."""
+        return offset_points(mean, chol, self.unit_points(mean.shape[-1]).xi)
 
     def covariances(self, dx: np.ndarray, dy: np.ndarray,
                     add: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -303,8 +299,9 @@ class CentralDifference(SigmaPointRule):
 
     @property
     def weighted_moments(self) -> bool:
-        """True for ``form="weighted"`` (covariances are weighted outer products, the compiled fused kernels
-        apply); False for the Stirling form, whose covariances :meth:`covariances` computes itself."""
+        """True for ``form="weighted"`` (covariances are weighted outer products, the fused operations of
+        :mod:`mmlib.core.linalg` apply); False for the Stirling form, whose covariances :meth:`covariances`
+        computes itself."""
         return self.form == "weighted"
 
     def covariance(self, dx: np.ndarray, dy: np.ndarray, add: np.ndarray | None = None) -> np.ndarray:

@@ -15,8 +15,8 @@ Degree of divergence (Tseng et al. 2011, Sec. 3.2), from the innovation
           \qquad \eta_k = \frac1m \sum_i |\upsilon_{k,i}|.
 
 :func:`degree_of_divergence` divides them by a reference variance :math:`\bar s` and its square
-root, so that the fuzzy sets are dimensionless.  The FLAS (:class:`mmlib.papers.tseng2011.FuzzyNoiseBounds`) uses by default the
-*predicted* innovation variance per measurement, :math:`\bar s = \mathrm{tr}(S_k)/m` (for an IMM,
+root, so that the fuzzy sets are dimensionless.  The FLAS (:class:`mmlib.core.layers.fuzzy_noise.FuzzyNoiseBounds`) uses
+by default the *predicted* innovation variance per measurement, :math:`\bar s = \mathrm{tr}(S_k)/m` (for an IMM,
 of the mixture prior): for a consistent filter, :math:`\xi/\bar s` is then close to
 :math:`\chi^2_m/m` (mean 1) and :math:`\eta/\sqrt{\bar s}` has mean :math:`\approx\sqrt{2/\pi} = 0.80`,
 whatever the filter's own uncertainty.  ``normalise="measurement"`` uses the measurement-noise
@@ -78,12 +78,14 @@ class NoiseAdaptiveIMM:
         if not isinstance(self.imm, IMM):
             raise ValueError(f"imm: expected an mmlib.core.estimation.IMM, got {type(self.imm).__name__}")
         if not callable(self.noise):
-            raise ValueError(f"noise: expected a callable levels (B, r) -> Q (B, r, n, n), got {type(self.noise).__name__}")
+            raise ValueError(f"noise: expected a callable levels (B, r) -> Q (B, r, n, n), "
+                             f"got {type(self.noise).__name__}")
         check_bool(self.frozen, "frozen")
         check_name(self.name)
         lv = as_float_array(self.initial_levels, "initial_levels")
         if lv.shape != (self.imm.n_modes,) or np.any(~np.isfinite(lv)) or np.any(lv < 0):
-            raise ValueError(f"initial_levels: expected {self.imm.n_modes} finite levels >= 0, got {self.initial_levels!r}")
+            raise ValueError(f"initial_levels: expected {self.imm.n_modes} finite levels >= 0, "
+                             f"got {self.initial_levels!r}")
         object.__setattr__(self, "initial_levels", lv)
         if not self.frozen and not callable(self.controller):
             raise ValueError(f"controller: expected a callable (estimate, measurement) -> levels, "
@@ -163,7 +165,7 @@ class WindowedNoiseAdaptiveIMM(NoiseAdaptiveIMM):
     :func:`degree_of_divergence`; the number of satellites may change between epochs) is averaged
     over the last ``min(k, W)`` epochs before the inference.  ``controller`` must split its work in two:
     ``dod(estimate, measurement) -> (B, 2)`` and ``levels(dod) -> (B, r)`` (as the FLAS,
-    :class:`mmlib.papers.tseng2011.FuzzyNoiseBounds`, does).  With ``window=1`` this is
+    :class:`mmlib.core.layers.fuzzy_noise.FuzzyNoiseBounds`, does).  With ``window=1`` this is
     :class:`NoiseAdaptiveIMM` bit for bit."""
 
     window: int = 1

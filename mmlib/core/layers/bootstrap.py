@@ -74,7 +74,8 @@ class ObservationBootstrap(FilterLayer):
     def __post_init__(self):
         self._check_base()
         object.__setattr__(self, "n_boot", check_positive_int(self.n_boot, "n_boot", minimum=0))
-        object.__setattr__(self, "variance_factor", check_scalar(self.variance_factor, "variance_factor", positive=True))
+        object.__setattr__(self, "variance_factor",
+                           check_scalar(self.variance_factor, "variance_factor", positive=True))
         check_choice(self.likelihood, "likelihood", ("sum", "product"))
         check_choice(self.covariance, "covariance", ("kalman", "printed"))   # Eq. 20
         check_name(self.name)
@@ -119,8 +120,9 @@ class ObservationBootstrap(FilterLayer):
             new, info = kalman_update(state, pred, z, measurement)
             return new._replace(step=state.step + 1), info
         if state.noise is None or state.step >= state.noise.shape[-3]:
-            raise ValueError(f"noise: pre-drawn bootstrap noise for {0 if state.noise is None else state.noise.shape[-3]}"
-                             f" steps, but step {state.step} needs it (draw it for every step, see init)")
+            drawn = 0 if state.noise is None else state.noise.shape[-3]
+            raise ValueError(f"noise: pre-drawn bootstrap noise for {drawn} steps, but step {state.step} needs it "
+                             f"(draw it for every step, see init)")
         m = z.shape[-1]
         if state.noise.shape[-1] < m:
             raise ValueError(f"noise: pre-drawn for measurements of dimension {state.noise.shape[-1]}, "
