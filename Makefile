@@ -1,6 +1,6 @@
 # Two commands on a fresh machine (Python 3.11 and make):
 #   make figures                  full-fidelity figures, tables and executed notebooks
-#   make test                     unit tests + smoke profile of every notebook + tolerance tests
+#   make test                     ruff, unit tests + smoke profile of every notebook + tolerance tests
 # Also: make figures PROFILE=smoke (writes under build/smoke/), make site, make bench, make clean
 # One paper, other settings: make figures PAPER=zhu2016 N_RUNS=500 SEED=7
 # Where it runs (outputs unchanged): make figures WORKERS=1, make figures SCHEDULER=tcp://host:8786 (Dask)
@@ -26,8 +26,10 @@ venv: $(STAMP)
 $(STAMP): requirements.lock pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements.lock
-	@# mmlib is pure Python and used in place: a .pth file puts the repository on the venv's path
-	$(PY) -c "import sysconfig, pathlib; pathlib.Path(sysconfig.get_paths()['purelib'], 'mmlib-repo.pth').write_text(str(pathlib.Path.cwd()) + '\n')"
+	@# mmlib used in place: an editable install of this checkout, built offline by the lock's setuptools (a venv made
+	@# before this had a hand-written mmlib-repo.pth doing the same: removed)
+	$(PY) -c "import sysconfig, pathlib; pathlib.Path(sysconfig.get_paths()['purelib'], 'mmlib-repo.pth').unlink(missing_ok=True)"
+	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
 	$(PY) -m ipykernel install --sys-prefix --name mmlib --display-name "mmlib (.venv)" >/dev/null
 	@touch $(STAMP)
 
@@ -52,6 +54,7 @@ unit: $(STAMP)
 	$(PY) -m pytest -q tests --ignore=tests/tolerance
 
 test: $(STAMP)
+	$(PY) -m ruff check .
 	$(PY) tools/run_notebooks.py --profile smoke $(EXEC_ARGS)
 	@# the committed-digest and batch-independence tests again as on an AVX2 and an SSE4.2 machine (x86-64 only)
 	$(PY) tools/emulated_tests.py

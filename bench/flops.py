@@ -84,7 +84,8 @@ def imm_ukf_flops(n: int = 4, m: int = 2, r: int = 3, *, h_flops: int = RANGE_BE
         "mixing weights": r * r + r * (r - 1) + r * r,
         # 2. x0_j = sum_i mu_i|j x_i
         "mixed means": r * n * dot(r),
-        # 3. P0_j = sum_i mu_i|j P_i + sum_i (mu_i|j d_ji) d_ji^T, d_ji = x_i - x0_j (mmlib.core.estimation.combine_covariances)
+        # 3. P0_j = sum_i mu_i|j P_i + sum_i (mu_i|j d_ji) d_ji^T, d_ji = x_i - x0_j
+        #    (mmlib.core.estimation.combine_covariances)
         "mixed covariances": r * r * n + r * r * n + 2 * r * n * n * dot(r) + r * n * n,
         # 4.-7. time update of each mode: factor, points, transition F X_i, mean and covariance (+ Q)
         "predict: Cholesky": r * cholesky_flops(n),

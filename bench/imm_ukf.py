@@ -17,8 +17,8 @@ It writes (every file with its provenance: git commit, date, machine, package ve
   reading-space multiverse apart (:mod:`bench.notebooks`).
 
 Options (environment variables, or the flags of ``--help``): ``BENCH_REPEATS`` (default 5) repeats of
-each library in the headline (FilterPy takes ~15 s a repeat); ``BENCH_MAX_RUNS`` (default 100000) the
-largest size of the scaling curve; ``BENCH_THREADS`` (default 1) the thread count given to
+each library in the headline (FilterPy's repeats are most of the benchmark's time); ``BENCH_MAX_RUNS`` (default
+100000) the largest size of the scaling curve; ``BENCH_THREADS`` (default 1) the thread count given to
 OpenBLAS/OpenMP/MKL/BLIS/numba, set here before numpy is imported.
 """
 from __future__ import annotations
@@ -36,27 +36,16 @@ import argparse                        # noqa: E402
 import json                            # noqa: E402
 import statistics                      # noqa: E402
 import time                            # noqa: E402
-from typing import NamedTuple          # noqa: E402
 
 import numpy as np                     # noqa: E402
 
-import mmlib                           # noqa: E402
-from mmlib.core import models  # noqa: E402
-from mmlib.experiment.simulate import ManeuverSchedule, simulate  # noqa: E402
+# the job, its models and targets (shared with the scaling curve, whose child processes import it alone)
+from bench.job import JOB, K, N_MODES, N_STATE, TARGETS, UKF, Estimates, mmlib_run, problem  # noqa: E402
+from mmlib.experiment.simulate import simulate  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "data" / "bench"
-JOB = "IMM-UKF, CV + 2 coordinated turns (±3 deg/s), range-bearing radar, 100 steps"
-T, K = 1.0, 100
-OMEGA = np.radians(3.0)
-SEED = 2024
-N_STATE, N_MEAS, N_MODES = 4, 2, 3
-UKF = (1.0, 2.0, 0.0)                  # unscented alpha, beta, kappa: 2n + 1 = 9 points
-CHUNK = 2000                           # runs per mmlib.run call (as a Monte Carlo evaluation chunks them)
 HEADLINE_RUNS = 100
-
-#: The targets of issue 12 ("speed"), the one place they are written.
-TARGETS = {"speedup_min": 300, "speedup_goal": 500, "10000_runs_max_s": 4.0, "peak_memory_max_mib": 512}
 
 #: Agreement of the estimates with FilterPy, relative to the largest |estimate| (positions ~2e4 m):
 #: see AGREEMENT_REASON.
@@ -73,48 +62,6 @@ AGREEMENT_REASON = (
     "it: beta = 0 instead of 2 moves the estimates by ~1e-6 relative, alpha = 0.999 instead of 1 by ~4e-9, "
     "the transposed transition matrix by ~2e-3 (measured on 20 runs; tests/test_bench.py checks that "
     "beta = 0 fails). Mode probabilities: absolute 1e-9.")
-
-
-def problem(n_runs: int, n_steps: int = K):
-    """The job's models, maneuver schedule (turns at steps 30-49 and 70-84), runs, initial estimate and
-    mode transition matrix (rows = from)."""
-    dyn = [models.constant_velocity(T, 1.0), models.coordinated_turn(T, OMEGA, 1.0),
-           models.coordinated_turn(T, -OMEGA, 1.0)]
-    radar = models.RangeBearing(np.diag([100.0, np.radians(0.5) ** 2]))
-    sched = ManeuverSchedule(dyn, [(30, 50, 1), (70, 85, 2)], 0, T, n_steps, truncate=True)   # n_steps < K: a prefix
-    mc = mmlib.MonteCarlo(SEED, n_runs)
-    x0 = np.array([20000.0, -150.0, 15000.0, 60.0])
-    P0 = np.diag([400.0, 100.0, 400.0, 100.0])
-    transition = np.array([[0.90, 0.05, 0.05], [0.10, 0.85, 0.05], [0.10, 0.05, 0.85]])
-    return dyn, radar, sched, mc, x0, P0, transition
-
-
-class Estimates(NamedTuple):
-    mean: np.ndarray                  # (runs, steps, 4) fused estimates
-    mode_probabilities: object        # (runs, steps, 3) or None
-    seconds: float                    # time in the filter only (the simulation is not timed)
-    cpu_seconds: float                # this process's CPU time over the same span (< seconds: it waited for a core)
-
-
-def mmlib_run(n_runs: int, n_steps: int = K, *, chunk: int = CHUNK, ukf=UKF,
-              mode_probabilities: bool = False) -> Estimates:
-    """The job in mmlib: the runs in chunks of ``chunk`` (each simulated, then filtered in one batched
-    ``mmlib.run``, which alone is timed), the fused estimates kept for every run."""
-    dyn, radar, sched, mc, x0, P0, transition = problem(n_runs, n_steps)
-    imm = mmlib.IMM(mmlib.SigmaPointFilter(mmlib.Unscented(*ukf)), dyn, radar, transition)
-    mean = np.empty((n_runs, n_steps, N_STATE))
-    mu = np.empty((n_runs, n_steps, N_MODES)) if mode_probabilities else None
-    elapsed = cpu = 0.0
-    for runs in mc.chunks(chunk):
-        z = simulate(sched, x0, radar, mc, runs).measurements
-        t0, c0 = time.perf_counter(), time.process_time()
-        track = mmlib.run(imm, imm.init(np.tile(x0, (len(runs), 1)), P0), z, keep_cov=False)
-        elapsed += time.perf_counter() - t0
-        cpu += time.process_time() - c0
-        mean[runs.start:runs.stop] = track.mean
-        if mu is not None:
-            mu[runs.start:runs.stop] = track.mode_probabilities
-    return Estimates(mean, mu, elapsed, cpu)
 
 
 def filterpy_run(n_runs: int, n_steps: int = K) -> Estimates:
@@ -217,7 +164,7 @@ def _env_int(name: str, default: int) -> int:
 def main(argv=None) -> int:
     from bench import notebooks, scaling
     from bench.provenance import provenance
-    from mmlib.experiment.report import atomic_write_text
+    from mmlib.experiment.writing import atomic_write_text
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=_env_int("BENCH_REPEATS", 5),

@@ -61,7 +61,7 @@ def provenance() -> dict:
     import numpy as np
 
     import mmlib
-    from mmlib.experiment.report import git_commit
+    from mmlib.experiment.writing import git_commit
 
     packages = {"numpy": np.__version__}
     for name in ("scipy", "numba", "filterpy", "matplotlib"):

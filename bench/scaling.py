@@ -1,7 +1,7 @@
 """Scaling curve of the benchmark job in mmlib: time per run-step and peak memory for N = 10 ... 100,000
 Monte Carlo runs, each size in a fresh process so that its peak resident memory is its own (the
 child's ``VmHWM``, see :func:`_rss_mib` for why not ``ru_maxrss``), the runs chunked as
-:func:`bench.imm_ukf.mmlib_run` does (2000 a call); with the flop floor of :mod:`bench.flops`.
+:func:`bench.job.mmlib_run` does (2000 a call); with the flop floor of :mod:`bench.flops`.
 
 One throwaway child runs first (it compiles mmlib's numba kernels if their on-disk cache is stale,
 so that no point pays for the compiler's memory).  Each child (``python -m bench.scaling --child N``)
@@ -29,8 +29,8 @@ def _rss_mib() -> float:
     """Peak resident memory of this process since it started (MiB): ``VmHWM`` of ``/proc/self/status``.
 
     Not ``getrusage(RUSAGE_SELF).ru_maxrss``: on Linux that carries over, across ``exec``, the high-water mark
-    of the process that spawned the child (the forked copy of the benchmark's parent, ~300 MiB after the
-    FilterPy runs), so every size would report at least the parent's peak.  ``ru_maxrss`` is the fallback
+    of the process that spawned the child (the forked copy of the benchmark's parent, large after the FilterPy
+    runs), so every size would report at least the parent's peak.  ``ru_maxrss`` is the fallback
     where ``/proc`` is missing (and recorded beside it)."""
     try:
         with open("/proc/self/status") as fh:
@@ -52,7 +52,7 @@ def child(n_runs: int) -> dict:
     after_numpy = _rss_mib()
     import mmlib  # noqa: F401
     after_mmlib = _rss_mib()
-    from bench.imm_ukf import CHUNK, K, N_STATE, mmlib_run
+    from bench.job import CHUNK, K, N_STATE, mmlib_run
 
     mmlib_run(10, 5)
     baseline = _rss_mib()
@@ -89,7 +89,7 @@ def run_child(n_runs: int) -> dict:
 def scaling_report(sizes=SIZES, say=print) -> dict:
     """The curve over ``sizes`` with the flop count, this core's peak rate and each point's ratio to the floor."""
     from bench.flops import imm_ukf_flops, peak_gflops
-    from bench.imm_ukf import JOB, N_MEAS, N_MODES, N_STATE
+    from bench.job import JOB, N_MEAS, N_MODES, N_STATE
 
     flops = imm_ukf_flops(N_STATE, N_MEAS, N_MODES)
     peak = peak_gflops()
@@ -133,8 +133,8 @@ def figure(doc: dict, out_dir: Path) -> list:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from bench.imm_ukf import K, TARGETS
-    from mmlib.experiment.report import save_figure
+    from bench.job import K, TARGETS
+    from mmlib.experiment.writing import save_figure
 
     pts = doc["points"]
     runs = [p["runs"] for p in pts]

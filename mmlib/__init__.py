@@ -9,8 +9,10 @@ The folders are the layers, numbered; each depends only on the layers with a sma
    as ``typing.Protocol``\ s (``protocols``);
 2. ``mmlib.experiment`` -- Monte Carlo streams (``montecarlo``), truth simulation (``simulate``), scenarios as data
    (``scenario``), metrics with standard errors (``metrics``), evaluation, reading spaces and the grid runner, the
-   verdict rule and results (``report``);
-3. ``mmlib.papers`` -- one module per paper: its set-up, factors, scenario and algorithms;
+   verdict rule (``verdicts``), universe results and the paper contract (``universe``, ``paper``), results files
+   (``results``, ``writing``);
+3. ``mmlib.papers`` -- one package per paper behind one contract (:class:`mmlib.experiment.paper.Paper`), listed in
+   ``mmlib.papers.REGISTRY``: its declared text, set-up, scenario and universe job;
 4. ``mmlib.arena`` -- every algorithm of the papers on every scenario (recipes, the controlled ladder, the study).
 
 The most used names are re-exported here (``mmlib.IMM``, ``mmlib.SigmaPointFilter``, ``mmlib.models`` ...).

@@ -49,19 +49,16 @@ PROGRESS = True
 # %%
 import time
 
-import matplotlib.pyplot as plt
 from IPython.display import Markdown, display
 
-import mmlib
 from mmlib.arena import ladder, recipes, study, views as arena_views
 from mmlib.experiment import report
+from mmlib.papers import REGISTRY
 from mmlib.papers.presentation import NotebookRun, markdown_table, plot_style
 
-# full: 1000 runs per cell (about 11 CPU-minutes for the 24 x 15 cells, most of it the 1800-epoch GNSS scenario);
-# smoke: the first 20 runs of the same streams, so its digest equals the full study's.
-PROFILES = {"full": dict(n_runs=1000), "smoke": dict(n_runs=20)}
-nb = NotebookRun(study.PAPER, ladder.ROOT_SEED, PROFILES, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED,
-                 OUTPUT_ROOT=OUTPUT_ROOT, WORKERS=WORKERS)
+# profiles (study.STUDY): full runs 1000 per cell; smoke the first 20 runs of the same streams, so its digest equals
+# the full study's.
+nb = NotebookRun(study.STUDY, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED, OUTPUT_ROOT=OUTPUT_ROOT, WORKERS=WORKERS)
 n_runs, root = nb.n_runs, nb.root
 plot_style()
 print(nb)
@@ -82,7 +79,7 @@ display(Markdown(markdown_table(
       f"{r['nonlinearity_index']['median']:.3g}, {r['nonlinearity_index']['p90']:.3g}", r["root_seed"]]
      for r in scenario_rows])))
 index = {r["scenario"]: r["nonlinearity_index"]["median"] for r in scenario_rows}
-papers_max = max(index[name] for name in study.PAPER_SCENARIOS)
+papers_max = max(index[name] for name in REGISTRY)
 ladder_nl = [index[name] for name in ladder.NAMES if name != "ladder-linear"]
 print(f"nonlinearity index: the papers' scenarios at most {papers_max:.2g}; the ladder's radar rungs from "
       f"{min(ladder_nl):.2g} to {max(ladder_nl):.2g}")
@@ -201,15 +198,11 @@ display(Markdown("\n".join(finding_lines)))
 # ## Results file
 
 # %%
-prov = report.provenance(root_seed=nb.seed, n_runs=n_runs, profile=PROFILE,
-                         extra={"mmlib": mmlib.__version__, "scenario_seeds": {r["scenario"]: r["root_seed"]
-                                                                              for r in scenario_rows},
-                                "seed_override": SEED})
-digest = study.digest(result, min(n_runs, PROFILES["smoke"]["n_runs"]))
-doc = report.write_results(nb.results_path, paper=study.PAPER, provenance=prov, rows=[], kind="arena",
-                           cells=cells, scenarios=scenario_rows,
-                           algorithms=[{"algorithm": r.name, "kind": r.kind, "papers": list(r.papers),
-                                        "description": r.description} for r in recipes.RECIPES.values()],
-                           ideas=idea_rows, paper_claims=claims_in_arena, findings=finding_lines, digest=digest,
-                           figures=nb.figures)
-print(f"wrote {nb.results_path}: {len(cells)} cells, {n_applicable} applicable")
+doc = nb.write_results(rows=[], provenance={"scenario_seeds": {r["scenario"]: r["root_seed"] for r in scenario_rows},
+                                            "seed_override": SEED},
+                       kind="arena", cells=cells, scenarios=scenario_rows,
+                       algorithms=[{"algorithm": r.name, "kind": r.kind, "papers": list(r.papers),
+                                    "description": r.description} for r in recipes.RECIPES.values()],
+                       ideas=idea_rows, paper_claims=claims_in_arena, findings=finding_lines,
+                       digest=study.digest(result, nb.digest_runs))
+print(f"{len(cells)} cells, {n_applicable} applicable")

@@ -21,8 +21,8 @@
 # mode probabilities (Figs. 1–5), RMSE (Figs. 6–7) and Table 1. In `mmlib` the CDKF is a quadrature rule of the generic
 # filter and the bootstrapping is one layer (`mmlib/core/layers/bootstrap.py`) over any mode filter.
 #
-# **Verdict rule** (`mmlib/experiment/report.py`): *reproduced* within 3 combined standard errors; *inconclusive* when within
-# 3 standard errors but those are wider than 25 % of the printed value (never counted as a reproduction);
+# **Verdict rule** (`mmlib/experiment/verdicts.py`): *reproduced* within 3 combined standard errors; *inconclusive*
+# when within 3 standard errors but those are wider than 25 % of the printed value (never counted as a reproduction);
 # *qualitatively reproduced* within 25 %; *not reproduced* otherwise; *not replicable* when method or data are not
 # published. Claims are judged
 # on paired differences over common random numbers (every filter sees the same truth, measurements and bootstrap
@@ -31,7 +31,7 @@
 #
 # **Readings.** The paper is ambiguous in many places (garbled equations, a unit never given, a process noise that
 # serves both the truth and the filters). Every ambiguity is a numbered factor of a *reading space*
-# (`paper.FACTORS`); the headline below is one reading of it, and the section "Reading space" runs a designed set
+# (`text.FACTORS`); the headline below is one reading of it, and the section "Reading space" runs a designed set
 # of readings (a multiverse) and reports every claim's and every published number's verdict across it.
 
 # %% tags=["parameters"]
@@ -46,30 +46,21 @@ MULTIVERSE_DESIGN = None  # override the profile's design: "auto", "full", "frac
 PROGRESS = True
 
 # %%
-import json
-
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Markdown, display
 
-import mmlib
-from mmlib.experiment import metrics, report
-from mmlib.experiment.montecarlo import MonteCarlo
-from mmlib.experiment import digests, evaluation, run_multiverse, views
-from mmlib.papers import hu2017 as paper
+from mmlib.experiment import digests, evaluation, metrics, views
+from mmlib.papers import REGISTRY
+from mmlib.papers.hu2017 import diagnostics, study, text, timing
 from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                        shade_intervals, value_pm)
 
-# full: the paper's 100 runs, also in each of the multiverse's universes (the covering design of all factors,
-#       ~0.35 CPU-s per universe); smoke: 20 runs, the star design (headline + each option alone) at the same
-#       20 runs, so that the smoke headline universe equals the smoke headline rows bit for bit.
-PROFILES = {"full": dict(n_runs=paper.N_RUNS_PAPER, timing_runs=20, timing_repeats=8, mv_runs=paper.N_RUNS_PAPER,
-                         mv_design="auto"),
-            "smoke": dict(n_runs=20, timing_runs=2, timing_repeats=3, mv_runs=20, mv_design="star")}
-nb = NotebookRun(paper.PAPER, paper.ROOT_SEED, PROFILES, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED,
-                 OUTPUT_ROOT=OUTPUT_ROOT, N_TIMING_RUNS=N_TIMING_RUNS, WORKERS=WORKERS,
-                 MULTIVERSE_RUNS=MULTIVERSE_RUNS, MULTIVERSE_DESIGN=MULTIVERSE_DESIGN)
-mc = MonteCarlo(nb.seed, nb.n_runs)
+paper = REGISTRY["hu2017"]
+nb = NotebookRun(paper, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED, OUTPUT_ROOT=OUTPUT_ROOT,
+                 N_TIMING_RUNS=N_TIMING_RUNS, WORKERS=WORKERS, MULTIVERSE_RUNS=MULTIVERSE_RUNS,
+                 MULTIVERSE_DESIGN=MULTIVERSE_DESIGN, PROGRESS=PROGRESS)
+mc = nb.mc()
 plot_style()
 print(nb)
 
@@ -84,10 +75,10 @@ print(nb)
 # reading changes a result); H-12 concerns run time, which is not a universe's value.
 
 # %%
-setup = paper.setups(paper.SPACE.headline)
-display(Markdown(deviations_table(paper.DEVIATIONS)))
-display(Markdown(views.factors_table(paper.SPACE)))
-display(Markdown(views.options_table(paper.SPACE)))
+setup = paper.headline_setup()
+display(Markdown(deviations_table(paper.deviations)))
+display(Markdown(views.factors_table(paper.space)))
+display(Markdown(views.options_table(paper.space)))
 
 # %% [markdown]
 # **H-4 and H-13 in numbers.** The truth under the two readings of the process-noise unit (first runs): the
@@ -97,16 +88,16 @@ display(Markdown(views.options_table(paper.SPACE)))
 
 # %%
 plaus, moved, n_truth = [], {}, min(50, nb.n_runs)
-for option in paper.SPACE.factor("H-4").options:
-    st = paper.truth_statistics(paper.SPACE.with_headline(**{"H-4": option.name}), mc, n_truth)
+for option in paper.space.factor("H-4").options:
+    st = diagnostics.truth_statistics(paper.space.with_headline(**{"H-4": option.name}), mc, n_truth)
     moved[option.name] = st
-    plaus.append([option.label + (" (headline)" if option.name == paper.SPACE.headline["H-4"] else ""),
+    plaus.append([option.label + (" (headline)" if option.name == paper.headline["H-4"] else ""),
                   f"{st['median_max_speed']:.2f}", f"{st['max_speed']:.2f}", f"{st['min_range']:.2f}",
                   f"{1e3 * st['median_max_noise_displacement']:.3g}", f"{1e3 * st['max_noise_displacement']:.3g}"])
 display(Markdown(markdown_table(["reading", "median of max speed (km/s)", "max speed (km/s)", "min range (km)",
                                  "median of max displacement by the truth noise (m)",
                                  "max displacement by the truth noise (m)"], plaus)))
-head_moved = moved[paper.SPACE.headline["H-4"]]
+head_moved = moved[paper.headline["H-4"]]
 display(Markdown(
     f"Over the first {n_truth} runs, under the headline unit the truth's process noise moves the target by a median of "
     f"{1e3 * head_moved['median_max_noise_displacement']:.0f} m "
@@ -120,13 +111,13 @@ display(Markdown(
 # ## The headline reading
 #
 # The headline's Monte Carlo evaluation and its summary come from the same two functions every universe of the
-# multiverse uses (`paper.evaluate_reading`, `paper.summarise`), so the headline universe below *is* these numbers.
+# multiverse uses (`study.evaluate_reading`, `study.summarise`), so the headline universe below *is* these numbers.
 
 # %%
-res = paper.evaluate_reading(paper.SPACE.headline, mc, progress=PROGRESS)
-headline = paper.summarise(res, nb.n_runs)
+res = study.evaluate_reading(paper.headline, mc, progress=PROGRESS)
+headline = study.summarise(res, nb.n_runs)
 results = res.runs
-diverged = headline["diverged"]
+diverged = dict(headline.diverged)
 print("diverged runs:", diverged)
 print(evaluation.divergence_report(results))       # the step at which each diverged and why
 t = res.times
@@ -147,7 +138,7 @@ mode2 = [((setup.mode2_steps[0] - 1) * setup.T, setup.mode2_steps[1] * setup.T)]
 #   order) and its square (fourth order), with $r \approx 10$ km.
 
 # %%
-coincide = paper.coincidence(res)
+coincide = diagnostics.coincidence(res)
 rmse_level = float(metrics.mean_rmse_over_time(results["IMMCDKF"].errors[..., 0]).value)
 display(Markdown(markdown_table(
     ["algorithm", "max |position estimate − IMMCDKF's| over all runs and steps (km)", "relative to IMMCDKF's RMSE"],
@@ -162,12 +153,12 @@ print(f"nonlinearity index sigma_pos / r: median {np.median(nl_index):.3f}, max 
 # over the 35 steps, and the claims below compare it between algorithms on paired runs.
 
 # %%
-claims = paper.judge_claims(res)
+claims = study.judge_claims(res)
 verdict_of = {c["claim"]: c["verdict"] for c in claims}
 mode_claims = [c for c in verdict_of if "mode" in c]
-p_true = {alg: metrics.mean_with_se(paper.true_mode_probability(res, alg), results[alg].valid)
-          for alg in paper.ALGORITHMS}
-for fignum, alg in enumerate(paper.ALGORITHMS, start=1):
+p_true = {alg: metrics.mean_with_se(study.true_mode_probability(res, alg), results[alg].valid)
+          for alg in paper.algorithms}
+for fignum, alg in enumerate(paper.algorithms, start=1):
     fig, ax = plt.subplots(figsize=(7, 3.4))
     shade_intervals(ax, mode2, label="true mode 2 (ω = −0.15 rad/s)")
     mu = results[alg].mode_probabilities[results[alg].valid].mean(axis=0)
@@ -203,11 +194,11 @@ for fignum, (comp, axis_name) in zip((6, 7), ((0, "horizontal (x)"), (2, "vertic
             "IMMCDKF-OBS has the lowest RMSE at all times and stays stable (Figs. 6-7).",
             " ".join(f"*{c.split(':')[0].split(' (')[0]}*: {verdict_of[c].split(':')[0]}." for c in obs_claims))
 
-rows = paper.table1_rows(headline, nb.n_runs)
-make_batch, estimators, _ = paper.make_batch_fn(setup, mc)
+rows = study.table1_rows(headline, nb.n_runs)
+make_batch, estimators = paper.batch(setup, mc)
 timing_batch = make_batch(range(nb.timing_runs))
 per_run, batched = evaluation.time_algorithms(estimators, timing_batch[2], timing_batch[1], repeats=nb.timing_repeats)
-timing_rows, timing_table = paper.judge_timing(per_run, batched, claims)
+timing_rows, timing_table = timing.judge_timing(per_run, batched, claims)
 rows += timing_rows
 display(Markdown(rows_table(rows)))
 display(Markdown(markdown_table(["algorithm", "paper time (s)", "paper ratio to IMMCDKF", "ours, one at a time",
@@ -233,11 +224,11 @@ display(Markdown(markdown_table(["algorithm", "paper time (s)", "paper ratio to 
 fig, ax = plt.subplots(figsize=(7, 3.6))
 shade_intervals(ax, mode2, label="mode 2")
 nees_avg = {}
-for alg in paper.NEES_ALGORITHMS:
+for alg in study.NEES_ALGORITHMS:
     ne = res.nees[alg]
     ok = np.isfinite(ne).all(axis=1)
     ax.plot(t, ne[ok].mean(axis=0), label=alg, **styles[alg])
-    avg = paper.nees_average(res, alg)
+    avg = study.nees_average(res, alg)
     nees_avg[alg] = [float(avg.value), float(avg.stderr)]
 lo, hi = metrics.chi2_band(4, int(ok.sum()))
 ax.axhspan(lo, hi, color="C2", alpha=0.15, label="95 % χ² band")
@@ -247,7 +238,7 @@ ax.legend(fontsize=8)
 # per run, the NEES averaged over its K steps is chi-square with 4K dof / K for a consistent filter: the share of
 # runs above that band's upper end is a robust test (the mean over runs is dominated by a few huge values)
 run_lo, run_hi = metrics.chi2_band(4, len(t))
-over = {alg: float(np.mean(np.nanmean(res.nees[alg], axis=1) > run_hi)) for alg in paper.NEES_ALGORITHMS}
+over = {alg: float(np.mean(np.nanmean(res.nees[alg], axis=1) > run_hi)) for alg in study.NEES_ALGORITHMS}
 nb.show(fig, "extra_nees_consistency", "(not in the paper)",
         f"IMMCDKF: NEES {value_pm(*nees_avg['IMMCDKF'], 2)}; IMMCDKF-OBS: {value_pm(*nees_avg['IMMCDKF-OBS'], 1)} "
         f"(4 = consistent). Runs whose time-averaged NEES lies above the 95 % χ² band of a consistent filter "
@@ -274,14 +265,12 @@ display(Markdown(markdown_table(["claim", "verdict", "evidence"],
 # simulation; the number of distinct simulations is printed with the design.
 
 # %%
-mv = run_multiverse(paper.SPACE, paper.universe, published=paper.PUBLISHED, n_runs=nb.mv_runs, seed=nb.seed,
-                    algorithms=paper.MV_ALGORITHMS, design=nb.mv_design, n_runs_paper=paper.N_RUNS_PAPER,
-                    workers=nb.workers, progress=PROGRESS)
+mv = nb.multiverse()
 print(f"{mv.design.kind} design, {len(mv.universes)} universes of {nb.mv_runs} runs: {mv.design.description}")
 sims = mv.simulations()                  # universe indices per distinct simulation (ValueError if H-11 moved a claim)
 print(f"{len(sims)} distinct simulations: {len(mv.universes) - len(sims)} universes repeat another's simulation "
       f"under a different H-11 (Table 1 metric) reading")
-same_as_headline = nb.mv_runs == nb.n_runs and digests.same_numbers(mv.headline, json.loads(json.dumps(headline)))
+same_as_headline = nb.mv_runs == nb.n_runs and digests.same_numbers(mv.headline, headline)
 print("headline universe identical to the headline above:", same_as_headline)
 
 # %% [markdown]
@@ -294,19 +283,21 @@ print("headline universe identical to the headline above:", same_as_headline)
 
 # %%
 infl_rows, infl_moving = [], []
-for f in paper.SPACE.factors:
-    inf = paper.influence(mv, f.id)
-    infl_rows.append([f.id, "yes" if f.influential else "no", f"{inf['table1_cells_se']:.2f}", f"{inf['effects_se']:.2f}",
+for f in paper.space.factors:
+    inf = diagnostics.influence(mv, f.id)
+    infl_rows.append([f.id, "yes" if f.influential else "no", f"{inf['table1_cells_se']:.2f}",
+                      f"{inf['effects_se']:.2f}",
                       "; ".join(inf["claims_changed"]) or "none"])
     if inf["moves"]:
         infl_moving.append(f.id)
 display(Markdown(markdown_table(["factor", "declared influential", "largest Table 1 cell change (≥ s.e.)",
-                                 "largest key-effect / mode-probability change (≥ s.e.)", "claims whose verdict changes"],
+                                 "largest key-effect / mode-probability change (≥ s.e.)",
+                                 "claims whose verdict changes"],
                                 infl_rows)))
-display(Markdown(f"Alone, {len(infl_moving)} of {len(paper.SPACE.factors)} factors move a result by at least one "
+display(Markdown(f"Alone, {len(infl_moving)} of {len(paper.space.factors)} factors move a result by at least one "
                  f"(lower-bound) standard error or change a claim verdict ({', '.join(infl_moving) or 'none'}); "
                  f"the others may still act through interactions, which the covering design samples "
-                 f"({'every' if all(f.influential for f in paper.SPACE.factors) else 'NOT every'} factor is "
+                 f"({'every' if all(f.influential for f in paper.space.factors) else 'NOT every'} factor is "
                  f"declared influential)."))
 
 # %% [markdown]
@@ -319,14 +310,15 @@ display(Markdown(f"Alone, {len(infl_moving)} of {len(paper.SPACE.factors)} facto
 # 0.0289² + 0.0379² − (0.0433² + 0.0721²) = −0.0048 km².
 
 # %%
-key_pub = paper.published_position_mse("IMMCDKF-OBS") - paper.published_position_mse("IMMCDKF")
-fig = views.specification_curve(mv, paper.KEY_EFFECT, ylabel="Δ position MSE, OBS − CDKF (km², symlog)",
-                                title=f"Does bootstrapping help? OBS − CDKF position MSE per universe ({nb.mv_runs} runs)", published=key_pub, symlog=True)
-helps = paper.bootstrapping_helps(mv)                       # one entry per distinct simulation
+key_pub = text.published_position_mse("IMMCDKF-OBS") - text.published_position_mse("IMMCDKF")
+fig = views.specification_curve(mv, paper.key_effect, ylabel="Δ position MSE, OBS − CDKF (km², symlog)",
+                                title=f"Does bootstrapping help? OBS − CDKF position MSE per universe "
+                                      f"({nb.mv_runs} runs)", published=key_pub, symlog=True)
+helps = diagnostics.bootstrapping_helps(mv)                 # one entry per distinct simulation
 sim_universes = [mv.universes[idx[0]] for idx in sims]      # one universe per distinct simulation
-key = [mv.effect(u, paper.KEY_EFFECT) for u in sim_universes]
-n_lower = sum(e["value"] + 3 * e["stderr"] < 0 for e in key)
-n_higher = sum(e["value"] - 3 * e["stderr"] > 0 for e in key)
+key = [mv.effect(u, paper.key_effect) for u in sim_universes]
+n_lower = sum(e.value + 3 * e.stderr < 0 for e in key)
+n_higher = sum(e.value - 3 * e.stderr > 0 for e in key)
 nb.show(fig, "extra_specification_curve",
         f"IMMCDKF-OBS is more accurate than IMMCDKF (Table 1 implies {key_pub:.4f} km²).",
         f"across the {len(sims)} distinct simulations of the {len(mv.universes)} universes (the curve shows each "
@@ -385,7 +377,7 @@ cols = [("CDKF x", ("Table 1", "IMMCDKF", "Horizontal mean RMSE (km)")),
         ("CDKF y", ("Table 1", "IMMCDKF", "Vertical mean RMSE (km)")),
         ("OBS x", ("Table 1", "IMMCDKF-OBS", "Horizontal mean RMSE (km)")),
         ("OBS y", ("Table 1", "IMMCDKF-OBS", "Vertical mean RMSE (km)")),
-        ("Δ MSE OBS − CDKF (km²)", ("effect", paper.KEY_EFFECT)),
+        ("Δ MSE OBS − CDKF (km²)", ("effect", paper.key_effect)),
         ("Δ true-mode prob. OBS − CDKF", ("effect", "mode_probability_obs_minus_cdkf")),
         ("NEES CDKF", ("effect", "nees_IMMCDKF")), ("NEES OBS", ("effect", "nees_IMMCDKF-OBS"))]
 display(Markdown(views.one_factor_table(mv, cols)))
@@ -398,20 +390,20 @@ summary = mv.claims_summary()                              # each distinct simul
 numbers = mv.numbers_summary()
 robust = [c for c in summary if c["robust"]]
 fragile = [c for c in summary if not c["robust"]]
-nees_over = sum(mv.effect(u, "nees_IMMCDKF-OBS")["value"] > mv.effect(u, "nees_IMMCDKF")["value"]
+nees_over = sum(mv.effect(u, "nees_IMMCDKF-OBS").value > mv.effect(u, "nees_IMMCDKF").value
                 for u in sim_universes)
 n_cells_any = sum(s["n_reproduced"] > 0 for s in numbers)
 lines = [
     f"* **Table 1.** {n_cells_any} of its {len(numbers)} RMSE cells are reproduced by at least one of the "
     f"{len(mv.universes)} universes; "
-    + (f"no reading reproduces any of them." if tm["most_n_reproduced"] == 0 else
+    + ("no reading reproduces any of them." if tm["most_n_reproduced"] == 0 else
        f"no single reading reproduces more than {tm['most_n_reproduced']} of them (first: {tm['most_describe']}).")
     + (f" Smallest Σz² (among the {len(mv.universes) - tm['n_excluded_inconclusive']} universes with no "
        f"inconclusive cell): {tm['best_describe']}, Σz² = {sum_text['best_sum']} against {sum_text['headline_sum']} "
        f"for the headline." if tm["best_universe"] is not None else " No universe is free of inconclusive cells.")
     + (" No reading reproduces the table." if tm["most_n_reproduced"] < tm["n_cells"]
        else " A reading reproduces the whole table."),
-    f"* **Does bootstrapping make the estimate more accurate?** "
+    "* **Does bootstrapping make the estimate more accurate?** "
     + (f"Yes, in {len(helps)} of the {len(sims)} distinct simulations: " + "; ".join(
         f"{d} (Δ MSE {value_pm(v, se, 4)} km²)" for _, d, v, se in helps)
        + (". Not under the headline." if all(i != 0 for i, *_ in helps) else ".")
@@ -438,20 +430,13 @@ display(Markdown("\n".join(lines)))
 # ## Results file
 
 # %%
-prov = report.provenance(root_seed=nb.seed, n_runs=nb.n_runs, profile=nb.profile,
-                         extra={"paper_citation": paper.CITATION, "timing_runs": nb.timing_runs,
-                                "timing_repeats": nb.timing_repeats, "mmlib": mmlib.__version__,
-                                "multiverse_runs": nb.mv_runs, "multiverse_design": nb.mv_design})
 # digest of the headline's per-run numbers over the first smoke-size runs (the same runs in every profile):
 # tests/tolerance/test_results.py recomputes it in the smoke profile and compares it with the committed one exactly
-digest = digests.run_digest(res.runs, min(nb.n_runs, PROFILES["smoke"]["n_runs"]))
-report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows, claims=claims.as_list(),
-                     deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures, digest=digest,
-                     multiverse=mv.as_dict(), headline_universe_matches=same_as_headline,
-                     coincidence_max_position_difference_vs_IMMCDKF_km=coincide,
-                     nonlinearity_index={"median": float(np.median(nl_index)), "max": float(nl_index.max())},
-                     nees_time_average=nees_avg, diverged_runs=diverged,
-                     timing_ms_per_run={a: {"one_at_a_time": 1e3 * float(per_run[a].mean()),
-                                            "batched": 1e3 * float(batched[a].mean())} for a in per_run})
-counts_v = {v: sum(r.verdict.startswith(v) for r in rows) for v in report.VERDICTS}
-print(f"wrote {nb.results_path} ({len(rows)} rows): {counts_v}")
+results_doc = nb.write_results(
+    rows=rows, claims=claims, deviations=[d.as_dict() for d in paper.deviations],
+    digest=digests.run_digest(res.runs, nb.digest_runs), multiverse=mv, headline_universe_matches=same_as_headline,
+    coincidence_max_position_difference_vs_IMMCDKF_km=coincide,
+    nonlinearity_index={"median": float(np.median(nl_index)), "max": float(nl_index.max())},
+    nees_time_average=nees_avg, diverged_runs=diverged,
+    timing_ms_per_run={a: {"one_at_a_time": 1e3 * float(per_run[a].mean()), "batched": 1e3 * float(batched[a].mean())}
+                       for a in per_run})

@@ -17,17 +17,18 @@
 # The paper puts the strong-tracking fading factor of Zhou & Frank on top of the spherical simplex-radial CKF and
 # compares SSRCKF, STF (EKF-based), STUKF, STCKF and STSSRCKF on a constant-acceleration target seen by a
 # range-bearing radar: Figures 1–3 and Table 1 (Example 1, high maneuver), Table 2 (complexity and time), Table 3
-# (Example 2, medium and weak maneuvers). In `mmlib` strong tracking is one layer (`mmlib/core/layers/strong_tracking.py`) that
-# any filter can wear, so the four ST filters are configurations of one layer over four base filters.
+# (Example 2, medium and weak maneuvers). In `mmlib` strong tracking is one layer
+# (`mmlib/core/layers/strong_tracking.py`) that any filter can wear, so the four ST filters are configurations of one
+# layer over four base filters.
 #
-# **Verdict rule** (`mmlib/experiment/report.py`): *reproduced* within 3 combined standard errors (ours, the paper's estimated
-# from its run count, half a unit of the last printed digit); *qualitatively reproduced* within 25 %;
-# *not reproduced* otherwise; *not replicable* when method or data are not published. Claims are judged on paired
-# differences over common random numbers, in the claim vocabulary of `mmlib.experiment.report` (holds / partly / contradicted /
-# not supported / not assessable).
+# **Verdict rule** (`mmlib/experiment/verdicts.py`): *reproduced* within 3 combined standard errors (ours, the
+# paper's estimated from its run count, half a unit of the last printed digit); *qualitatively reproduced* within
+# 25 %; *not reproduced* otherwise; *not replicable* when method or data are not published. Claims are judged on
+# paired differences over common random numbers, in the claim vocabulary of `mmlib.experiment.report` (holds /
+# partly / contradicted / not supported / not assessable).
 #
 # The paper is ambiguous in several places (time line, process noise, truth noise, UKF κ, initial estimate). Each
-# ambiguity is a declared factor of the reading space `paper.SPACE`; the tables and claims below are the *headline*
+# ambiguity is a declared factor of the reading space `text.SPACE`; the tables and claims below are the *headline*
 # reading, and the section "Reading space" runs the other readings as a multiverse and reports every verdict across it.
 
 # %% tags=["parameters"]
@@ -48,24 +49,19 @@ import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Markdown, display
 
-import mmlib
-from mmlib.experiment import metrics, report
-from mmlib.experiment.montecarlo import MonteCarlo
-from mmlib.experiment import digests, evaluation, run_multiverse, views
-from mmlib.papers import liu2017 as paper
+from mmlib.experiment import digests, evaluation, metrics, report, views
+from mmlib.papers import REGISTRY
 from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                        shade_intervals, value_pm)
 
-# full: the paper's 200 runs, and the multiverse's fractional design (20 universes) at 200 runs each
-# (~5 CPU-s per universe measured with time.process_time(), ~55 s on two workers);
-# smoke: the headline and each option alone at the smoke run count
-PROFILES = {"full": dict(n_runs=paper.N_RUNS_PAPER, timing_runs=5, timing_repeats=5,
-                         mv_runs=paper.N_RUNS_PAPER, mv_design="auto"),
-            "smoke": dict(n_runs=20, timing_runs=2, timing_repeats=2, mv_runs=20, mv_design="star")}
-nb = NotebookRun(paper.PAPER, paper.ROOT_SEED, PROFILES, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED,
-                 OUTPUT_ROOT=OUTPUT_ROOT, N_TIMING_RUNS=N_TIMING_RUNS, WORKERS=WORKERS,
-                 MULTIVERSE_RUNS=MULTIVERSE_RUNS, MULTIVERSE_DESIGN=MULTIVERSE_DESIGN)
-mc = MonteCarlo(nb.seed, nb.n_runs)
+paper = REGISTRY["liu2017"]
+from mmlib.papers.liu2017 import diagnostics, setup, study, table2, text
+from mmlib.papers.liu2017.claims import after_onset, judge_claims
+
+nb = NotebookRun(paper, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED, OUTPUT_ROOT=OUTPUT_ROOT,
+                 N_TIMING_RUNS=N_TIMING_RUNS, WORKERS=WORKERS, MULTIVERSE_RUNS=MULTIVERSE_RUNS,
+                 MULTIVERSE_DESIGN=MULTIVERSE_DESIGN, PROGRESS=PROGRESS)
+mc = nb.mc()
 plot_style()
 print(nb)
 
@@ -79,34 +75,34 @@ print(nb)
 # running anything; the discussion's onset (100 s) is the other option of factor L-1.
 
 # %%
-display(Markdown(deviations_table(paper.DEVIATIONS)))
+display(Markdown(deviations_table(paper.deviations)))
 
 # %% [markdown]
 # ## Example 1 — Figures 1–3 and Table 1
 #
 # The headline reading, evaluated by the same functions as every universe of the multiverse below
-# (`paper.evaluate_reading`, `paper.summarise`).
+# (`study.evaluate_reading`, `study.summarise`).
 
 # %%
 t0 = time.perf_counter()
-headline = paper.evaluate_reading(paper.SPACE.headline, mc, progress=PROGRESS)
-summary = paper.summarise(headline, nb.n_runs)
+headline = study.evaluate_reading(paper.headline, mc, progress=PROGRESS)
+summary = study.summarise(headline, nb.n_runs)
 ex1, ex2 = headline.runs["Example 1"], {case: headline.runs[case] for case in ("Case 1", "Case 2")}
 print(f"headline reading: {nb.n_runs} runs, Example 1 and both cases of Example 2 in {time.perf_counter() - t0:.1f} s; "
-      f"diverged runs: { {k: v for k, v in summary['diverged'].items() if v} or 'none'}")
+      f"diverged runs: { {k: v for k, v in summary.diverged.items() if v} or 'none'}")
 print(evaluation.divergence_report(headline.runs))  # the step at which each diverged and why
-rows = paper.table_rows(summary)
+rows = study.table_rows(summary)
 display(Markdown(rows_table([r for r in rows if r.item == "Table 1"])))
 
 # %%
-verdict_of = {c["claim"]: c["verdict"] for c in summary["claims"]}
+verdict_of = {c.claim: c.verdict for c in summary.claims}
 setup1 = headline.setups["Example 1"]
 t = np.arange(1, setup1.n_steps + 1) * setup1.T
 man = [(setup1.onset, t[-1])]
 styles = {"SSRCKF": dict(color="C1", lw=1.4, ls="-"), "STF": dict(color="C7", lw=1.4, ls="-."),
           "STUKF": dict(color="C2", lw=1.2, ls=":"), "STCKF": dict(color="C0", lw=1.4, ls="--"),
           "STSSRCKF": dict(color="C3", lw=2.2, ls="-")}
-for fignum, ((quantity, idx), unit, what) in enumerate(zip(paper.QUANTITIES, ("m", "m/s", "m/s²"),
+for fignum, ((quantity, idx), unit, what) in enumerate(zip(text.QUANTITIES, ("m", "m/s", "m/s²"),
                                                           ("position", "velocity", "acceleration")), start=1):
     fig, ax = plt.subplots(figsize=(7.5, 4))
     shade_intervals(ax, man, label="maneuver")
@@ -116,7 +112,7 @@ for fignum, ((quantity, idx), unit, what) in enumerate(zip(paper.QUANTITIES, ("m
     ax.set(xlabel="time (s)", ylabel=f"RMSE of {what} ({unit})", yscale="log",
            title=f"Fig. {fignum} — RMSE of the estimated {what} (Eq. 41, {nb.n_runs} runs; the ST filters overlap)")
     ax.legend(fontsize=8)
-    after = {alg: metrics.armse(paper.after_onset(ex1[alg], setup1.onset_index).errors[..., list(idx)], ex1[alg].valid)
+    after = {alg: metrics.armse(after_onset(ex1[alg], setup1.onset_index).errors[..., list(idx)], ex1[alg].valid)
              for alg in styles}
     nb.show(fig, f"fig{fignum:02d}_rmse_{what}",
             "similar errors before the maneuver; after it the ST filters converge quickly while SSRCKF degrades; "
@@ -140,13 +136,15 @@ for fignum, ((quantity, idx), unit, what) in enumerate(zip(paper.QUANTITIES, ("m
 # $\sigma_{\rm pos}/r$.
 
 # %%
-ratio = paper.nonlinearity_index(setup1, mc)
-d_rules, near_equal = paper.near_equality(ex1)
+ratio = diagnostics.nonlinearity_index(setup1, mc)
+d_rules, near_equal = diagnostics.near_equality(ex1)
 fig, ax = plt.subplots(figsize=(7, 3.4))
 ax.plot(t, ratio, "k-")
-ax.set(yscale="log", xlabel="time (s)", ylabel="median σ_pos / range", title="Nonlinearity of the radar at these ranges")
+ax.set(yscale="log", xlabel="time (s)", ylabel="median σ_pos / range",
+       title="Nonlinearity of the radar at these ranges")
 nb.show(fig, "extra_nonlinearity_index", "(not in the paper)",
-        f"σ/r falls from {ratio[0]:.2g} to {ratio[-1]:.1g}; fourth-order rule differences ~(σ/r)² ≤ {ratio.max() ** 2:.1g}. "
+        f"σ/r falls from {ratio[0]:.2g} to {ratio[-1]:.1g}; fourth-order rule differences ~(σ/r)² ≤ "
+        f"{ratio.max() ** 2:.1g}. "
         f"Largest position difference from STSSRCKF over all runs and steps: "
         + ", ".join(f"{k} {v:.2g} m" for k, v in d_rules.items()))
 
@@ -154,15 +152,16 @@ nb.show(fig, "extra_nonlinearity_index", "(not in the paper)",
 # ## Table 2 — computational complexity and time
 #
 # Per time step, with state dimension n = 6 and measurement dimension 2, each filter does (counted from
-# `mmlib/core/filters.py` and `mmlib/core/layers/strong_tracking.py`, which follow the paper's Eqs. 20–36) the operations below.
+# `mmlib/core/filters.py` and `mmlib/core/layers/strong_tracking.py`, which follow the paper's Eqs. 20–36) the
+# operations below.
 # Times are measured in repeats, all filters interleaved within each repeat; the ratio to SSRCKF is formed per
 # repeat and judged by the verdict rule with its standard error over the repeats.
 
 # %%
-make_batch, estimators, _ = paper.make_batch_fn(setup1, mc, names=paper.FILTERS)
+make_batch, estimators, _ = setup.make_batch_fn(setup1, mc, names=text.FILTERS)
 timing_batch = make_batch(range(nb.timing_runs))
 per_run, batched = evaluation.time_algorithms(estimators, timing_batch[2], timing_batch[1], repeats=nb.timing_repeats)
-t2_rows, time_claim, t2 = paper.table2(per_run, batched)
+t2_rows, time_claim, t2 = table2.table2(per_run, batched)
 rows += t2_rows
 display(Markdown(markdown_table(
     ["filter", "paper complexity", "points", "Cholesky / step", "f evaluations", "h evaluations (λ > 1)",
@@ -172,7 +171,7 @@ display(Markdown(markdown_table(
 
 # %% [markdown]
 # **Reading Table 2's complexity column.** Each complexity row is judged from the counts above
-# (`paper.complexity_rows`): the printed complexity's order in the number of points and in n against the orders
+# (`table2.complexity_rows`): the printed complexity's order in the number of points and in n against the orders
 # the counted operations per step give — the evaluations' growth with the points fitted across the three
 # strong-tracking sigma-point filters, which differ only in their rule. The verdicts and findings:
 
@@ -192,12 +191,12 @@ display(Markdown(rows_table([r for r in rows if r.item.startswith("Table 3")])))
 # %% [markdown]
 # ## Claims of the abstract and conclusions
 #
-# Every verdict comes from paired differences on common random numbers (`mmlib.experiment.report`). The paper never defines
-# robustness; we judge it operationally (stated with the two robustness claims below): the position error after
+# Every verdict comes from paired differences on common random numbers (`mmlib.experiment.report`). The paper never
+# defines robustness; we judge it operationally (stated with the two robustness claims below): the position error after
 # the abrupt change in each of the three maneuvers, and divergence counts where any run diverges.
 
 # %%
-claims = paper.judge_claims(headline)
+claims = judge_claims(headline)
 claims.add(*time_claim)
 display(Markdown(markdown_table(["claim", "verdict", "evidence"],
                                 [[c["claim"], c["verdict"], c["evidence"]] for c in claims])))
@@ -213,25 +212,23 @@ display(Markdown(markdown_table(["claim", "verdict", "evidence"],
 # declared options are run.
 
 # %%
-display(Markdown(views.factors_table(paper.SPACE)))
-display(Markdown(views.options_table(paper.SPACE)))
+display(Markdown(views.factors_table(paper.space)))
+display(Markdown(views.options_table(paper.space)))
 t0 = time.perf_counter()
-mv = run_multiverse(paper.SPACE, paper.universe, published=paper.PUBLISHED, n_runs=nb.mv_runs, seed=nb.seed,
-                    algorithms=paper.MV_ALGORITHMS, design=nb.mv_design, n_runs_paper=paper.N_RUNS_PAPER,
-                    workers=nb.workers, progress=PROGRESS)
+mv = nb.multiverse()
 print(f"{mv.design.description}; {nb.mv_runs} runs per universe; {time.perf_counter() - t0:.1f} s")
 
 # %%
-fig = views.specification_curve(mv, paper.KEY_EFFECT, ylabel="paired Δ position MSE (m²), symlog",
+fig = views.specification_curve(mv, paper.key_effect, ylabel="paired Δ position MSE (m²), symlog",
                                 title="Does strong tracking help? Paired STSSRCKF − SSRCKF position MSE in Example 1\n"
                                       f"(negative: strong tracking lowers the error), every universe, {nb.mv_runs} "
                                       "runs each", symlog=True)
-key = [mv.effect(u, paper.KEY_EFFECT) for u in mv.universes]
+key = [mv.effect(u, paper.key_effect) for u in mv.universes]
 nb.show(fig, "extra_specification_curve",
         "STSSRCKF lowers the position error of SSRCKF (Table 1: 119.3² − 152.1² = −8902 m²).",
-        f"headline {value_pm(key[0]['value'], key[0]['stderr'], 0)} m²; across the {len(key)} universes "
-        f"{min(e['value'] for e in key):.3g} to {max(e['value'] for e in key):.3g} m², negative by more than 3 "
-        f"standard errors in {sum(e['value'] + 3 * e['stderr'] < 0 for e in key)} of {len(key)} universes "
+        f"headline {value_pm(key[0].value, key[0].stderr, 0)} m²; across the {len(key)} universes "
+        f"{min(e.value for e in key):.3g} to {max(e.value for e in key):.3g} m², negative by more than 3 "
+        f"standard errors in {sum(e.value + 3 * e.stderr < 0 for e in key)} of {len(key)} universes "
         f"(by factor: see the notebook's reading-space section).")
 
 # %%
@@ -265,41 +262,34 @@ display(Markdown(views.table_match_table(mv)))
 # varied alone; every universe uses the same runs.
 
 # %%
-P = paper.QUANTITIES[0][0]
+P = text.QUANTITIES[0][0]
 display(Markdown(views.one_factor_table(mv, [
     ("T1 SSRCKF", ("Table 1", "SSRCKF", P)), ("T1 STF", ("Table 1", "STF", P)),
     ("T1 STUKF", ("Table 1", "STUKF", P)), ("T1 STSSRCKF", ("Table 1", "STSSRCKF", P)),
-    ("T1 STSSRCKF velocity", ("Table 1", "STSSRCKF", paper.QUANTITIES[1][0])),
+    ("T1 STSSRCKF velocity", ("Table 1", "STSSRCKF", text.QUANTITIES[1][0])),
     ("T3 C1 STSSRCKF", ("Table 3 Case 1", "STSSRCKF", P)), ("T3 C2 STSSRCKF", ("Table 3 Case 2", "STSSRCKF", P)),
-    ("key effect (m²)", ("effect", paper.KEY_EFFECT))])))
+    ("key effect (m²)", ("effect", paper.key_effect))])))
 
 # %% [markdown]
 # ### What the multiverse says
 #
-# The paragraphs below are computed from the universes (`paper.findings`).
+# The paragraphs below are computed from the universes (`diagnostics.findings`).
 
 # %%
-display(Markdown(paper.findings(mv)))
+display(Markdown(diagnostics.findings(mv)))
 
 # %% [markdown]
 # ## Results file
 
 # %%
-prov = report.provenance(root_seed=nb.seed, n_runs=nb.n_runs, profile=nb.profile,
-                         extra={"paper_citation": paper.CITATION, "timing_runs": nb.timing_runs,
-                                "timing_repeats": nb.timing_repeats, "mmlib": mmlib.__version__,
-                                "multiverse_runs": nb.mv_runs, "multiverse_design": nb.mv_design})
 # digest of the headline's per-run numbers over the first smoke-size runs (the same runs in every profile):
-# tests/tolerance/test_results.py recomputes it in the smoke profile and compares it with the committed one exactly
-digest = digests.run_digest(headline.runs, min(nb.n_runs, PROFILES["smoke"]["n_runs"]))
-report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows, claims=claims.as_list(),
-                     deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures, digest=digest,
-                     multiverse=mv.as_dict(), headline_reading=paper.SPACE.headline,
-                     near_equality_position_armse_difference_vs_STSSRCKF=near_equal,
-                     max_position_difference_vs_STSSRCKF=d_rules,
-                     diverged_runs={k.split(" ", 2)[-1]: v for k, v in summary["diverged"].items()
-                                    if k.startswith("Example 1 ")},
-                     timing_ms_per_run={a: {"one_at_a_time": 1e3 * float(per_run[a].mean()),
-                                            "batched": 1e3 * float(batched[a].mean())} for a in per_run})
-counts_v = {v: sum(r.verdict.startswith(v) for r in rows) for v in report.VERDICTS}
-print(f"wrote {nb.results_path} ({len(rows)} rows): {counts_v}")
+# tests/tolerance/test_digest.py recomputes it (study.headline_digest) and compares it with the committed one
+nb.write_results(rows=rows, claims=claims, deviations=[d.as_dict() for d in paper.deviations],
+                 digest=digests.run_digest(headline.runs, nb.digest_runs), multiverse=mv,
+                 headline_reading=paper.headline,
+                 near_equality_position_armse_difference_vs_STSSRCKF=near_equal,
+                 max_position_difference_vs_STSSRCKF=d_rules,
+                 diverged_runs={k.split(" ", 2)[-1]: v for k, v in summary.diverged.items()
+                                if k.startswith("Example 1 ")},
+                 timing_ms_per_run={a: {"one_at_a_time": 1e3 * float(per_run[a].mean()),
+                                        "batched": 1e3 * float(batched[a].mean())} for a in per_run})

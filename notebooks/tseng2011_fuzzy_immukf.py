@@ -33,13 +33,14 @@
 # **Library pieces** (all in `mmlib`): the constellation, frames (via `pymap3d`), pseudoranges and clock model in
 # `mmlib/core/gnss.py`; zero-order Takagi–Sugeno inference in `mmlib/core/fuzzy.py`; the IMM whose modes' noise
 # levels are set online in `mmlib/core/layers/adaptive_imm.py`, and the FLAS that sets them (the paper's design) in
-# `mmlib/papers/tseng2011.py`; the measurement model changes every epoch with the satellites in view
-# (`run(..., measurement_models=...)`).
+# `mmlib/core/layers/fuzzy_noise.py`; the measurement model changes every epoch with the satellites in view
+# (`run(..., measurement_models=...)`). The reconstruction itself (set-up, reading space, evaluation, claims) is the
+# package `mmlib/papers/tseng2011/`.
 #
-# **Verdict rule** (`mmlib/experiment/report.py`): *reproduced* within 3 combined standard errors; *inconclusive* when within
-# them but 3 s.e. exceed 25 % of the printed value; *qualitatively reproduced* within 25 %; *not reproduced*
-# otherwise; *not replicable* when method or data are not published. Claims are judged on paired differences over
-# common random numbers.
+# **Verdict rule** (`mmlib/experiment/verdicts.py`): *reproduced* within 3 combined standard errors; *inconclusive*
+# when within them but 3 s.e. exceed 25 % of the printed value; *qualitatively reproduced* within 25 %; *not
+# reproduced* otherwise; *not replicable* when method or data are not published. Claims are judged on paired
+# differences over common random numbers.
 
 # %% tags=["parameters"]
 PROFILE = "full"          # "full" (100 runs) or "smoke" (a prefix of the full runs)
@@ -53,33 +54,26 @@ MULTIVERSE_DESIGN = None  # override the profile's design: "auto", "full", "frac
 PROGRESS = True
 
 # %%
-import math
-
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Markdown, display
 
-import mmlib
-from mmlib.experiment import metrics, report
-from mmlib.experiment import digests, evaluation, run_multiverse, views
-from mmlib.papers import tseng2011 as paper
+from mmlib.core.layers.fuzzy_noise import fuzzy_system
+from mmlib.experiment import digests, evaluation, metrics, report, views
 from mmlib.experiment.montecarlo import MonteCarlo
+from mmlib.papers import REGISTRY
 from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                        shade_intervals, value_pm)
+from mmlib.papers.tseng2011 import diagnostics, simulation, study, text
 
-# full: the headline at 100 runs, the oracle reference at 50, the multiverse's fractional design at
-# paper.MV_RUNS = 25 runs per universe (the budget; standard errors are shown throughout);
-# smoke: the star design at the smoke run count, so its headline universe is the notebook's headline bit for bit
-PROFILES = {"full": dict(n_runs=paper.N_RUNS, timing_runs=1, timing_repeats=1, oracle_runs=50,
-                         mv_runs=paper.MV_RUNS, mv_design="auto"),
-            "smoke": dict(n_runs=6, timing_runs=1, timing_repeats=1, oracle_runs=6, mv_runs=6, mv_design="star")}
-nb = NotebookRun(paper.PAPER, paper.ROOT_SEED, PROFILES, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED,
-                 OUTPUT_ROOT=OUTPUT_ROOT, N_TIMING_RUNS=N_TIMING_RUNS, WORKERS=WORKERS,
-                 MULTIVERSE_RUNS=MULTIVERSE_RUNS, MULTIVERSE_DESIGN=MULTIVERSE_DESIGN)
-if not isinstance(PROGRESS, bool):
-    raise ValueError(f"PROGRESS: expected True or False, got {PROGRESS!r}")
-mc = MonteCarlo(nb.seed, nb.n_runs)
-mc_oracle = MonteCarlo(nb.seed, min(nb.n_runs, PROFILES[nb.profile]["oracle_runs"]))
+paper = REGISTRY["tseng2011"]
+# the profiles (paper.profiles): full, the headline at 100 runs, the oracle reference at 50, the multiverse's
+# fractional design at 25 runs per universe; smoke, a prefix of the same runs and the star design
+nb = NotebookRun(paper, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED, OUTPUT_ROOT=OUTPUT_ROOT,
+                 N_TIMING_RUNS=N_TIMING_RUNS, WORKERS=WORKERS, MULTIVERSE_RUNS=MULTIVERSE_RUNS,
+                 MULTIVERSE_DESIGN=MULTIVERSE_DESIGN, PROGRESS=PROGRESS)
+mc = nb.mc()
+mc_oracle = MonteCarlo(nb.seed, min(nb.n_runs, nb.config["oracle_runs"]))
 plot_style()
 print(nb)
 
@@ -92,9 +86,9 @@ print(nb)
 # $S_p$ on each axis plus the two-state clock; the IMM's two modes differ only in $S_p$ (T-7).
 
 # %%
-setup = paper.setups(paper.SPACE.headline)
-display(Markdown(deviations_table(paper.DEVIATIONS)))
-ex = paper.experiment(setup, names=("UKF", "IMMUKF", "FUZZY-IMMUKF", "EKF"))
+setup = paper.headline_setup()
+display(Markdown(deviations_table(paper.deviations)))
+ex = simulation.experiment(setup, names=paper.algorithms + ("EKF",))
 n_vis = ex.sky.visible.sum(axis=1)
 print(f"satellites in view: {n_vis.min()}–{n_vis.max()} (mask {setup.mask_deg:g} deg); "
       f"UKF S_p = {setup.ukf_level:g}, IMM S_p = {setup.s_lower:g} / {setup.s_upper:g} m^2/s^3")
@@ -108,11 +102,11 @@ print(f"satellites in view: {n_vis.min()}–{n_vis.max()} (mask {setup.mask_deg:
 # %%
 t = setup.times
 plane = ex.truth_plane
-turns = paper.maneuver_intervals(setup)
+turns = simulation.maneuver_intervals(setup)
 fig, axes = plt.subplots(1, 3, figsize=(14, 4.3), gridspec_kw={"width_ratios": [1.1, 1.0, 1.0]})
 ax = axes[0]
 seg_t = np.arange(setup.n_steps + 1) * setup.T
-for (a, b, label), col in zip(paper.SEGMENTS, ["C0", "C1", "C0", "C2", "C0", "C3", "C0"]):
+for (a, b, label), col in zip(text.SEGMENTS, ["C0", "C1", "C0", "C2", "C0", "C3", "C0"]):
     sel = (seg_t >= max(a - 1, 0)) & (seg_t <= b)
     ax.plot(plane[sel, 0] / 1e3, plane[sel, 2] / 1e3, color=col, lw=2, label=label if col != "C0" or a == 0 else None)
 ax.plot(plane[0, 0] / 1e3, plane[0, 2] / 1e3, "ko", label="start")
@@ -157,17 +151,18 @@ nb.show(fig, "reconstruction_trajectory_satellites",
 # 6–7 satellites in view) and $\eta/\sqrt s \approx 0.80\sqrt{\xi/s}$. Hence the sets *Normal*, *Moderate*, *Large*
 # peak at 1, 2, 4 for $\xi/s$ and at 0.80 × the square roots for $\eta/\sqrt s$. (A first version divided by the
 # pseudorange variance $\sigma^2$; its mean under consistency is $1 + \mathrm{tr}(HPH^T)/(m\sigma^2) \approx 1.25$,
-# not 1, as a review pointed out, so the justification did not hold. It was corrected and is kept as an option of factor T-10a.)
-# The nine zero-order Takagi–Sugeno rules move a
-# one-decade band of process noise along the plain IMM's two-decade range: the band's position is the larger of the
-# two inputs' levels — either sign of divergence raises the noise — and the fuzzy bounds never leave the IMM's
-# range, so the comparison with the IMM is fair. Output = product-weighted average of the rule consequents, in
-# $\log_{10} S_p$. The inference is `mmlib/core/fuzzy.py` (~20 lines of numpy evaluated for all runs at once):
+# not 1, as a review pointed out, so the justification did not hold. It was corrected and is kept as an option of
+# factor T-10a.) The nine zero-order Takagi–Sugeno rules move a one-decade band of process noise along the plain
+# IMM's two-decade range: the band's position is the larger of the two inputs' levels — either sign of divergence
+# raises the noise — and the fuzzy bounds never leave the IMM's range, so the comparison with the IMM is fair.
+# Output = product-weighted average of the rule consequents, in $\log_{10} S_p$ (the rule base is
+# `mmlib/core/layers/fuzzy_noise.py`, built from this reading's breakpoints and levels). The inference is
+# `mmlib/core/fuzzy.py` (~20 lines of numpy evaluated for all runs at once):
 # scikit-fuzzy is built for Mamdani inference and simpful evaluates one input vector per call, which would put a
 # Python loop over runs inside the filter loop.
 
 # %%
-ts = paper.fuzzy_system(setup)
+ts = fuzzy_system(setup.breakpoints, setup.s_lower, setup.s_upper)
 display(Markdown(markdown_table(["IF ξ/s is", "AND η/√s is", "THEN lower S_p", "upper S_p"],
                                 [[a, b, f"{10 ** c[0]:.3g}", f"{10 ** c[1]:.3g}"] for (a, b), c in ts.rules()])))
 fig, axes = plt.subplots(1, 3, figsize=(14, 3.8))
@@ -175,7 +170,8 @@ for i, (ax, xmax) in enumerate(zip(axes[:2], (6.0, 2.4))):
     x = np.linspace(0, xmax, 400)
     for s_, col in zip(ts.inputs[i], ("C2", "C1", "C3")):
         ax.plot(x, s_(x), color=col, lw=2, label=s_.name)
-    ax.set(xlabel=ts.input_names[i], ylabel="membership", title=f"Input {i + 1}: {ts.input_names[i]}", ylim=(-0.03, 1.05))
+    ax.set(xlabel=ts.input_names[i], ylabel="membership", title=f"Input {i + 1}: {ts.input_names[i]}",
+           ylim=(-0.03, 1.05))
     ax.legend(fontsize=8)
 g1, g2 = np.meshgrid(np.linspace(0, 6, 121), np.linspace(0, 2.4, 121))
 out = ts(np.stack([g1.ravel(), g2.ravel()], axis=-1))
@@ -195,10 +191,9 @@ nb.show(fig, "reconstruction_fuzzy_membership_functions",
 # filter's spread ($\sigma_p \approx 10$ m, $r \approx 2\times10^7$ m), so the UKF *is* the EKF here up to that.
 
 # %%
-res = paper.evaluate_reading(paper.SPACE.headline, mc, progress=PROGRESS, names=paper.ALGORITHMS + ("EKF",))
-headline = paper.assess(res, nb.n_runs)          # the headline universe's values, rows, claims and effects
+res = study.evaluate_reading(paper.headline, mc, progress=nb.progress, names=paper.algorithms + ("EKF",))
 diverged = {a: int((~r.valid).sum()) for a, r in res.items()}
-ekf_verdict, ukf_ekf = paper.ekf_claim(res)
+ekf_verdict, ukf_ekf = diagnostics.ekf_claim(res)
 print(f"diverged runs: {diverged}")
 print(evaluation.divergence_report(res))           # the step at which each diverged and why
 print(f"largest |UKF - EKF| position difference over all runs and epochs: {ukf_ekf:.2e} m")
@@ -212,7 +207,7 @@ for (r_, c_), comp, lab in zip(((0, 0), (0, 1), (1, 0), (1, 1)), (0, 2, 1, 3),
                                ("East position error (m)", "North position error (m)", "East velocity error (m/s)",
                                 "North velocity error (m/s)")):
     ax = axes[r_, c_]
-    for alg, col in zip(paper.ALGORITHMS, ("C3", "C0", "C2")):
+    for alg, col in zip(paper.algorithms, ("C3", "C0", "C2")):
         ax.plot(t, res[alg].errors[0, :, comp], color=col, lw=0.8, label=alg)
     shade_intervals(ax, turns, label="turning")
     ax.set(ylabel=lab)
@@ -231,9 +226,9 @@ nb.show(fig, "fig13_navigation_errors", "FUZZY-IMMUKF is the most accurate, then
 # %%
 fig, axes = plt.subplots(2, 1, figsize=(12, 6.5), sharex=True)
 for ax, comp, lab in zip(axes, (0, 2), ("East", "North")):
-    for alg, col in zip(paper.ALGORITHMS, ("C3", "C0", "C2")):
+    for alg, col in zip(paper.algorithms, ("C3", "C0", "C2")):
         r_ = metrics.rmse_over_time(res[alg].errors[..., comp], res[alg].valid)
-        ax.plot(t, r_.value, color=col, lw=1.0, label=f"{alg} (RMS {paper.rms(res[alg], comp).value:.2f} m)")
+        ax.plot(t, r_.value, color=col, lw=1.0, label=f"{alg} (RMS {study.rms(res[alg], comp).value:.2f} m)")
     shade_intervals(ax, turns, label="turning")
     ax.set(ylabel=f"{lab} RMS error (m)")
     ax.legend(fontsize=8, ncol=2)
@@ -278,15 +273,16 @@ nb.show(fig, "reconstruction_mode_probabilities_bounds",
 # %% [markdown]
 # ## Table — East/North position RMS errors
 #
-# Every row carries a replicated value and is judged by the one verdict rule (`mmlib/experiment/report.py`). The absolute RMS
-# errors belong to a reconstructed set-up (Section 4 was lost: T-14), so their verdict says how far this
+# Every row carries a replicated value and is judged by the one verdict rule (`mmlib/experiment/verdicts.py`). The
+# absolute RMS errors belong to a reconstructed set-up (Section 4 was lost: T-14), so their verdict says how far this
 # reconstruction lies from the printed numbers, not whether the paper's set-up would give them. The relative
 # improvements, $100\,(1 - \mathrm{RMS}_a/\mathrm{RMS}_b)$, on common random numbers with jackknife standard errors,
 # are the rows a reconstruction can meaningfully compare; their published values are computed from the printed table.
-# Rows and claims come from `paper.assess`, the function every universe of the reading space runs.
+# Rows and claims come from `study.table_rows` and `study.judge_claims`, the functions every universe of the reading
+# space runs.
 
 # %%
-rows = headline["rows"]
+rows = study.table_rows(study.values(res), nb.n_runs)
 display(Markdown(rows_table(rows)))
 
 # %% [markdown]
@@ -298,39 +294,31 @@ display(Markdown(rows_table(rows)))
 # reference, not a strict bound: other schedules, or an IMM whose modes are adapted, could do somewhat better.
 
 # %%
-oracles = paper.clairvoyant_schedules(ex)
-ex_or = paper.Experiment(setup, ex.truth_plane, ex.sky, oracles)
-res_or = evaluation.evaluate(oracles, paper.make_batch_fn(ex_or, mc_oracle), mc_oracle, label="tseng2011 oracle",
-                         progress=PROGRESS, measurement_models=ex.measurement_models)
-or_rows, oracle_json = [], []
+res_or = diagnostics.evaluate_oracles(ex, mc_oracle, progress=nb.progress)
 imm_head = evaluation.first_runs(res["IMMUKF"], mc_oracle.n_runs)
-for name, r_ in res_or.items():
-    e_, n_ = paper.rms(r_, 0), paper.rms(r_, 2)
-    red_e, red_n = paper.rms_reduction(r_, imm_head, 0), paper.rms_reduction(r_, imm_head, 2)
-    or_rows.append([name, value_pm(float(e_.value), float(e_.stderr), 3), value_pm(float(n_.value), float(n_.stderr), 3),
-                    value_pm(float(red_e.value), float(red_e.stderr), 1), value_pm(float(red_n.value), float(red_n.stderr), 1)])
-    oracle_json.append({"schedule": name, "east": [float(e_.value), float(e_.stderr)],
-                        "north": [float(n_.value), float(n_.stderr)],
-                        "reduction_vs_immukf_percent": [[float(red_e.value), float(red_e.stderr)],
-                                                        [float(red_n.value), float(red_n.stderr)]]})
-best = min(res_or, key=lambda k: paper.rms(res_or[k], 0).value + paper.rms(res_or[k], 2).value)
-best_red = {lab: paper.rms_reduction(res_or[best], imm_head, comp) for lab, _, comp in paper.AXES}
-display(Markdown(markdown_table(["schedule (straight / turning S_p)", "East RMS (m)", "North RMS (m)",
-                                 "East reduction vs IMMUKF (%)", "North reduction vs IMMUKF (%)"], or_rows)))
-print(f"best oracle ({best}): reduction vs IMMUKF East {value_pm(best_red['East'].value, best_red['East'].stderr, 1)} %, "
-      f"North {value_pm(best_red['North'].value, best_red['North'].stderr, 1)} % (paper's FUZZY-IMMUKF: 66.0 / 68.4 %)")
+oracle_json = diagnostics.oracle_summary(res_or, imm_head)
+display(Markdown(markdown_table(
+    ["schedule (straight / turning S_p)", "East RMS (m)", "North RMS (m)", "East reduction vs IMMUKF (%)",
+     "North reduction vs IMMUKF (%)"],
+    [[o["schedule"], value_pm(*o["east"], 3), value_pm(*o["north"], 3),
+      value_pm(*o["reduction_vs_immukf_percent"][0], 1), value_pm(*o["reduction_vs_immukf_percent"][1], 1)]
+     for o in oracle_json])))
+best = min(oracle_json, key=lambda o: o["east"][0] + o["north"][0])
+(red_e, se_e), (red_n, se_n) = best["reduction_vs_immukf_percent"]
+print(f"best oracle ({best['schedule']}): reduction vs IMMUKF East {value_pm(red_e, se_e, 1)} %, "
+      f"North {value_pm(red_n, se_n, 1)} % (paper's FUZZY-IMMUKF: 66.0 / 68.4 %)")
 
 # %% [markdown]
 # ## Claims of the abstract and conclusions
 #
-# Verdicts in the claim vocabulary of `mmlib/experiment/report.py`, combined from part verdicts: paired differences on common
-# random numbers (the direction, per axis) and the reduction rows (the claimed size, per axis: it holds where the
+# Verdicts in the claim vocabulary of `mmlib/experiment/verdicts.py`, combined from part verdicts: paired differences on
+# common random numbers (the direction, per axis) and the reduction rows (the claimed size, per axis: it holds where the
 # number rule finds the printed reduction reproduced or within 25 %, and is otherwise the paired test of
 # replicated − printed, so a reduction smaller than printed by 3 s.e. contradicts the claimed size). Whether a
 # verdict survives the other readings of the lost set-up is the subject of the next section.
 
 # %%
-claims = headline["claims"]
+claims = study.judge_claims(res, rows, nb.n_runs)
 claims.add("The UKF avoids the EKF's linearisation errors (Sec. 2)", *ekf_verdict)
 display(Markdown(markdown_table(["claim", "verdict", "evidence"],
                                 [[c["claim"], c["verdict"], c["evidence"]] for c in claims])))
@@ -350,13 +338,13 @@ display(Markdown(markdown_table(["claim", "verdict", "evidence"],
 # spread, T-12; see their deviations; `tests/test_tseng2011.py` checks it).
 
 # %%
-display(Markdown(views.factors_table(paper.SPACE)))
-display(Markdown(views.options_table(paper.SPACE)))
-mv = run_multiverse(paper.SPACE, paper.universe, published=paper.PUBLISHED, n_runs=nb.mv_runs, seed=nb.seed,
-                    algorithms=paper.MV_ALGORITHMS, design=nb.mv_design, workers=nb.workers, progress=PROGRESS)
+display(Markdown(views.factors_table(paper.space)))
+display(Markdown(views.options_table(paper.space)))
+# the paper's own run count is unknown (T-13, paper.n_runs None): no paper Monte Carlo error enters the verdicts
+mv = nb.multiverse()
 print(f"{mv.design.description}; {mv.n_runs} Monte Carlo runs per universe")
 if mv.n_runs == nb.n_runs:
-    same = digests.same_numbers(mv.headline, paper.summarise(res, nb.n_runs))
+    same = digests.same_numbers(mv.headline, study.summarise(res, nb.n_runs))
     print(f"headline universe equals this notebook's headline numbers bit for bit: {same}")
     assert same, "the headline universe must equal the notebook's headline"
 
@@ -368,20 +356,20 @@ if mv.n_runs == nb.n_runs:
 # runs and epochs, squared, is that mean squared error).
 
 # %%
-pub_key = paper.published_mse_difference("FUZZY-IMMUKF", "IMMUKF")
-fig = views.specification_curve(mv, paper.KEY_EFFECT, ylabel="Δ MSE FUZZY − IMMUKF (m²)",
+pub_key = text.published_mse_difference("FUZZY-IMMUKF", "IMMUKF")
+fig = views.specification_curve(mv, paper.key_effect, ylabel="Δ MSE FUZZY − IMMUKF (m²)",
                                 title=f"Does the FLAS beat fixed IMM bounds, under any reading?\n"
                                       f"East+North paired MSE difference, {mv.n_runs} runs per universe "
                                       f"(< 0: FUZZY-IMMUKF better; symmetric log scale)", symlog=True)
-key = [mv.effect(u, paper.KEY_EFFECT) for u in mv.universes]
-n_better = sum(e["value"] + 3 * e["stderr"] < 0 for e in key)
-n_worse = sum(e["value"] - 3 * e["stderr"] > 0 for e in key)
-n_near = sum(abs(e["value"] - pub_key) <= 3 * e["stderr"] for e in key)
+key = [mv.effect(u, paper.key_effect) for u in mv.universes]
+n_better = sum(e.value + 3 * e.stderr < 0 for e in key)
+n_worse = sum(e.value - 3 * e.stderr > 0 for e in key)
+n_near = sum(abs(e.value - pub_key) <= 3 * e.stderr for e in key)
 nb.show(fig, "extra_specification_curve",
         f"FUZZY-IMMUKF's MSE is {-pub_key:.1f} m² below IMMUKF's (table: East+North).",
         f"FUZZY-IMMUKF is better by more than 3 s.e. in {n_better}, worse in {n_worse} of {len(key)} universes; "
         f"{n_near} universe(s) come within 3 s.e. of the published {pub_key:.1f} m² "
-        f"(largest improvement {-min(e['value'] for e in key):.2f} m²).")
+        f"(largest improvement {-min(e.value for e in key):.2f} m²).")
 
 # %%
 fig = views.table_match_figure(mv, title="How close does each reading come to the published tables? "
@@ -405,12 +393,12 @@ display(Markdown(views.table_match_table(mv)))
 
 # %%
 cols = []
-for alg in paper.ALGORITHMS:
-    cols.append((f"{alg} East RMS (m)", (paper.ITEM, alg, "East position RMS error (m)")))
+for alg in paper.algorithms:
+    cols.append((f"{alg} East RMS (m)", (text.ITEM, alg, "East position RMS error (m)")))
 for a, b in (("IMMUKF", "UKF"), ("FUZZY-IMMUKF", "IMMUKF")):
-    cols.append((f"{a} vs {b}: East reduction (%)", (paper.ITEM, f"{a} vs {b}", "East RMS reduction (%)")))
-cols += [("Δ MSE IMMUKF − UKF (m²)", ("effect", paper.IMM_EFFECT)),
-         ("Δ MSE FUZZY − IMMUKF (m²)", ("effect", paper.KEY_EFFECT))]
+    cols.append((f"{a} vs {b}: East reduction (%)", (text.ITEM, f"{a} vs {b}", "East RMS reduction (%)")))
+cols += [("Δ MSE IMMUKF − UKF (m²)", ("effect", text.IMM_EFFECT)),
+         ("Δ MSE FUZZY − IMMUKF (m²)", ("effect", paper.key_effect))]
 display(Markdown(views.one_factor_table(mv, cols)))
 
 # %% [markdown]
@@ -443,8 +431,8 @@ lines.append(f"- Of the {len(ns)} published numbers, {n_any} are reproduced (wit
              + (":" if n_any else "; the closest universe of each is in the numbers table above."))
 for n_ in ns:
     if n_["n_reproduced"]:
-        lines.append(f"  - {n_['algorithm']} {n_['quantity']} (paper {n_['paper']}): reproduced in {n_['n_reproduced']} "
-                     f"of {n_['n_universes']} universes")
+        lines.append(f"  - {n_['algorithm']} {n_['quantity']} (paper {n_['paper']}): reproduced in "
+                     f"{n_['n_reproduced']} of {n_['n_universes']} universes")
 for c in cs:
     counts = ", ".join(f"{k} {v}" for k, v in c["verdict_counts"].items())
     lines.append(f"- *{c['claim']}*: headline **{report.claim_category(c['headline_verdict'])}**; "
@@ -457,16 +445,10 @@ display(Markdown("\n".join(lines)))
 # ## Results file
 
 # %%
-prov = report.provenance(root_seed=nb.seed, n_runs=nb.n_runs, profile=nb.profile,
-                         extra={"paper_citation": paper.CITATION, "oracle_runs": mc_oracle.n_runs,
-                                "multiverse_runs": mv.n_runs, "multiverse_design": mv.design.kind,
-                                "mmlib": mmlib.__version__})
-# digest of the headline's per-run numbers over the first smoke-size runs (the same runs in every profile):
-# tests/tolerance/test_results.py recomputes it in the smoke profile and compares it with the committed one exactly
-digest = digests.run_digest(res, min(nb.n_runs, PROFILES["smoke"]["n_runs"]))
-report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows, claims=claims.as_list(),
-                     deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures, digest=digest,
-                     multiverse=mv.as_dict(), diverged_runs=diverged, oracle_schedules=oracle_json,
-                     ukf_minus_ekf_max_m=ukf_ekf, satellites_in_view=[int(n_vis.min()), int(n_vis.max())])
-counts_v = {v: sum(r.verdict.startswith(v) for r in rows) for v in report.VERDICTS}
-print(f"wrote {nb.results_path} ({len(rows)} rows): {counts_v}")
+# the digest: the headline's per-run numbers over the first smoke-size runs (the same runs in every profile), which
+# tests/tolerance/test_digest.py recomputes and compares with the committed one
+nb.write_results(rows=rows, digest=digests.run_digest(res, nb.digest_runs), claims=claims, multiverse=mv,
+                 deviations=[d.as_dict() for d in paper.deviations], diverged_runs=diverged,
+                 oracle_schedules=oracle_json, ukf_minus_ekf_max_m=ukf_ekf,
+                 satellites_in_view=[int(n_vis.min()), int(n_vis.max())],
+                 provenance={"oracle_runs": mc_oracle.n_runs})

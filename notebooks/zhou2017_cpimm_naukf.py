@@ -21,14 +21,17 @@
 # strategy of the IMM combinator (`mmlib/core/mixing.py`) and NAUKF a layer over any sigma-point filter
 # (`mmlib/core/layers/adaptive.py`).
 #
-# **Verdict rule** (`mmlib/experiment/report.py`): *reproduced* within 3 combined standard errors; *qualitatively reproduced*
-# within 25 %; *not reproduced* otherwise; *not replicable* when method or data are not published. Claims get
-# *holds / partly / contradicted / not supported / not assessable* from paired differences on common random numbers.
+# **Verdict rule** (`mmlib/experiment/report.py`): *reproduced* within 3 combined standard errors; *qualitatively
+# reproduced* within 25 %; *not reproduced* otherwise; *not replicable* when method or data are not published. Claims
+# get *holds / partly / contradicted / not supported / not assessable* from paired differences on common random
+# numbers.
 #
 # The paper is ambiguous in several places (units of R, the fault model, the truth, NAUKF's details, the process
-# noise). Every ambiguity is a numbered factor of `paper.SPACE`; the tables and claims below are the **headline
-# reading**, and the section *Reading space* runs every reading and says which of them, if any, reproduce the
-# published tables and whether each claim's verdict depends on the reading.
+# noise). Every ambiguity is a numbered factor of the paper's reading space (`text.SPACE`); the tables and claims
+# below are the **headline reading**, and the section *Reading space* runs every reading and says which of them, if
+# any, reproduce the published tables and whether each claim's verdict depends on the reading. The paper's declared
+# text (tables, deviations, reading space), its set-up and the one-universe evaluation live in the package
+# `mmlib/papers/zhou2017/` (`text`, `setup`, `study`, `section23`, `diagnostics`).
 
 # %% tags=["parameters"]
 PROFILE = "full"          # "full" (the paper's 100 runs) or "smoke" (a prefix of the full runs)
@@ -42,32 +45,24 @@ MULTIVERSE_DESIGN = None  # override the profile's design ("auto", "full", "frac
 PROGRESS = True
 
 # %%
-import json
-
 import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import Markdown, display
 from scipy import stats
 
-import mmlib
-from mmlib.experiment import metrics, report
-from mmlib.experiment.montecarlo import MonteCarlo
-from mmlib.experiment import digests, evaluation, run_multiverse, views
-from mmlib.papers import zhou2017 as paper
+from mmlib.experiment import digests, evaluation, metrics, report, views
+from mmlib.papers import REGISTRY
 from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                        shade_intervals, value_pm)
+from mmlib.papers.zhou2017 import diagnostics, section23, study, text
+from mmlib.papers.zhou2017.setup import make_batch_fn
 
-# full: the paper's 100 runs for the headline and for every universe of the design (the full product of the nine
-# factors, 1152 universes, exceeds the budget, so the design is the stated fractional design of paper.SPACE: 37
-# universes, ~1-1.5 CPU s each at 100 runs, ~25 s with 2 workers). smoke: 20 runs, the star design at the same 20 runs, so that its
-# headline universe equals this notebook's headline rows bit for bit.
-PROFILES = {"full": dict(n_runs=paper.N_RUNS_PAPER, timing_runs=1, timing_repeats=1, mv_runs=paper.N_RUNS_PAPER,
-                         mv_design="auto"),
-            "smoke": dict(n_runs=20, timing_runs=1, timing_repeats=1, mv_runs=20, mv_design="star")}
-nb = NotebookRun(paper.PAPER, paper.ROOT_SEED, PROFILES, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED,
-                 OUTPUT_ROOT=OUTPUT_ROOT, N_TIMING_RUNS=N_TIMING_RUNS, WORKERS=WORKERS,
-                 MULTIVERSE_RUNS=MULTIVERSE_RUNS, MULTIVERSE_DESIGN=MULTIVERSE_DESIGN)
-mc = MonteCarlo(nb.seed, nb.n_runs)
+paper = REGISTRY["zhou2017"]
+
+nb = NotebookRun(paper, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED, OUTPUT_ROOT=OUTPUT_ROOT,
+                 N_TIMING_RUNS=N_TIMING_RUNS, WORKERS=WORKERS, MULTIVERSE_RUNS=MULTIVERSE_RUNS,
+                 MULTIVERSE_DESIGN=MULTIVERSE_DESIGN, PROGRESS=PROGRESS)
+mc = nb.mc()
 plot_style()
 print(nb)
 
@@ -75,7 +70,7 @@ print(nb)
 # ## Deviations
 
 # %%
-display(Markdown(deviations_table(paper.DEVIATIONS)))
+display(Markdown(deviations_table(paper.deviations)))
 
 # %% [markdown]
 # ## Section 2.3 — Table 1 and Figure 2: which random variable does each method describe?
@@ -97,41 +92,44 @@ display(Markdown(deviations_table(paper.DEVIATIONS)))
 # reading space.
 
 # %%
-rows, ex = paper.section23_rows(nb.seed)
+rows, ex = section23.section23_rows(nb.seed)
 display(Markdown(rows_table(rows)))
 print(f"for comparison, 10,000 samples of the mixture: mean {ex['mixture_mean']:.4f}, s.d. {ex['mixture_sd']:.4f}")
 
-u, xs, sds = np.array(paper.EXAMPLE_U), np.array(paper.EXAMPLE_MEANS), np.array(paper.EXAMPLE_SD)
+u, xs, sds = np.array(text.EXAMPLE_U), np.array(text.EXAMPLE_MEANS), np.array(text.EXAMPLE_SD)
 grid = np.linspace(-14, 14, 800)
 fig, ax = plt.subplots(figsize=(7.5, 4))
 for i in range(3):
-    ax.plot(grid, u[i] * stats.norm.pdf(grid, xs[i], sds[i]), "0.6", lw=1, label="weighted components" if i == 0 else None)
+    ax.plot(grid, u[i] * stats.norm.pdf(grid, xs[i], sds[i]), "0.6", lw=1,
+            label="weighted components" if i == 0 else None)
 ax.plot(grid, (u[:, None] * stats.norm.pdf(grid[None], xs[:, None], sds[:, None])).sum(0), "k-", lw=2.5,
         label="mixture (the IMM interaction)")
 ax.plot(grid, stats.norm.pdf(grid, ex["mse_mean"], ex["mse_sd"]), "C0--", lw=1.6,
         label=f"moment-matched Gaussian (MSE), s.d. {ex['mse_sd']:.4f}")
 ax.plot(grid, stats.norm.pdf(grid, ex["mse_mean"], ex["cp_sd"]), "C3:", lw=2,
         label=f"CP: weighted sum of independent x_i, s.d. {ex['cp_sd']:.4f}")
-ax.set(xlabel="x", ylabel="probability density", title="Fig. 2 — the mixture after interaction, and what MSE and CP describe")
+ax.set(xlabel="x", ylabel="probability density",
+       title="Fig. 2 — the mixture after interaction, and what MSE and CP describe")
 ax.legend(fontsize=8)
-nb.show(fig, "fig02_mixture_density", "the mixture is multi-peaked; MSE overestimates its covariance, CP is close to MC.",
+nb.show(fig, "fig02_mixture_density",
+        "the mixture is multi-peaked; MSE overestimates its covariance, CP is close to MC.",
         "the mixture is multi-peaked (reproduced); but MSE gives the mixture's exact s.d., while CP and the paper's MC "
         "describe a different variable (the weighted sum).")
 
 # %% [markdown]
 # ## The headline reading: Section 4.1, Cases 1 and 2
 #
-# One call evaluates the headline reading (`paper.evaluate_reading`: Case 1 with IMM-UKF, CPIMM-UKF, IMM-EKF and
+# One call evaluates the headline reading (`study.evaluate_reading`: Case 1 with IMM-UKF, CPIMM-UKF, IMM-EKF and
 # IMM-CKF; Case 2 with IMM-UKF, IMM-NAUKF, CPIMM-UKF and CPIMM-NAUKF, all on the same runs), and one call judges it
-# (`paper.judge`: the Table 2–3 rows, the claims, the effects). The multiverse below runs exactly these functions
+# (`study.judge_claims`: the Table 2–3 rows, the claims, the effects). The multiverse below runs exactly these functions
 # for every reading, so the headline universe is these numbers.
 
 # %%
-head = paper.evaluate_reading(paper.SPACE.headline, mc, progress=PROGRESS)
-head_rows, claims, head_effects, head_diverged = paper.judge(head, nb.n_runs)
+head = study.evaluate_reading(paper.headline, mc, progress=PROGRESS)
+head_rows, claims, _, _ = study.judge_claims(head)
 res1, res2 = head["case 1"], head["case 2"]
 rows += head_rows
-case1, case2 = paper.setups(paper.SPACE.headline)
+case1, case2 = paper.headline_setup()
 t = np.arange(1, case1.n_steps + 1) * case1.T
 turns = [(a, b) for a, b, _ in case1.turns]
 
@@ -146,7 +144,7 @@ turns = [(a, b) for a, b, _ in case1.turns]
 # %%
 display(Markdown(rows_table([r for r in rows if r.item == "Table 2"])))
 
-mb1, _, _ = paper.make_batch_fn(case1, mc, names=())
+mb1, _, _ = make_batch_fn(case1, mc, names=())
 truth1 = mb1(range(1))[0]
 fig, ax = plt.subplots(figsize=(6, 5))
 ax.plot(truth1[0, :, 0], truth1[0, :, 2], "k-", lw=2)
@@ -166,11 +164,11 @@ nb.show(fig, "fig05_estimated_trajectories_case1", "both CPIMM and IMM track the
 
 styles = {"IMM-UKF": dict(color="C0", ls="--", lw=1.5), "CPIMM-UKF": dict(color="C3", ls="-", lw=1.5),
           "IMM-NAUKF": dict(color="C2", ls=":", lw=1.5), "CPIMM-NAUKF": dict(color="C1", ls="-", lw=2.2)}
-for fignum, comps, what, unit in ((6, paper.POSITION, "position", "m"), (7, paper.VELOCITY, "velocity", "m/s")):
+for fignum, comps, what, unit in ((6, study.POSITION, "position", "m"), (7, study.VELOCITY, "velocity", "m/s")):
     fig, ax = plt.subplots(figsize=(7.5, 3.8))
     shade_intervals(ax, turns, label="turn")
     for alg in ("IMM-UKF", "CPIMM-UKF"):
-        ax.plot(t, metrics.rmse_over_time(paper.error_norms(res1[alg], comps), res1[alg].valid).value, label=alg,
+        ax.plot(t, metrics.rmse_over_time(study.error_norms(res1[alg], comps), res1[alg].valid).value, label=alg,
                 **styles[alg])
     ax.set(xlabel="time (s)", ylabel=f"RMSE of {what} ({unit})", ylim=(0, None),
            title=f"Fig. {fignum} — {what} RMSE, Case 1 ({nb.n_runs} runs)")
@@ -179,7 +177,7 @@ for fignum, comps, what, unit in ((6, paper.POSITION, "position", "m"), (7, pape
             "not reproduced: the two curves nearly coincide (see the claims for the paired difference).")
 
 # %%
-nees1 = paper.nees_case1(paper.SPACE.headline, mc)
+nees1 = diagnostics.nees_case1(paper.headline, mc)
 print("time-averaged NEES over the first 50 runs (4 = consistent):", {k: round(v, 2) for k, v in nees1.items()})
 
 # %% [markdown]
@@ -195,13 +193,13 @@ print("time-averaged NEES over the first 50 runs (4 = consistent):", {k: round(v
 div2 = {k: int((~r.valid).sum()) for k, r in res2.items()}
 print("Case 2, diverged runs (as printed):", div2)
 print(evaluation.divergence_report(res2))          # the step at which each diverged and why
-inflate_only = paper.SPACE.with_headline(**{"Z-12": "inflate-only"})
-alt2 = paper.evaluate_reading(inflate_only, mc)["case 2"]
-variant_rows = paper.table_rows("Table 3 (inflate-only NAUKF, not in the paper)", alt2, (("IMM-NAUKF", "IMM-NAUKF"),
-                                ("CPIMM-NAUKF", "CPIMM-NAUKF")), paper.TABLE3, paper.TABLE3_DEVIATIONS)
+inflate_only = paper.space.with_headline(**{"Z-12": "inflate-only"})
+alt2 = study.evaluate_reading(inflate_only, mc)["case 2"]
+variant_rows = study.table_rows("Table 3 (inflate-only NAUKF, not in the paper)", alt2, (("IMM-NAUKF", "IMM-NAUKF"),
+                                ("CPIMM-NAUKF", "CPIMM-NAUKF")), text.TABLE3, text.TABLE3_DEVIATIONS)
 display(Markdown(rows_table([r for r in rows if r.item == "Table 3"] + variant_rows)))
 
-mb2, _, _ = paper.make_batch_fn(case2, mc, names=())
+mb2, _, _ = make_batch_fn(case2, mc, names=())
 truth2 = mb2(range(1))[0]
 fig, ax = plt.subplots(figsize=(6, 5))
 ax.plot(truth2[0, :, 0], truth2[0, :, 2], "-", color="0.7", lw=5, label="truth")
@@ -211,18 +209,19 @@ for alg in ("IMM-UKF", "CPIMM-UKF"):
 for alg in ("IMM-NAUKF", "CPIMM-NAUKF"):
     ax.plot(alt2[alg].example_mean[:, 0], alt2[alg].example_mean[:, 2], lw=1.4, label=alg + " (inflate-only)",
             **{k: v for k, v in styles[alg].items() if k != "lw"})
-ax.set(xlabel="x (m)", ylabel="y (m)", title="Fig. 8 — true and estimated trajectories with faults (run 1)", aspect="equal")
+ax.set(xlabel="x (m)", ylabel="y (m)", title="Fig. 8 — true and estimated trajectories with faults (run 1)",
+       aspect="equal")
 ax.legend(fontsize=8)
 nb.show(fig, "fig08_estimated_trajectories_case2", "CPIMM-NAUKF's estimate is closest to the truth.",
         "not reproduced: every estimate follows the drifting bearing; NAUKF as printed diverges (Z-12).")
-for fignum, comps, what, unit in ((9, paper.POSITION, "position", "m"), (10, paper.VELOCITY, "velocity", "m/s")):
+for fignum, comps, what, unit in ((9, study.POSITION, "position", "m"), (10, study.VELOCITY, "velocity", "m/s")):
     fig, ax = plt.subplots(figsize=(7.5, 3.8))
     shade_intervals(ax, turns, label="turn")
     for alg in ("IMM-UKF", "CPIMM-UKF"):
-        ax.plot(t, metrics.rmse_over_time(paper.error_norms(res2[alg], comps), res2[alg].valid).value, label=alg,
+        ax.plot(t, metrics.rmse_over_time(study.error_norms(res2[alg], comps), res2[alg].valid).value, label=alg,
                 **styles[alg])
     for alg in ("IMM-NAUKF", "CPIMM-NAUKF"):
-        ax.plot(t, metrics.rmse_over_time(paper.error_norms(alt2[alg], comps), alt2[alg].valid).value,
+        ax.plot(t, metrics.rmse_over_time(study.error_norms(alt2[alg], comps), alt2[alg].valid).value,
                 label=alg + " (inflate-only)", **styles[alg])
     ax.set(xlabel="time (s)", ylabel=f"RMSE of {what} ({unit})", yscale="log",
            title=f"Fig. {fignum} — {what} RMSE with sensor faults ({nb.n_runs} runs; NAUKF as printed diverges)")
@@ -244,8 +243,8 @@ for fignum, comps, what, unit in ((9, paper.POSITION, "position", "m"), (10, pap
 # nonlinear radar scenario of Section 4.1 (Case 1, IMM with each filter; see the claims).
 
 # %%
-rows += paper.field_experiment_rows()
-an_rows, analogue = paper.gps_analogue_table(mc)
+rows += diagnostics.field_experiment_rows()
+an_rows, analogue = diagnostics.gps_analogue_table(mc)
 display(Markdown(markdown_table(["filter (synthetic analogue)", "x MAE (m)", "y MAE (m)", "diverged runs"], an_rows)))
 
 # %% [markdown]
@@ -266,14 +265,12 @@ display(Markdown(markdown_table(["claim", "verdict", "evidence"],
 # that differ only in how the filters work (Z-5, Z-7, Z-8, Z-12, Z-13) see the same truths, measurements and faults.
 
 # %%
-display(Markdown(views.factors_table(paper.SPACE)))
-display(Markdown(views.options_table(paper.SPACE)))
-mv = run_multiverse(paper.SPACE, paper.universe, published=paper.PUBLISHED, n_runs=nb.mv_runs, seed=nb.seed,
-                    algorithms=paper.MV_ALGORITHMS, design=nb.mv_design, n_runs_paper=paper.N_RUNS_PAPER,
-                    workers=nb.workers, progress=PROGRESS)
+display(Markdown(views.factors_table(paper.space)))
+display(Markdown(views.options_table(paper.space)))
+mv = nb.multiverse()
 print(f"{mv.design.description}; {mv.n_runs} Monte Carlo runs per universe")
 if nb.mv_runs == nb.n_runs:      # then the headline universe is this notebook's headline, bit for bit
-    assert digests.same_numbers(mv.headline, json.loads(json.dumps(paper.summarise(head, nb.n_runs))))
+    assert digests.same_numbers(mv.headline, study.summarise(head, nb.n_runs))
 
 # %% [markdown]
 # ### Specification curve of the key effect
@@ -286,8 +283,8 @@ if nb.mv_runs == nb.n_runs:      # then the headline universe is this notebook's
 # circle).
 
 # %%
-n_key = sum(mv.effect(u_, paper.KEY_EFFECT)["value"] is not None for u_ in mv.universes)
-fig = views.specification_curve(mv, paper.KEY_EFFECT, symlog=True,
+n_key = sum(mv.effect(u_, paper.key_effect).value is not None for u_ in mv.universes)
+fig = views.specification_curve(mv, paper.key_effect, symlog=True,
                                 ylabel="Δ position MSE (m²)",
                                 title=f"Case 2, paired position MSE of CPIMM-NAUKF − IMM-UKF (< 0: the proposal "
                                       f"is better)\nin every reading: {n_key} of {len(mv.universes)} universes have "
@@ -321,11 +318,11 @@ display(Markdown(views.table_match_table(mv)))
 
 # %%
 display(Markdown(views.one_factor_table(mv, [
-    ("Table 2 IMM-UKF position mean (m)", ("Table 2", "IMM-UKF", paper.TABLE_QUANTITIES[0])),
-    ("Table 3 IMM-UKF position mean (m)", ("Table 3", "IMM-UKF", paper.TABLE_QUANTITIES[0])),
-    ("Table 3 CPIMM-UKF position mean (m)", ("Table 3", "CPIMM-UKF", paper.TABLE_QUANTITIES[0])),
-    ("Table 3 CPIMM-NAUKF position mean (m)", ("Table 3", "CPIMM-NAUKF", paper.TABLE_QUANTITIES[0])),
-    ("key effect (m²)", ("effect", paper.KEY_EFFECT))])))
+    ("Table 2 IMM-UKF position mean (m)", ("Table 2", "IMM-UKF", text.TABLE_QUANTITIES[0])),
+    ("Table 3 IMM-UKF position mean (m)", ("Table 3", "IMM-UKF", text.TABLE_QUANTITIES[0])),
+    ("Table 3 CPIMM-UKF position mean (m)", ("Table 3", "CPIMM-UKF", text.TABLE_QUANTITIES[0])),
+    ("Table 3 CPIMM-NAUKF position mean (m)", ("Table 3", "CPIMM-NAUKF", text.TABLE_QUANTITIES[0])),
+    ("key effect (m²)", ("effect", paper.key_effect))])))
 
 # %% [markdown]
 # ### What the multiverse says
@@ -360,22 +357,22 @@ for c in mv.claims_summary():
     lines.append(f"* *{c['claim']}* — headline: {report.claim_category(c['headline_verdict'])}; across the "
                  f"{c['n_universes']} universes: {counts} — "
                  + ("**robust**." if c["robust"] else "**depends on the reading**."))
-key_vals = [(mv.effect(u_, paper.KEY_EFFECT), r_) for u_, r_ in zip(mv.universes, mv.readings)]
-published_key = mv.effect(mv.headline, paper.KEY_EFFECT)["published"]
-valued = [(e, r_) for e, r_ in key_vals if e["value"] is not None]
-defined = [(e, r_) for e, r_ in valued if e["stderr"] is not None]
-neg = [(e, r_) for e, r_ in defined if e["value"] + 3 * e["stderr"] < 0]
-pos = [(e, r_) for e, r_ in defined if e["value"] - 3 * e["stderr"] > 0]
+key_vals = [(mv.effect(u_, paper.key_effect), r_) for u_, r_ in zip(mv.universes, mv.readings)]
+published_key = mv.effect(mv.headline, paper.key_effect).published
+valued = [(e, r_) for e, r_ in key_vals if e.value is not None]
+defined = [(e, r_) for e, r_ in valued if e.stderr is not None]
+neg = [(e, r_) for e, r_ in defined if e.value + 3 * e.stderr < 0]
+pos = [(e, r_) for e, r_ in defined if e.value - 3 * e.stderr > 0]
 # the verdict rule's test: within 3 s.e. of the published value AND precise enough to tell (3 s.e. <= 25 %)
-match = [(e, r_) for e, r_ in defined if abs(e["value"] - published_key) <= 3 * e["stderr"]
-         and 3 * e["stderr"] <= report.RELATIVE_BAND * abs(published_key)]
-vague = [(e, r_) for e, r_ in defined if abs(e["value"] - published_key) <= 3 * e["stderr"]]
+match = [(e, r_) for e, r_ in defined if abs(e.value - published_key) <= 3 * e.stderr
+         and 3 * e.stderr <= report.RELATIVE_BAND * abs(published_key)]
+vague = [(e, r_) for e, r_ in defined if abs(e.value - published_key) <= 3 * e.stderr]
 lines.append(f"* Key effect (CPIMM-NAUKF − IMM-UKF, Case 2 position MSE; the paper implies {published_key:.1f} m²): "
              f"a value in {len(valued)} of {len(mv.universes)} universes (in the others CPIMM-NAUKF diverges in every "
              f"run; {len(valued) - len(defined)} value(s) rest on a single surviving run, without a standard error); "
              f"below zero by more than 3 standard errors in {len(neg)}, above zero by more than 3 in {len(pos)}; "
              f"reproducing the published value (within 3 s.e. and precise enough to tell) in {len(match)}"
-             + (": " + "; ".join(f"{value_pm(e['value'], e['stderr'], 0)} m² ({paper.SPACE.describe(r_)})"
+             + (": " + "; ".join(f"{value_pm(e.value, e.stderr, 0)} m² ({paper.space.describe(r_)})"
                                  for e, r_ in match) if match else "")
              + (f"; {len(vague) - len(match)} more are within 3 s.e. only because their error is wider than 25 % "
                 f"of it (inconclusive)" if len(vague) > len(match) else "") + ".")
@@ -387,14 +384,8 @@ display(Markdown("\n".join(lines)))
 # ## Results file
 
 # %%
-prov = report.provenance(root_seed=nb.seed, n_runs=nb.n_runs, profile=nb.profile,
-                         extra={"paper_citation": paper.CITATION, "mmlib": mmlib.__version__})
-# digest of the headline's per-run numbers over the first smoke-size runs (the same runs in every profile):
-# tests/tolerance/test_results.py recomputes it in the smoke profile and compares it with the committed one exactly
-digest = digests.run_digest(head, min(nb.n_runs, PROFILES["smoke"]["n_runs"]))
-report.write_results(nb.results_path, paper=paper.PAPER, provenance=prov, rows=rows + variant_rows, digest=digest,
-                     claims=claims.as_list(), deviations=[d.as_dict() for d in paper.DEVIATIONS], figures=nb.figures,
-                     multiverse=mv.as_dict(), diverged_runs={"case 2 (as printed)": div2}, nees_case1=nees1,
-                     synthetic_analogue=analogue)
-counts_v = {v: sum(r.verdict.startswith(v) for r in rows + variant_rows) for v in report.VERDICTS}
-print(f"wrote {nb.results_path} ({len(rows) + len(variant_rows)} rows): {counts_v}")
+# the digest: the headline's per-run numbers over the first smoke-size runs (the same runs in every profile), which
+# tests/tolerance/test_digest.py recomputes without the notebook (study.headline_digest)
+nb.write_results(rows=rows + variant_rows, digest=digests.run_digest(head, nb.digest_runs), claims=claims,
+                 deviations=[d.as_dict() for d in paper.deviations], multiverse=mv,
+                 diverged_runs={"case 2 (as printed)": div2}, nees_case1=nees1, synthetic_analogue=analogue)

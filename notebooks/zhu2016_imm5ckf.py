@@ -20,11 +20,11 @@
 # This notebook regenerates every figure and table of Section 4, side by side with the published values, under a
 # *headline* reading of the paper, and then runs the paper's whole *reading space*: every combination of the declared
 # readings of its ambiguities (a multiverse), to show which results depend on how the paper is read.
-# The algorithms live in `mmlib`; the set-up, its numbered deviations, the reading space and the one-universe
-# evaluation live in `mmlib/papers/zhu2016.py`.
+# The algorithms live in `mmlib`; the paper's declared text (Table 1, numbered deviations, reading space), its set-up
+# and the one-universe evaluation live in the package `mmlib/papers/zhu2016/` (`text`, `setup`, `study`).
 #
-# **Verdict rule** (one rule for the whole repository, `mmlib/experiment/report.py`): a printed value is *reproduced* if it
-# lies within 3 combined standard errors of ours (our Monte Carlo error, the paper's estimated from its run count,
+# **Verdict rule** (one rule for the whole repository, `mmlib/experiment/report.py`): a printed value is *reproduced* if
+# it lies within 3 combined standard errors of ours (our Monte Carlo error, the paper's estimated from its run count,
 # and half a unit of its last printed digit), unless those 3 standard errors are wider than 25 % of it, when it is
 # *inconclusive* (never counted as reproduced); *qualitatively reproduced* if not within 3 standard errors, but within
 # 25 %; *not reproduced* otherwise; *not replicable* when the method or data is not published.
@@ -35,43 +35,33 @@ PROFILE = "full"          # "full" (the paper's 100 runs) or "smoke" (quick chec
 N_RUNS = None             # override the profile's Monte Carlo count
 SEED = None               # override the paper's root seed
 OUTPUT_ROOT = ""          # folder that receives figures/ and data/results/; empty means the repository root
-N_TIMING_RUNS = None      # runs timed batched in every repeat (the first paper.TIMING_PER_REPEAT also one at a time)
+N_TIMING_RUNS = None      # runs timed batched in every repeat (the first timing.TIMING_PER_REPEAT also one at a time)
 WORKERS = None            # worker processes of the multiverse (None: one per core)
 MULTIVERSE_RUNS = None    # override the profile's Monte Carlo runs per universe
 MULTIVERSE_DESIGN = None  # override the profile's design: "auto", "full", "fractional" or "star"
 PROGRESS = True
 
 # %%
-import json
 import time
 
 import matplotlib.pyplot as plt
-import numpy as np
 from IPython.display import Markdown, display
 
 import mmlib
-from mmlib.experiment import metrics, report
-from mmlib.experiment.montecarlo import MonteCarlo
-from mmlib.experiment import digests, evaluation, run_multiverse, views
-from mmlib.papers import zhu2016 as paper
+from mmlib.experiment import digests, evaluation, metrics, report, views
+from mmlib.papers import REGISTRY
 from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                        shade_intervals, value_pm)
+from mmlib.papers.zhu2016 import diagnostics, study, text, timing
+from mmlib.papers.zhu2016.setup import build
 
-# full: the headline at the paper's 100 runs; the multiverse (192 universes) at 40 runs per universe, which keeps it
-# within its share of the 10-minute budget of all five papers (0.34 CPU-s per universe, 65 CPU-s in all, about 35 s
-# with 2 workers); smoke: a prefix of the
-# same runs, and the star design (headline + each option alone) at the smoke run count, so that the smoke headline
-# universe equals the smoke headline rows bit for bit. Run times: 30 interleaved repeats of CPU time in the full profile
-# (about 12 CPU-s, before the multiverse's workers start), 3 in smoke.
-PROFILES = {"full": dict(n_runs=paper.N_RUNS_PAPER, timing_runs=10, timing_repeats=30, mv_runs=40, mv_design="auto"),
-            "smoke": dict(n_runs=20, timing_runs=2, timing_repeats=3, mv_runs=20, mv_design="star")}
-nb = NotebookRun(paper.PAPER, paper.ROOT_SEED, PROFILES, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED,
-                 OUTPUT_ROOT=OUTPUT_ROOT, N_TIMING_RUNS=N_TIMING_RUNS, WORKERS=WORKERS,
-                 MULTIVERSE_RUNS=MULTIVERSE_RUNS, MULTIVERSE_DESIGN=MULTIVERSE_DESIGN)
-n_runs, seed, root = nb.n_runs, nb.seed, nb.root
-timing_runs, timing_repeats = nb.timing_runs, nb.timing_repeats
-results_path = nb.results_path
-mc = MonteCarlo(seed, n_runs)
+paper = REGISTRY["zhu2016"]
+
+nb = NotebookRun(paper, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED, OUTPUT_ROOT=OUTPUT_ROOT,
+                 N_TIMING_RUNS=N_TIMING_RUNS, WORKERS=WORKERS, MULTIVERSE_RUNS=MULTIVERSE_RUNS,
+                 MULTIVERSE_DESIGN=MULTIVERSE_DESIGN, PROGRESS=PROGRESS)
+n_runs, timing_runs, timing_repeats = nb.n_runs, nb.timing_runs, nb.timing_repeats
+mc = nb.mc()
 plot_style()
 print(nb)
 
@@ -85,11 +75,11 @@ print(nb)
 # cannot move one. The headline reading, used for Table 1 and Figures 2–7, is the first option of every factor.
 
 # %%
-head = paper.SPACE.headline
-setup = paper.setups(head)
-display(Markdown(deviations_table(paper.DEVIATIONS)))
-display(Markdown(views.factors_table(paper.SPACE)))
-display(Markdown(views.options_table(paper.SPACE)))
+head = paper.headline
+setup = paper.setup(head)
+display(Markdown(deviations_table(paper.deviations)))
+display(Markdown(views.factors_table(paper.space)))
+display(Markdown(views.options_table(paper.space)))
 
 # %% [markdown]
 # ## Why IMM5CKF, IMMCKF and IMMUKF must coincide here
@@ -106,10 +96,11 @@ display(Markdown(views.options_table(paper.SPACE)))
 
 # %%
 t0 = time.perf_counter()
-results = paper.evaluate_reading(head, mc, progress=PROGRESS)
+results = study.evaluate_reading(head, mc, progress=PROGRESS)
 print(f"headline Monte Carlo: {n_runs} runs x {len(results)} estimators in {time.perf_counter() - t0:.2f} s")
-make_batch, estimators, schedule = paper.make_batch_fn(setup, mc)      # for the timing, trajectory and NEES cells
-coincide = paper.coincidence(results)
+make_batch, estimators = paper.batch(setup, mc)      # for the timing, trajectory and NEES cells
+schedule = build(setup)[0]                           # the truth's manoeuvre schedule (time axis of the figures)
+coincide = study.coincidence(results)
 display(Markdown(markdown_table(["algorithm", "max |estimate − IMM-KF estimate| (m, m/s)", "max |μ − μ(IMM-KF)|"],
                                 [[k, f"{v:.2e}", f"{coincide['max_abs_mode_probability_difference_vs_IMM_KF'][k]:.2e}"]
                                  for k, v in coincide["max_abs_estimate_difference_vs_IMM_KF"].items()])))
@@ -123,29 +114,29 @@ print(evaluation.divergence_report(results))       # the step at which each dive
 # Run times are compared as ratios to IMMCKF (absolute MATLAB seconds cannot be compared across languages and
 # machines, Z-15). They are CPU times of the computing thread (other processes on the machine do not count), with the
 # algorithms taking turns run by run in every repeat; a repeat's one-at-a-time time is the fastest of its runs (they
-# all do the same work). Each ratio is the median over the repeats of the per-repeat ratio, with its robust standard error
-# (`metrics.timing_ratio`), and
-# is judged by the same verdict rule as every other number.
+# all do the same work). Each ratio is the median over the repeats of the per-repeat ratio, with its robust standard
+# error (`metrics.timing_ratio`), and is judged by the same verdict rule as every other number.
 
 # %%
-rows = paper.table1_rows(results)
-rmse = paper.rmse_values(results)
+rows = study.table1_rows(results)
+rmse = study.rmse_values(results)
 
 # Run time (Z-15): CPU time per run, one run at a time (the paper's way) and batched, the algorithms taking turns in
 # every one of `timing_repeats` repeats; rows and the timing claim from the per-repeat ratios to IMMCKF.
 timing_batch = make_batch(range(timing_runs))
-per_run, batched = evaluation.time_algorithms({alg: estimators[alg] for alg in paper.RMSE_ALGORITHMS}, timing_batch[2],
-                                     timing_batch[1], repeats=timing_repeats,
-                                     per_repeat=min(paper.TIMING_PER_REPEAT, timing_runs))
+per_run, batched = evaluation.time_algorithms({alg: estimators[alg] for alg in text.RMSE_ALGORITHMS}, timing_batch[2],
+                                              timing_batch[1], repeats=timing_repeats,
+                                              per_repeat=min(timing.TIMING_PER_REPEAT, timing_runs))
 timing_claims = report.Claims()
-timing_table1_rows, timing_rows = paper.judge_timing(per_run, batched, timing_claims)
+timing_table1_rows, timing_rows = timing.judge_timing(per_run, batched, timing_claims)
 rows += timing_table1_rows
 
 table1 = [r for r in rows if r.item == "Table 1"]
 display(Markdown(rows_table(table1)))
 display(Markdown(markdown_table(
-    ["algorithm", "paper time (s)", "paper ratio", "ours: ratio, one run at a time", "ours: CPU ms per run (one at a time)",
-     "ours: CPU ms per run (batched)", "ours: ratio, batched", "batching speed-up"], timing_rows)))
+    ["algorithm", "paper time (s)", "paper ratio", "ours: ratio, one run at a time",
+     "ours: CPU ms per run (one at a time)", "ours: CPU ms per run (batched)", "ours: ratio, batched",
+     "batching speed-up"], timing_rows)))
 order = sorted((a for a in per_run), key=lambda a: per_run[a].mean())
 t_claim = [c for c in timing_claims][0]
 display(Markdown(f"Measured one run at a time, the algorithms rank {' < '.join(order)} in CPU time per run; "
@@ -162,11 +153,11 @@ display(Markdown(f"Measured one run at a time, the algorithms rank {' < '.join(o
 # model it used; none of the declared single models — CV or either coordinated turn of Eq. 61, factor Z-10 — comes
 # near the paper's 27.5 m, see the reading space below).
 # The point counts predict the run-time ordering 5CKF < IMMCKF ≈ IMMUKF < IMM5CKF: 2n² + 1 = 33 points against
-# 2n = 8 (CKF) and 2n + 1 = 9 (UKF) for n = 4 (the measured ranking is printed under the timing table). The *size* of the IMM5CKF penalty depends on the
-# implementation: the paper's ≈ 2× matches a point-by-point loop (MATLAB); run one at a time in numpy, the cost per
-# step is dominated by a fixed number of array calls, not by the point count, so the ratio is closer to 1; batched,
-# where arithmetic dominates, the ratio grows again (second timing table). The verdict on the ratio is therefore
-# about implementation, not about the method.
+# 2n = 8 (CKF) and 2n + 1 = 9 (UKF) for n = 4 (the measured ranking is printed under the timing table). The *size* of
+# the IMM5CKF penalty depends on the implementation: the paper's ≈ 2× matches a point-by-point loop (MATLAB); run one
+# at a time in numpy, the cost per step is dominated by a fixed number of array calls, not by the point count, so the
+# ratio is closer to 1; batched, where arithmetic dominates, the ratio grows again (second timing table). The verdict
+# on the ratio is therefore about implementation, not about the method.
 
 # %% [markdown]
 # ## A lower bound implied by the printed parameters (not in the paper)
@@ -178,16 +169,16 @@ display(Markdown(f"Measured one run at a time, the algorithms rank {' < '.join(o
 # The steady-state solution of the Riccati equation for a CV target gives nearly the same floor in closed form.
 
 # %%
-riccati = paper.cv_steady_state_sd(setup)
-floor = paper.floor_check(results)
+riccati = diagnostics.cv_steady_state_sd(setup)
+floor = study.floor_check(results)
 lower_bound = {f["quantity"]: {"clairvoyant_kf": [f["floor"], f["floor_stderr"]], "cv_steady_state_sd": riccati[comp],
                                "smallest_paper_imm": f["paper_min_imm"], "z": f["z"]}
-               for f, (_, comp) in zip(floor, paper.QUANTITIES)}
+               for f, (_, comp) in zip(floor, text.QUANTITIES)}
 bound_rows = [[f["quantity"], value_pm(f["floor"], f["floor_stderr"]), f"{riccati[comp]:.3f}",
                value_pm(rmse[("IMM5CKF", f["quantity"])].value, rmse[("IMM5CKF", f["quantity"])].stderr),
-               ", ".join(paper.TABLE1[a][qi] for a in ("IMM5CKF", "IMMCKF", "IMMUKF")), f"{f['z']:+.1f}",
+               ", ".join(text.TABLE1[a][qi] for a in ("IMM5CKF", "IMMCKF", "IMMUKF")), f"{f['z']:+.1f}",
                report.claim_verdict(-f["z"], 1.0, +1)]
-              for qi, (f, (_, comp)) in enumerate(zip(floor, paper.QUANTITIES))]
+              for qi, (f, (_, comp)) in enumerate(zip(floor, text.QUANTITIES))]
 display(Markdown(markdown_table(["quantity", "clairvoyant KF (floor)", "CV steady-state s.d.", "our IMM5CKF",
                                  "paper IMM5CKF, IMMCKF, IMMUKF", "z = (floor − smallest paper value) / σ",
                                  "part verdict: printed value above the floor"], bound_rows)))
@@ -197,7 +188,8 @@ display(Markdown(markdown_table(["quantity", "clairvoyant KF (floor)", "CV stead
 # half a unit of the printed digit). The last column is the part verdict (`report.claim_verdict`) on "the smallest
 # of the three printed IMM values lies above the floor": *holds* if it lies ≥ 3σ above (z ≤ −3), *contradicted* if
 # ≥ 3σ below (z ≥ 3, below the floor), *no detectable difference* otherwise; the parts combine into the floor claim
-# below, which is judged only where the floor is a bound (noisy truth, sampled start), and is *not assessable* elsewhere.
+# below, which is judged only where the floor is a bound (noisy truth, sampled start), and is *not assessable*
+# elsewhere.
 # Where the paper's IMM values lie below the floor, no filter could have produced them under the printed Q and R:
 # the printed set-up and Table 1 are mutually inconsistent. The reading space below asks whether *any* declared
 # reading of the set-up lifts this inconsistency. Our headline numbers sit just above the floor, as a well-tuned IMM
@@ -303,12 +295,12 @@ show(fig, "extra_nees_consistency", "(not in the paper)",
 # Accuracy claims are tested on paired differences of mean squared error over common random numbers; "switches more
 # quickly" on the probability given to the true mode in the 10 steps after each of the four switches; the timing claim
 # on the ratio of run times minus one, with the standard error of the repeated timings. Every verdict is in the claim
-# vocabulary of `mmlib/experiment/report.py`. The accuracy, switching, divergence and floor claims come from the same function
-# (`paper.judge_claims`) that judges them in every universe of the reading space below.
+# vocabulary of `mmlib/experiment/report.py`. The accuracy, switching, divergence and floor claims come from the same
+# function (`study.judge_claims`) that judges them in every universe of the reading space below.
 
 # %%
-claims = paper.judge_claims(results, setup)
-for c in timing_claims:      # judged from the timings above (paper.judge_timing)
+claims = study.judge_claims(results, setup)
+for c in timing_claims:      # judged from the timings above (timing.judge_timing)
     claims.add(c["claim"], c["verdict"], c["evidence"])
 display(Markdown(markdown_table(["claim", "verdict", "evidence"],
                                 [[c["claim"], c["verdict"], c["evidence"]] for c in claims])))
@@ -317,26 +309,24 @@ display(Markdown(markdown_table(["claim", "verdict", "evidence"],
 # ## Reading space: every declared reading at once
 #
 # The factors above (table of factors, headline options in bold) span a full factorial reading space of
-# 2⁶ × 3 = 192 universes. Each universe is an independent Monte Carlo job (`paper.universe`) on the paper's root seed
+# 2⁶ × 3 = 192 universes. Each universe is an independent Monte Carlo job (`study.universe`) on the paper's root seed
 # and its per-run random streams, so every universe sees the same truth noise, measurement noise and initial-estimate
 # draws wherever its reading leaves them alone (common random numbers), and the headline universe is computed by the
 # same functions as the headline rows above. In the full profile the design is the full factorial at 40 runs per
-# universe rather than the paper's 100 (0.34 CPU-s each, within this paper's share of the time budget); the standard
+# universe rather than the paper's 100 (this paper's share of the time budget); the standard
 # errors of 40 runs are shown and enter every verdict (the verdict rule widens its band accordingly), and the headline
 # universe is the first 40 of the headline's 100 runs. The smoke profile runs the star design (the headline and every
 # option varied alone) at the smoke run count.
 
 # %%
 t0 = time.perf_counter()
-mv = run_multiverse(paper.SPACE, paper.universe, published=paper.PUBLISHED, n_runs=nb.mv_runs, seed=seed,
-                    algorithms=paper.MV_ALGORITHMS, design=nb.mv_design, n_runs_paper=paper.N_RUNS_PAPER,
-                    workers=nb.workers, progress=PROGRESS)
+mv = nb.multiverse()
 print(f"{mv.design.description}; {nb.mv_runs} runs per universe; {time.perf_counter() - t0:.1f} s wall")
 if nb.mv_runs == n_runs:
     # the headline universe and the headline rows and claims above are the same computation
-    same = json.loads(json.dumps(paper.summarise(results, n_runs, setup)))
+    same = study.summarise(results, n_runs, setup)
     assert digests.same_numbers(mv.headline, same), "the headline universe differs from the headline computed above"
-    assert [v["replicated"] for v in mv.headline["values"][:16]] == [r.replicated for r in rows[:16]]
+    assert [v.replicated for v in mv.headline.values[:16]] == [r.replicated for r in rows[:16]]
     print("headline universe == headline rows above (bit for bit)")
 
 # %% [markdown]
@@ -347,17 +337,17 @@ if nb.mv_runs == n_runs:
 # counterpart is RMSE_X² + RMSE_Y² of IMM5CKF minus that of IMMCKF.
 
 # %%
-key = [mv.effect(u, paper.KEY_EFFECT) for u in mv.universes]
-key_pub = key[0]["published"]
+key = [mv.effect(u, paper.key_effect) for u in mv.universes]
+key_pub = key[0].published
 fig = views.specification_curve(
-    mv, paper.KEY_EFFECT, ylabel="Δ position MSE (m²)\nIMM5CKF − IMMCKF",
+    mv, paper.key_effect, ylabel="Δ position MSE (m²)\nIMM5CKF − IMMCKF",
     title=f"Specification curve: IMM5CKF − IMMCKF position MSE, {len(mv.universes)} readings\n"
           f"Table 1 implies {key_pub:.2f} m²; every reading gives 0 ± round-off")
 fig.set_size_inches(max(10.0, fig.get_size_inches()[0]), fig.get_size_inches()[1])
 fig.tight_layout()
-max_abs_key = max(abs(e["value"]) for e in key)
-max_key_se = max(e["stderr"] for e in key)
-max_coincide = max(mv.effect(u, "max |IMM5CKF − IMM-KF| estimate (m, m/s)")["value"] for u in mv.universes)
+max_abs_key = max(abs(e.value) for e in key)
+max_key_se = max(e.stderr for e in key)
+max_coincide = max(mv.effect(u, "max |IMM5CKF − IMM-KF| estimate (m, m/s)").value for u in mv.universes)
 nb.show(fig, "extra_specification_curve",
         "IMM5CKF is more accurate than IMMCKF (Table 1: position MSE lower by " f"{-key_pub:.2f} m²).",
         f"not supported in any reading: |Δ| ≤ {max_abs_key:.1e} m² (standard errors ≤ {max_key_se:.1e} m², round-off) "
@@ -397,15 +387,15 @@ display(Markdown(views.table_match_table(mv)))
 # ### One factor at a time (the former sweeps, as a view of the reading space)
 
 # %%
-columns = [(f"{alg} {q}", ("Table 1", alg, q)) for alg in ("IMM5CKF", "5CKF") for q, _ in paper.QUANTITIES]
-columns.append(("Δ position MSE IMM5CKF − IMMCKF (m²)", ("effect", paper.KEY_EFFECT)))
+columns = [(f"{alg} {q}", ("Table 1", alg, q)) for alg in ("IMM5CKF", "5CKF") for q, _ in text.QUANTITIES]
+columns.append(("Δ position MSE IMM5CKF − IMMCKF (m²)", ("effect", paper.key_effect)))
 display(Markdown(views.one_factor_table(mv, columns)))
 
 # %% [markdown]
 # ### Table 1 against the minimum-MSE floor in every reading
 
 # %%
-floors = paper.floor_summary(mv)
+floors = diagnostics.floor_summary(mv)
 display(Markdown(markdown_table(
     ["quantity", "smallest paper IMM value", "floor across universes", "universes with the paper below the floor",
      "… of those where the floor is a bound (noisy truth, sampled start)"],
@@ -422,8 +412,9 @@ ever = [k for k, s in ns.items() if s["n_reproduced"]]
 never = [k for k, s in ns.items() if not s["n_reproduced"]]
 cs = mv.claims_summary()
 lines = [
-    (f"- **Table 1.** No universe reproduces the whole table: no reading reproduces more than {tm['most_n_reproduced']} "
-     f"of its {n_cells} cells (the headline reproduces {tm['headline_n_reproduced']}; the first universe reaching "
+    (f"- **Table 1.** No universe reproduces the whole table: no reading reproduces more than "
+     f"{tm['most_n_reproduced']} of its {n_cells} cells (the headline reproduces {tm['headline_n_reproduced']}; "
+     f"the first universe reaching "
      f"{tm['most_n_reproduced']}: '{tm['most_describe']}'); {best_text}"
      + (f" ({tm['n_excluded_inconclusive']} universe(s) with an inconclusive cell not ranked)"
         if tm["n_excluded_inconclusive"] else "") + ", a forensic finding, not a replication."
@@ -433,7 +424,7 @@ lines = [
     f"{', '.join(never) if never else 'none'}"
     + (f" (inconclusive in some universes: {', '.join(k for k, s in ns.items() if s['n_inconclusive'])})"
        if any(s["n_inconclusive"] for s in ns.values()) else "") + ".",
-    f"- **Floor.** The smallest printed IMM value lies below the clairvoyant floor in "
+    "- **Floor.** The smallest printed IMM value lies below the clairvoyant floor in "
     + "; ".join(f"{f['quantity']}: {f['n_below_where_bound']} of the {f['n_bound']} universes where the floor is a "
                 f"bound ({f['n_below']} of {f['n_universes']} in all)" for f in floors) + ".",
 ]
@@ -450,18 +441,10 @@ display(Markdown("\n".join(lines)))
 # ## Results file
 
 # %%
-prov = report.provenance(root_seed=seed, n_runs=n_runs, profile=PROFILE,
-                         extra={"paper_citation": paper.CITATION, "timing_runs": timing_runs,
-                                "timing_repeats": timing_repeats, "mmlib": mmlib.__version__,
-                                "multiverse_runs": nb.mv_runs, "multiverse_design": nb.mv_design})
 # digest of the headline's per-run numbers over the first smoke-size runs (the same runs in every profile):
 # tests/tolerance/test_results.py recomputes it in the smoke profile and compares it with the committed one exactly
-digest = digests.run_digest(results, min(n_runs, PROFILES["smoke"]["n_runs"]))
-doc = report.write_results(results_path, paper=paper.PAPER, provenance=prov, rows=rows, digest=digest,
-                           claims=claims.as_list(), deviations=[d.as_dict() for d in paper.DEVIATIONS],
-                           figures=nb.figures, multiverse=mv.as_dict(), coincidence=coincide,
-                           diverged_runs=diverged, nees_time_average=nees_summary, lower_bound=lower_bound,
-                           timing_ms_per_run={alg: {"one_at_a_time": 1e3 * float(per_run[alg].mean()),
-                                                    "batched": 1e3 * float(batched[alg].mean())} for alg in per_run})
-counts = {v: sum(r.verdict.startswith(v) for r in rows) for v in report.VERDICTS}
-print(f"wrote {results_path} ({len(rows)} rows): {counts}")
+doc = nb.write_results(rows=rows, digest=digests.run_digest(results, nb.digest_runs), claims=claims,
+                       deviations=[d.as_dict() for d in paper.deviations], multiverse=mv, coincidence=coincide,
+                       diverged_runs=diverged, nees_time_average=nees_summary, lower_bound=lower_bound,
+                       timing_ms_per_run={alg: {"one_at_a_time": 1e3 * float(per_run[alg].mean()),
+                                                "batched": 1e3 * float(batched[alg].mean())} for alg in per_run})

@@ -1,9 +1,11 @@
 """A small reading space and module-level jobs for the experiment-layer tests (importable by the
 spawned worker processes of the grid runner, hence a module of its own)."""
+import dataclasses
+
 import numpy as np
 
 from mmlib.experiment import metrics
-from mmlib.experiment import Factor, Option, PublishedNumber, ReadingSpace, universe_result
+from mmlib.experiment import Factor, Option, PublishedNumber, ReadingSpace, UniverseResult
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.experiment.report import Claims, paired_claim
 
@@ -31,14 +33,22 @@ def toy_universe(reading, n_runs, seed):
     m = metrics.mean_with_se(x)
     claims = Claims()
     claims.add("the mean is positive", paired_claim(float(m.value), float(m.stderr), +1))
-    return universe_result(values=[("T1", "alg", "mean", m.value, m.stderr),
-                                   ("T1", "alg", "sd", float(np.std(x, ddof=1)), float(np.std(x, ddof=1)) / np.sqrt(2 * n_runs))],
-                           claims=claims, effects=[("mean", m.value, m.stderr, 1.0)],
-                           diverged={"alg": int(ch["c"] == 2)}, n_runs=n_runs)
+    sd = float(np.std(x, ddof=1))
+    return UniverseResult.build(values=[("T1", "alg", "mean", m.value, m.stderr),
+                                        ("T1", "alg", "sd", sd, sd / np.sqrt(2 * n_runs))],
+                                claims=claims, effects=[("mean", m.value, m.stderr, 1.0)],
+                                diverged={"alg": int(ch["c"] == 2)}, n_runs=n_runs)
 
 
 def not_a_dict(reading, n_runs, seed):
+    """Returns neither a UniverseResult nor a dict: refused by run_grid."""
     return [1, 2, 3]
+
+
+def a_dict(reading, n_runs, seed):
+    """The toy universe in its JSON form (what jobs returned before UniverseResult): refused by run_grid unless
+    it is called with ``result_type=None``."""
+    return toy_universe(reading, n_runs, seed).as_json()
 
 
 #: the toy space with a metric-only factor M: it changes only how the reported s.d. is computed
@@ -53,5 +63,5 @@ def metric_universe(reading, n_runs, seed):
     base = toy_universe({k: v for k, v in reading.items() if k != "M"}, n_runs, seed)
     mc = MonteCarlo(seed, n_runs)
     x = ch["bias"] + ch["scale"] * mc.standard_normal(range(n_runs), Stream.TRUTH, ())
-    base["values"][1]["replicated"] = float(np.std(x, ddof=ch["ddof"]))
-    return base
+    sd = base.values[1]._replace(replicated=float(np.std(x, ddof=ch["ddof"])))
+    return dataclasses.replace(base, values=(base.values[0], sd, *base.values[2:]))

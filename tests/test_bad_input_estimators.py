@@ -168,10 +168,11 @@ REVIEW_CASES = {
     "bootstrap noise garbage with n_boot = 0": (
         lambda: ObservationBootstrap(UKF, n_boot=0).init(X0, P0, noise="garbage"), "noise"),
     "degree of divergence complex": (
-        lambda: importlib.import_module("mmlib.core.layers.adaptive_imm").degree_of_divergence(np.ones((2, 3)) + 1j, 1.0),
+        lambda: importlib.import_module("mmlib.core.layers.adaptive_imm").degree_of_divergence(
+            np.ones((2, 3)) + 1j, 1.0),
         "innovation"),
-    "fuzzy bounds system a string": (lambda: importlib.import_module("mmlib.papers.tseng2011").FuzzyNoiseBounds("x"),
-                                     "system"),
+    "fuzzy bounds system a string": (
+        lambda: importlib.import_module("mmlib.core.layers.fuzzy_noise").FuzzyNoiseBounds("x"), "system"),
     "evaluate make_batch returns garbage": (lambda: _evaluate(lambda runs: 3), "make_batch"),
     "evaluate init missing an estimator": (
         lambda: _evaluate(lambda runs: (np.zeros((len(runs), K + 1, 4)), Z[list(runs)], {})), "make_batch"),

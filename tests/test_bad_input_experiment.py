@@ -6,7 +6,6 @@ Every case below failed on the code before this change: the input was accepted (
 string split into letters, a segment beyond the horizon ignored, a count of 1.7 stored as 1, ...) or the error was
 another exception, or a ValueError naming something else (e.g. ``root_seed`` for the ``seed`` the caller wrote)."""
 import functools
-import math
 import tempfile
 
 import matplotlib
@@ -25,11 +24,11 @@ from mmlib.core import models  # noqa: E402
 from mmlib.core.estimation import select_runs  # noqa: E402
 from mmlib.experiment import evaluation, executors, metrics, report, views  # noqa: E402
 from mmlib.experiment.montecarlo import MonteCarlo, Progress, Stream, say_progress  # noqa: E402
-from mmlib.experiment.multiverse import (Multiverse, PublishedNumber, from_dict, run_multiverse,  # noqa: E402
-                                         universe_result)
+from mmlib.experiment.multiverse import Multiverse, PublishedNumber, from_dict, run_multiverse  # noqa: E402
 from mmlib.experiment.readings import Deviation, Design, Factor, Option, ReadingSpace  # noqa: E402
 from mmlib.experiment.scenario import Scenario  # noqa: E402
 from mmlib.experiment.simulate import ManeuverSchedule, propagate, simulate  # noqa: E402
+from mmlib.experiment.universe import UniverseResult  # noqa: E402
 from conftest import raises_naming  # noqa: E402
 
 B, K = 3, 6
@@ -68,7 +67,7 @@ def _factor(**kw):
 def _universe(**kw):
     args = dict(values=[("T1", "alg", "mean", 1.0, 0.1)], claims=[], diverged={"alg": 0}, n_runs=20)
     args.update(kw)
-    return universe_result(**args)
+    return UniverseResult.build(**args)
 
 
 @functools.lru_cache(maxsize=1)
@@ -345,8 +344,9 @@ VIEWS_CASES = {
 }
 
 ARENA_CASES = {
-    "recipe kind unknown": (lambda: recipes.Recipe("X", "bogus", recipes.ukf, ("zhu2016",), "d"), "kind"),
-    "recipe papers a bare string": (lambda: recipes.Recipe("X", "imm", recipes.ukf, "zhu2016", "d"), "papers"),
+    "recipe kind unknown": (lambda: recipes.Recipe("X", "bogus", recipes.ukf, "d"), "kind"),
+    "recipe description not a string": (lambda: recipes.Recipe("X", "imm", recipes.ukf, ("zhu2016",)),
+                                        "description"),
     "recipe ukf of a name": (lambda: recipes.ukf("ladder-nl1"), "s"),
     "requirement of a name": (lambda: recipes.requirement("IMMUKF", _ladder()), "recipe"),
     "initial_state mc not a MonteCarlo": (
@@ -427,8 +427,8 @@ def test_valid_inputs_the_new_checks_must_not_reject():
     s = _schedule(models=[CV, CV], segments=[(2.0, 3.0, 1), (10.0, 20.0, 1)], jumps=[(10.0, [1], [0.0])],
                   truncate=True)
     assert list(s.modes()) == [0, 0, 1, 0, 0, 0]
-    assert _universe(diverged=[("alg", np.int64(2))])["diverged"] == {"alg": 2}
-    assert _universe(values=[("T1", "alg", "mean", np.float64(np.nan), None)])["values"][0]["replicated"] is None
+    assert _universe(diverged=[("alg", np.int64(2))]).diverged == {"alg": 2}
+    assert _universe(values=[("T1", "alg", "mean", np.float64(np.nan), None)]).values[0].replicated is None
     for name in study.SCENARIOS:
         assert study.scenario(name).n_steps >= 1
     state = _state()

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from mmlib.core import fuzzy, gnss, models, rules
-from mmlib.papers import zhou2017
+from mmlib.core.models import radar_drift
 from conftest import raises_naming
 
 
@@ -104,10 +104,10 @@ BAD = {
     "fault-delta-2d": ("delta", lambda: models.SensorFault(np.zeros((2, 3)))),
     "fault-delta-nan": ("delta", lambda: models.SensorFault(np.full((1, 3, 2), np.nan))),
     "fault-radar-runs-mismatch": ("bearing_rate",
-                                  lambda: zhou2017.radar_drift([1.0], [0.1, 0.2], [1.0, 2.0, 3.0])),
-    "fault-radar-times-nan": ("times", lambda: zhou2017.radar_drift([1.0], [0.1], [np.nan])),
+                                  lambda: radar_drift([1.0], [0.1, 0.2], [1.0, 2.0, 3.0])),
+    "fault-radar-times-nan": ("times", lambda: radar_drift([1.0], [0.1], [np.nan])),
     "fault-radar-offset-steps": ("range_offset",
-                                 lambda: zhou2017.radar_drift(np.ones((2, 4)), [0.1, 0.2], [1.0, 2.0, 3.0])),
+                                 lambda: radar_drift(np.ones((2, 4)), [0.1, 0.2], [1.0, 2.0, 3.0])),
     "fault-apply-dimension": ("measurement", lambda: _fault(m=3).apply(models.RangeBearing(EYE2))),
     "fault-apply-runs": ("delta", lambda: _fault(B=1).apply(models.RangeBearing(EYE2))(
         np.ones((3, 3, 4)), np.zeros((3, 3, 2)))),

@@ -7,6 +7,7 @@ result; a paper name cannot leave the cache folder.
 """
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import json
 import sys
@@ -15,7 +16,7 @@ import textwrap
 import pytest
 
 import experiment_jobs as toy
-from mmlib.experiment import grid, machine, run_grid
+from mmlib.experiment import UniverseResult, grid, machine, run_grid
 
 READINGS = toy.SPACE.full()[:3]
 
@@ -34,19 +35,17 @@ def _entries(tmp_path, paper="toy"):
 def _script_module(tmp_path, monkeypatch, offset: float, name="user_script"):
     """A user's script module on disk (outside mmlib) defining a job that calls a helper and reads a constant."""
     (tmp_path / f"{name}.py").write_text(textwrap.dedent(f"""
+        import dataclasses
         import experiment_jobs as toy
         OFFSET = {offset!r}
 
         def shift(values):
-            for v in values:
-                if v["replicated"] is not None:
-                    v["replicated"] += OFFSET
-            return values
+            return tuple(v if v.replicated is None else v._replace(replicated=v.replicated + OFFSET)
+                         for v in values)
 
         def job(reading, n_runs, seed):
             res = toy.toy_universe(reading, n_runs, seed)
-            res["values"] = shift(res["values"])
-            return res
+            return dataclasses.replace(res, values=shift(res.values))
     """))
     monkeypatch.syspath_prepend(str(tmp_path))
     sys.modules.pop(name, None)
@@ -56,8 +55,7 @@ def _script_module(tmp_path, monkeypatch, offset: float, name="user_script"):
 def test_a_script_job_edited_between_two_runs_recomputes(tmp_path, monkeypatch):
     first = _run(_script_module(tmp_path, monkeypatch, 0.0).job, tmp_path)
     second = _run(_script_module(tmp_path, monkeypatch, 0.5).job, tmp_path)      # the constant it reads changed
-    assert [v["replicated"] for v in second[0]["values"]] == \
-        [v["replicated"] + 0.5 for v in first[0]["values"]]
+    assert [v.replicated for v in second[0].values] == [v.replicated + 0.5 for v in first[0].values]
     assert len(_entries(tmp_path)) == 2 * len(READINGS)
 
 
@@ -83,8 +81,9 @@ def test_a_notebook_job_keeps_its_key_across_kernels():
 
 
 def test_an_mmlib_job_is_keyed_by_name_and_source():
-    from mmlib.papers import zhu2016
-    assert grid.job_code(zhu2016.universe) == grid.job_code(zhu2016.universe)
+    from mmlib.papers import REGISTRY
+    universe = REGISTRY["zhu2016"].universe
+    assert grid.job_code(universe) == grid.job_code(universe)
     base = dict(paper="toy", job=toy.toy_universe, reading=READINGS[0], algorithms=["alg"], n_runs=5, seed=1)
     assert grid.key_document(**base)["machine"] == machine.fingerprint_id()
 
@@ -103,12 +102,13 @@ def test_a_result_from_another_machine_says_so(tmp_path, monkeypatch):
     other = {**machine.fingerprint(), "openblas_core": "Prescott"}
     monkeypatch.setattr(grid, "_run_job", lambda *a: {"result": toy.toy_universe(*a[1:]), "machine": other})
     got = _run(toy.toy_universe, tmp_path)
-    assert all(r["machine"] == other for r in got)
+    assert all(r.machine == other for r in got)
     monkeypatch.undo()
     again = _run(toy.toy_universe, tmp_path)                            # from the cache: still says so
-    assert again == got
+    assert again == got and all(r.machine == other for r in again)     # (== leaves the machine out)
+    assert [r.as_json() for r in again] == [r.as_json() for r in got]
     native = _run(toy.toy_universe, tmp_path, use_cache=False)
-    assert all("machine" not in r for r in native)
+    assert all(r.machine is None and "machine" not in r.as_json() for r in native)
 
 
 @pytest.mark.parametrize("damage", ["non-UTF-8 bytes", "an edited number", "NaN in the result"])
@@ -123,7 +123,7 @@ def test_a_damaged_entry_is_recomputed_with_one_warning_naming_it(tmp_path, dama
         path.write_text(json.dumps(entry))
     with pytest.warns(grid.CacheWarning, match=rf"cache entry {path} ") as caught:
         again = _run(toy.toy_universe, tmp_path)
-    assert len(caught) == 1 and again == first
+    assert len(caught) == 1 and again == first and all(type(r) is UniverseResult for r in again)
     assert json.loads(path.read_text())["sha256"] == grid.result_checksum(json.loads(path.read_text())["result"])
 
 
@@ -174,14 +174,13 @@ def test_readings_bad_input_and_numpy_scalars(tmp_path):
     plain = run_grid(lambda r, n, s: seen.append(r) or toy.toy_universe(toy.SPACE.headline, n, s),
                      [{"x": np.int64(3), "y": np.float64(0.5)}], paper="toy", algorithms=[], n_runs=2, seed=1,
                      progress=False, workers=1, cache_dir=tmp_path)
-    assert plain[0]["n_runs"] == 2 and seen == [{"x": 3, "y": 0.5}] and type(seen[0]["x"]) is int
+    assert plain[0].n_runs == 2 and seen == [{"x": 3, "y": 0.5}] and type(seen[0]["x"]) is int
 
 
 def test_a_result_that_is_not_json_names_the_job_and_reading(tmp_path):
     def nan_job(reading, n_runs, seed):
-        res = toy.toy_universe(reading, n_runs, seed)
-        res["values"][0]["replicated"] = float("nan")
-        return res
+        res = toy.toy_universe(reading, n_runs, seed)           # the constructor, unlike build, lets NaN through
+        return dataclasses.replace(res, values=(res.values[0]._replace(replicated=float("nan")), *res.values[1:]))
     with pytest.raises(ValueError, match=r"^job: .*nan_job returned a result that is not plain JSON for reading"):
         _run(nan_job, tmp_path)
 
@@ -191,7 +190,7 @@ def test_a_result_that_is_not_json_names_the_job_and_reading(tmp_path):
 def test_cache_key_bad_input(kw, name):
     base = dict(paper="toy", job=toy.toy_universe, reading=READINGS[0], algorithms=["alg"], n_runs=5, seed=1)
     with pytest.raises(ValueError, match=f"^{name}: "):
-        grid.cache_key(**{**base, **kw})
+        grid.key_document(**{**base, **kw})
 
 
 def _write_module(tmp_path, monkeypatch, name, text):

@@ -18,8 +18,8 @@ import pytest
 
 pytest.importorskip("distributed", reason="the optional dask extra is not installed")
 
-from mmlib.experiment import evaluation, executors, grid, run_grid  # noqa: E402
-from mmlib.papers import zhu2016  # noqa: E402
+from mmlib.experiment import evaluation, executors, run_grid  # noqa: E402
+from mmlib.papers import REGISTRY  # noqa: E402
 
 from test_parallel import N_RUNS, assert_same_bits, zhou_study  # noqa: E402
 
@@ -81,12 +81,13 @@ def test_evaluate_on_the_cluster_gives_the_serial_bits(on_cluster, serial, tmp_p
 
 
 def test_run_grid_on_the_cluster_equals_serial(on_cluster, tmp_path):
-    readings = list(zhu2016.SPACE.design("star").readings)[:3]
-    kw = dict(paper=zhu2016.PAPER, algorithms=zhu2016.MV_ALGORITHMS, n_runs=4, seed=zhu2016.ROOT_SEED,
-              use_cache=False, progress=False)
-    on_dask = run_grid(zhu2016.universe, readings, **kw)
-    given = run_grid(zhu2016.universe, readings, executor=executors.dask_executor(), **kw)
-    serial = run_grid(zhu2016.universe, readings, workers=1, **kw)
+    paper = REGISTRY["zhu2016"]
+    readings = list(paper.space.design("star").readings)[:3]
+    kw = dict(paper=paper.name, algorithms=paper.algorithms, n_runs=4, seed=paper.root_seed, use_cache=False,
+              progress=False)
+    on_dask = run_grid(paper.universe, readings, **kw)
+    given = run_grid(paper.universe, readings, executor=executors.dask_executor(), **kw)
+    serial = run_grid(paper.universe, readings, workers=1, **kw)
     assert on_dask == given == serial and serial[0] != serial[1]
     assert set(executors.run_tasks(os.getpid, [()] * 4)) <= set(on_cluster.run(os.getpid).values())
 
@@ -125,7 +126,7 @@ def test_killed_worker_chunk_is_recomputed_not_lost_nor_duplicated(on_cluster, s
 
 
 def test_a_worker_with_another_mmlib_is_refused(on_cluster, monkeypatch):
-    monkeypatch.setattr(grid, "source_hash", lambda: "0" * 16)
+    monkeypatch.setattr(executors, "source_hash", lambda: "0" * 16)
     with pytest.raises(RuntimeError, match=f"^{SCHEDULER}: the worker .* runs another mmlib"):
         executors.run_tasks(os.getpid, [()] * 2)
 

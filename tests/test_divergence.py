@@ -169,7 +169,8 @@ def test_evaluation_keeps_the_step_and_cause_of_every_divergence(linear_problem)
     zs[1, 4] = 1e300
     imm = m.IMM(m.KalmanFilter(), [dyn, models.constant_velocity(1.0, 20.0)], meas, [[0.95, 0.05], [0.05, 0.95]])
     truth = np.zeros((3, zs.shape[1] + 1, 4))
-    res = evaluate({"IMM": imm}, lambda runs: (truth[list(runs)], zs[list(runs)], {"IMM": imm.init(x0[list(runs)], P0)}),
+    res = evaluate({"IMM": imm},
+                   lambda runs: (truth[list(runs)], zs[list(runs)], {"IMM": imm.init(x0[list(runs)], P0)}),
                    m.MonteCarlo(0, 3), chunk_size=2, progress=False)["IMM"]
     assert res.diverged_step.tolist() == [-1, 4, -1]
     assert res.divergence_cause.tolist() == [0, Failure.LIKELIHOOD, 0]

@@ -132,7 +132,8 @@ EVAL_BAD = {   # (call, argument); "(passes today)" marks cases the code before 
         lambda c: evaluation.time_algorithms(c.est, c.init, c.z, per_repeat=3), "per_repeat"),
     "time_algorithms init lacks one": (
         lambda c: evaluation.time_algorithms(c.est, {"KF": c.init["KF"]}, c.z), "init"),
-    "time_algorithms measurements 2-D (passes today)": (lambda c: evaluation.time_algorithms(c.est, c.init, c.z[0]), "measurements"),
+    "time_algorithms measurements 2-D (passes today)": (
+        lambda c: evaluation.time_algorithms(c.est, c.init, c.z[0]), "measurements"),
     "time_algorithms measurements NaN (passes today)": (
         lambda c: evaluation.time_algorithms(c.est, c.init, c.z * np.nan), "measurements"),
     "time_algorithms measurements string": (lambda c: evaluation.time_algorithms(c.est, c.init, "z"), "measurements"),

@@ -1,16 +1,19 @@
 """The experiment layer: reading spaces and designs, the grid runner and its cache, the multiverse
 summaries, and the claim vocabulary."""
 import concurrent.futures as cf
+import dataclasses
 import itertools
 import json
 import math
 
+import numpy as np
 import pytest
 
 import experiment_jobs as toy
 from mmlib.experiment import report
-from mmlib.experiment import Factor, Option, ReadingSpace, grid, machine, run_grid, run_multiverse
-from mmlib.experiment.multiverse import from_dict
+from mmlib.experiment import Factor, Option, ReadingSpace, UniverseResult, grid, machine, run_grid, run_multiverse
+from mmlib.experiment.multiverse import Multiverse, from_dict
+from mmlib.experiment.universe import JSON_KEYS, JudgedClaim, Effect, Value
 
 
 def _opt(name, **changes):
@@ -43,7 +46,8 @@ def test_star_design_varies_each_option_alone():
         assert {r[f.id] for r in star} == set(f.names)
 
 
-@pytest.mark.parametrize("levels,influential", [([3, 3, 3, 3], None), ([2, 4, 3, 2, 5], [True, True, False, True, True]),
+@pytest.mark.parametrize("levels,influential", [([3, 3, 3, 3], None),
+                                                ([2, 4, 3, 2, 5], [True, True, False, True, True]),
                                                 ([6, 2, 2, 2, 2, 2, 3], None)])
 def test_fractional_design_covers_every_option_and_influential_pair(levels, influential):
     space = _space(levels, influential, budget=1)
@@ -155,11 +159,11 @@ def test_cache_recomputes_when_a_key_part_changes(tmp_path, monkeypatch, change)
 
 def test_cache_key_covers_reading_job_and_library_source(monkeypatch):
     base = dict(paper="toy", job=toy.toy_universe, reading=toy.SPACE.headline, algorithms=["alg"], n_runs=5, seed=1)
-    k = grid.cache_key(**base)
-    assert grid.cache_key(**{**base, "reading": toy.SPACE.with_headline(A="one")}) != k
-    assert grid.cache_key(**{**base, "job": toy.not_a_dict}) != k
+    k = grid.key_document(**base)
+    assert grid.key_document(**{**base, "reading": toy.SPACE.with_headline(A="one")}) != k
+    assert grid.key_document(**{**base, "job": toy.not_a_dict}) != k
     monkeypatch.setattr(grid, "source_hash", lambda: "0" * 16)
-    assert grid.cache_key(**base) != k
+    assert grid.key_document(**base) != k
 
 
 def test_grid_bad_input(tmp_path):
@@ -167,7 +171,8 @@ def test_grid_bad_input(tmp_path):
         _grid(tmp_path, n_runs=0)
     with pytest.raises(ValueError, match="workers"):
         _grid(tmp_path, workers=0)
-    with pytest.raises(ValueError, match="job"):
+    with pytest.raises(ValueError, match=r"^job: experiment_jobs\.not_a_dict returned list, expected a "
+                                         r"UniverseResult"):
         run_grid(toy.not_a_dict, [toy.SPACE.headline], paper="toy", algorithms=[], n_runs=2, seed=1,
                  cache_dir=tmp_path, progress=False, workers=1)
 
@@ -186,10 +191,10 @@ def test_universes_share_common_random_numbers(tmp_path):
     """A factor that leaves the random structure alone (C) changes nothing drawn: same values."""
     res = _grid(tmp_path, workers=1)
     by = {tuple(r.values()): u for r, u in zip(toy.SPACE.full(), res)}
-    assert by[("zero", "s1", "c1")]["values"] == by[("zero", "s1", "c2")]["values"]
+    assert by[("zero", "s1", "c1")].values == by[("zero", "s1", "c2")].values
     # scale multiplies the same draws: the mean of the scale-2 universe is exactly twice
-    m1 = by[("zero", "s1", "c1")]["values"][0]["replicated"]
-    m2 = by[("zero", "s2", "c1")]["values"][0]["replicated"]
+    m1 = by[("zero", "s1", "c1")].values[0].replicated
+    m2 = by[("zero", "s2", "c1")].values[0].replicated
     assert m2 == pytest.approx(2 * m1, rel=1e-12, abs=1e-15)
 
 
@@ -215,8 +220,8 @@ def test_numbers_summary_by_hand(tmp_path):
     for k, (qty, printed) in enumerate((("mean", "1.0"), ("sd", "2.0"))):
         verdicts, dists = [], []
         for u in mv.universes:
-            v = u["values"][k]
-            d, verdict = _hand_verdict(v["replicated"], v["stderr"], printed, float(printed))
+            v = u.values[k]
+            d, verdict = _hand_verdict(v.replicated, v.stderr, printed, float(printed))
             dists.append(d)
             verdicts.append(verdict)
         got = s[qty]
@@ -240,8 +245,8 @@ def test_table_match_by_hand(tmp_path):
     for u in mv.universes:
         s, ok, n = 0.0, True, 0
         for k, p in ((0, "1.0"), (1, "2.0")):
-            v = u["values"][k]
-            d, verdict = _hand_verdict(v["replicated"], v["stderr"], p, float(p))
+            v = u.values[k]
+            d, verdict = _hand_verdict(v.replicated, v.stderr, p, float(p))
             s += d * d
             ok &= verdict != "inconclusive"
             n += verdict == "reproduced"
@@ -259,22 +264,23 @@ def test_table_match_by_hand(tmp_path):
 def test_claims_summary_by_hand(tmp_path):
     mv = _mv(tmp_path)
     (c,) = mv.claims_summary()
-    cats = [report.claim_category(u["claims"][0]["verdict"]) for u in mv.universes]
+    cats = [report.claim_category(u.claims[0].verdict) for u in mv.universes]
     assert c["verdict_counts"] == {k: cats.count(k) for k in report.CLAIM_VERDICTS if k in cats}
-    assert c["n_universes"] == 12 and c["headline_verdict"] == mv.universes[0]["claims"][0]["verdict"]
+    assert c["n_universes"] == 12 and c["headline_verdict"] == mv.universes[0].claims[0].verdict
     assert c["robust"] is (max(cats.count(k) for k in set(cats)) >= 0.9 * 12)
     assert c["robust"] is False                        # the mean is positive only under bias 1
 
 
 def test_robust_threshold_is_ninety_percent(tmp_path):
     mv = _mv(tmp_path)
-    u0 = mv.universes[0]["claims"][0]
+    u0 = mv.universes[0].claims[0]
+    assert report.claim_category(u0.verdict) != "holds"    # the headline has no bias: breaking it changes a verdict
     for k in range(len(mv.universes)):                 # make every universe agree, then break one
-        mv.universes[k]["claims"] = [dict(u0)]
+        mv.universes[k] = dataclasses.replace(mv.universes[k], claims=(u0,))
     assert mv.claims_summary()[0]["robust"]
-    mv.universes[-1]["claims"] = [{"claim": u0["claim"], "verdict": "holds"}]
+    mv.universes[-1] = dataclasses.replace(mv.universes[-1], claims=(u0._replace(verdict="holds"),))
     assert mv.claims_summary()[0]["robust"] is (11 >= 0.9 * 12)
-    mv.universes[-2]["claims"] = [{"claim": u0["claim"], "verdict": "holds"}]
+    mv.universes[-2] = dataclasses.replace(mv.universes[-2], claims=(u0._replace(verdict="holds"),))
     assert mv.claims_summary()[0]["robust"] is False   # 10 of 12 < 90 %
 
 
@@ -288,6 +294,7 @@ def test_multiverse_json_round_trip(tmp_path):
     assert {f["id"] for f in doc["factors"]} == {"A", "B", "C"}
     back = from_dict(toy.SPACE, doc, toy.PUBLISHED, 6400)
     assert back.as_dict() == doc
+    assert back.universes == mv.universes and all(isinstance(u, UniverseResult) for u in back.universes)
 
 
 # -- the claim vocabulary --------------------------------------------------------------------------------------
@@ -338,12 +345,12 @@ def test_a_failed_value_is_not_reproduced_and_never_the_best_match(tmp_path):
     """A value the method was run for but could not produce (every run diverged) is judged 'not reproduced' with
     its reason, has an infinite distance, and cannot be the best table match; 'not replicable' stays reserved for
     what was never published."""
-    from mmlib.experiment import universe_result
     mv = _mv(tmp_path)
-    failed = universe_result(values=[("T1", "alg", "mean", None, None, "diverged in 400/400 runs"),
-                                     ("T1", "alg", "sd", 2.0, 0.01)],
-                             claims=mv.universes[0]["claims"], diverged={"alg": 400}, n_runs=400)
-    assert failed["values"][0]["failed"] == "diverged in 400/400 runs" and "failed" not in failed["values"][1]
+    failed = UniverseResult.build(values=[("T1", "alg", "mean", None, None, "diverged in 400/400 runs"),
+                                          ("T1", "alg", "sd", 2.0, 0.01)],
+                                  claims=mv.universes[0].claims, diverged={"alg": 400}, n_runs=400)
+    assert failed.values[0].failed == "diverged in 400/400 runs" and failed.values[1].failed is None
+    assert "failed" not in failed.as_json()["values"][1]
     mv.universes[1] = failed
     pub = toy.PUBLISHED[0]
     assert mv.number_verdict(pub, failed) == "not reproduced: diverged in 400/400 runs"
@@ -384,10 +391,11 @@ def test_presentation_modules_left_out_of_the_hash_are_not_used_by_any_computati
     touches them: run every paper's job (2 runs) in a fresh interpreter and check they were never imported."""
     import subprocess
     import sys
-    code = ("import sys, importlib\n"
-            "for p in ('zhu2016', 'liu2017', 'hu2017', 'zhou2017', 'tseng2011'):\n"
-            "    m = importlib.import_module('mmlib.papers.' + p)\n"
-            "    m.universe(m.SPACE.headline, 2, 1)\n"
+    code = ("import sys\n"
+            "from mmlib.papers import REGISTRY\n"
+            "for name in REGISTRY:\n"
+            "    paper = REGISTRY[name]\n"
+            "    paper.universe(paper.space.headline, 2, 1)\n"
             "print(sorted(n for n in sys.modules if n in ('mmlib.experiment.views', 'mmlib.papers.presentation')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=True)
     assert out.stdout.strip() == "[]", out.stdout
@@ -408,9 +416,10 @@ def test_closest_and_best_match_skip_inconclusive_universes(tmp_path):
     before = {x["quantity"]: x for x in mv.numbers_summary()}
     tm_before = mv.table_match()[0]
     assert mv.number_verdict(toy.PUBLISHED[0], mv.universes[2]) == "not reproduced"
-    noisy = json.loads(json.dumps(mv.universes[0]))
-    noisy["values"][0].update(replicated=1.0001, stderr=5.0)     # "matches" 1.0 only because it is noisy
-    noisy["values"][1].update(replicated=2.0001, stderr=5.0)
+    head = mv.universes[0]
+    mean, sd = head.values[0]._replace(replicated=1.0001, stderr=5.0), head.values[1]._replace(replicated=2.0001,
+                                                                                               stderr=5.0)
+    noisy = dataclasses.replace(head, values=(mean, sd, *head.values[2:]))   # "matches" only because it is noisy
     mv.universes[2] = noisy
     pub = toy.PUBLISHED[0]
     assert mv.number_verdict(pub, noisy).startswith("inconclusive") and abs(mv.distance(pub, noisy)) < 1e-3
@@ -457,10 +466,167 @@ def test_metric_only_factor_counts_each_simulation_once(tmp_path):
     assert toy.METRIC_SPACE.simulation_key(r) == toy.METRIC_SPACE.simulation_key({**r, "M": "unbiased"})
     assert toy.METRIC_SPACE.describe_simulation(r) == "B: scale 2"
     # the values may differ between the metric readings of one simulation ...
-    a, b = (mv.universes[i] for i in mv.simulations()[0])
-    assert a["values"][1] != b["values"][1]
+    ia, ib = mv.simulations()[0]
+    a, b = mv.universes[ia], mv.universes[ib]
+    assert a.values[1] != b.values[1]
     # ... but a claim that differs is a declaration error
-    b["claims"] = [{"claim": b["claims"][0]["claim"], "verdict": "holds"}] if a["claims"][0]["verdict"] != "holds" \
-        else [{"claim": b["claims"][0]["claim"], "verdict": "contradicted"}]
+    other = "holds" if a.claims[0].verdict != "holds" else "contradicted"
+    mv.universes[ib] = dataclasses.replace(b, claims=(b.claims[0]._replace(verdict=other),))
     with pytest.raises(ValueError, match="metric-only"):
         mv.simulations()
+
+
+# -- the typed universe result (mmlib.experiment.universe) ---------------------------------------------------------
+def _typed():
+    """A result with a failed value, an effect whose published value is None, a numpy scalar, NaN and infinity
+    (stored as None), -0.0, a subnormal and a claim given as a JudgedClaim."""
+    return UniverseResult.build(
+        values=[("T1", "alg", "mean", np.float64(0.1) + 0.2, 1e-300),
+                ("T1", "alg", "sd", None, None, "diverged in 3/3 runs"),
+                ("T2", "alg", "x", -0.0, float("nan"))],
+        claims=[{"claim": "A beats B", "verdict": "holds"}, JudgedClaim("B beats C", "contradicted")],
+        effects=[("d", 5e-324, 2.0 / 3.0), ("e", -1.5, 0.25, None), ("f", float("inf"), 0.1, 2.5)],
+        diverged={"alg": 3}, n_runs=3)
+
+
+def test_universe_result_json_round_trip_is_bit_for_bit():
+    u = _typed()
+    for doc in (u.as_json(), json.loads(json.dumps(u.as_json(), allow_nan=False))):      # as the cache stores it
+        back = UniverseResult.from_json(doc)
+        assert back == u
+        assert repr(back) == repr(u)                      # every float to the bit (repr tells -0.0 from 0.0)
+        assert math.copysign(1.0, back.values[2].replicated) == -1.0
+        assert back.values[1].failed == "diverged in 3/3 runs" and back.values[1].replicated is None
+        assert back.effects[1].published is None and back.effects[0].published is None
+        assert back.effects[2].value is None and back.values[2].stderr is None      # inf and NaN: None
+        assert [type(v) for v in back.values] == [Value] * 3 and [type(e) for e in back.effects] == [Effect] * 3
+        assert [type(c) for c in back.claims] == [JudgedClaim] * 2
+        assert type(back.values[0].replicated) is float and type(back.n_runs) is int
+        assert back.as_json() == doc
+    # a universe computed on another machine keeps its fingerprint (not part of ==), and a results file's
+    # universe entry (with its reading) reads back
+    other = UniverseResult.from_json({**u.as_json(), "machine": {"cpu": "other"}, "reading": {"A": "zero"}})
+    assert other == u and other.machine == {"cpu": "other"} and u.machine is None
+    assert other.as_json() == {**u.as_json(), "machine": {"cpu": "other"}}
+    # the toy job's result, through JSON text
+    toy_u = toy.toy_universe(toy.SPACE.headline, 20, 1)
+    assert UniverseResult.from_json(json.loads(json.dumps(toy_u.as_json()))) == toy_u
+
+
+def test_as_json_is_the_dict_universe_result_built():
+    """The layout of the untyped dicts that multiverse.universe_result returned (the ``universes`` entries of a
+    results file and the cache's results): same keys in the same order, ``failed`` only on a failed value, every
+    number a Python float or None."""
+    doc = _typed().as_json()
+    assert doc == {
+        "values": [{"item": "T1", "algorithm": "alg", "quantity": "mean", "replicated": 0.1 + 0.2, "stderr": 1e-300},
+                   {"item": "T1", "algorithm": "alg", "quantity": "sd", "replicated": None, "stderr": None,
+                    "failed": "diverged in 3/3 runs"},
+                   {"item": "T2", "algorithm": "alg", "quantity": "x", "replicated": -0.0, "stderr": None}],
+        "claims": [{"claim": "A beats B", "verdict": "holds"}, {"claim": "B beats C", "verdict": "contradicted"}],
+        "effects": [{"name": "d", "value": 5e-324, "stderr": 2.0 / 3.0, "published": None},
+                    {"name": "e", "value": -1.5, "stderr": 0.25, "published": None},
+                    {"name": "f", "value": None, "stderr": 0.1, "published": 2.5}],
+        "diverged": {"alg": 3}, "n_runs": 3}
+    assert list(doc) == list(JSON_KEYS) == list(grid.RESULT_KEYS)
+    value_keys = ["item", "algorithm", "quantity", "replicated", "stderr"]
+    assert [list(v) for v in doc["values"]] == [value_keys, value_keys + ["failed"], value_keys]
+    assert all(list(c) == ["claim", "verdict"] for c in doc["claims"])
+    assert all(list(e) == ["name", "value", "stderr", "published"] for e in doc["effects"])
+    assert type(doc["values"][0]["replicated"]) is float and type(doc["diverged"]) is dict
+    assert json.loads(json.dumps(doc, allow_nan=False)) == doc
+    # a Claims collector: its evidence stays out of the result, as before
+    claims = report.Claims()
+    claims.add("A beats B", "holds", "a paired difference")
+    assert UniverseResult.build(values=[], claims=claims, diverged={}, n_runs=1).as_json() == {
+        "values": [], "claims": [{"claim": "A beats B", "verdict": "holds"}], "effects": [], "diverged": {},
+        "n_runs": 1}
+
+
+def test_a_universe_result_cannot_be_changed():
+    u = _typed()
+    for name, value in (("n_runs", 4), ("values", ()), ("claims", ()), ("diverged", {}), ("machine", {})):
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            setattr(u, name, value)
+    with pytest.raises(AttributeError):
+        u.values[0].replicated = 1.0
+    with pytest.raises(AttributeError):
+        u.effects[1].published = 1.0
+    with pytest.raises(AttributeError):
+        u.claims[0].verdict = "holds"
+    with pytest.raises(TypeError):
+        u.values[0] = u.values[1]
+    with pytest.raises(TypeError):
+        u.diverged["alg"] = 0
+    # neither the arguments it was built from nor its JSON reach back into it
+    diverged = {"alg": 1}
+    v = UniverseResult.build(values=[], claims=[], diverged=diverged, n_runs=3)
+    diverged["alg"] = 2
+    doc = u.as_json()
+    doc["values"][0]["replicated"] = 9.0
+    doc["diverged"]["alg"] = 0
+    assert v.diverged == {"alg": 1} and repr(u) == repr(_typed())
+
+
+def test_a_universe_result_travels_to_and_from_worker_processes():
+    """A job's result comes back from a local worker process by pickle (concurrent.futures), from a Dask worker by
+    Dask's serialisation: both give the same result, bit for bit, with its machine."""
+    import pickle
+    u = _typed()
+    other = UniverseResult.from_json({**u.as_json(), "machine": {"cpu": "other"}})
+    for x in (u, other):
+        back = pickle.loads(pickle.dumps(x))
+        assert back == x and repr(back) == repr(x) and back.machine == x.machine
+        with pytest.raises(TypeError):
+            back.diverged["alg"] = 0                       # still read-only
+
+
+def test_value_effect_and_claim_lookups():
+    u = _typed()
+    assert u.value(("T1", "alg", "sd")) == Value("T1", "alg", "sd", None, None, "diverged in 3/3 runs")
+    assert u.value(toy.PUBLISHED[0].key) == u.values[0] and u.value(("T9", "alg", "mean")) is None
+    for bad in ("T1", ("T1", "alg"), ["T1", "alg", "mean"], None):
+        with pytest.raises(ValueError, match=r"^key: expected \(item, algorithm, quantity\)"):
+            u.value(bad)
+    assert u.effect("e") == Effect("e", -1.5, 0.25, None) and u.effect("d").published is None
+    with pytest.raises(ValueError, match=r"^effect: no effect 'g' \(effects: \['d', 'e', 'f'\]\)"):
+        u.effect("g")
+    assert u.claim("A beats B") == "holds" and u.claim("B beats C") == "contradicted"
+    with pytest.raises(ValueError, match=r"^claim: no claim 'C beats D' \(claims: \['A beats B', 'B beats C'\]\)"):
+        u.claim("C beats D")
+
+
+def test_multiverse_lookups_are_the_universe_results(tmp_path):
+    mv = _mv(tmp_path, n_runs=50)
+    u = mv.universes[3]
+    assert all(type(x) is UniverseResult for x in mv.universes) and mv.headline is mv.universes[0]
+    assert mv.value(u, toy.PUBLISHED[0].key) == u.value(toy.PUBLISHED[0].key) == u.values[0]
+    assert mv.value(u, toy.PUBLISHED[2].key) is None
+    assert mv.effect(u, "mean") == u.effect("mean") and mv.effect(u, "mean").published == 1.0
+    with pytest.raises(ValueError, match="^effect: no effect 'nope'"):
+        mv.effect(u, "nope")
+    with pytest.raises(ValueError, match="^universe: expected a UniverseResult"):
+        mv.value(u.as_json(), toy.PUBLISHED[0].key)
+    with pytest.raises(ValueError, match=r"^universes\[0\]: expected a UniverseResult"):
+        Multiverse(mv.space, mv.design, [x.as_json() for x in mv.universes], mv.published, mv.n_runs)
+
+
+def test_run_grid_refuses_a_job_returning_a_dict_when_it_expects_a_universe_result(tmp_path):
+    kw = dict(paper="toy", algorithms=["alg"], n_runs=20, seed=1, cache_dir=tmp_path, progress=False, workers=1)
+    with pytest.raises(ValueError, match=r"^job: experiment_jobs\.a_dict returned dict, expected a UniverseResult"):
+        run_grid(toy.a_dict, [toy.SPACE.headline], **kw)
+    with pytest.raises(ValueError, match=r"^job: experiment_jobs\.a_dict returned dict, expected a UniverseResult"):
+        run_grid(toy.a_dict, [toy.SPACE.headline], result_type=UniverseResult, **kw)
+    assert not list(tmp_path.rglob("*.json"))                       # nothing refused is cached
+    # plain dicts (the arena's cells, result_type=None) are accepted and returned as such, and a UniverseResult
+    # is then refused
+    (plain,) = run_grid(toy.a_dict, [toy.SPACE.headline], result_type=None, **kw)
+    assert type(plain) is dict and plain == toy.toy_universe(toy.SPACE.headline, 20, 1).as_json()
+    with pytest.raises(ValueError, match=r"^job: experiment_jobs\.toy_universe returned UniverseResult, expected a "
+                                         r"dict"):
+        run_grid(toy.toy_universe, [toy.SPACE.headline], result_type=None, **kw)
+    # the default: a UniverseResult, computed and then from the cache
+    (computed,) = run_grid(toy.toy_universe, [toy.SPACE.headline], **kw)
+    (cached,) = run_grid(toy.toy_universe, [toy.SPACE.headline], **kw)
+    assert type(computed) is type(cached) is UniverseResult and computed == cached
+    assert repr(cached) == repr(toy.toy_universe(toy.SPACE.headline, 20, 1))

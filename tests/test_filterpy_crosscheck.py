@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 filterpy = pytest.importorskip("filterpy")
-from filterpy.kalman import KalmanFilter
+from filterpy.kalman import KalmanFilter  # noqa: E402 -- after the skip when FilterPy is missing
 
-import mmlib as m
-from mmlib.core import models
-from bench.crosscheck import filterpy_imm_ukf, filterpy_ukf
+import mmlib as m  # noqa: E402
+from bench.crosscheck import filterpy_imm_ukf, filterpy_ukf  # noqa: E402
+from mmlib.core import models  # noqa: E402
 
 T = 1.0
 RB = models.RangeBearing(np.diag([100.0, 1e-5]))

@@ -1,21 +1,29 @@
-"""GNSS geometry, clock model, Takagi-Sugeno inference, the noise-adaptive IMM, and the
-Tseng et al. 2011 reconstruction (hand-checkable cases, limits, invariances, bad inputs)."""
+"""GNSS geometry, clock model, Takagi-Sugeno inference, the noise-adaptive IMM, the fuzzy noise controller
+(mmlib.core.layers.fuzzy_noise) and the Tseng et al. 2011 reconstruction (hand-checkable cases, limits,
+invariances, bad inputs)."""
 import math
 
 import numpy as np
 import pytest
 
 from mmlib.core import gnss
-from mmlib.core.layers.adaptive_imm import NoiseAdaptiveIMM, degree_of_divergence
+from mmlib.core.layers.adaptive_imm import NoiseAdaptiveIMM, WindowedNoiseAdaptiveIMM, degree_of_divergence
+from mmlib.core.layers.fuzzy_noise import FuzzyNoiseBounds, fuzzy_imm, fuzzy_system
 from scipy.linalg import expm
 
 from mmlib.core.estimation import IMM, Estimate, SingleModel, run
-from mmlib.core.filters import KalmanFilter
+from mmlib.core.filters import KalmanFilter, SigmaPointFilter
 from mmlib.core.fuzzy import TakagiSugeno, Trapezoid, ramp_sets
 from mmlib.core.models import constant_velocity, coordinated_turn, position_measurement
+from mmlib.core.rules import Unscented
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment import evaluation
-from mmlib.papers import tseng2011 as paper
+from mmlib.papers import REGISTRY
+from mmlib.papers.tseng2011.diagnostics import maneuver_flags
+from mmlib.papers.tseng2011.setup import Setup, noise_model, transition_matrix
+from mmlib.papers.tseng2011.simulation import experiment, make_batch_fn, trajectory
+
+ROOT_SEED = REGISTRY["tseng2011"].root_seed
 
 SITE = (25.15, 121.78, 0.0)
 
@@ -196,9 +204,36 @@ def estimate_with(innovation, S):
     return Estimate(None, None, innovation=np.asarray(innovation, float), innovation_cov=np.asarray(S, float))
 
 
+def flas_system(setup):
+    """The FLAS of a Tseng set-up: its breakpoints and level range."""
+    return fuzzy_system(setup.breakpoints, setup.s_lower, setup.s_upper)
+
+
+def test_fuzzy_system_rules_slide_a_half_range_band_with_the_larger_input():
+    """Rule (i, j) of n sets: p = max(i, j) / (n - 1); log10 levels (lo + p D, lo + D + p D), D = half the
+    log-range; the inputs' sets reach 1 at the breakpoints (xi) and at sqrt(2/pi) sqrt(breakpoints) (eta)."""
+    ts = fuzzy_system((1.0, 2.0, 4.0), 0.01, 1.0)
+    assert ts.consequents.shape == (3, 3, 2) and [s.name for s in ts.inputs[0]] == ["Normal", "Moderate", "Large"]
+    np.testing.assert_allclose(ts.consequents[0, 0], [-2.0, -1.0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(ts.consequents[1, 0], ts.consequents[0, 1], rtol=0, atol=0)
+    np.testing.assert_allclose(ts.consequents[2, 1], [-1.0, 0.0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(ts.consequents[1, 2], [-1.0, 0.0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(ts.consequents[1, 1], [-1.5, -0.5], rtol=0, atol=1e-15)
+    eta_peaks = [s.b for s in ts.inputs[1][1:]]                # where the sets reach 1
+    np.testing.assert_allclose(eta_peaks, math.sqrt(2 / math.pi) * np.sqrt([2.0, 4.0]), rtol=1e-15)
+    four = fuzzy_system((0.5, 1.0, 2.0, 4.0), 0.1, 10.0, names=("a", "b", "c", "d"))
+    np.testing.assert_allclose(four.consequents[3, 0], [0.0, 1.0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(four.consequents[1, 1], [-1.0 + 1 / 3, 1 / 3], rtol=0, atol=1e-15)
+    for kw, name in ((dict(breakpoints=(2.0, 1.0, 4.0)), "breakpoints"), (dict(breakpoints=(1.0,)), "breakpoints"),
+                     (dict(lower=0.0), "lower"), (dict(upper=0.01), "upper"), (dict(names=("a", "b")), "breakpoints")):
+        args = dict(breakpoints=(1.0, 2.0, 4.0), lower=0.01, upper=1.0) | kw
+        with pytest.raises(ValueError, match=name):
+            fuzzy_system(**args)
+
+
 def test_flas_corners_give_the_stated_bounds_and_nan_runs_stay_nan():
-    setup = paper.Setup()
-    flas = paper.FuzzyNoiseBounds(paper.fuzzy_system(setup))
+    setup = Setup()
+    flas = FuzzyNoiseBounds(flas_system(setup))
     R = gnss.Pseudoranges(np.ones((4, 3)), setup.sigma_pr ** 2 * np.eye(4))
     S = np.tile(12.0 * np.eye(4), (2, 1, 1))
     quiet, loud = estimate_with(np.zeros((2, 4)), S), estimate_with(np.full((2, 4), 100.0), S)
@@ -208,16 +243,16 @@ def test_flas_corners_give_the_stated_bounds_and_nan_runs_stay_nan():
     out = flas(estimate_with(np.array([[np.nan] * 4, [0.0] * 4]), S), R)
     assert np.isnan(out[0]).all() and np.isfinite(out[1]).all()
     with pytest.raises(ValueError, match="normalise"):
-        paper.FuzzyNoiseBounds(paper.fuzzy_system(setup), "sigma")
+        FuzzyNoiseBounds(flas_system(setup), "sigma")
 
 
 def test_flas_normalises_by_the_predicted_innovation_variance():
-    ts = paper.fuzzy_system(paper.Setup())
+    ts = flas_system(Setup())
     s_pred, sigma2 = 12.0, 9.0
     est = estimate_with(np.full((1, 4), math.sqrt(s_pred)), s_pred * np.eye(4)[None])
     R = gnss.Pseudoranges(np.ones((4, 3)), sigma2 * np.eye(4))
-    np.testing.assert_allclose(paper.FuzzyNoiseBounds(ts).dod(est, R), [[1.0, 1.0]], rtol=1e-14)
-    np.testing.assert_allclose(paper.FuzzyNoiseBounds(ts, "measurement").dod(est, R),
+    np.testing.assert_allclose(FuzzyNoiseBounds(ts).dod(est, R), [[1.0, 1.0]], rtol=1e-14)
+    np.testing.assert_allclose(FuzzyNoiseBounds(ts, "measurement").dod(est, R),
                                [[s_pred / sigma2, math.sqrt(s_pred / sigma2)]], rtol=1e-14)
 
 
@@ -257,11 +292,11 @@ class RecordingController:
 
 
 def test_noise_adaptive_imm_uses_the_levels_of_the_previous_step():
-    ex = paper.experiment(SHORT, names=("FUZZY-IMMUKF",))
+    ex = experiment(SHORT, names=("FUZZY-IMMUKF",))
     base = ex.estimators["FUZZY-IMMUKF"]
     layer = NoiseAdaptiveIMM(base.imm, base.noise, RecordingController(), (0.5, 5.0))
-    mc = MonteCarlo(paper.ROOT_SEED, 2)
-    truth, z, init = paper.make_batch_fn(ex, mc)(range(2))
+    mc = MonteCarlo(ROOT_SEED, 2)
+    truth, z, init = make_batch_fn(ex, mc)(range(2))
     st = layer.init(truth[:, 0], np.diag(np.square(SHORT.p0_sd)), SHORT.mu0)
     tr = run(layer, st, z[:5], measurement_models=ex.measurement_models[:5])
     np.testing.assert_array_equal(tr.diagnostics[:, 0], [[0.5, 5.0]] * 2)        # step 0: the initial levels
@@ -270,10 +305,10 @@ def test_noise_adaptive_imm_uses_the_levels_of_the_previous_step():
 
 
 def test_a_diverged_run_is_recorded_and_the_batch_goes_on():
-    ex = paper.experiment(SHORT, names=("FUZZY-IMMUKF",))
+    ex = experiment(SHORT, names=("FUZZY-IMMUKF",))
     est = ex.estimators["FUZZY-IMMUKF"]
-    mc = MonteCarlo(paper.ROOT_SEED, 3)
-    truth, z, init = paper.make_batch_fn(ex, mc)(range(3))
+    mc = MonteCarlo(ROOT_SEED, 3)
+    truth, z, init = make_batch_fn(ex, mc)(range(3))
     st = init["FUZZY-IMMUKF"]
     modes = st.imm.modes
     bad_mean = modes.mean.copy()
@@ -310,22 +345,22 @@ def test_per_step_models_equal_the_fixed_array_path():
 
 
 # --------------------------------------------------------------------------- the reconstruction
-SHORT = paper.Setup(n_steps=150, turns=((40.0, 90.0, 90.0),))
+SHORT = Setup(n_steps=150, turns=((40.0, 90.0, 90.0),))
 
 
 def short_results(setup, names, n_runs, **build_kw):
-    ex = paper.experiment(setup, names=names, **build_kw)
-    mc = MonteCarlo(paper.ROOT_SEED, n_runs)
-    return evaluation.evaluate(ex.estimators, paper.make_batch_fn(ex, mc), mc, progress=False,
+    ex = experiment(setup, names=names, **build_kw)
+    mc = MonteCarlo(ROOT_SEED, n_runs)
+    return evaluation.evaluate(ex.estimators, make_batch_fn(ex, mc), mc, progress=False,
                            measurement_models=ex.measurement_models)
 
 
 def test_frozen_fuzzy_imm_is_the_imm_at_its_initial_bounds_bit_for_bit():
-    ex = paper.experiment(SHORT, names=("FUZZY-IMMUKF",), frozen_fuzzy=True)
+    ex = experiment(SHORT, names=("FUZZY-IMMUKF",), frozen_fuzzy=True)
     frozen = ex.estimators["FUZZY-IMMUKF"]
     plain = frozen.imm                                    # the IMM whose modes have the 'Normal' bounds
-    mc = MonteCarlo(paper.ROOT_SEED, 6)
-    truth, z, init = paper.make_batch_fn(ex, mc)(range(6))
+    mc = MonteCarlo(ROOT_SEED, 6)
+    truth, z, init = make_batch_fn(ex, mc)(range(6))
     a = run(frozen, init["FUZZY-IMMUKF"], z, measurement_models=ex.measurement_models)
     b = run(plain, init["FUZZY-IMMUKF"].imm, z, measurement_models=ex.measurement_models)
     assert np.array_equal(a.mean, b.mean) and np.array_equal(a.mode_probabilities, b.mode_probabilities)
@@ -334,13 +369,13 @@ def test_frozen_fuzzy_imm_is_the_imm_at_its_initial_bounds_bit_for_bit():
 
 def test_constant_fuzzy_output_equals_the_imm_to_rounding():
     setup = SHORT
-    ex = paper.experiment(setup, names=("FUZZY-IMMUKF", "IMMUKF"))
+    ex = experiment(setup, names=("FUZZY-IMMUKF", "IMMUKF"))
     imm = ex.estimators["IMMUKF"]
-    ts = paper.fuzzy_system(setup)
+    ts = flas_system(setup)
     const = TakagiSugeno(ts.inputs, np.broadcast_to(np.log10([setup.s_lower, setup.s_upper]), ts.consequents.shape))
-    fz = NoiseAdaptiveIMM(imm, paper.noise_model(setup).Q, paper.FuzzyNoiseBounds(const), (setup.s_lower, setup.s_upper))
-    mc = MonteCarlo(paper.ROOT_SEED, 4)
-    truth, z, init = paper.make_batch_fn(ex, mc)(range(4))
+    fz = NoiseAdaptiveIMM(imm, noise_model(setup).Q, FuzzyNoiseBounds(const), (setup.s_lower, setup.s_upper))
+    mc = MonteCarlo(ROOT_SEED, 4)
+    truth, z, init = make_batch_fn(ex, mc)(range(4))
     a = run(fz, fz.init(truth[:, 0], np.diag(np.square(setup.p0_sd)), setup.mu0), z,
             measurement_models=ex.measurement_models)
     b = run(imm, imm.init(truth[:, 0], np.diag(np.square(setup.p0_sd)), setup.mu0), z,
@@ -369,8 +404,8 @@ def test_reconstruction_is_deterministic_and_prefix_consistent():
 
 
 def test_trajectory_follows_the_segment_table():
-    s = paper.Setup()
-    x = paper.trajectory(s)
+    s = Setup()
+    x = trajectory(s)
     speed = np.hypot(x[:, 1], x[:, 3])
     np.testing.assert_allclose(speed, s.speed, rtol=1e-12)
     heading = np.degrees(np.arctan2(x[:, 3], x[:, 1]))
@@ -383,24 +418,33 @@ def test_trajectory_follows_the_segment_table():
 
 def test_setup_and_estimator_validation():
     with pytest.raises(ValueError, match="p_stay"):
-        paper.Setup(p_stay=1.0)
+        Setup(p_stay=1.0)
     with pytest.raises(ValueError, match="s_lower"):
-        paper.Setup(s_lower=2.0, s_upper=1.0)
+        Setup(s_lower=2.0, s_upper=1.0)
     with pytest.raises(ValueError, match="mask_deg"):
-        paper.experiment(paper.Setup(n_steps=5, mask_deg=80.0))
-    ex = paper.experiment(SHORT, names=("IMMUKF",))
+        experiment(Setup(n_steps=5, mask_deg=80.0))
+    ex = experiment(SHORT, names=("IMMUKF",))
     with pytest.raises(ValueError, match="initial_levels"):
-        NoiseAdaptiveIMM(ex.estimators["IMMUKF"], paper.noise_model(SHORT).Q, None, (0.1,))
+        NoiseAdaptiveIMM(ex.estimators["IMMUKF"], noise_model(SHORT).Q, None, (0.1,))
     with pytest.raises(ValueError, match="system"):
-        paper.FuzzyNoiseBounds(TakagiSugeno((ramp_sets("NL", (0, 1)),), np.zeros((2, 1))))
+        FuzzyNoiseBounds(TakagiSugeno((ramp_sets("NL", (0, 1)),), np.zeros((2, 1))))
+    ukf, noise, Tm = SigmaPointFilter(Unscented(1.0, 2.0, 0.0)), noise_model(SHORT), transition_matrix(SHORT)
+    for kw, name in ((dict(window=0), "window"), (dict(window=True), "window"), (dict(normalise="sigma"), "normalise"),
+                     (dict(breakpoints=(4.0, 2.0, 1.0)), "breakpoints")):
+        with pytest.raises(ValueError, match=name):
+            fuzzy_imm(ukf, noise, 0.01, 1.0, Tm, **(dict(breakpoints=(1.0, 2.0, 4.0)) | kw))
+    with pytest.raises(ValueError, match="noise"):
+        fuzzy_imm(ukf, noise.Q, 0.01, 1.0, Tm, breakpoints=(1.0, 2.0, 4.0))
+    with pytest.raises(ValueError, match="upper"):
+        fuzzy_imm(ukf, noise, 1.0, 0.01, Tm, breakpoints=(1.0, 2.0, 4.0))
 
 
 def test_truth_clock_follows_the_clock_model():
     """Increments b_{k+1} - F b_k of the simulated clock have covariance Q (sample of 20 runs x 150 steps:
     relative s.e. of a variance sqrt(2/3000) = 2.6 %, of the correlation ~1.8 %; 4 s.e. allowed)."""
-    ex = paper.experiment(SHORT, names=("UKF",))
-    mc = MonteCarlo(paper.ROOT_SEED, 20)
-    truth, _, _ = paper.make_batch_fn(ex, mc)(range(20))
+    ex = experiment(SHORT, names=("UKF",))
+    mc = MonteCarlo(ROOT_SEED, 20)
+    truth, _, _ = make_batch_fn(ex, mc)(range(20))
     dyn = gnss.clock_dynamics(SHORT.T, SHORT.clock_h0, SHORT.clock_h_minus2)
     c = truth[..., list(gnss.CLOCK_INDEX)]
     assert np.all(c[:, 0] == 0.0)
@@ -412,7 +456,24 @@ def test_truth_clock_follows_the_clock_model():
 
 
 def test_maneuver_flags_follow_the_segment_table():
-    flags = paper.maneuver_flags(paper.Setup())
+    flags = maneuver_flags(Setup())
     start = np.arange(1800)                       # transition k starts at t = k s
     expect = ((start >= 300) & (start < 700)) | ((start >= 800) & (start < 900)) | ((start >= 1200) & (start < 1400))
     np.testing.assert_array_equal(flags, expect.astype(int))
+
+
+def test_fuzzy_imm_starts_at_the_first_rule_and_windows_by_request():
+    """fuzzy_imm: a two-mode IMM at the "Normal" levels (L, sqrt(L U)), a plain NoiseAdaptiveIMM for a window of one
+    and a WindowedNoiseAdaptiveIMM otherwise, with the FLAS of its breakpoints and normalisation."""
+    ukf, noise, Tm = SigmaPointFilter(Unscented(1.0, 2.0, 0.0)), noise_model(SHORT), transition_matrix(SHORT)
+    one = fuzzy_imm(ukf, noise, 0.01, 1.0, Tm, breakpoints=(1.0, 2.0, 4.0))
+    assert type(one) is NoiseAdaptiveIMM and one.name == "FUZZY-IMM" and one.imm.measurement is None
+    np.testing.assert_allclose(one.initial_levels, [0.01, 0.1], rtol=1e-14)
+    np.testing.assert_array_equal(one.imm.dynamics[1].Q, noise.dynamics(one.initial_levels[1]).Q)
+    assert one.controller.normalise == "innovation"
+    np.testing.assert_array_equal(one.controller.system.consequents,
+                                  fuzzy_system((1.0, 2.0, 4.0), 0.01, 1.0).consequents)
+    four = fuzzy_imm(ukf, noise, 0.01, 1.0, Tm, breakpoints=(1.0, 2.0, 4.0), normalise="measurement", window=4,
+                     frozen=True, name="F")
+    assert isinstance(four, WindowedNoiseAdaptiveIMM) and four.window == 4 and four.frozen and four.name == "F"
+    assert four.controller.normalise == "measurement"

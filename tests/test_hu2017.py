@@ -3,15 +3,17 @@ import numpy as np
 import pytest
 
 from mmlib import MonteCarlo, run
-from mmlib.experiment import metrics
-from mmlib.experiment import evaluation
-from mmlib.papers import hu2017 as paper
+from mmlib.experiment import evaluation, metrics
+from mmlib.papers import REGISTRY
+from mmlib.papers.hu2017 import diagnostics, setup, study, text, timing
+
+PAPER = REGISTRY["hu2017"]
 
 
 @pytest.fixture(scope="module")
 def headline():
-    mc = MonteCarlo(paper.ROOT_SEED, 10)
-    make_batch, est, _ = paper.make_batch_fn(paper.Setup(), mc)
+    mc = MonteCarlo(PAPER.root_seed, 10)
+    make_batch, est = setup.batch(setup.Setup(), mc)
     return evaluation.evaluate(est, make_batch, mc, progress=False), make_batch, est
 
 
@@ -43,16 +45,16 @@ def test_bootstrapping_is_over_confident(headline):
 
 
 def test_truth_follows_the_state_equation_schedule():
-    sched = paper.build(paper.Setup())[0]
+    sched = setup.build(setup.Setup())[0]
     modes = sched.modes()
     assert modes[:10].tolist() == [0] * 10 and modes[10:25].tolist() == [1] * 15 and modes[25:].tolist() == [0] * 10
 
 
 def test_setup_validation():
     with pytest.raises(ValueError, match="mode2_steps"):
-        paper.Setup(mode2_steps=(20, 40))
+        setup.Setup(mode2_steps=(20, 40))
     with pytest.raises(ValueError, match="q"):
-        paper.Setup(q=(0.2, -1.0))
+        setup.Setup(q=(0.2, -1.0))
 
 
 # ---------------------------------------------------------------------------------------------- reading space
@@ -63,31 +65,28 @@ from mmlib.experiment import run_grid  # noqa: E402
 from mmlib.experiment.montecarlo import MonteCarlo as _MC  # noqa: E402
 
 
-def _jsonable(doc):
-    return json.loads(json.dumps(doc, allow_nan=False))
-
-
 def test_headline_setup_is_the_default_setup():
-    assert paper.setups(paper.SPACE.headline) == paper.Setup()
+    assert PAPER.headline_setup() == setup.Setup() and PAPER.setup_type is setup.Setup
 
 
 def test_headline_universe_through_a_process_pool_equals_the_notebook_path(tmp_path):
     """The notebook's headline (evaluate_reading + summarise in-process) and the multiverse's headline
     universe (run_grid, 2 spawned worker processes, no cache) are the same numbers bit for bit."""
     n = 6
-    in_process = paper.summarise(paper.evaluate_reading(paper.SPACE.headline, _MC(paper.ROOT_SEED, n)), n)
-    other = paper.SPACE.with_headline(**{"H-6": "(2sigma)2"})
-    pooled = run_grid(paper.universe, [paper.SPACE.headline, other], paper=paper.PAPER,
-                      algorithms=paper.MV_ALGORITHMS, n_runs=n, seed=paper.ROOT_SEED, workers=2,
+    in_process = study.summarise(study.evaluate_reading(PAPER.headline, _MC(PAPER.root_seed, n)), n)
+    other = PAPER.space.with_headline(**{"H-6": "(2sigma)2"})
+    pooled = run_grid(PAPER.universe, [PAPER.headline, other], paper=PAPER.name,
+                      algorithms=PAPER.algorithms, n_runs=n, seed=PAPER.root_seed, workers=2,
                       cache_dir=tmp_path, use_cache=False, progress=False)
-    assert pooled[0] == _jsonable(in_process)
+    assert pooled[0] == in_process
+    assert pooled[0].as_json() == json.loads(json.dumps(in_process.as_json(), allow_nan=False))
     assert pooled[1] != pooled[0]
 
 
 def _draws(reading, n=4):
     """Truth, measurements and the OBS layer's bootstrap noise of the first n runs under a reading."""
-    mc = _MC(paper.ROOT_SEED, n)
-    make_batch, _, _ = paper.make_batch_fn(paper.setups(reading), mc)
+    mc = _MC(PAPER.root_seed, n)
+    make_batch, _ = setup.batch(PAPER.setup(reading), mc)
     truth, z, init = make_batch(range(n))
     return truth, z, init["IMMCDKF-OBS"].modes.noise
 
@@ -96,9 +95,9 @@ def _draws(reading, n=4):
 def test_filter_side_factors_keep_common_random_numbers(factor_id):
     """Factors that change only the filters (or the metric) leave truth, measurements and the bootstrap
     draws bit-identical."""
-    head = _draws(paper.SPACE.headline)
-    for option in paper.SPACE.factor(factor_id).names:
-        other = _draws(paper.SPACE.with_headline(**{factor_id: option}))
+    head = _draws(PAPER.headline)
+    for option in PAPER.space.factor(factor_id).names:
+        other = _draws(PAPER.space.with_headline(**{factor_id: option}))
         for a, b in zip(other, head):          # truth, measurements, bootstrap noise
             np.testing.assert_array_equal(a, b)
 
@@ -107,12 +106,12 @@ def test_truth_side_factors_use_the_same_draws():
     """H-4 (noise unit) and H-13 (noise on/off) scale the same standard-normal draws: the truth differs only
     by the process noise term, and the measurement noise is the same draw."""
     n = 4
-    mc = _MC(paper.ROOT_SEED, n)
+    mc = _MC(PAPER.root_seed, n)
     out = {}
     for key, change in (("m", {}), ("km", {"H-4": "km"}), ("none", {"H-13": "without"})):
-        s = paper.setups(paper.SPACE.with_headline(**change))
-        truth, z, _ = paper.make_batch_fn(s, mc, names=("IMMCDKF",))[0](range(n))
-        out[key] = (truth, z - paper.build(s)[1].h(truth[:, 1:]))
+        s = PAPER.setup(PAPER.space.with_headline(**change))
+        truth, z, _ = setup.batch(s, mc, names=("IMMCDKF",))[0](range(n))
+        out[key] = (truth, z - setup.build(s)[1].h(truth[:, 1:]))
     for key in ("km", "none"):
         np.testing.assert_allclose(out[key][1], out["m"][1], rtol=0, atol=1e-12)   # same measurement noise draw
     # the truth's deviation from the noise-free truth scales with sqrt(q): 1e3 between km^2 and m^2 readings,
@@ -123,15 +122,15 @@ def test_truth_side_factors_use_the_same_draws():
 
 
 def test_every_option_changes_the_setup_it_claims():
-    head = paper.Setup()
-    names = {f.name for f in fields(paper.Setup)}
-    for factor in paper.SPACE.factors:
+    head = setup.Setup()
+    names = {f.name for f in fields(setup.Setup)}
+    for factor in PAPER.space.factors:
         for option in factor.options:
             assert set(option.changes) <= names, (factor.id, option.name)
-            s = paper.setups(paper.SPACE.with_headline(**{factor.id: option.name}))
+            s = PAPER.setup(PAPER.space.with_headline(**{factor.id: option.name}))
             for field_name, value in option.changes.items():
                 assert getattr(s, field_name) == value
-            changed = {f.name for f in fields(paper.Setup) if getattr(s, f.name) != getattr(head, f.name)}
+            changed = {f.name for f in fields(setup.Setup) if getattr(s, f.name) != getattr(head, f.name)}
             if option.name == factor.headline:
                 assert not changed
             else:
@@ -139,9 +138,9 @@ def test_every_option_changes_the_setup_it_claims():
 
 
 def test_filters_q_is_separate_from_the_truths():
-    s = paper.setups(paper.SPACE.with_headline(**{"H-14": "0.01"}))
-    schedule, _, est = paper.build(s)
-    np.testing.assert_allclose(schedule.models[0].Q, paper.build(paper.Setup())[0].models[0].Q)   # truth: m^2/s^4
+    s = PAPER.setup(PAPER.space.with_headline(**{"H-14": "0.01"}))
+    schedule, _, est = setup.build(s)
+    np.testing.assert_allclose(schedule.models[0].Q, setup.build(setup.Setup())[0].models[0].Q)   # truth: m^2/s^4
     G = np.array([[0.0, 0.5], [0.0, 1.0], [0.5, 0.0], [1.0, 0.0]])
     np.testing.assert_allclose(est["IMMCDKF"].dynamics[1].Q, 0.01 * 0.4 * G @ G.T, rtol=1e-12)
 
@@ -150,16 +149,17 @@ def test_filters_q_is_separate_from_the_truths():
                                             ({"H-4": "m"}, "leaves out")])
 def test_bad_reading_names_the_factor_or_option(reading, match):
     with pytest.raises(ValueError, match=match):
-        paper.setups(reading if "leaves" in match else {**paper.SPACE.headline, **reading})
+        PAPER.setup(reading if "leaves" in match else {**PAPER.headline, **reading})
 
 
-@pytest.mark.parametrize("kwargs, match", [(dict(q_filter=(0.1,)), "q_filter"), (dict(q_filter=(0.1, -1.0)), "q_filter"),
+@pytest.mark.parametrize("kwargs, match", [(dict(q_filter=(0.1,)), "q_filter"),
+                                           (dict(q_filter=(0.1, -1.0)), "q_filter"),
                                            (dict(obs_covariance="exact"), "obs_covariance"),
                                            (dict(rmse_metric="median"), "rmse_metric"),
                                            (dict(truth_process_noise=1), "truth_process_noise")])
 def test_new_setup_fields_are_validated(kwargs, match):
     with pytest.raises(ValueError, match=match):
-        paper.Setup(**kwargs)
+        setup.Setup(**kwargs)
 
 
 def test_table1_metrics_order_and_values():
@@ -167,15 +167,15 @@ def test_table1_metrics_order_and_values():
     when every error is the same constant."""
     errs = np.full((5, 35, 4), 0.3)
     rs = evaluation.RunSet(errs, None, np.full(5, -1), errs[0])
-    vals = [float(paper.table1_metric(rs, 0, m).value) for m in paper.RMSE_METRICS]
+    vals = [float(study.table1_metric(rs, 0, m).value) for m in text.RMSE_METRICS]
     np.testing.assert_allclose(vals, 0.3, rtol=1e-12)
     rng = np.random.default_rng(1)
     rs = evaluation.RunSet(rng.standard_normal((50, 35, 4)), None, np.full(50, -1), errs[0])
-    runs_mean = float(paper.table1_metric(rs, 2, "mean_over_runs").value)
-    pooled = float(paper.table1_metric(rs, 2, "rms_runs_steps").value)
+    runs_mean = float(study.table1_metric(rs, 2, "mean_over_runs").value)
+    pooled = float(study.table1_metric(rs, 2, "rms_runs_steps").value)
     assert runs_mean <= pooled
     with pytest.raises(ValueError, match="metric"):
-        paper.table1_metric(rs, 0, "median")
+        study.table1_metric(rs, 0, "median")
 
 
 def test_printed_eq20_covariance_is_larger_than_the_kalman_form():
@@ -184,7 +184,7 @@ def test_printed_eq20_covariance_is_larger_than_the_kalman_form():
     from mmlib.core.layers.bootstrap import ObservationBootstrap
     from mmlib.core.filters import SigmaPointFilter
     from mmlib.core.rules import CentralDifference
-    radar = paper.build(paper.Setup())[1]
+    radar = setup.build(setup.Setup())[1]
     base = SigmaPointFilter(CentralDifference(form="weighted"))
     x = np.array([[8.0, 0.4, 6.0, 0.2]])
     P = np.diag([0.01, 4e-4, 0.01, 4e-4])[None]
@@ -204,9 +204,9 @@ def test_printed_eq20_covariance_is_larger_than_the_kalman_form():
 def test_timing_rows_and_claims_use_standard_errors():
     from mmlib.experiment.report import Claims
     per_run = {a: np.array([1.0, 1.02, 0.98]) * f for a, f in
-               zip(paper.ALGORITHMS, (1.0, 0.3, 1.4, 1.0, 3.0))}
+               zip(PAPER.algorithms, (1.0, 0.3, 1.4, 1.0, 3.0))}
     claims = Claims()
-    rows, _ = paper.judge_timing(per_run, per_run, claims)
+    rows, _ = timing.judge_timing(per_run, per_run, claims)
     by_alg = {r.algorithm: r for r in rows}
     assert by_alg["IMMUKF"].paper == "1.0" and by_alg["IMMEKF"].paper == "0.26" and by_alg["IMMCDKF-OBS"].paper == "3.7"
     assert by_alg["IMMUKF"].verdict == "reproduced"                    # ratio 1 +- 0, paper 1.0 +- 0.05
@@ -221,29 +221,29 @@ def test_every_factor_is_influential_and_the_design_pairs_them_all():
     check cannot license it), so the covering design pairs every option of every two factors -- in particular
     the noise-free truth with the km reading and with every level of the filters' Q -- within the budget."""
     import itertools
-    assert all(f.influential for f in paper.SPACE.factors)
-    design = paper.SPACE.design()
-    assert design.kind == "fractional" and len(design) <= paper.SPACE.budget
-    for a, b in itertools.combinations(paper.SPACE.factors, 2):
+    assert all(f.influential for f in PAPER.space.factors)
+    design = PAPER.space.design()
+    assert design.kind == "fractional" and len(design) <= PAPER.space.budget
+    for a, b in itertools.combinations(PAPER.space.factors, 2):
         for x in a.names:
             for y in b.names:
                 assert any(r[a.id] == x and r[b.id] == y for r in design.readings), (a.id, x, b.id, y)
     without = [r for r in design.readings if r["H-13"] == "without"]
     assert any(r["H-4"] == "km" for r in without)
-    assert {r["H-14"] for r in without} == set(paper.SPACE.factor("H-14").names)
+    assert {r["H-14"] for r in without} == set(PAPER.space.factor("H-14").names)
 
 
 def test_truth_noise_moves_the_target_tens_of_metres():
     """The reason H-13 is influential, measured: over the first 50 runs the truth's process noise moves the
     target from the noise-free truth by a median of tens of metres under m^2/s^4 (not '< 1 m'), exactly
     sqrt(1e6) = 1e3 times more under km^2/s^4 (same draws), and not at all without process noise."""
-    mc = _MC(paper.ROOT_SEED, 50)
-    st = {u: paper.truth_statistics(paper.SPACE.with_headline(**{"H-4": u}), mc, 50) for u in ("m", "km")}
+    mc = _MC(PAPER.root_seed, 50)
+    st = {u: diagnostics.truth_statistics(PAPER.space.with_headline(**{"H-4": u}), mc, 50) for u in ("m", "km")}
     assert 0.02 < st["m"]["median_max_noise_displacement"] < 0.1          # km: 43 m measured
     assert st["m"]["max_noise_displacement"] > 0.1                         # 149 m measured
     np.testing.assert_allclose(st["km"]["median_max_noise_displacement"],
                                1e3 * st["m"]["median_max_noise_displacement"], rtol=1e-9)
-    calm = paper.truth_statistics(paper.SPACE.with_headline(**{"H-13": "without"}), mc, 50)
+    calm = diagnostics.truth_statistics(PAPER.space.with_headline(**{"H-13": "without"}), mc, 50)
     assert calm["max_noise_displacement"] == 0.0
 
 
@@ -252,21 +252,23 @@ def _fake_multiverse(verdicts_by_reading, key_values):
     """A Multiverse of hand-made universes: reading changes -> claim verdict of the one claim, key effect."""
     from mmlib.experiment.multiverse import Multiverse
     from mmlib.experiment.readings import Design
+    from mmlib.experiment.universe import UniverseResult
     readings, universes = [], []
     for (changes, verdict), value in zip(verdicts_by_reading, key_values):
-        readings.append(paper.SPACE.with_headline(**changes))
-        universes.append({"values": [], "claims": [
-            {"claim": "IMMCDKF-OBS is more accurate than IMMCDKF: bootstrapped observations", "verdict": verdict}],
-            "effects": [{"name": paper.KEY_EFFECT, "value": value, "stderr": 0.001, "published": None}],
-            "diverged": {}, "n_runs": 10})
-    return Multiverse(paper.SPACE, Design("star", "hand-made", tuple(readings)), universes, (), 10)
+        readings.append(PAPER.space.with_headline(**changes))
+        universes.append(UniverseResult.build(
+            values=[], claims=[{"claim": "IMMCDKF-OBS is more accurate than IMMCDKF: bootstrapped observations",
+                                "verdict": verdict}],
+            effects=[(PAPER.key_effect, value, 0.001, None), ("mode_probability_obs_minus_cdkf", 0.0, 0.01, None)],
+            diverged={}, n_runs=10))
+    return Multiverse(PAPER.space, Design("star", "hand-made", tuple(readings)), universes, (), 10)
 
 
 def test_claims_are_counted_once_per_distinct_simulation():
     """H-11 is metric-only, so universes that differ only in it are one simulation: counted once.  Hand-computed:
     5 universes, 3 simulations (headline x3 metrics, H-6, H-7): per simulation 'holds' 1 of 3 and 'contradicted'
     2 of 3 (per universe it would be 3 of 5 and 2 of 5); not robust either way."""
-    assert [f.id for f in paper.SPACE.factors if f.metric_only] == ["H-11"]
+    assert [f.id for f in PAPER.space.factors if f.metric_only] == ["H-11"]
     mv = _fake_multiverse([({}, "holds"), ({"H-11": "mean_over_runs"}, "holds"), ({"H-11": "rms_runs_steps"}, "holds"),
                            ({"H-6": "(2sigma)2"}, "contradicted"), ({"H-7": "product"}, "contradicted")],
                           [-0.01, -0.01, -0.01, 0.01, 0.02])
@@ -274,7 +276,7 @@ def test_claims_are_counted_once_per_distinct_simulation():
     summary = mv.claims_summary()[0]
     assert summary["verdict_counts"] == {"holds": 1, "contradicted": 2}
     assert summary["n_simulations"] == 3 and summary["n_universes"] == 5 and not summary["robust"]
-    helps = paper.bootstrapping_helps(mv)
+    helps = diagnostics.bootstrapping_helps(mv)
     assert [(i, d) for i, d, _, _ in helps] == [(0, "headline")]            # once, not three times
 
 
@@ -288,7 +290,40 @@ def test_a_metric_only_factor_that_moves_a_claim_is_an_error():
 
 
 def test_describe_simulation_leaves_out_the_metric_only_factor():
-    r = paper.SPACE.with_headline(**{"H-11": "rms_runs_steps", "H-6": "(2sigma)2"})
-    assert "H-11" not in paper.SPACE.describe_simulation(r) and "H-6" in paper.SPACE.describe_simulation(r)
-    assert paper.SPACE.simulation_key(r) == paper.SPACE.simulation_key({**r, "H-11": "mean_over_steps"})
-    assert paper.SPACE.simulation_key(r) != paper.SPACE.simulation_key({**r, "H-6": "2sigma2"})
+    space = PAPER.space
+    r = space.with_headline(**{"H-11": "rms_runs_steps", "H-6": "(2sigma)2"})
+    assert "H-11" not in space.describe_simulation(r) and "H-6" in space.describe_simulation(r)
+    assert space.simulation_key(r) == space.simulation_key({**r, "H-11": "mean_over_steps"})
+    assert space.simulation_key(r) != space.simulation_key({**r, "H-6": "2sigma2"})
+
+
+def test_influence_reads_the_typed_universes():
+    """H-6's one-factor universe moves the key effect by 0.03 km^2 at a combined s.e. of 0.001 * sqrt(2) and flips
+    the one claim; H-7 has no one-factor universe here, so it moves nothing."""
+    mv = _fake_multiverse([({}, "holds"), ({"H-6": "(2sigma)2"}, "contradicted")], [-0.01, 0.02])
+    inf = diagnostics.influence(mv, "H-6")
+    assert inf["table1_cells_se"] == 0.0 and inf["moves"]
+    np.testing.assert_allclose(inf["effects_se"], 0.03 / (0.001 * np.sqrt(2)), rtol=1e-12)
+    assert inf["claims_changed"] == ["IMMCDKF-OBS is more accurate than IMMCDKF: bootstrapped observations"]
+    assert diagnostics.influence(mv, "H-7") == {"table1_cells_se": 0.0, "effects_se": 0.0, "claims_changed": [],
+                                                "moves": False}
+
+
+# ------------------------------------------------------------------- the contract and the arena
+def test_the_arena_builds_the_papers_cdkf_and_bootstrap_layer():
+    """The arena's recipes build the CDKF and the bootstrap layer from the headline set-up's fields: the same
+    objects as the paper's IMMCDKF and IMMCDKF-OBS mode filters."""
+    from mmlib.arena import recipes
+    head = PAPER.headline_setup()
+    est = setup.build(head)[2]
+    s = PAPER.scenario(head)
+    assert recipes.cdkf(s) == est["IMMCDKF"].filter
+    assert recipes.cdkf_obs(s) == est["IMMCDKF-OBS"].filter
+
+
+def test_scenario_is_the_headline_in_metres():
+    s = PAPER.scenario(PAPER.headline_setup())
+    assert s.name == PAPER.name and s.root_seed == PAPER.root_seed and s.n_steps == 35
+    np.testing.assert_allclose(s.P0, np.diag(np.square([100.0, 20.0, 100.0, 20.0])), rtol=1e-12)
+    with pytest.raises(ValueError, match="setup"):
+        PAPER.scenario(None)

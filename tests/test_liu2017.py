@@ -3,15 +3,22 @@ import numpy as np
 import pytest
 
 from mmlib import MonteCarlo
-from mmlib.experiment import metrics
-from mmlib.experiment import evaluation
-from mmlib.papers import liu2017 as paper
+from mmlib.core.filters import ExtendedKalmanFilter
+from mmlib.core.layers.strong_tracking import StrongTracking
+from mmlib.experiment import evaluation, metrics
+from mmlib.experiment.universe import UniverseResult
+from mmlib.papers import REGISTRY
+from mmlib.papers.liu2017 import diagnostics, setup, study, table2, text
+from mmlib.papers.liu2017.claims import judge_claims
+
+PAPER = REGISTRY["liu2017"]
+EXAMPLE1 = setup.BASE_SETUPS.example1
 
 
 @pytest.fixture(scope="module")
 def example1():
-    mc = MonteCarlo(paper.ROOT_SEED, 8)
-    make_batch, est, _ = paper.make_batch_fn(paper.EXAMPLE1, mc, names=paper.FILTERS)
+    mc = MonteCarlo(PAPER.root_seed, 8)
+    make_batch, est, _ = setup.make_batch_fn(EXAMPLE1, mc, names=text.FILTERS)
     return evaluation.evaluate(est, make_batch, mc, progress=False)
 
 
@@ -29,7 +36,7 @@ def test_strong_tracking_beats_plain_filter_after_the_jump(example1):
 
 def test_truth_follows_the_printed_time_line():
     mc = MonteCarlo(1, 1)
-    make_batch, _, _ = paper.make_batch_fn(paper.EXAMPLE1, mc, names=("SSRCKF",))
+    make_batch, _, _ = setup.make_batch_fn(EXAMPLE1, mc, names=("SSRCKF",))
     truth, _, _ = make_batch(range(1))
     np.testing.assert_array_equal(truth[0, :150][:, [2, 5]], 0.0)          # no acceleration before t = 150 s (L-8)
     np.testing.assert_array_equal(truth[0, 150:, 2], 15.0)
@@ -39,11 +46,11 @@ def test_truth_follows_the_printed_time_line():
 
 def test_setup_validation():
     with pytest.raises(ValueError, match="maneuver_start"):
-        paper.Setup(maneuver_start=250.0)
+        setup.Setup(maneuver_start=250.0)
     with pytest.raises(ValueError, match="q_sd"):
-        paper.Setup(q_sd=0.0)
+        setup.Setup(q_sd=0.0)
     with pytest.raises(ValueError, match="initial_estimate"):
-        paper.Setup(initial_estimate="perfect")
+        setup.Setup(initial_estimate="perfect")
 
 
 # -- reading space and multiverse ---------------------------------------------------------------------------------
@@ -60,37 +67,37 @@ N_SMALL = 4
 def test_headline_universe_from_a_two_process_grid_equals_the_notebook_path(tmp_path):
     """The notebook's headline (evaluate_reading + summarise + table_rows + judge_claims, in process)
     and the multiverse's headline universe (spawned worker, JSON round trip) agree bit for bit."""
-    head = paper.SPACE.headline
-    other = paper.SPACE.with_headline(**{"L-4": "0"})
-    grid = run_grid(paper.universe, [head, other], paper=paper.PAPER, algorithms=paper.MV_ALGORITHMS,
-                    n_runs=N_SMALL, seed=paper.ROOT_SEED, workers=2, cache_dir=tmp_path, use_cache=False,
-                    progress=False)
-    results = paper.evaluate_reading(head, MonteCarlo(paper.ROOT_SEED, N_SMALL))
-    local = paper.summarise(results, N_SMALL)
-    assert grid[0] == json.loads(json.dumps(local))
-    rows = paper.table_rows(grid[0])
+    head = PAPER.headline
+    other = PAPER.space.with_headline(**{"L-4": "0"})
+    grid = run_grid(PAPER.universe, [head, other], paper=PAPER.name, algorithms=PAPER.algorithms,
+                    n_runs=N_SMALL, seed=PAPER.root_seed, workers=2, cache_dir=tmp_path, use_cache=False,
+                    progress=False, result_type=UniverseResult)
+    results = study.evaluate_reading(head, MonteCarlo(PAPER.root_seed, N_SMALL))
+    local = study.summarise(results, N_SMALL)
+    assert isinstance(local, UniverseResult) and grid[0] == local
+    rows = study.table_rows(grid[0])
     assert [(r.item, r.algorithm, r.quantity, r.replicated, r.stderr) for r in rows] == \
-        [(v["item"], v["algorithm"], v["quantity"], v["replicated"], v["stderr"]) for v in local["values"]]
-    assert [c["verdict"] for c in paper.judge_claims(results)] == [c["verdict"] for c in grid[0]["claims"]]
-    assert grid[1]["values"] != grid[0]["values"]           # kappa changes STUKF's numbers ...
-    stukf = [i for i, v in enumerate(grid[0]["values"]) if v["algorithm"] == "STUKF"]
-    assert all(grid[1]["values"][i] == grid[0]["values"][i]  # ... and nothing else
-               for i in range(len(grid[0]["values"])) if i not in stukf)
+        [(v.item, v.algorithm, v.quantity, v.replicated, v.stderr) for v in local.values]
+    assert [c["verdict"] for c in judge_claims(results)] == [c.verdict for c in grid[0].claims]
+    assert grid[1].values != grid[0].values                 # kappa changes STUKF's numbers ...
+    stukf = [i for i, v in enumerate(grid[0].values) if v.algorithm == "STUKF"]
+    assert all(grid[1].values[i] == grid[0].values[i]       # ... and nothing else
+               for i in range(len(grid[0].values)) if i not in stukf)
 
 
 def _batches(reading, names=("STSSRCKF",)):
-    mc = MonteCarlo(paper.ROOT_SEED, 3)
+    mc = MonteCarlo(PAPER.root_seed, 3)
     out = {}
-    for case, setup in paper.setups(reading).items():
-        make_batch, _, _ = paper.make_batch_fn(setup, mc, names=names)
+    for case, s in PAPER.setup(reading).items():
+        make_batch, _, _ = setup.make_batch_fn(s, mc, names=names)
         truth, z, init = make_batch(range(3))
-        out[case] = (truth, z, init["STSSRCKF"].mean, setup)
+        out[case] = (truth, z, init["STSSRCKF"].mean, s)
     return out
 
 
-def _noise(truth, z, setup):
+def _noise(truth, z, s):
     from mmlib.core import models
-    radar = models.range_bearing(np.diag([setup.sigma_r ** 2, setup.sigma_theta ** 2]), state_dim=6)
+    radar = models.range_bearing(np.diag([s.sigma_r ** 2, s.sigma_theta ** 2]), state_dim=6)
     return z - radar.h(truth[:, 1:])
 
 
@@ -99,9 +106,9 @@ def _noise(truth, z, setup):
 def test_universes_share_common_random_numbers(factor, option):
     """Readings that leave the random structure alone see identical truth and measurements; readings that move
     the truth (onset, truth noise) still see identical measurement-noise draws."""
-    base = _batches(paper.SPACE.headline)
-    alt = _batches(paper.SPACE.with_headline(**{factor: option}))
-    for case in paper.CASES:
+    base = _batches(PAPER.headline)
+    alt = _batches(PAPER.space.with_headline(**{factor: option}))
+    for case in text.CASES:
         (t0, z0, m0, s0), (t1, z1, m1, s1) = base[case], alt[case]
         if factor in ("L-2", "L-4", "L-6"):
             np.testing.assert_array_equal(t0, t1)
@@ -113,47 +120,47 @@ def test_universes_share_common_random_numbers(factor, option):
 
 
 def test_every_option_changes_the_setups_it_claims():
-    head = paper.setups(paper.SPACE.headline)
-    for f in paper.SPACE.factors:
+    head = PAPER.headline_setup()
+    for f in PAPER.space.factors:
         for o in f.options:
-            sets = paper.setups(paper.SPACE.with_headline(**{f.id: o.name}))
+            sets = PAPER.setup(PAPER.space.with_headline(**{f.id: o.name}))
             for case, s in sets.items():
                 for key, value in o.changes.items():
                     assert getattr(s, key) == value, (f.id, o.name, case, key)
             if o.name != f.headline:
-                assert any(sets[c] != head[c] for c in paper.CASES), (f.id, o.name)
-    onset = {o: {c: s.onset for c, s in paper.setups(paper.SPACE.with_headline(**{"L-1": o})).items()}
+                assert any(sets[c] != head[c] for c in text.CASES), (f.id, o.name)
+    onset = {o: {c: s.onset for c, s in PAPER.setup(PAPER.space.with_headline(**{"L-1": o})).items()}
              for o in ("150s", "100s")}
     assert onset["150s"] == {"Example 1": 150.0, "Case 1": 150.0, "Case 2": 150.0}
     assert onset["100s"] == {"Example 1": 100.0, "Case 1": 150.0, "Case 2": 150.0}    # L-1: Example 1 only
-    late = paper.setups(paper.SPACE.with_headline(**{"L-1": "100s", "L-8": "t0+1"}))
-    assert [late[c].onset for c in paper.CASES] == [101.0, 151.0, 151.0]
-    ex2_only = paper.setups(paper.SPACE.with_headline(**{"L-6": "sampled-ex2"}))
-    assert [ex2_only[c].samples_initial_estimate for c in paper.CASES] == [False, True, True]
-    stukf = paper.build(paper.setups(paper.SPACE.with_headline(**{"L-4": "n-3"}))["Example 1"])[2]["STUKF"]
+    late = PAPER.setup(PAPER.space.with_headline(**{"L-1": "100s", "L-8": "t0+1"}))
+    assert [late[c].onset for c in text.CASES] == [101.0, 151.0, 151.0]
+    ex2_only = PAPER.setup(PAPER.space.with_headline(**{"L-6": "sampled-ex2"}))
+    assert [ex2_only[c].samples_initial_estimate for c in text.CASES] == [False, True, True]
+    stukf = setup.build(PAPER.setup(PAPER.space.with_headline(**{"L-4": "n-3"})).example1)[2]["STUKF"]
     assert stukf.filter.base.rule.kappa == 3.0
 
 
 def test_onset_step_moves_the_truth_by_one_step():
     mc = MonteCarlo(1, 1)
     for step, first in ((0, 150), (1, 151)):
-        make_batch, _, _ = paper.make_batch_fn(paper.Setup(onset_step=step), mc, names=("SSRCKF",))
+        make_batch, _, _ = setup.make_batch_fn(setup.Setup(onset_step=step), mc, names=("SSRCKF",))
         truth, _, _ = make_batch(range(1))
         assert truth[0, first - 1, 2] == 0.0 and truth[0, first, 2] == 15.0
 
 
 def _without(fid):
-    return {k: v for k, v in paper.SPACE.headline.items() if k != fid}
+    return {k: v for k, v in PAPER.headline.items() if k != fid}
 
 
-@pytest.mark.parametrize("reading,word", [({**paper.SPACE.headline, "L-99": "x"}, "unknown factor 'L-99'"),
-                                          ({**paper.SPACE.headline, "L-2": "3"}, "'L-2' has no option '3'"),
+@pytest.mark.parametrize("reading,word", [({**PAPER.headline, "L-99": "x"}, "unknown factor 'L-99'"),
+                                          ({**PAPER.headline, "L-2": "3"}, "'L-2' has no option '3'"),
                                           (_without("L-6"), r"leaves out factor\(s\) \['L-6'\]")])
 def test_bad_reading_raises_naming_the_factor_or_option(reading, word):
     with pytest.raises(ValueError, match=word):
-        paper.setups(reading)
+        PAPER.setup(reading)
     with pytest.raises(ValueError, match=word):
-        paper.universe(reading, 2, 1)
+        PAPER.universe(reading, 2, 1)
 
 
 @pytest.mark.parametrize("kwargs,arg", [(dict(timeline="abstract"), "timeline"), (dict(onset_step=2), "onset_step"),
@@ -166,7 +173,7 @@ def test_bad_reading_raises_naming_the_factor_or_option(reading, word):
                                         (dict(maneuver_start=199.5, onset_step=1), "onset_step")])
 def test_new_setup_fields_are_validated(kwargs, arg):
     with pytest.raises(ValueError, match=arg):
-        paper.Setup(**kwargs)
+        setup.Setup(**kwargs)
 
 
 def test_timing_claim_uses_the_verdict_rule():
@@ -174,11 +181,11 @@ def test_timing_claim_uses_the_verdict_rule():
     bare comparison that flips between identical runs."""
     rng = np.random.default_rng(0)
     base = 0.01 + 1e-4 * rng.standard_normal(5)
-    per_run = {a: base * (2.0 if a.startswith("ST") and a != "STF" else 1.0) for a in paper.FILTERS}
-    _, claim, _ = paper.table2(per_run, per_run)
+    per_run = {a: base * (2.0 if a.startswith("ST") and a != "STF" else 1.0) for a in text.FILTERS}
+    _, claim, _ = table2.table2(per_run, per_run)
     assert report.claim_category(claim[1]) == report.HOLDS
-    same = {a: base.copy() for a in paper.FILTERS}
-    rows, claim, _ = paper.table2(same, same)
+    same = {a: base.copy() for a in text.FILTERS}
+    rows, claim, _ = table2.table2(same, same)
     assert report.claim_category(claim[1]) == report.NOT_SUPPORTED
     ratio_rows = [r for r in rows if "time ratio" in r.quantity]
     assert all(r.stderr is not None for r in ratio_rows)
@@ -187,40 +194,41 @@ def test_timing_claim_uses_the_verdict_rule():
 def test_findings_state_the_onset_reading_from_the_data():
     """On two universes (headline, onset at 100 s) the prose names the reading that reproduces Table 1's
     position column only if the numbers say so."""
-    readings = (paper.SPACE.headline, paper.SPACE.with_headline(**{"L-1": "100s"}))
-    universes = [json.loads(json.dumps(paper.universe(r, 6, paper.ROOT_SEED))) for r in readings]
-    mv = Multiverse(paper.SPACE, Design("star", "test", readings), universes, paper.PUBLISHED, 6, paper.N_RUNS_PAPER)
-    text = paper.findings(mv)
-    pos = [p for p in paper.PUBLISHED if p.table == "Table 1" and p.quantity.startswith("Position")]
+    readings = (PAPER.headline, PAPER.space.with_headline(**{"L-1": "100s"}))
+    universes = [UniverseResult.from_json(json.loads(json.dumps(PAPER.universe(r, 6, PAPER.root_seed).as_json())))
+                 for r in readings]
+    mv = Multiverse(PAPER.space, Design("star", "test", readings), universes, PAPER.published, 6, PAPER.n_runs)
+    prose = diagnostics.findings(mv)
+    pos = [p for p in PAPER.published if p.table == "Table 1" and p.quantity.startswith("Position")]
     reproduced = [all(mv.number_verdict(p, u) == report.REPRODUCED for p in pos) for u in universes]
-    assert ("consistent with the maneuver starting at t = 100 s" in text) == (reproduced == [False, True])
-    assert ("its velocity column is" in text) == any(reproduced)      # the other columns are always reported
-    assert "Claims." in text and "robust" in text
+    assert ("consistent with the maneuver starting at t = 100 s" in prose) == (reproduced == [False, True])
+    assert ("its velocity column is" in prose) == any(reproduced)      # the other columns are always reported
+    assert "Claims." in prose and "robust" in prose
 
 
 # -- Table 2's complexity rows are judged from the counts -------------------------------------------------------
 def test_printed_complexity_orders_are_read_from_the_text():
-    assert paper.printed_complexity_orders("O((2n+2)^3)") == (3, 3)
-    assert paper.printed_complexity_orders("O(n^2)") == (0, 2)
-    assert paper.printed_complexity_orders("O((2n+1) n^2)") == (1, 3)
+    assert table2.printed_complexity_orders("O((2n+2)^3)") == (3, 3)
+    assert table2.printed_complexity_orders("O(n^2)") == (0, 2)
+    assert table2.printed_complexity_orders("O((2n+1) n^2)") == (1, 3)
     with pytest.raises(ValueError, match="complexity"):
-        paper.printed_complexity_orders("cubic")
+        table2.printed_complexity_orders("cubic")
 
 
 def test_complexity_rows_follow_the_counts_not_a_constant():
     """As printed (cube of the points; O(n^2) for the EKF-based STF) every row is not reproduced; a complexity
     linear in the points and cubic in n, which the counts give, would be reproduced; and counts whose evaluations
     grew with the cube of the points would make the printed column reproduced."""
-    rows = paper.complexity_rows()
-    assert [r.algorithm for r in rows] == list(paper.FILTERS)
+    rows = table2.complexity_rows()
+    assert [r.algorithm for r in rows] == list(text.FILTERS)
     assert all(report.verdict_category(r.verdict) == report.NOT_REPRODUCED for r in rows)
     assert "slope 1.00" in rows[-1].note and "order 3 in n" in rows[1].note
-    linear = {a: ("O(n^3)" if a == "STF" else t.replace("^3", " n^2")) for a, t in paper.TABLE2_COMPLEXITY.items()}
-    assert all(r.verdict == report.REPRODUCED for r in paper.complexity_rows(printed=linear))
+    linear = {a: ("O(n^3)" if a == "STF" else t.replace("^3", " n^2")) for a, t in text.TABLE2_COMPLEXITY.items()}
+    assert all(r.verdict == report.REPRODUCED for r in table2.complexity_rows(printed=linear))
     cubic = {a: (p, c, p ** 3, 2 * p ** 3, k) if p else (p, c, f, h, k)
-             for a, (p, c, f, h, k) in paper.TABLE2_COUNTS.items()}
-    verdicts = {r.algorithm: r.verdict for r in paper.complexity_rows(counts=cubic)}
-    assert all(verdicts[a] == report.REPRODUCED for a in paper.FILTERS if a != "STF")
+             for a, (p, c, f, h, k) in text.TABLE2_COUNTS.items()}
+    verdicts = {r.algorithm: r.verdict for r in table2.complexity_rows(counts=cubic)}
+    assert all(verdicts[a] == report.REPRODUCED for a in text.FILTERS if a != "STF")
     assert report.verdict_category(verdicts["STF"]) == report.NOT_REPRODUCED     # O(n^2) vs F P F^T
 
 
@@ -228,34 +236,67 @@ def test_complexity_rows_follow_the_counts_not_a_constant():
 def _synthetic_universe(template, table1_offsets):
     """A copy of ``template`` whose Table 1 cells sit ``table1_offsets[algorithm, quantity]`` combined standard
     errors from the printed value (stderr 0.1 at 200 runs)."""
-    u = json.loads(json.dumps(template))
-    u["n_runs"] = paper.N_RUNS_PAPER
+    u = json.loads(json.dumps(template.as_json()))
+    u["n_runs"] = PAPER.n_runs
     for v in u["values"]:
         if v["item"] != "Table 1":
             continue
-        qi = [q for q, _ in paper.QUANTITIES].index(v["quantity"])
-        printed = paper.TABLE1[v["algorithm"]][qi]
+        qi = [q for q, _ in text.QUANTITIES].index(v["quantity"])
+        printed = text.TABLE1[v["algorithm"]][qi]
         sigma = 1.0 / report.standardized_distance(printed, float(printed) + 1.0, 0.1, 200, 200)
         v["replicated"], v["stderr"] = float(printed) + table1_offsets(v["algorithm"], v["quantity"]) * sigma, 0.1
-    return u
+    return UniverseResult.from_json(u)
 
 
 def test_findings_separate_most_reproduced_from_best_match():
-    readings = (paper.SPACE.headline, paper.SPACE.with_headline(**{"L-1": "100s"}),
-                paper.SPACE.with_headline(**{"L-4": "0"}))
-    template = paper.universe(readings[0], 4, paper.ROOT_SEED)
-    first = (paper.FILTERS[0], paper.QUANTITIES[1][0])                               # SSRCKF velocity
+    readings = (PAPER.headline, PAPER.space.with_headline(**{"L-1": "100s"}),
+                PAPER.space.with_headline(**{"L-4": "0"}))
+    template = PAPER.universe(readings[0], 4, PAPER.root_seed)
+    first = (text.FILTERS[0], text.QUANTITIES[1][0])                                 # SSRCKF velocity
     many = _synthetic_universe(template, lambda a, q: 20.0 if (a, q) == first else 0.0)   # 14 cells, Σz² 400
     close = _synthetic_universe(template, lambda a, q: 3.5)                                # 0 cells, Σz² 184
-    mv = Multiverse(paper.SPACE, Design("star", "test", readings), [template, many, close], paper.PUBLISHED,
-                    paper.N_RUNS_PAPER, paper.N_RUNS_PAPER)
+    mv = Multiverse(PAPER.space, Design("star", "test", readings), [template, many, close], PAPER.published,
+                    PAPER.n_runs, PAPER.n_runs)
     t1 = [t for t in mv.table_match() if t["table"] == "Table 1"][0]
     assert (t1["most_universe"], t1["most_n_reproduced"], t1["best_universe"], t1["best_n_reproduced"]) == (1, 14, 2, 0)
-    text = paper.findings(mv)
-    assert "the most cells any one reading reproduces is 14 of 15" in text
-    assert f"is *{mv.space.describe(readings[2])}*" in text and "reproducing 0 cells" in text
-    assert "No declared reading reproduces a whole table." in text
+    prose = diagnostics.findings(mv)
+    assert "the most cells any one reading reproduces is 14 of 15" in prose
+    assert f"is *{mv.space.describe(readings[2])}*" in prose and "reproducing 0 cells" in prose
+    assert "No declared reading reproduces a whole table." in prose
     # universe 1 reproduces the position and acceleration columns, but not SSRCKF's velocity: said, from the data
-    assert "its velocity column is reproduced in 4 of 5 cells only" in text
-    assert "its acceleration column is reproduced:" in text
-    assert "not a reproduction of Table 1 as a whole" in text
+    assert "its velocity column is reproduced in 4 of 5 cells only" in prose
+    assert "its acceleration column is reproduced:" in prose
+    assert "not a reproduction of Table 1 as a whole" in prose
+
+
+# -- the contract: one set-up object holding Example 1 and Example 2's two cases ---------------------------------
+def test_setup_holds_the_three_simulations_and_the_headline_case_is_example_1():
+    examples = PAPER.headline_setup()
+    assert isinstance(examples, PAPER.setup_type) and isinstance(examples, setup.Examples)
+    assert [c for c, _ in examples.items()] == list(text.CASES)
+    assert examples["Example 1"] is examples.example1 and examples["Case 2"] is examples.case2
+    assert examples.example1 == EXAMPLE1 and examples.case1.maneuver_acceleration == (5.0, 5.0)
+    with pytest.raises(KeyError, match="Case 3"):
+        examples["Case 3"]
+    with pytest.raises(ValueError, match="case1"):
+        setup.Examples(EXAMPLE1, {"x0": 1}, EXAMPLE1)
+    scenario = PAPER.scenario(examples)
+    assert (scenario.name, scenario.n_steps, scenario.root_seed) == (PAPER.name, EXAMPLE1.n_steps, PAPER.root_seed)
+    make_batch, estimators = PAPER.batch(examples, MonteCarlo(PAPER.root_seed, 2))
+    assert set(PAPER.algorithms) <= set(estimators)
+    truth, _, _ = make_batch(range(2))
+    assert truth.shape[:2] == (2, EXAMPLE1.n_steps + 1)
+    for call in (PAPER.scenario, lambda s: PAPER.batch(s, MonteCarlo(1, 2))):
+        with pytest.raises(ValueError, match="setup"):
+            call(EXAMPLE1)
+
+
+def test_strong_tracking_layers_carry_the_setups_beta_and_rho():
+    """The four ST filters are the core layer with Example 1's softening and forgetting factors (what the arena's
+    recipes build from the headline set-up's fields); over the EKF its Jacobian form (STF)."""
+    filters = {n: e.filter for n, e in setup.build(EXAMPLE1)[2].items()}
+    for name in ("STF", "STUKF", "STCKF", "STSSRCKF"):
+        layer = filters[name]
+        assert isinstance(layer, StrongTracking)
+        assert (layer.beta, layer.rho) == (EXAMPLE1.beta, EXAMPLE1.rho) == (4.5, 0.95)
+    assert isinstance(filters["STF"].base, ExtendedKalmanFilter)

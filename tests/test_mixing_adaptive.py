@@ -4,7 +4,7 @@ import pytest
 
 import mmlib as m
 from mmlib.core import models
-from mmlib.papers import zhou2017
+from mmlib.core.models import radar_drift
 from mmlib.core.layers.adaptive import InnovationAdaptive
 from mmlib.core.mixing import CubatureMixing
 from mmlib.experiment.simulate import ManeuverSchedule, simulate
@@ -118,7 +118,7 @@ def test_zeta_inflation_only_when_covariance_matching_fails(radar_cv):
 
 
 def test_sensor_fault_model():
-    fault = zhou2017.radar_drift(np.array([3.0, -5.0]), np.array([0.0, 0.01]), np.arange(1, 4.0))
+    fault = radar_drift(np.array([3.0, -5.0]), np.array([0.0, 0.01]), np.arange(1, 4.0))
     d = fault.delta
     assert d.shape == (2, 3, 2)
     np.testing.assert_array_equal(d[0, :, 0], 3.0)

@@ -18,7 +18,7 @@ import pytest
 from mmlib.core import linalg
 from mmlib.experiment import digests, evaluation, executors, run_grid
 from mmlib.experiment.montecarlo import MonteCarlo
-from mmlib.papers import zhou2017, zhu2016
+from mmlib.papers import REGISTRY
 
 from conftest import raises_naming
 
@@ -28,9 +28,9 @@ N_RUNS = 7                      # chunks of 2 and 3 runs: 4 and 3 chunks, the la
 def zhou_study(n_runs: int = N_RUNS):
     """Zhou 2017 Case 2 (sensor faults; IMM and CPIMM with the UKF and the adaptive NAUKF, which diverges: NaN
     estimates and divergence causes travel too) on ``n_runs``."""
-    mc = MonteCarlo(zhou2017.ROOT_SEED, n_runs)
-    _, case2 = zhou2017.setups(zhou2017.SPACE.headline)
-    make_batch, estimators, _ = zhou2017.make_batch_fn(case2, mc)
+    paper = REGISTRY["zhou2017"]
+    mc = MonteCarlo(paper.root_seed, n_runs)
+    make_batch, estimators = paper.batch(paper.headline_setup(), mc)       # Case 2 of the headline reading
     return estimators, make_batch, mc
 
 
@@ -120,12 +120,14 @@ def test_functions_defined_in_main_and_closures_travel(serial):
 
 
 def test_run_grid_on_the_pool_equals_serial(tmp_path):
-    readings = list(zhu2016.SPACE.design("star").readings)[:3]
-    kw = dict(paper=zhu2016.PAPER, algorithms=zhu2016.MV_ALGORITHMS, n_runs=4, seed=zhu2016.ROOT_SEED,
-              use_cache=False, progress=False)
-    serial = run_grid(zhu2016.universe, readings, workers=1, **kw)
-    pooled = run_grid(zhu2016.universe, readings, workers=2, **kw)
+    paper = REGISTRY["zhu2016"]
+    readings = list(paper.space.design("star").readings)[:3]
+    kw = dict(paper=paper.name, algorithms=paper.algorithms, n_runs=4, seed=paper.root_seed, use_cache=False,
+              progress=False)
+    serial = run_grid(paper.universe, readings, workers=1, **kw)
+    pooled = run_grid(paper.universe, readings, workers=2, **kw)
     assert pooled == serial and len(serial) == 3 and serial[0] != serial[1]
+    assert [u.as_json() for u in pooled] == [u.as_json() for u in serial]   # the machine too (== leaves it out)
 
 
 @pytest.mark.skipif(not hasattr(linalg, "use_kernel"), reason="mmlib.core.linalg has no selectable kernels")
@@ -188,8 +190,9 @@ def test_bad_workers_argument_is_named(workers):
     estimators, make_batch, mc = zhou_study(2)
     with raises_naming("workers"):
         evaluation.evaluate(estimators, make_batch, mc, workers=workers, progress=False)
+    paper = REGISTRY["zhu2016"]
     with raises_naming("workers"):
-        run_grid(zhu2016.universe, [zhu2016.SPACE.headline], paper="p", algorithms=[], n_runs=2, seed=1,
+        run_grid(paper.universe, [paper.space.headline], paper="p", algorithms=[], n_runs=2, seed=1,
                  workers=workers, use_cache=False, progress=False)
 
 

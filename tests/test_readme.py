@@ -107,4 +107,5 @@ def test_the_numbers_quoted_after_the_example_are_the_ones_it_prints():
         got, said = re.search(printed, proc.stdout), re.search(quoted, prose)
         assert got, f"{key}: the example no longer prints {printed!r}:\n{proc.stdout}"
         assert said, f"{key}: the prose after the example no longer quotes {quoted!r}"
-        assert said.groups() == got.groups(), f"{key}: the example prints {got.groups()}, the README says {said.groups()}"
+        assert said.groups() == got.groups(), \
+            f"{key}: the example prints {got.groups()}, the README says {said.groups()}"

@@ -5,7 +5,7 @@
   own validator and with the reference one (jsonschema, draft 2020-12); a paper's also as complete
   (``$defs/complete_paper_results``);
 * the schema is a valid draft 2020-12 schema, documented, and says what the code says: the verdict vocabularies of
-  mmlib/experiment/report.py and the row keys write_results requires; a document write_results writes reads back;
+  mmlib/experiment/verdicts.py and the row keys write_results requires; a document write_results writes reads back;
 * a broken document (a missing key, a wrong type, a verdict outside the vocabulary, ...) is rejected naming the file
   and the JSON path of the violation, and the library's validator and jsonschema agree on what is valid;
 * a corrupted file (truncated, a stray character, bytes that are not UTF-8, NaN, empty) is a ValueError naming the
@@ -27,7 +27,7 @@ import pytest
 from jsonschema import Draft202012Validator
 
 from mmlib.experiment import report, results
-from mmlib.experiment.results import read_results, results_schema, validate_results
+from mmlib.experiment.results import read_results, validate_results
 
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = sorted((REPO / "data" / "results").glob("*.json"))
@@ -135,7 +135,7 @@ def test_library_validator_refuses_a_keyword_it_does_not_implement():
 
 
 def test_schema_vocabularies_are_those_of_the_code(schema):
-    """The verdict patterns are the vocabularies of mmlib/experiment/report.py, and the arena's verdict."""
+    """The verdict patterns are the vocabularies of mmlib/experiment/verdicts.py, and the arena's verdict."""
     defs = schema["$defs"]
     assert defs["number_verdict"]["pattern"] == f"^({'|'.join(report.VERDICTS)})(:[\\s\\S]*)?$"
     assert defs["claim_verdict"]["pattern"] == f"^({'|'.join(report.CLAIM_VERDICTS)})(:[\\s\\S]*)?$"
@@ -207,7 +207,8 @@ def _set(doc, path, value):
 #: (file, where, new value or KeyError to delete, the message after the file's name)
 BROKEN = [
     ("hu2017.json", ("rows", 3, "verdict"), KeyError, "rows[3].verdict: missing"),
-    ("hu2017.json", ("rows", 3, "replicated"), "0.51", 'rows[3].replicated: expected number or null, got string "0.51"'),
+    ("hu2017.json", ("rows", 3, "replicated"), "0.51",
+     'rows[3].replicated: expected number or null, got string "0.51"'),
     ("hu2017.json", ("rows", 3, "verdict"), "roughly reproduced",
      'rows[3].verdict: string "roughly reproduced" is not a verdict of the number vocabulary'),
     ("hu2017.json", ("rows", 3, "verdict"), "not replicable: lost", "rows[3].verdict: must not be a 'not replicable'"),

@@ -17,7 +17,8 @@ from mmlib.experiment import executors
 ENV_CELL = '''
 # %%
 import os
-print("kernel env: WORKERS=" + os.environ.get("WORKERS", "") + " MMLIB_SCHEDULER=" + os.environ.get("MMLIB_SCHEDULER", ""))
+print("kernel env: WORKERS=" + os.environ.get("WORKERS", "")
+      + " MMLIB_SCHEDULER=" + os.environ.get("MMLIB_SCHEDULER", ""))
 '''
 
 
@@ -35,7 +36,7 @@ def test_make_passes_workers_and_scheduler_as_execution_settings():
                                                            "tcp://host:8786", "zhu2016"]
 
 
-def test_parallel_plan_divides_the_workers_among_the_notebooks_at_once(runner):
+def test_parallel_plan_divides_the_workers_among_the_notebooks_at_once(runner):  # noqa: F811 -- fixtures of test_runner
     """(notebooks at once, WORKERS of each kernel): the split measured best on 2 cores is 2 notebooks with 1 each."""
     assert runner.parallel_plan(2, 5) == (2, 1)
     assert runner.parallel_plan(1, 5) == (1, 1)
@@ -44,7 +45,7 @@ def test_parallel_plan_divides_the_workers_among_the_notebooks_at_once(runner):
     assert runner.parallel_plan(6, 2) == (2, 3)
 
 
-def test_notebooks_execute_at_once_and_each_promotion_is_whole(repo):
+def test_notebooks_execute_at_once_and_each_promotion_is_whole(repo):  # noqa: F811 -- fixtures of test_runner
     report_environment(repo)
     proc = run(repo, "--workers", "2", check=0)
     lines = proc.stdout.splitlines()
@@ -59,7 +60,7 @@ def test_notebooks_execute_at_once_and_each_promotion_is_whole(repo):
     assert_no_leftovers(repo)
 
 
-def test_workers_never_send_the_outputs_to_custom(repo):
+def test_workers_never_send_the_outputs_to_custom(repo):  # noqa: F811 -- fixtures of test_runner
     report_environment(repo)
     proc = run(repo, "-p", "WORKERS=3", "alpha2001", check=0)
     assert "kernel env: WORKERS=3 " in proc.stdout and "build/custom" not in proc.stdout
@@ -67,13 +68,13 @@ def test_workers_never_send_the_outputs_to_custom(repo):
     assert_whole(repo, alpha2001="new", beta2002="old")
 
 
-def test_a_failure_stops_no_running_notebook_and_promotes_nothing_of_itself(repo):
+def test_a_failure_stops_no_running_notebook_and_promotes_nothing_of_itself(repo):  # noqa: F811 -- fixtures of test_runner
     proc = run(repo, "--workers", "2", env={"FAKE_NOTEBOOK_FAILS": "alpha2001"}, check=1)
     assert "FAILED: notebook notebooks/alpha2001_fake.py, cell" in proc.stderr
     assert_whole(repo, alpha2001="old", beta2002="new")      # beta's README carries alpha's current (old) line
 
 
-def test_killed_during_parallel_promotion_leaves_each_paper_whole(repo):
+def test_killed_during_parallel_promotion_leaves_each_paper_whole(repo):  # noqa: F811 -- fixtures of test_runner
     """Killed with one paper's promotion journaled while the other notebook runs or waits for its turn: recovery
     finishes the one journaled promotion (there is never more than one) and abandons the other."""
     sigkill(start_until(repo, "fault injection: paused at journal", "--workers", "2",
@@ -90,7 +91,7 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def test_bad_execution_settings_are_rejected_by_name_before_anything_runs(runner, repo, capsys, monkeypatch):
+def test_bad_execution_settings_are_rejected_by_name_before_anything_runs(runner, repo, capsys, monkeypatch):  # noqa: F811 -- fixtures of test_runner
     monkeypatch.setattr(executors, "SCHEDULER_TIMEOUT", 3.0)
     address = f"tcp://127.0.0.1:{free_port()}"
     before = snapshot(repo)
@@ -115,7 +116,7 @@ def test_bad_execution_settings_are_rejected_by_name_before_anything_runs(runner
     assert snapshot(repo) == before
 
 
-def test_an_exclusive_notebook_runs_alone_after_the_others_with_every_worker(repo):
+def test_an_exclusive_notebook_runs_alone_after_the_others_with_every_worker(repo):  # noqa: F811 -- fixtures of test_runner
     """A notebook marked ``# mmlib-runner: exclusive`` (the arena) starts after the others have ended, alone, and its
     kernel gets all the workers, not a share."""
     report_environment(repo)
@@ -133,7 +134,7 @@ def test_an_exclusive_notebook_runs_alone_after_the_others_with_every_worker(rep
     assert_no_leftovers(repo)
 
 
-def test_is_exclusive_reads_the_mark_on_a_line_of_its_own(runner, tmp_path):
+def test_is_exclusive_reads_the_mark_on_a_line_of_its_own(runner, tmp_path):  # noqa: F811 -- fixtures of test_runner
     marked, mentioned = tmp_path / "a.py", tmp_path / "b.py"
     marked.write_text("# %%\nx = 1\n# mmlib-runner: exclusive\n")
     mentioned.write_text("# %%\nprint('# mmlib-runner: exclusive')\n")

@@ -1,27 +1,38 @@
 """Tseng et al. 2011: the reading space (factors, set-ups, common random numbers), the universe job
 against the notebook's in-process path, the windowed DOD and the verdict vocabulary."""
 import concurrent.futures as cf
-import json
 import multiprocessing
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from mmlib.experiment import report
-from mmlib.core.layers.adaptive_imm import NoiseAdaptiveIMM, WindowedNoiseAdaptiveIMM
 from mmlib.core.estimation import run
-from mmlib.experiment import evaluation, run_grid
+from mmlib.core.layers.adaptive_imm import NoiseAdaptiveIMM, WindowedNoiseAdaptiveIMM
+from mmlib.experiment import evaluation, report, run_grid
 from mmlib.experiment.montecarlo import MonteCarlo
-from mmlib.papers import tseng2011 as paper
+from mmlib.experiment.universe import UniverseResult
+from mmlib.papers import REGISTRY
+from mmlib.papers.tseng2011 import diagnostics, space, study, text
+from mmlib.papers.tseng2011.setup import Setup
+from mmlib.papers.tseng2011.simulation import experiment, make_batch_fn
 
-SHORT = paper.Setup(n_steps=150, turns=((40.0, 90.0, 90.0),))
+PAPER = REGISTRY["tseng2011"]
+SPACE = PAPER.space
+SHORT = Setup(n_steps=150, turns=((40.0, 90.0, 90.0),))
 
 
 def short_joint(setup, names, n_runs):
-    ex = paper.experiment(setup, names=names)
-    mc = MonteCarlo(paper.ROOT_SEED, n_runs)
-    return evaluation.evaluate(ex.estimators, paper.make_batch_fn(ex, mc), mc, progress=False,
+    ex = experiment(setup, names=names)
+    mc = MonteCarlo(PAPER.root_seed, n_runs)
+    return evaluation.evaluate(ex.estimators, make_batch_fn(ex, mc), mc, progress=False,
                                measurement_models=ex.measurement_models)
+
+
+def judged(results, n_runs):
+    """The rows and claims of a universe, as the notebook computes them."""
+    rows = study.table_rows(study.values(results), n_runs)
+    return rows, study.judge_claims(results, rows, n_runs)
 
 
 # --------------------------------------------------------------------------- the universe job
@@ -31,61 +42,61 @@ def test_headline_universe_from_a_two_process_pool_equals_the_notebook_path_bit_
     n = 2
     pool = cf.ProcessPoolExecutor(max_workers=2, mp_context=multiprocessing.get_context("spawn"))
     try:
-        (got,) = run_grid(paper.universe, [paper.SPACE.headline], paper=paper.PAPER, algorithms=paper.MV_ALGORITHMS,
-                          n_runs=n, seed=paper.ROOT_SEED, executor=pool, cache_dir=tmp_path, use_cache=False,
+        (got,) = run_grid(PAPER.universe, [SPACE.headline], paper=PAPER.name, algorithms=PAPER.algorithms,
+                          n_runs=n, seed=PAPER.root_seed, executor=pool, cache_dir=tmp_path, use_cache=False,
                           progress=False)
     finally:
         pool.shutdown(wait=True)
-    mc = MonteCarlo(paper.ROOT_SEED, n)
-    head = paper.summarise(paper.evaluate_reading(paper.SPACE.headline, mc), n)
-    assert got == json.loads(json.dumps(head, allow_nan=False))
+    mc = MonteCarlo(PAPER.root_seed, n)
+    head = study.summarise(study.evaluate_reading(SPACE.headline, mc), n)
+    assert isinstance(got, UniverseResult) and got == head
     # a universe differing only in T-8 differs only where T-8 acts: the UKF's numbers
-    other = paper.summarise(paper.evaluate_reading(paper.SPACE.with_headline(**{"T-8": "lower"}), mc), n)
-    for va, vb in zip(head["values"], other["values"]):
-        if va["algorithm"] in ("IMMUKF", "FUZZY-IMMUKF", "FUZZY-IMMUKF vs IMMUKF"):
+    other = study.summarise(study.evaluate_reading(SPACE.with_headline(**{"T-8": "lower"}), mc), n)
+    for va, vb in zip(head.values, other.values):
+        if va.algorithm in ("IMMUKF", "FUZZY-IMMUKF", "FUZZY-IMMUKF vs IMMUKF"):
             assert va == vb
-        elif va["algorithm"] == "UKF":
-            assert va["replicated"] != vb["replicated"]
+        elif va.algorithm == "UKF":
+            assert va.replicated != vb.replicated
 
 
 def test_per_estimator_evaluation_with_reuse_equals_the_joint_evaluation():
     """evaluate_reading evaluates each estimator alone on its canonical set-up and reuses it across
     readings: the numbers must be those of all estimators evaluated together on the reading's set-up."""
     n = 3
-    for setup in (SHORT, paper.replace(SHORT, ukf_rule="below", dod_window=4, mf_scale=0.5),
-                  paper.replace(SHORT, s_lower=0.001, s_upper=0.1, dod_normalise="measurement")):
-        joint = short_joint(setup, paper.ALGORITHMS, n)
-        for name in paper.ALGORITHMS:
-            alone = paper._evaluate_one(paper._canonical(setup, name), name, paper.ROOT_SEED, n, False)
+    for setup in (SHORT, replace(SHORT, ukf_rule="below", dod_window=4, mf_scale=0.5),
+                  replace(SHORT, s_lower=0.001, s_upper=0.1, dod_normalise="measurement")):
+        joint = short_joint(setup, PAPER.algorithms, n)
+        for name in PAPER.algorithms:
+            alone = study._evaluate_one(study._canonical(setup, name), name, PAPER.root_seed, n, False)
             assert np.array_equal(alone.errors, joint[name].errors), (setup, name)
             if joint[name].mode_probabilities is not None:
                 assert np.array_equal(alone.mode_probabilities, joint[name].mode_probabilities)
     # the reuse is real: the UKF of 'T-8 lower' under the headline IMM is the UKF of 'T-8 geometric'
     # under the 0.001/0.1 IMM (both 0.01 m^2/s^3)
-    a = paper._canonical(paper.setups(paper.SPACE.with_headline(**{"T-8": "lower"})), "UKF")
-    b = paper._canonical(paper.setups(paper.SPACE.with_headline(**{"T-7": "0.001/0.1"})), "UKF")
+    a = study._canonical(PAPER.setup(SPACE.with_headline(**{"T-8": "lower"})), "UKF")
+    b = study._canonical(PAPER.setup(SPACE.with_headline(**{"T-7": "0.001/0.1"})), "UKF")
     assert a == b and a.ukf_level == 0.01
 
 
 # --------------------------------------------------------------------------- common random numbers
 def test_filter_only_factors_share_truth_and_measurements_and_noise_factors_share_the_draws():
     n = 2
-    mc = MonteCarlo(paper.ROOT_SEED, n)
+    mc = MonteCarlo(PAPER.root_seed, n)
 
     def batch(reading):
-        ex = paper.experiment(paper.setups(reading), names=("UKF",))
-        truth, z, _ = paper.make_batch_fn(ex, mc)(range(n))
+        ex = experiment(PAPER.setup(reading), names=("UKF",))
+        truth, z, _ = make_batch_fn(ex, mc)(range(n))
         return ex, truth, z
 
-    _, truth0, z0 = batch(paper.SPACE.headline)
+    _, truth0, z0 = batch(SPACE.headline)
     for fid, opt in (("T-7", "0.1/10"), ("T-8", "below"), ("T-9", "0.95"), ("T-10a", "measurement"), ("T-10b", "x2"),
                      ("T-11", "16")):
-        _, truth, z = batch(paper.SPACE.with_headline(**{fid: opt}))
+        _, truth, z = batch(SPACE.with_headline(**{fid: opt}))
         assert np.array_equal(truth, truth0), fid
         assert all(np.array_equal(a, b) for a, b in zip(z, z0)), fid
     # the noise s.d. scales the same standard normal draws: (z - h(truth)) / sigma is identical
-    ex3, t3, z3 = batch(paper.SPACE.headline)
-    ex10, t10, z10 = batch(paper.SPACE.with_headline(**{"T-4": "10"}))
+    ex3, t3, z3 = batch(SPACE.headline)
+    ex10, t10, z10 = batch(SPACE.with_headline(**{"T-4": "10"}))
     assert np.array_equal(t3, t10)
     for k in (0, 500, 1799):
         w3 = (z3[k] - ex3.measurement_models[k].h(t3[:, k + 1])) / 3.0
@@ -93,59 +104,59 @@ def test_filter_only_factors_share_truth_and_measurements_and_noise_factors_shar
         # the pseudoranges are ~2e7 m: subtracting h costs ~4e-9 m, i.e. ~1e-9 in units of sigma
         np.testing.assert_allclose(w3, w10, rtol=0, atol=1e-8)
     # the speed changes the trajectory but not the receiver clock's draws
-    _, t20, _ = batch(paper.SPACE.with_headline(**{"T-1": "30"}))
+    _, t20, _ = batch(SPACE.with_headline(**{"T-1": "30"}))
     assert np.array_equal(t20[..., 6:], truth0[..., 6:]) and not np.array_equal(t20[..., :4], truth0[..., :4])
 
 
 # --------------------------------------------------------------------------- factors and set-ups
 def test_every_option_sets_the_setup_fields_it_declares():
-    head = paper.setups(paper.SPACE.headline)
-    assert head == paper.Setup()                      # the headline reading is the documented default set-up
-    for f in paper.SPACE.factors:
+    head = PAPER.headline_setup()
+    assert head == Setup()                            # the headline reading is the documented default set-up
+    for f in SPACE.factors:
         for o in f.options:
-            s = paper.setups(paper.SPACE.with_headline(**{f.id: o.name}))
+            s = PAPER.setup(SPACE.with_headline(**{f.id: o.name}))
             assert o.changes, (f.id, o.name)
             for key, value in o.changes.items():
                 assert getattr(s, key) == value, (f.id, o.name, key)
             assert (s == head) == (o.name == f.headline), (f.id, o.name)
-    levels = {o.name: paper.setups(paper.SPACE.with_headline(**{"T-8": o.name})).ukf_level
-              for o in paper.SPACE.factor("T-8").options}
+    levels = {o.name: PAPER.setup(SPACE.with_headline(**{"T-8": o.name})).ukf_level
+              for o in SPACE.factor("T-8").options}
     assert levels == pytest.approx({"geometric": 0.1, "lower": 0.01, "below": 0.001, "upper": 1.0}, rel=1e-12)
-    fz = paper.experiment(paper.setups(paper.SPACE.with_headline(**{"T-11": "4"})),
-                          names=("FUZZY-IMMUKF",)).estimators["FUZZY-IMMUKF"]
+    fz = experiment(PAPER.setup(SPACE.with_headline(**{"T-11": "4"})),
+                    names=("FUZZY-IMMUKF",)).estimators["FUZZY-IMMUKF"]
     assert isinstance(fz, WindowedNoiseAdaptiveIMM) and fz.window == 4
 
 
 def test_bad_readings_raise_naming_the_factor_or_option():
     with pytest.raises(ValueError, match="T-99"):
-        paper.setups({**paper.SPACE.headline, "T-99": "x"})
+        PAPER.setup({**SPACE.headline, "T-99": "x"})
     with pytest.raises(ValueError, match="'nope'"):
-        paper.setups(paper.SPACE.with_headline(**{"T-7": "nope"}))
-    reading = dict(paper.SPACE.headline)
+        PAPER.setup(SPACE.with_headline(**{"T-7": "nope"}))
+    reading = dict(SPACE.headline)
     del reading["T-11"]
     with pytest.raises(ValueError, match="T-11"):
-        paper.universe(reading, 2, paper.ROOT_SEED)
+        PAPER.universe(reading, 2, PAPER.root_seed)
 
 
 def test_new_setup_fields_validate():
     with pytest.raises(ValueError, match="ukf_rule"):
-        paper.Setup(ukf_rule="median")
+        Setup(ukf_rule="median")
     for bad in (0, 1.5, True, "4"):
         with pytest.raises(ValueError, match="dod_window"):
-            paper.Setup(dod_window=bad)
+            Setup(dod_window=bad)
     with pytest.raises(ValueError, match="s_ukf"):
-        paper.Setup(s_ukf=-0.1)
-    assert paper.Setup(s_ukf=0.3, ukf_rule="below").ukf_level == 0.3          # an explicit level wins
+        Setup(s_ukf=-0.1)
+    assert Setup(s_ukf=0.3, ukf_rule="below").ukf_level == 0.3          # an explicit level wins
 
 
 # --------------------------------------------------------------------------- the windowed DOD
 def test_window_of_one_is_the_plain_flas_bit_for_bit_and_longer_windows_smooth_the_levels():
-    ex = paper.experiment(SHORT, names=("FUZZY-IMMUKF",))
+    ex = experiment(SHORT, names=("FUZZY-IMMUKF",))
     plain = ex.estimators["FUZZY-IMMUKF"]
     assert isinstance(plain, NoiseAdaptiveIMM) and not isinstance(plain, WindowedNoiseAdaptiveIMM)
     kw = dict(imm=plain.imm, noise=plain.noise, controller=plain.controller, initial_levels=plain.initial_levels)
-    mc = MonteCarlo(paper.ROOT_SEED, 4)
-    truth, z, init = paper.make_batch_fn(ex, mc)(range(4))
+    mc = MonteCarlo(PAPER.root_seed, 4)
+    truth, z, init = make_batch_fn(ex, mc)(range(4))
     x0, P0 = truth[:, 0], np.diag(np.square(SHORT.p0_sd))
     tracks = {}
     for W in (1, 8):
@@ -164,86 +175,88 @@ def test_window_of_one_is_the_plain_flas_bit_for_bit_and_longer_windows_smooth_t
 
 # --------------------------------------------------------------------------- verdict vocabulary
 def test_rows_with_values_are_judged_by_the_rule_and_claims_use_the_vocabulary():
-    results = short_joint(SHORT, paper.ALGORITHMS, 4)
-    a = paper.assess(results, 4)
-    assert len(a["rows"]) == len(paper.PUBLISHED) == 12
-    for r in a["rows"]:
+    results = short_joint(SHORT, PAPER.algorithms, 4)
+    rows, claims = judged(results, 4)
+    assert len(rows) == len(PAPER.published) == 12
+    for r in rows:
         assert r.replicated is not None
         assert r.verdict == report.verdict(r.paper, r.replicated, r.stderr, 4)
         assert not r.verdict.startswith(report.NOT_REPLICABLE)
-    for c in a["claims"]:
+    for c in claims:
         report.claim_category(c["verdict"])
-    u = paper.summarise(results, 4)
-    assert [e["name"] for e in u["effects"]] == [paper.KEY_EFFECT, paper.IMM_EFFECT]
-    key = u["effects"][0]
-    d = evaluation.paired_mse_difference(results["FUZZY-IMMUKF"], results["IMMUKF"], (paper.EAST, paper.NORTH))
-    assert key["value"] == float(d.value) and key["stderr"] == float(d.stderr)
+    u = study.summarise(results, 4)
+    assert [(c.claim, c.verdict) for c in u.claims] == [(c["claim"], c["verdict"]) for c in claims]
+    assert [e.name for e in u.effects] == [PAPER.key_effect, text.IMM_EFFECT]
+    key = u.effect(PAPER.key_effect)
+    d = evaluation.paired_mse_difference(results["FUZZY-IMMUKF"], results["IMMUKF"], (text.EAST, text.NORTH))
+    assert key.value == float(d.value) and key.stderr == float(d.stderr)
     # published counterpart: (1.0184^2 + 0.7286^2) - (2.9967^2 + 2.3021^2), to the printed digits
-    assert key["published"] == pytest.approx(-12.71187878, abs=1e-8)
-    verdict, _ = paper.ekf_claim(short_joint(SHORT, ("UKF", "EKF"), 2))[0]
+    assert key.published == pytest.approx(-12.71187878, abs=1e-8)
+    verdict, _ = diagnostics.ekf_claim(short_joint(SHORT, ("UKF", "EKF"), 2))[0]
     assert report.claim_category(verdict) == report.NOT_ASSESSABLE
 
 
 # --------------------------------------------------------------------------- claimed sizes
 def _reduction_row(replicated, stderr, printed="62.32"):
-    return report.make_row(paper.ITEM, "IMMUKF vs UKF", "East RMS reduction (%)", printed, replicated, stderr, n_runs=25)
+    return report.make_row(text.ITEM, "IMMUKF vs UKF", "East RMS reduction (%)", printed, replicated, stderr,
+                           n_runs=25)
 
 
 def test_a_claimed_size_excluded_by_many_standard_errors_is_contradicted_not_unsupported():
     kind = (lambda part: part.split(" (")[0])
     # the headline's case: 8.0 +- 0.1 % against a printed 62.32 %: hundreds of s.e. below
-    assert [kind(p) for p in paper.size_parts([_reduction_row(8.0, 0.1)])] == ["contradicted"]
-    assert report.combine_claim_verdicts(paper.size_parts([_reduction_row(8.0, 0.1), _reduction_row(1.0, 0.1,
+    assert [kind(p) for p in study.size_parts([_reduction_row(8.0, 0.1)])] == ["contradicted"]
+    assert report.combine_claim_verdicts(study.size_parts([_reduction_row(8.0, 0.1), _reduction_row(1.0, 0.1,
                                                                                                     "66.02")])) \
         == report.CONTRADICTED
     # reproduced, or within the 25 % band of the number rule: the claimed size is preserved
-    assert kind(paper.size_parts([_reduction_row(62.1, 0.1)])[0]) == "holds"
-    assert kind(paper.size_parts([_reduction_row(50.0, 0.1)])[0]) == "holds"
+    assert kind(study.size_parts([_reduction_row(62.1, 0.1)])[0]) == "holds"
+    assert kind(study.size_parts([_reduction_row(50.0, 0.1)])[0]) == "holds"
     # larger than claimed by far: the improvement is at least the claimed one
-    assert kind(paper.size_parts([_reduction_row(95.0, 0.1)])[0]) == "holds"
+    assert kind(study.size_parts([_reduction_row(95.0, 0.1)])[0]) == "holds"
     # too noisy to tell (inconclusive under the number rule): no detectable difference, 'not supported'
     noisy = _reduction_row(55.0, 8.0)
     assert report.verdict_category(noisy.verdict) == report.INCONCLUSIVE
-    assert kind(paper.size_parts([noisy])[0]) == "no detectable difference"
-    assert report.claim_category(report.combine_claim_verdicts(paper.size_parts([noisy]))) == report.NOT_SUPPORTED
-    mixed = report.combine_claim_verdicts(paper.size_parts([_reduction_row(62.1, 0.1), _reduction_row(8.0, 0.1)]))
+    assert kind(study.size_parts([noisy])[0]) == "no detectable difference"
+    assert report.claim_category(report.combine_claim_verdicts(study.size_parts([noisy]))) == report.NOT_SUPPORTED
+    mixed = report.combine_claim_verdicts(study.size_parts([_reduction_row(62.1, 0.1), _reduction_row(8.0, 0.1)]))
     assert report.claim_category(mixed) == report.PARTLY
 
 
 def test_remarkable_improvement_combines_direction_and_size_parts():
-    results = short_joint(SHORT, paper.ALGORITHMS, 4)
-    a = paper.assess(results, 4)
-    by = {c["claim"]: c["verdict"] for c in a["claims"]}
-    red = {(r.algorithm, r.quantity.split()[0]): r for r in a["rows"] if "reduction" in r.quantity}
-    direction, _ = paper.direction_parts(results, "FUZZY-IMMUKF", "IMMUKF")
-    size = paper.size_parts([red[("FUZZY-IMMUKF vs IMMUKF", lab)] for lab, _, _ in paper.AXES])
+    results = short_joint(SHORT, PAPER.algorithms, 4)
+    rows, claims = judged(results, 4)
+    by = {c["claim"]: c["verdict"] for c in claims}
+    red = {(r.algorithm, r.quantity.split()[0]): r for r in rows if "reduction" in r.quantity}
+    direction, _ = study.direction_parts(results, "FUZZY-IMMUKF", "IMMUKF")
+    size = study.size_parts([red[("FUZZY-IMMUKF vs IMMUKF", lab)] for lab, _, _ in text.AXES])
     assert by["FUZZY-IMMUKF shows remarkable improvement over IMMUKF (abstract)"] == \
         report.combine_claim_verdicts(direction + size)
     assert by["FUZZY-IMMUKF's errors are about 66-68 % below IMMUKF's (table)"] == report.combine_claim_verdicts(size)
     # the direction parts agree with the library's paired comparison
     assert report.combine_claim_verdicts(direction).split(":")[0] == \
-        evaluation.better_claim(results, "FUZZY-IMMUKF", "IMMUKF", [(l, c) for l, _, c in paper.AXES])[0].split(":")[0]
+        evaluation.better_claim(results, "FUZZY-IMMUKF", "IMMUKF", [(l, c) for l, _, c in text.AXES])[0].split(":")[0]
 
 
 # --------------------------------------------------------------------------- T-5, T-9, T-12
 def test_clock_and_markov_chain_are_influential_factors_and_the_held_fixed_changes_are_no_factor():
-    ids = {f.id: f for f in paper.SPACE.factors}
+    ids = {f.id: f for f in SPACE.factors}
     assert ids["T-5"].influential and ids["T-9"].influential
     assert {o.name for o in ids["T-9"].options} == {"0.99", "0.95", "0.996"}
     # the full profile runs the strength-2 covering array and nothing more (the wall-time budget)
-    design = paper.SPACE.design("auto")
-    assert design.kind == "fractional" and len(design) == len(paper.SPACE.covering()) <= paper.SPACE.budget
-    assert paper.setups(paper.SPACE.with_headline(**{"T-5": "OCXO"})).clock_h_minus2 == paper.CLOCKS["OCXO"][1]
-    factor_fields = {k for f in paper.SPACE.factors for o in f.options for k in o.changes}
-    for changes in paper.NON_INFLUENTIAL.values():
+    design = SPACE.design("auto")
+    assert design.kind == "fractional" and len(design) == len(SPACE.covering()) <= SPACE.budget
+    assert PAPER.setup(SPACE.with_headline(**{"T-5": "OCXO"})).clock_h_minus2 == text.CLOCKS["OCXO"][1]
+    factor_fields = {k for f in SPACE.factors for o in f.options for k in o.changes}
+    for changes in space.NON_INFLUENTIAL.values():
         assert not set(changes) & factor_fields
     # the clock reshapes the truth clock's draws only: positions and pseudorange-noise draws are shared
     n = 2
-    mc = MonteCarlo(paper.ROOT_SEED, n)
+    mc = MonteCarlo(PAPER.root_seed, n)
     out = {}
     for opt in ("TCXO", "OCXO"):
-        ex = paper.experiment(paper.setups(paper.SPACE.with_headline(**{"T-5": opt})), names=("UKF",))
-        truth, z, _ = paper.make_batch_fn(ex, mc)(range(n))
+        ex = experiment(PAPER.setup(SPACE.with_headline(**{"T-5": opt})), names=("UKF",))
+        truth, z, _ = make_batch_fn(ex, mc)(range(n))
         out[opt] = (truth, [zk - m.h(truth[:, k + 1]) for k, (zk, m) in enumerate(zip(z, ex.measurement_models))])
     assert np.array_equal(out["TCXO"][0][..., :6], out["OCXO"][0][..., :6])
     assert not np.array_equal(out["TCXO"][0][..., 6:], out["OCXO"][0][..., 6:])
@@ -256,28 +269,27 @@ def test_held_fixed_initial_conditions_move_no_value_by_one_standard_error():
     on the full set-up (common random numbers) no value or effect moves by 1 s.e. and no claim verdict
     changes.  A positive control (p_ii = 0.95, a declared factor) does move values by many s.e."""
     n = 10
-    mc = MonteCarlo(paper.ROOT_SEED, n)
 
     def universe(**changes):
-        setup = paper.replace(paper.Setup(), **changes)
-        return paper.summarise({name: paper._evaluate_one(paper._canonical(setup, name), name, paper.ROOT_SEED, n,
-                                                          False) for name in paper.ALGORITHMS}, n)
+        setup = replace(Setup(), **changes)
+        return study.summarise({name: study._evaluate_one(study._canonical(setup, name), name, PAPER.root_seed, n,
+                                                          False) for name in PAPER.algorithms}, n)
 
     def largest_shift(u, head):
-        z = [abs(b["replicated"] - a["replicated"]) / a["stderr"] for a, b in zip(head["values"], u["values"])]
-        z += [abs(b["value"] - a["value"]) / a["stderr"] for a, b in zip(head["effects"], u["effects"])]
+        z = [abs(b.replicated - a.replicated) / a.stderr for a, b in zip(head.values, u.values)]
+        z += [abs(b.value - a.value) / a.stderr for a, b in zip(head.effects, u.effects)]
         return max(z)
 
     head = universe()
-    for label, changes in paper.NON_INFLUENTIAL.items():
+    for label, changes in space.NON_INFLUENTIAL.items():
         u = universe(**changes)
         assert largest_shift(u, head) < 1.0, label
-        assert [report.claim_category(c["verdict"]) for c in u["claims"]] == \
-            [report.claim_category(c["verdict"]) for c in head["claims"]], label
+        assert [report.claim_category(c.verdict) for c in u.claims] == \
+            [report.claim_category(c.verdict) for c in head.claims], label
     assert largest_shift(universe(p_stay=0.95), head) > 3.0
 
 
 def test_an_unknown_estimator_name_is_named():
     from conftest import raises_naming
     with raises_naming("names"):
-        paper.experiment(SHORT, names=("UKF", "KALMAN"))
+        experiment(SHORT, names=("UKF", "KALMAN"))

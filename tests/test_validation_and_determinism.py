@@ -155,7 +155,8 @@ def test_jackknife_matches_the_closed_form_for_the_mean():
     x = np.random.default_rng(2).standard_normal(50)
     jk = metrics.jackknife(np.mean, x)
     closed = metrics.mean_with_se(x)
-    assert jk.value == pytest.approx(float(closed.value)) and jk.stderr == pytest.approx(float(closed.stderr), rel=1e-10)
+    assert jk.value == pytest.approx(float(closed.value))
+    assert jk.stderr == pytest.approx(float(closed.stderr), rel=1e-10)
 
 
 def test_timing_ratio_is_robust_to_a_few_disturbed_repeats():

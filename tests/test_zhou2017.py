@@ -1,32 +1,40 @@
 """Paper-level facts of Zhou et al. 2017 under its own set-up."""
+from dataclasses import replace as _replace
+
 import numpy as np
 import pytest
 
 from mmlib import MonteCarlo
-from mmlib.experiment import evaluation
-from mmlib.papers import zhou2017 as paper
+from mmlib.experiment import evaluation, run_grid
+from mmlib.experiment.universe import UniverseResult
+from mmlib.papers import REGISTRY
+from mmlib.papers.zhou2017 import diagnostics, faults, section23, study, text
+from mmlib.papers.zhou2017.setup import FAULT_KINDS, Cases, Setup, build, make_batch_fn, setup
+
+PAPER = REGISTRY["zhou2017"]
+SPACE = PAPER.space
 
 
 def test_naukf_as_printed_diverges_and_the_inflate_only_variant_does_not():
-    mc = MonteCarlo(paper.ROOT_SEED, 6)
+    mc = MonteCarlo(PAPER.root_seed, 6)
     for inflate_only, expect_diverged in ((False, True), (True, False)):
-        mb, est, _ = paper.make_batch_fn(paper.Setup(faults=True, inflate_only=inflate_only), mc, names=("IMM-NAUKF",))
+        mb, est, _ = make_batch_fn(Setup(faults=True, inflate_only=inflate_only), mc, names=("IMM-NAUKF",))
         res = evaluation.evaluate(est, mb, mc, progress=False)
         assert res["IMM-NAUKF"].diverged_step.max() >= 0 if expect_diverged else not (~res["IMM-NAUKF"].valid).any()
 
 
 def test_linear_gps_analogue_ekf_ckf_ukf_coincide():
-    mc = MonteCarlo(paper.ROOT_SEED, 4)
-    mb, est, _ = paper.gps_analogue(paper.GPSAnalogue(), mc)
+    mc = MonteCarlo(PAPER.root_seed, 4)
+    mb, est, _ = diagnostics.gps_analogue(diagnostics.GPSAnalogue(), mc)
     res = evaluation.evaluate({k: est[k] for k in ("EKF", "CKF", "UKF")}, mb, mc, progress=False)
     np.testing.assert_allclose(res["CKF"].errors, res["EKF"].errors, rtol=0, atol=1e-9)
     np.testing.assert_allclose(res["UKF"].errors, res["EKF"].errors, rtol=0, atol=1e-9)
 
 
 def test_faults_are_drawn_per_run_and_accumulate():
-    mc = MonteCarlo(paper.ROOT_SEED, 3)
-    s = paper.Setup(faults=True)
-    f = paper.radar_fault(s, mc, range(3), np.arange(1, 101.0))
+    mc = MonteCarlo(PAPER.root_seed, 3)
+    s = Setup(faults=True)
+    f = faults.radar_fault(s, mc, range(3), np.arange(1, 101.0))
     assert np.all(np.abs(f.delta[..., 0]) <= 5.0) and np.all(np.diff(f.delta[..., 0], axis=1) == 0)
     rate = f.delta[:, 0, 1]
     np.testing.assert_allclose(f.delta[:, -1, 1], rate * 100.0)
@@ -35,27 +43,41 @@ def test_faults_are_drawn_per_run_and_accumulate():
 
 def test_setup_validation():
     with pytest.raises(ValueError, match="fault_kind"):
-        paper.Setup(fault_kind="random")
+        Setup(fault_kind="random")
+
+
+def test_setup_is_the_two_cases_and_scenario_and_batch_are_case_2():
+    """The contract's set-up of a reading is its two cases; the arena's scenario and the batch are Case 2."""
+    cases = PAPER.headline_setup()
+    assert isinstance(cases, Cases) and PAPER.setup_type is Cases
+    assert cases == (Setup(), _replace(Setup(), faults=True))
+    s = PAPER.scenario(cases)
+    assert s.name == PAPER.name and s.root_seed == PAPER.root_seed and "drift" in s.properties["measurement"]
+    mc = MonteCarlo(PAPER.root_seed, 2)
+    make_batch, estimators = PAPER.batch(cases, mc)
+    own, own_est, _ = make_batch_fn(cases.case2, mc)
+    assert set(estimators) == set(own_est) == set(build(Setup())[2])
+    for a, b in zip(make_batch(range(2))[:2], own(range(2))[:2]):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(s.simulator(mc)(range(2))[1], own(range(2))[1])
+    for call in (PAPER.scenario, lambda c: PAPER.batch(c, mc)):
+        with pytest.raises(ValueError, match="setup"):
+            call(cases.case2)
 
 
 # ---------------------------------------------------------------- reading space (issue 10)
-from dataclasses import replace as _replace  # noqa: E402
-
-from mmlib.experiment import run_grid  # noqa: E402
-from mmlib.papers.zhou2017 import SPACE  # noqa: E402
 
 
 def test_headline_universe_through_a_two_process_grid_equals_the_notebook_path(tmp_path):
     """The notebook's headline rows come from summarise(evaluate_reading(headline)); the multiverse's
     headline universe, run in a spawned worker, must be the same numbers bit for bit."""
     n = 4
-    in_process = paper.summarise(paper.evaluate_reading(SPACE.headline, MonteCarlo(paper.ROOT_SEED, n)), n)
-    [from_grid] = run_grid(paper.universe, [SPACE.headline], paper=paper.PAPER, algorithms=paper.MV_ALGORITHMS,
-                           n_runs=n, seed=paper.ROOT_SEED, workers=2, cache_dir=tmp_path, use_cache=False,
+    in_process = study.summarise(study.evaluate_reading(SPACE.headline, MonteCarlo(PAPER.root_seed, n)), n)
+    [from_grid] = run_grid(PAPER.universe, [SPACE.headline], paper=PAPER.name, algorithms=PAPER.algorithms,
+                           n_runs=n, seed=PAPER.root_seed, workers=2, cache_dir=tmp_path, use_cache=False,
                            progress=False)
-    import json
-    assert from_grid == json.loads(json.dumps(in_process))
-    assert from_grid["values"] and from_grid["claims"] and from_grid["effects"][0]["name"] == paper.KEY_EFFECT
+    assert isinstance(from_grid, UniverseResult) and from_grid == in_process
+    assert from_grid.values and from_grid.claims and from_grid.effects[0].name == PAPER.key_effect
 
 
 @pytest.mark.parametrize("factor, option", [("Z-12", "inflate-only"), ("Z-13", "q/100"), ("Z-8", "w30"),
@@ -63,11 +85,11 @@ def test_headline_universe_through_a_two_process_grid_equals_the_notebook_path(t
 def test_factors_that_leave_the_random_structure_alone_share_truth_and_measurement_draws(factor, option):
     """Common random numbers: a filter-side factor changes neither truth nor measurements; R's units only
     rescale the same measurement normals (the truth is identical)."""
-    mc = MonteCarlo(paper.ROOT_SEED, 3)
+    mc = MonteCarlo(PAPER.root_seed, 3)
     other = SPACE.with_headline(**{factor: option})
     for case in (0, 1):
-        a = paper.make_batch_fn(paper.setups(SPACE.headline)[case], mc, names=())[0](range(3))
-        b = paper.make_batch_fn(paper.setups(other)[case], mc, names=())[0](range(3))
+        a = make_batch_fn(setup(SPACE.headline)[case], mc, names=())[0](range(3))
+        b = make_batch_fn(setup(other)[case], mc, names=())[0](range(3))
         np.testing.assert_array_equal(a[0], b[0])
         if factor != "Z-3":
             np.testing.assert_array_equal(a[1], b[1])
@@ -76,36 +98,36 @@ def test_factors_that_leave_the_random_structure_alone_share_truth_and_measureme
 
 
 def test_fault_readings_share_their_draws_and_truth_noise_reading_changes_only_the_truth():
-    mc = MonteCarlo(paper.ROOT_SEED, 3)
+    mc = MonteCarlo(PAPER.root_seed, 3)
     times = np.arange(1, 101.0)
-    faults = {k: paper.radar_fault(paper.Setup(faults=True, fault_kind=k), mc, range(3), times).delta
-              for k in paper.FAULT_KINDS}
-    np.testing.assert_array_equal(faults["constant-drift"][:, :, 0], faults["constant"][:, :, 0])   # same range offset
-    np.testing.assert_allclose(faults["constant"][:, 0, 1] * 100.0, faults["constant-drift"][:, -1, 1], rtol=1e-12)
-    assert np.all(np.diff(faults["constant"], axis=1) == 0)
-    assert np.all(np.abs(faults["per-step"][..., 0]) <= 5) and np.all((faults["per-step"][..., 1] >= 0)
-                                                                      & (faults["per-step"][..., 1] <= 1e-2))
+    drawn = {k: faults.radar_fault(Setup(faults=True, fault_kind=k), mc, range(3), times).delta
+             for k in FAULT_KINDS}
+    np.testing.assert_array_equal(drawn["constant-drift"][:, :, 0], drawn["constant"][:, :, 0])   # same range offset
+    np.testing.assert_allclose(drawn["constant"][:, 0, 1] * 100.0, drawn["constant-drift"][:, -1, 1], rtol=1e-12)
+    assert np.all(np.diff(drawn["constant"], axis=1) == 0)
+    assert np.all(np.abs(drawn["per-step"][..., 0]) <= 5) and np.all((drawn["per-step"][..., 1] >= 0)
+                                                                     & (drawn["per-step"][..., 1] <= 1e-2))
     det = SPACE.with_headline(**{"Z-4": "deterministic"})
-    a = paper.make_batch_fn(paper.setups(SPACE.headline)[0], mc, names=())[0](range(3))
-    b = paper.make_batch_fn(paper.setups(det)[0], mc, names=())[0](range(3))
+    a = make_batch_fn(setup(SPACE.headline)[0], mc, names=())[0](range(3))
+    b = make_batch_fn(setup(det)[0], mc, names=())[0](range(3))
     assert not np.array_equal(a[0], b[0])
     # deterministic truth: straight line for the first 20 s at the initial velocity
     np.testing.assert_allclose(b[0][:, 20, 0], 0.0 + 10.0 * 20, rtol=1e-12)
 
 
 def test_every_option_changes_the_setup_it_claims():
-    base = paper.Setup()
+    base = Setup()
     for f in SPACE.factors:
         for o in f.options:
-            case1, case2 = paper.setups(SPACE.with_headline(**{f.id: o.name}))
+            case1, case2 = setup(SPACE.with_headline(**{f.id: o.name}))
             assert o.changes, (f.id, o.name)
             for field, value in o.changes.items():
                 assert getattr(case1, field) == value and getattr(case2, field) == value, (f.id, o.name, field)
             changed = {k for k in o.changes if getattr(base, k) != o.changes[k]}
             assert (o.name == f.headline) == (not changed), (f.id, o.name)
     # the filter-noise factor scales the filters' Q but never the truth's
-    sched_h, _, est_h = paper.build(paper.Setup())
-    sched_s, _, est_s = paper.build(paper.Setup(filter_q_scale=0.01))
+    sched_h, _, est_h = build(Setup())
+    sched_s, _, est_s = build(Setup(filter_q_scale=0.01))
     np.testing.assert_array_equal(sched_h.models[0].Q, sched_s.models[0].Q)
     np.testing.assert_allclose(est_s["IMM-UKF"].dynamics[0].Q, 0.01 * est_h["IMM-UKF"].dynamics[0].Q, rtol=1e-15)
 
@@ -114,9 +136,9 @@ def test_bad_readings_name_the_factor_or_option():
     with pytest.raises(ValueError, match="Z-99"):
         SPACE.validate({**SPACE.headline, "Z-99": "x"})
     with pytest.raises(ValueError, match="'Z-6'.*'sometimes'"):
-        paper.setups(SPACE.with_headline(**{"Z-6": "sometimes"}))
+        setup(SPACE.with_headline(**{"Z-6": "sometimes"}))
     with pytest.raises(ValueError, match="leaves out"):
-        paper.evaluate_reading({"Z-3": "mrad2"}, MonteCarlo(paper.ROOT_SEED, 2))
+        study.evaluate_reading({"Z-3": "mrad2"}, MonteCarlo(PAPER.root_seed, 2))
 
 
 @pytest.mark.parametrize("field, value", [("filter_q_scale", 0.0), ("filter_q_scale", -1.0), ("filter_q_scale", True),
@@ -124,30 +146,30 @@ def test_bad_readings_name_the_factor_or_option():
                                           ("window", 1), ("fault_kind", "sometimes")])
 def test_new_setup_fields_are_validated(field, value):
     with pytest.raises(ValueError, match=field):
-        paper.Setup(**{field: value})
+        Setup(**{field: value})
 
 
 def test_shared_evaluations_are_the_numbers_of_a_fresh_evaluation():
     """evaluate_algorithm memoises by the relevant set-up: a non-adaptive algorithm under two NAUKF readings
     is one evaluation, and it equals a fresh, unshared one."""
-    mc = MonteCarlo(paper.ROOT_SEED, 3)
-    s = paper.Setup(faults=True)
-    a = paper.evaluate_algorithm(s, "IMM-UKF", mc)
-    b = paper.evaluate_algorithm(_replace(s, window=30, inflate_only=True), "IMM-UKF", mc)
+    mc = MonteCarlo(PAPER.root_seed, 3)
+    s = Setup(faults=True)
+    a = study.evaluate_algorithm(s, "IMM-UKF", mc)
+    b = study.evaluate_algorithm(_replace(s, window=30, inflate_only=True), "IMM-UKF", mc)
     assert a is b
-    mb, est, _ = paper.make_batch_fn(s, mc)
+    mb, est, _ = make_batch_fn(s, mc)
     fresh = evaluation.evaluate(est, mb, mc, progress=False)
     np.testing.assert_array_equal(fresh["IMM-UKF"].errors, a.errors)
-    assert paper.evaluate_algorithm(_replace(s, window=30), "IMM-NAUKF", mc) is not \
-        paper.evaluate_algorithm(s, "IMM-NAUKF", mc)
+    assert study.evaluate_algorithm(_replace(s, window=30), "IMM-NAUKF", mc) is not \
+        study.evaluate_algorithm(s, "IMM-NAUKF", mc)
 
 
 def test_published_key_effect_counterpart():
     # (m^2 + s^2) differences of Table 3: CPIMM-NAUKF minus IMM-UKF
     expected = (4.8671 ** 2 + 0.9169 ** 2) - (11.8533 ** 2 + 4.3387 ** 2)
-    assert paper.published_mse_difference(paper.TABLE3, "CPIMM-NAUKF", "IMM-UKF") == pytest.approx(expected, rel=1e-12)
-    keys = {p.key for p in paper.PUBLISHED}
-    assert len(keys) == len(paper.PUBLISHED) == 24
+    assert text.published_mse_difference(text.TABLE3, "CPIMM-NAUKF", "IMM-UKF") == pytest.approx(expected, rel=1e-12)
+    keys = {p.key for p in PAPER.published}
+    assert len(keys) == len(PAPER.published) == 24
 
 
 def test_an_algorithm_diverged_in_every_run_is_not_reproduced_and_matches_no_table():
@@ -155,12 +177,12 @@ def test_an_algorithm_diverged_in_every_run_is_not_reproduced_and_matches_no_tab
     replicable', and its infinite distance keeps that universe from being the best table match."""
     from mmlib.experiment import multiverse
     n = 3
-    u = paper.universe(SPACE.headline, n, paper.ROOT_SEED)            # NAUKF as printed diverges
-    failed = [v for v in u["values"] if v["replicated"] is None]
-    assert failed and all(v["failed"] == f"diverged in {n}/{n} runs" for v in failed)
+    u = PAPER.universe(SPACE.headline, n, PAPER.root_seed)            # NAUKF as printed diverges
+    failed = [v for v in u.values if v.replicated is None]
+    assert failed and all(v.failed == f"diverged in {n}/{n} runs" for v in failed)
     design = multiverse.Design("star", "test", (SPACE.headline,))
-    mv = multiverse.Multiverse(SPACE, design, [u], paper.PUBLISHED, n, paper.N_RUNS_PAPER)
-    pub = next(p for p in paper.PUBLISHED if p.algorithm == "CPIMM-NAUKF")
+    mv = multiverse.Multiverse(SPACE, design, [u], PAPER.published, n, PAPER.n_runs)
+    pub = next(p for p in PAPER.published if p.algorithm == "CPIMM-NAUKF")
     assert mv.number_verdict(pub, u).startswith("not reproduced: diverged")
     assert mv.distance(pub, u) == float("inf")
     assert [t["best_sum"] for t in mv.table_match() if t["table"] == "Table 3"] == [None]
@@ -171,30 +193,30 @@ def test_section23_claim_verdicts_are_computed_from_the_moments(monkeypatch):
     overestimation), CP's variance is far off, so both claims are contradicted; were CP's variance the
     mixture's, the 'CP is accurate' part would no longer be contradicted."""
     from mmlib.experiment import report
-    m = paper.section23_moments()
+    m = section23.section23_moments()
     assert m["mixture_var"] == pytest.approx(m["mse_sd"] ** 2, abs=1e-9)
-    assert m["cp_sd"] ** 2 == pytest.approx(sum(u * u * s * s for u, s in zip(paper.EXAMPLE_U, paper.EXAMPLE_SD)))
-    claims = paper.section23_claims()
+    assert m["cp_sd"] ** 2 == pytest.approx(sum(u * u * s * s for u, s in zip(text.EXAMPLE_U, text.EXAMPLE_SD)))
+    claims = section23.section23_claims()
     for key in ("overestimates", "second order"):
         assert report.claim_category(claims[key][0]) == report.CONTRADICTED
     fake = dict(m, cp_sd=m["mse_sd"])
-    monkeypatch.setattr(paper, "section23_moments", lambda: fake)
-    assert report.claim_category(paper.section23_claims()["second order"][0]) == report.NOT_SUPPORTED
+    monkeypatch.setattr(section23, "section23_moments", lambda: fake)
+    assert report.claim_category(section23.section23_claims()["second order"][0]) == report.NOT_SUPPORTED
 
 
 def test_gamma_factor_changes_truth_and_filter_noise_and_ukf_factor_leaves_ekf_ckf_shared():
-    sched_d, _, est_d = paper.build(paper.Setup())
-    sched_i, _, est_i = paper.build(paper.Setup(noise_gain="identity"))
+    sched_d, _, est_d = build(Setup())
+    sched_i, _, est_i = build(Setup(noise_gain="identity"))
     np.testing.assert_allclose(sched_i.models[0].Q, 5.0 * np.eye(4))
     np.testing.assert_allclose(est_i["IMM-UKF"].dynamics[0].Q, 5.0 * np.eye(4))
     assert not np.allclose(sched_d.models[0].Q, sched_i.models[0].Q)
     with pytest.raises(ValueError, match="noise_gain"):
-        paper.Setup(noise_gain="unit")
-    mc = MonteCarlo(paper.ROOT_SEED, 2)
-    s = paper.Setup()
+        Setup(noise_gain="unit")
+    mc = MonteCarlo(PAPER.root_seed, 2)
+    s = Setup()
     scaled = _replace(s, ukf=(1e-3, 2.0, 0.0))
-    assert paper.evaluate_algorithm(s, "IMM-EKF", mc) is paper.evaluate_algorithm(scaled, "IMM-EKF", mc)
-    assert paper.evaluate_algorithm(s, "IMM-UKF", mc) is not paper.evaluate_algorithm(scaled, "IMM-UKF", mc)
+    assert study.evaluate_algorithm(s, "IMM-EKF", mc) is study.evaluate_algorithm(scaled, "IMM-EKF", mc)
+    assert study.evaluate_algorithm(s, "IMM-UKF", mc) is not study.evaluate_algorithm(scaled, "IMM-UKF", mc)
 
 
 def test_design_is_the_stated_fractional_one_within_budget():

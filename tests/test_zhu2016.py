@@ -1,18 +1,27 @@
 """Paper-level facts of Zhu et al. 2016 under its own set-up."""
+from dataclasses import dataclass
+from functools import lru_cache
+
 import numpy as np
 import pytest
 
 from mmlib import MonteCarlo
-from mmlib.experiment import metrics
-from mmlib.experiment import evaluation
-from mmlib.papers import zhu2016 as paper
+from mmlib.core.estimation import SingleModel
+from mmlib.core.filters import SigmaPointFilter
+from mmlib.core.rules import FifthDegreeCubature, _frozen
+from mmlib.experiment import evaluation, metrics, report, run_grid
+from mmlib.experiment.universe import UniverseResult
+from mmlib.papers import REGISTRY
+from mmlib.papers.zhu2016 import study, text, timing
+from mmlib.papers.zhu2016.setup import Setup, batch, build, setup
+
+PAPER = REGISTRY["zhu2016"]
 
 
 @pytest.fixture(scope="module")
 def results():
-    setup = paper.Setup(n_steps=60)
-    mc = MonteCarlo(paper.ROOT_SEED, 6)
-    make_batch, estimators, _ = paper.make_batch_fn(setup, mc)
+    mc = MonteCarlo(PAPER.root_seed, 6)
+    make_batch, estimators = batch(Setup(n_steps=60), mc)
     return evaluation.evaluate(estimators, make_batch, mc, progress=False)
 
 
@@ -27,9 +36,8 @@ def test_imm_sigma_point_filters_coincide_with_imm_kf(results, name):
 
 @pytest.mark.parametrize("ukf", [(1.0, 2.0, 0.0), (0.3, 2.0, 0.0), (1.0, 0.0, 3.0 - 4)])
 def test_ukf_parameters_do_not_matter_here(ukf):
-    setup = paper.Setup(n_steps=30, ukf=ukf)
     mc = MonteCarlo(1, 3)
-    make_batch, est, _ = paper.make_batch_fn(setup, mc)
+    make_batch, est = batch(Setup(n_steps=30, ukf=ukf), mc)
     res = evaluation.evaluate({k: est[k] for k in ("IMMUKF", "IMM-KF")}, make_batch, mc, progress=False)
     np.testing.assert_allclose(res["IMMUKF"].errors, res["IMM-KF"].errors, rtol=0, atol=1e-6)
 
@@ -42,66 +50,53 @@ def test_single_model_is_worse_in_turns(results):
 
 def test_setup_validation():
     with pytest.raises(ValueError, match="initial_estimate"):
-        paper.Setup(initial_estimate="perfect")
+        Setup(initial_estimate="perfect")
     with pytest.raises(ValueError, match="single_model"):
-        paper.Setup(single_model="CA")
+        Setup(single_model="CA")
 
 
 def test_table1_paper_values_are_complete():
-    assert set(paper.TABLE1) == set(paper.ALGORITHMS)
-    assert all(len(v) == 5 for v in paper.TABLE1.values())
-    ids = [d.id for d in paper.DEVIATIONS]
+    assert set(text.TABLE1) == set(text.ALGORITHMS)
+    assert all(len(v) == 5 for v in text.TABLE1.values())
+    ids = [d.id for d in PAPER.deviations]
     assert len(ids) == len(set(ids))
 
 
 # --- the reading space (issue 10) ------------------------------------------------------------------------------
-import json
-from dataclasses import dataclass
-from functools import lru_cache
-
-from mmlib.experiment import report
-from mmlib.core.estimation import SingleModel
-from mmlib.experiment import run_grid
-from mmlib.core.filters import SigmaPointFilter
-from mmlib.experiment.montecarlo import Stream
-from mmlib.core.rules import FifthDegreeCubature, _frozen
-
-
 def _non_headline_readings():
-    return [(f.id, o, paper.SPACE.with_headline(**{f.id: o})) for f in paper.SPACE.factors for o in f.names
+    return [(f.id, o, PAPER.space.with_headline(**{f.id: o})) for f in PAPER.space.factors for o in f.names
             if o != f.headline]
 
 
 def test_headline_universe_through_a_process_pool_equals_the_notebook_path(tmp_path):
     """run_grid with 2 spawned workers gives the same bits as the in-process path the notebook uses."""
-    n, seed = 4, paper.ROOT_SEED
-    other = paper.SPACE.with_headline(**{"Z-5": "equal", "Z-10": "CT-left"})
-    grid = run_grid(paper.universe, [paper.SPACE.headline, other], paper=paper.PAPER, algorithms=paper.MV_ALGORITHMS,
+    n, seed = 4, PAPER.root_seed
+    other = PAPER.space.with_headline(**{"Z-5": "equal", "Z-10": "CT-left"})
+    grid = run_grid(PAPER.universe, [PAPER.headline, other], paper=PAPER.name, algorithms=PAPER.algorithms,
                     n_runs=n, seed=seed, workers=2, cache_dir=tmp_path, use_cache=False, progress=False)
-    for reading, got in zip([paper.SPACE.headline, other], grid):
-        setup = paper.setups(reading)
-        local = paper.summarise(paper.evaluate_reading(reading, MonteCarlo(seed, n)), n, setup)
-        assert got == json.loads(json.dumps(local))          # exact equality of every float
+    for reading, got in zip([PAPER.headline, other], grid):
+        local = study.summarise(study.evaluate_reading(reading, MonteCarlo(seed, n)), n, setup(reading))
+        assert got == local          # exact equality of every float
 
 
 def test_headline_universe_values_are_the_headline_table1_rows():
     n = 3
-    results = paper.evaluate_reading(paper.SPACE.headline, MonteCarlo(paper.ROOT_SEED, n))
-    u = paper.universe(paper.SPACE.headline, n, paper.ROOT_SEED)
-    rows = [r for r in paper.table1_rows(results) if r.replicated is not None]
-    vals = [v for v in u["values"] if v["item"] == "Table 1"]
-    assert [(v["algorithm"], v["quantity"], v["replicated"], v["stderr"]) for v in vals] == \
+    results = study.evaluate_reading(PAPER.headline, MonteCarlo(PAPER.root_seed, n))
+    u = PAPER.universe(PAPER.headline, n, PAPER.root_seed)
+    rows = [r for r in study.table1_rows(results) if r.replicated is not None]
+    vals = [v for v in u.values if v.item == "Table 1"]
+    assert [(v.algorithm, v.quantity, v.replicated, v.stderr) for v in vals] == \
         [(r.algorithm, r.quantity, r.replicated, r.stderr) for r in rows]
-    assert [c["claim"] for c in u["claims"]] == [c["claim"] for c in paper.judge_claims(results, paper.Setup())]
+    assert [c.claim for c in u.claims] == [c["claim"] for c in study.judge_claims(results, Setup())]
 
 
 def _draws(reading, n=3):
-    setup = paper.setups(reading)
-    mc = MonteCarlo(paper.ROOT_SEED, n)
-    make_batch, _, _ = paper.make_batch_fn(setup, mc)
+    s = setup(reading)
+    mc = MonteCarlo(PAPER.root_seed, n)
+    make_batch, _ = batch(s, mc)
     truth, z, init = make_batch(range(n))
     H = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0]])
-    v = (z - truth[:, 1:] @ H.T) / np.sqrt(np.array(setup.r))     # standardized measurement noise
+    v = (z - truth[:, 1:] @ H.T) / np.sqrt(np.array(s.r))     # standardized measurement noise
     return truth, z, v, init["5CKF"].mean
 
 
@@ -109,7 +104,7 @@ def _draws(reading, n=3):
 def test_common_random_numbers_across_readings(fid, option, reading):
     """Every universe uses the same per-run draws: a factor that leaves the random structure alone changes
     neither the truth nor the measurements; the others change only what they claim to."""
-    t0, z0, v0, m0 = _draws(paper.SPACE.headline)
+    t0, z0, v0, m0 = _draws(PAPER.headline)
     t1, z1, v1, m1 = _draws(reading)
     # standardized measurement noise is the same draw in every universe (to round-off of scaling back and forth)
     np.testing.assert_allclose(v1, v0, rtol=0, atol=1e-9)
@@ -120,57 +115,57 @@ def test_common_random_numbers_across_readings(fid, option, reading):
     if fid != "Z-9":
         np.testing.assert_array_equal(m1, m0)                 # same initial estimates
     else:
-        np.testing.assert_array_equal(m1, np.tile(paper.Setup().x0, (3, 1)))
+        np.testing.assert_array_equal(m1, np.tile(Setup().x0, (3, 1)))
     if fid in ("Z-7", "Z-12"):
         assert not np.array_equal(t1, t0)
 
 
 @pytest.mark.parametrize("fid,option,reading", _non_headline_readings(), ids=lambda x: x if isinstance(x, str) else "")
 def test_every_option_changes_the_setup_it_claims_to(fid, option, reading):
-    setup, head = paper.setups(reading), paper.setups(paper.SPACE.headline)
-    changes = paper.SPACE.factor(fid).option(option).changes
+    s, head = setup(reading), setup(PAPER.headline)
+    changes = PAPER.space.factor(fid).option(option).changes
     assert changes
     for field, value in changes.items():
-        assert getattr(setup, field) == value and getattr(head, field) != value
-    assert {f for f in setup.__dataclass_fields__ if getattr(setup, f) != getattr(head, f)} == set(changes)
+        assert getattr(s, field) == value and getattr(head, field) != value
+    assert {f for f in s.__dataclass_fields__ if getattr(s, f) != getattr(head, f)} == set(changes)
     # ... and the change reaches the simulation or the estimators
-    r0 = paper.evaluate_reading(paper.SPACE.headline, MonteCarlo(paper.ROOT_SEED, 2))
-    r1 = paper.evaluate_reading(reading, MonteCarlo(paper.ROOT_SEED, 2))
+    r0 = study.evaluate_reading(PAPER.headline, MonteCarlo(PAPER.root_seed, 2))
+    r1 = study.evaluate_reading(reading, MonteCarlo(PAPER.root_seed, 2))
     target = "5CKF" if fid == "Z-10" else "IMMCKF"
     assert not np.array_equal(r1[target].errors, r0[target].errors)
 
 
 def test_headline_options_are_the_setup_defaults():
-    assert paper.setups(paper.SPACE.headline) == paper.Setup()
-    assert paper.SPACE.design("auto").kind == "full" and paper.SPACE.size == 192
+    assert PAPER.headline_setup() == Setup() and PAPER.setup_type is Setup
+    assert PAPER.space.design("auto").kind == "full" and PAPER.space.size == 192
 
 
 @pytest.mark.parametrize("reading,match", [
-    ({**paper.SPACE.headline, "Z-99": "x"}, "Z-99"),
-    ({**paper.SPACE.headline, "Z-5": "diag(1, 1)"}, "diag\\(1, 1\\)"),
-    ({k: v for k, v in paper.SPACE.headline.items() if k != "Z-7"}, "Z-7"),
+    ({**PAPER.headline, "Z-99": "x"}, "Z-99"),
+    ({**PAPER.headline, "Z-5": "diag(1, 1)"}, "diag\\(1, 1\\)"),
+    ({k: v for k, v in PAPER.headline.items() if k != "Z-7"}, "Z-7"),
 ])
 def test_bad_reading_names_the_factor_or_option(reading, match):
     with pytest.raises(ValueError, match=match):
-        paper.setups(reading)
+        PAPER.setup(reading)
     with pytest.raises(ValueError, match=match):
-        paper.universe(reading, 2, paper.ROOT_SEED)
+        PAPER.universe(reading, 2, PAPER.root_seed)
 
 
 def test_mode_order_validation_and_effect():
     with pytest.raises(ValueError, match="mode_order"):
-        paper.Setup(mode_order="right")
-    a = paper.build(paper.Setup())[0]
-    b = paper.build(paper.Setup(mode_order="left-right"))[0]
+        Setup(mode_order="right")
+    a = build(Setup())[0]
+    b = build(Setup(mode_order="left-right"))[0]
     # the same physical manoeuvres, with models 2 and 3 swapped
     np.testing.assert_array_equal(np.choose(a.modes(), [0, 2, 1]), b.modes())
     np.testing.assert_array_equal(a.models[1].F, b.models[2].F)
 
 
-@pytest.mark.parametrize("reading", paper.SPACE.design("star").readings, ids=lambda r: paper.SPACE.describe(r))
+@pytest.mark.parametrize("reading", PAPER.space.design("star").readings, ids=lambda r: PAPER.space.describe(r))
 def test_sigma_point_imms_coincide_with_imm_kf_in_every_star_universe(reading):
     """The identity holds in every reading: all the declared readings keep the models linear."""
-    res = paper.evaluate_reading(reading, MonteCarlo(paper.ROOT_SEED, 3))
+    res = study.evaluate_reading(reading, MonteCarlo(PAPER.root_seed, 3))
     for name in ("IMM5CKF", "IMMCKF", "IMMUKF"):
         # positions ~1e4 m: 1e-7 m is ~1e-11 relative, round-off over 100 steps
         np.testing.assert_allclose(res[name].errors, res["IMM-KF"].errors, rtol=0, atol=1e-7)
@@ -178,28 +173,25 @@ def test_sigma_point_imms_coincide_with_imm_kf_in_every_star_universe(reading):
 
 
 def test_published_numbers_are_table1_rmse_cells_and_universe_values():
-    assert len(paper.PUBLISHED) == 16
-    for p in paper.PUBLISHED:
-        qi = [q for q, _ in paper.QUANTITIES].index(p.quantity)
-        assert p.printed == paper.TABLE1[p.algorithm][qi]
-    u = paper.universe(paper.SPACE.headline, 2, paper.ROOT_SEED)
-    keys = {(v["item"], v["algorithm"], v["quantity"]) for v in u["values"]}
-    assert {p.key for p in paper.PUBLISHED} <= keys
-    key = [e for e in u["effects"] if e["name"] == paper.KEY_EFFECT][0]
+    assert len(PAPER.published) == 16
+    for p in PAPER.published:
+        qi = [q for q, _ in text.QUANTITIES].index(p.quantity)
+        assert p.printed == text.TABLE1[p.algorithm][qi]
+    u = PAPER.universe(PAPER.headline, 2, PAPER.root_seed)
+    assert isinstance(u, UniverseResult)
+    assert {p.key for p in PAPER.published} <= {v.key for v in u.values}
     # Table 1: (2.6675^2 + 2.5255^2) - (2.4847^2 + 2.8534^2)
-    assert key["published"] == pytest.approx(-0.82191915, abs=1e-8)
-    for c in u["claims"]:
-        report.claim_category(c["verdict"])
+    assert u.effect(PAPER.key_effect).published == pytest.approx(-0.82191915, abs=1e-8)
+    for c in u.claims:
+        report.claim_category(c.verdict)
 
 
 def test_floor_claim_is_not_assessable_where_the_floor_is_no_bound():
     for fid, opt in (("Z-7", "clean"), ("Z-9", "true")):
-        u = paper.universe(paper.SPACE.with_headline(**{fid: opt}), 3, paper.ROOT_SEED)
-        c = [c for c in u["claims"] if c["claim"] == paper.FLOOR_CLAIM][0]
-        assert report.claim_category(c["verdict"]) == "not assessable"
-    u = paper.universe(paper.SPACE.headline, 3, paper.ROOT_SEED)
-    c = [c for c in u["claims"] if c["claim"] == paper.FLOOR_CLAIM][0]
-    assert report.claim_category(c["verdict"]) != "not assessable"
+        u = PAPER.universe(PAPER.space.with_headline(**{fid: opt}), 3, PAPER.root_seed)
+        assert report.claim_category(u.claim(study.FLOOR_CLAIM)) == "not assessable"
+    u = PAPER.universe(PAPER.headline, 3, PAPER.root_seed)
+    assert report.claim_category(u.claim(study.FLOOR_CLAIM)) != "not assessable"
 
 
 @dataclass(frozen=True)
@@ -219,20 +211,20 @@ def test_printed_fifth_degree_weight_is_not_a_runnable_reading():
     w = _PrintedWeights().unit_points(4).wm
     assert w.sum() == pytest.approx(5 / 3, rel=1e-12)
     assert FifthDegreeCubature().unit_points(4).wm.sum() == pytest.approx(1.0, rel=1e-12)
-    setup = paper.Setup()
-    sched, meas, _ = paper.build(setup)
+    s = Setup()
+    sched, meas, _ = build(s)
     est = SingleModel(SigmaPointFilter(_PrintedWeights()), sched.models[0], meas, name="printed")
-    mc = MonteCarlo(paper.ROOT_SEED, 5)
-    make_batch = evaluation.make_batches(mc, sched, meas, np.array(setup.x0), {"printed": est},
-                                         lambda e, m0, runs: e.init(m0, np.diag(setup.P0_diag)))
+    mc = MonteCarlo(PAPER.root_seed, 5)
+    make_batch = evaluation.make_batches(mc, sched, meas, np.array(s.x0), {"printed": est},
+                                         lambda e, m0, runs: e.init(m0, np.diag(s.P0_diag)))
     res = evaluation.evaluate({"printed": est}, make_batch, mc, progress=False)
     assert (res["printed"].diverged_step >= 0).all() and res["printed"].diverged_step.max() <= 2
 
 
 # --- run time (Z-15) ---------------------------------------------------------------------------------------------
 def _timing_inputs(n=3):
-    mc = MonteCarlo(paper.ROOT_SEED, n)
-    make_batch, est, _ = paper.make_batch_fn(paper.Setup(n_steps=10), mc)
+    mc = MonteCarlo(PAPER.root_seed, n)
+    make_batch, est = batch(Setup(n_steps=10), mc)
     truth, z, init = make_batch(range(n))
     return {a: est[a] for a in ("IMMCKF", "5CKF")}, init, z
 
@@ -267,9 +259,9 @@ def _fake_times(ratio5, spread, n=30):
 def test_timing_claim_and_rows_follow_the_verdict_rule(ratio5, spread, expected):
     per_run, batched = _fake_times(ratio5, spread)
     claims = report.Claims()
-    rows, table = paper.judge_timing(per_run, batched, claims)
+    rows, table = timing.judge_timing(per_run, batched, claims)
     c = claims.as_list()[0]
-    assert c["claim"] == paper.TIMING_CLAIM and report.claim_category(c["verdict"]) == expected
+    assert c["claim"] == timing.TIMING_CLAIM and report.claim_category(c["verdict"]) == expected
     r = per_run["IMM5CKF"] / per_run["IMMCKF"]
     row = [x for x in rows if x.algorithm == "IMM5CKF"][0]
     # the median of the per-repeat ratios with the median's standard error from the MAD (metrics.timing_ratio)
@@ -281,3 +273,14 @@ def test_timing_claim_and_rows_follow_the_verdict_rule(ratio5, spread, expected)
     assert [x.algorithm for x in rows] == ["IMM5CKF", "IMMCKF", "IMMUKF", "5CKF", "OMTM-IMM"]
     assert [x.verdict.split(":")[0] for x in rows if x.algorithm in ("IMMCKF", "OMTM-IMM")] == ["not replicable"] * 2
     assert [t[0] for t in table] == ["IMM5CKF", "IMMCKF", "IMMUKF", "5CKF"]
+
+
+def test_paper_contract_fields():
+    """The registry's Paper: the headline scenario, the batch's estimators and the profiles of the notebook."""
+    s = PAPER.scenario(PAPER.headline_setup())
+    assert (s.name, s.root_seed, s.source) == (PAPER.name, PAPER.root_seed, PAPER.citation)
+    assert len(s.modes) == 3 and s.position == (0, 2)
+    _, estimators = PAPER.batch(Setup(n_steps=5), MonteCarlo(PAPER.root_seed, 2))
+    assert set(PAPER.algorithms) == set(estimators)
+    assert PAPER.runs("full") == PAPER.n_runs == 100 and PAPER.runs("smoke") == 20
+    assert PAPER.key_effect == study.KEY_EFFECT and PAPER.deviation("Z-15").topic == "run time"

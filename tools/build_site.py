@@ -10,6 +10,7 @@ pages) and mmlib's docstrings.  The builder assembles the page sources in a work
 * ``papers/<notebook>.ipynb`` and ``arena.ipynb``: the executed notebooks, each code cell folded (its outputs and the
   narrative first), the papermill parameter cells removed;
 * ``reading-spaces.md``: every paper's reading-space section, rendered from its results like its report;
+* ``new-paper.md`` (from docs/): replicating a new paper, a walk through the contract with a worked example;
 * ``results-contract.md`` (from docs/): the results contract, showing and linking its JSON Schema,
   mmlib/experiment/results.schema.json (staged as ``_includes/results.schema.json``; the site also serves it as
   ``_static/results.schema.json``, see docs/conf.py);
@@ -91,8 +92,8 @@ def load_inputs(profile: str) -> tuple[list[dict], dict[str, Path]]:
         nb, doc = executed / f"{src.stem}.ipynb", results / f"{paper}.json"
         for path in (nb, doc):
             if not path.is_file():
-                raise MissingOutputs(f"{paper}: no {path.relative_to(REPO)} (from notebooks/{src.name}): run `{command}` "
-                                f"first, {then}")
+                raise MissingOutputs(f"{paper}: no {path.relative_to(REPO)} (from notebooks/{src.name}): "
+                                     f"run `{command}` first, {then}")
         notebooks[paper] = nb
         try:
             docs.append(read_results(doc, name=str(doc.relative_to(REPO))))
@@ -133,7 +134,7 @@ def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
         "Five papers on maneuvering-target tracking with interacting multiple model (IMM) and sigma-point Kalman "
         "filters, replicated with `mmlib`, a batched filter library; every published number is set beside the "
         "replication with its Monte Carlo standard error and a verdict from one rule "
-        "(`mmlib/experiment/report.py`), every ambiguity of the text is run as a declared reading, and every "
+        "(`mmlib/experiment/verdicts.py`), every ambiguity of the text is run as a declared reading, and every "
         "algorithm is run on every scenario in the arena.", "",
         f"Generated from the results of commit{'s' if len(commits) > 1 else ''} {', '.join(f'`{c}`' for c in commits)} "
         f"({len(papers)} papers and the arena).", "",
@@ -141,7 +142,7 @@ def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
         *[f"papers/{notebooks[d['paper']].stem}" for d in sorted(papers, key=lambda d: d["paper"])], "```", "",
         "```{toctree}", ":maxdepth: 1", ":caption: Across the papers", "", "reading-spaces", "arena", "```", "",
         "```{toctree}", ":maxdepth: 1", ":caption: The library", "", "getting-started", "api/index", "results-contract",
-        "```", "",
+        "new-paper", "```", "",
         summary])
 
 

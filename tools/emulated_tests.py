@@ -41,14 +41,14 @@ TESTS = ("tests/tolerance/test_digest.py", "tests/test_batch_independence.py")
 MEASURE_OUT = REPO / "data" / "bench" / "cross_cpu.json"
 
 _DIGESTS = """
-import importlib, json, sys
-from mmlib import papers
+import json, sys
+from mmlib.papers import REGISTRY
 from mmlib.experiment import machine
 from mmlib.experiment.results import read_results
 out = {"machine": machine.fingerprint(), "digests": {}}
-for p in papers.with_headline_digest():
+for p in REGISTRY:
     committed = read_results(f"data/results/{p}.json")["digest"]
-    out["digests"][p] = importlib.import_module(f"mmlib.papers.{p}").headline_digest(committed["n_runs"])
+    out["digests"][p] = REGISTRY[p].headline_digest(committed["n_runs"])
 json.dump(out, sys.stdout)
 """
 
@@ -101,7 +101,7 @@ def _fingerprint(env: dict) -> str:
 
 def main(argv: list[str]) -> int:
     if argv[:1] == ["--measure"] and platform.machine() in ("x86_64", "AMD64"):
-        from mmlib.experiment.report import atomic_write_text
+        from mmlib.experiment.writing import atomic_write_text
         report = measure()
         atomic_write_text(MEASURE_OUT, json.dumps(report, indent=1, sort_keys=True) + "\n")
         print(f"emulated_tests: wrote {MEASURE_OUT.relative_to(REPO)} (largest per-run RMSE difference "

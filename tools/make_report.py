@@ -18,7 +18,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from mmlib.experiment.report import atomic_write_text  # noqa: E402
+from mmlib.experiment.writing import atomic_write_text  # noqa: E402
 from mmlib.experiment.results import read_results  # noqa: E402
 from mmlib.experiment import views  # noqa: E402
 from mmlib.experiment.views import markdown_table, value_pm  # noqa: E402
@@ -53,7 +53,7 @@ def render_arena(doc: dict, root: Path, out_dir: Path) -> str:
     prov = doc["provenance"]
     lines = ["# The arena: every algorithm on every scenario", "",
              f"Generated from `data/results/arena.json` — profile `{prov['profile']}`, {prov['n_runs']} Monte Carlo "
-             f"runs per cell, commit `{prov['git_commit']}`. Verdict rule: `mmlib/experiment/report.py`.", "",
+             f"runs per cell, commit `{prov['git_commit']}`. Verdict rule: `mmlib/experiment/verdicts.py`.", "",
              "## Scenarios", "",
              markdown_table(["scenario", "what", "steps", "nonlinearity index (median)"],
                             [[r["scenario"], r["title"], r["n_steps"], f"{r['nonlinearity_index']['median']:.3g}"]
@@ -61,7 +61,8 @@ def render_arena(doc: dict, root: Path, out_dir: Path) -> str:
              "", "## Findings", "", *doc["findings"], "", "## The papers' ideas, scenario by scenario", "",
              markdown_table(["idea", "A − B", "scenario", "Δ position MSE (m²) ± s.e.", "verdict"],
                             [[i["idea"], f"{i['a']} − {i['b']}", c["scenario"],
-                              "--" if c["difference_m2"] is None else f"{c['difference_m2']:.4g} ± {c['stderr_m2']:.2g}",
+                              "--" if c["difference_m2"] is None
+                              else f"{c['difference_m2']:.4g} ± {c['stderr_m2']:.2g}",
                               c["verdict"]] for i in doc["ideas"] for c in i["comparisons"]]),
              "", "## The papers' accuracy claims across the arena", "",
              markdown_table(["paper", "claim", "pair", "scenario: verdict"],
@@ -85,7 +86,7 @@ def render(doc: dict, root: Path, out_dir: Path) -> str:
              f"{prov.get('paper_citation', '')}", "",
              f"Generated from `data/results/{doc['paper']}.json` — profile `{prov['profile']}`, "
              f"{prov['n_runs']} Monte Carlo runs, root seed {prov['root_seed']}, commit `{prov['git_commit']}`. "
-             "Verdict rule: `mmlib/experiment/report.py`.", "", "## Comparison", ""]
+             "Verdict rule: `mmlib/experiment/verdicts.py`.", "", "## Comparison", ""]
     lines.append(markdown_table(
         ["item", "algorithm", "quantity", "paper", "replicated ± s.e.", "verdict", "deviations", "note"],
         [[r["item"], r["algorithm"], r["quantity"], r["paper"] or "--",
@@ -112,13 +113,13 @@ def render_index(docs, link=None, title: str = "# All papers: what holds") -> st
 
     ``link(paper)`` is the Markdown link to a paper's page (default: its report, ``[<paper>.md](<paper>.md)``; the
     site links its notebook pages instead); ``title`` the first line."""
-    from mmlib.experiment.report import VERDICTS
+    from mmlib.experiment.verdicts import VERDICTS
     link = link or (lambda paper: f"[{paper}.md]({paper}.md)")
     arena = [d for d in docs if d.get("kind") == "arena"]
     docs = [d for d in docs if d.get("kind") != "arena"]
     lines = [title, "",
-             "Generated from `data/results/*.json`. Verdict rule: `mmlib/experiment/report.py`. Counts are over the comparison "
-             "rows of each paper (tables; timing rows included).", "",
+             "Generated from `data/results/*.json`. Verdict rule: `mmlib/experiment/verdicts.py`. Counts are over the "
+             "comparison rows of each paper (tables; timing rows included).", "",
              markdown_table(["paper", "runs", *VERDICTS, "report"],
                             [[d["paper"], d["provenance"]["n_runs"],
                               *[sum(r["verdict"].startswith(v) for r in d["rows"]) for v in VERDICTS],
@@ -129,8 +130,8 @@ def render_index(docs, link=None, title: str = "# All papers: what holds") -> st
                   "Each paper's ambiguities are declared as factors and every universe of the design is run "
                   "(common random numbers). *Headline* is the reading chosen on the text before any run; "
                   "*best reading* is the declared reading whose numbers are closest to the whole printed table "
-                  "(sum of squared standardized distances, among universes whose values are precise enough to judge) -- a "
-                  "forensic finding, never the headline.", "",
+                  "(sum of squared standardized distances, among universes whose values are precise enough to judge) "
+                  "-- a forensic finding, never the headline.", "",
                   markdown_table(["paper", "universes", "runs each", "table", "cells", "reproduced: headline universe",
                                   "reproduced: best-matching reading", "best-matching reading",
                                   "most cells any reading reproduces", "that reading"],

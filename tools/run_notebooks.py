@@ -202,12 +202,13 @@ def check_values(params: dict, declared: dict[str, str], profile: str) -> None:
     True/False for a parameter whose default is a boolean."""
     if not params:
         return
+    from mmlib.experiment.paper import Study
     from mmlib.papers.presentation import NotebookRun
     accepted = inspect.signature(NotebookRun).parameters
-    shared = {k: v for k, v in params.items() if k in accepted}
+    shared = {k: v for k, v in params.items() if k in accepted and k != "PROFILE"}
+    probe = Study("probe", 0, {p: dict(n_runs=2, timing_runs=1, timing_repeats=1) for p in (profile, "smoke")})
     try:
-        NotebookRun("probe", 0, {profile: dict(n_runs=2, timing_runs=1, timing_repeats=1)}, PROFILE=profile,
-                    **shared)
+        NotebookRun(probe, PROFILE=profile, **shared)
     except ValueError as exc:
         raise UsageError(f"-p {exc}") from None
     for key, value in params.items():
@@ -296,7 +297,7 @@ def write_journal(staging: Path, layout: Layout, paper: str, name: str) -> None:
     file is on disk, so that an interrupted promotion can always be finished."""
     entries = [{"path": rel, "staged": (staging / rel).exists()} for rel in owned_paths(layout, paper, name)]
     journal = {"out": os.path.relpath(layout.out, layout.root), "paper": paper, "entries": entries}
-    from mmlib.experiment.report import atomic_write_text
+    from mmlib.experiment.writing import atomic_write_text
     atomic_write_text(staging / JOURNAL, json.dumps(journal, indent=1) + "\n", durable=True)
     checkpoint("journal")
 
@@ -587,11 +588,7 @@ def parallel_plan(workers: int, n_notebooks: int) -> tuple[int, int]:
     rounded up (no core idles for a remainder; at most one process per notebook beyond the workers).  A notebook's
     serial parts (set-up, headline evaluation, timings, figures) then overlap other notebooks' work instead of
     leaving cores idle, and when the workers divide evenly (2 cores: 2 notebooks with 1 worker each) the run times
-    (``time_algorithms``: CPU time of one thread) are not taken on oversubscribed cores.  Measured with
-    ``--profile smoke`` on the 2-core reference machine (wall time of the whole run, fresh universe cache): one
-    notebook at a time with 2 workers 161-173 s (5 runs), 2 at once with 1 worker each 127-129 s (4 runs), 2 at
-    once with 2 workers each (4 worker processes on 2 cores) 103-128 s (3 runs, median 127 s: no faster than 1
-    each in the median, and oversubscribed)."""
+    (``time_algorithms``: CPU time of one thread) are not taken on oversubscribed cores."""
     slots = max(1, min(workers, n_notebooks))
     return slots, -(-workers // slots)
 
@@ -710,7 +707,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--profile", default="full", choices=PROFILES)
     ap.add_argument("--timeout", type=int, default=3600,
-                    help="seconds per cell (positive; the arena's study cell takes ~20 min on one core)")
+                    help="seconds per cell (positive; the arena's study cell is the longest)")
     ap.add_argument("-p", "--param", action="append", default=[], metavar="NAME=VALUE",
                     help="notebook parameter (value parsed as Python literal, else string); "
                          "outputs then go to build/custom/<profile>-<NAME=VALUE...>/")

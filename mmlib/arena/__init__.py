@@ -5,5 +5,7 @@ and cost in one table.
 ``recipes`` (every algorithm built from any scenario's models, parameters stated once), ``ladder`` (the controlled
 scenarios and the computed nonlinearity index), ``study`` (the cells as parallel, cached Monte Carlo jobs; metrics,
 ranks and the results document) and ``views`` (heat maps and ladder curves).  It sits above the paper set-ups
-(``mmlib.papers``), whose scenarios and parameters it uses, and is used by ``notebooks/arena.py`` only.
+(``mmlib.papers``): it runs every registered paper's headline scenario (``mmlib.papers.REGISTRY``), the ideas and
+claim each paper declares for it (:class:`mmlib.experiment.paper.ArenaEntry`) and the parameters of its headline
+set-up; it is used by ``notebooks/arena.py`` only.
 """

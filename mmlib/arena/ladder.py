@@ -7,9 +7,9 @@ left at omega over 65-85 s, 100 steps of T = 1 s, with acceleration noise of var
 (discretised white-noise acceleration, :func:`mmlib.core.models.constant_velocity`) in the truth and in every filter's
 models (the filters are told the truth's noise, so a consistent filter is possible).  The radar
 at the origin measures range precisely (sigma_r = 1 m) and bearing coarsely (sigma_theta).  At ranges r of 10-11 km
-the cross-range spread of a bearing is sigma_theta * r, and the second-order term of the range that a linearisation neglects is about
-(sigma_theta r)^2 / (2 r) (Lerro & Bar-Shalom 1993, IEEE Trans. AES 29(3):1015: the converted-measurement bias
-r sigma_theta^2 relative to sigma_r), so stepping sigma_theta steps the nonlinearity.
+the cross-range spread of a bearing is sigma_theta * r, and the second-order term of the range that a linearisation
+neglects is about (sigma_theta r)^2 / (2 r) (Lerro & Bar-Shalom 1993, IEEE Trans. AES 29(3):1015: the
+converted-measurement bias r sigma_theta^2 relative to sigma_r), so stepping sigma_theta steps the nonlinearity.
 
 Rungs (``RUNGS``): ``linear`` (a linear position sensor with sigma = 10 m per axis and no manoeuvre: every filter is
 the Kalman filter, the consistency check of the ladder), six nonlinearity rungs at omega = 3 deg/s (sigma_theta =
@@ -114,7 +114,8 @@ def scenario(name: str) -> Scenario:
                     single=modes[0] if modes else schedule.models[0], modes=modes,
                     transition=None if modes is None else np.array(TRANSITION),
                     mode_probabilities=None if modes is None else (0.8, 0.1, 0.1), measurement=sensor,
-                    properties={"axis": r.axis, "sigma_theta_mrad": None if r.sigma_theta is None else r.sigma_theta * 1e3,
+                    properties={"axis": r.axis,
+                                "sigma_theta_mrad": None if r.sigma_theta is None else r.sigma_theta * 1e3,
                                 "omega_deg_s": r.omega_deg, "cross_range_spread": spread,
                                 "measurement": what, "manoeuvre": manoeuvre},
                     notes={} if modes else {"modes": "the linear rung has no manoeuvre: one CV model, no mode set"})

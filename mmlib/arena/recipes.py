@@ -9,11 +9,11 @@ a scenario, :func:`applicability` says why (e.g. "needs an IMM mode set: ..."), 
 Parameters, stated once here:
 
 * the layers' parameters come from the proposing paper's headline set-up: strong tracking's softening factor
-  beta = 4.5 and forgetting factor rho = 0.95 (Liu & Wu 2017, :class:`mmlib.papers.liu2017.Setup`); NAUKF's window
-  and Eq. 27-28 options and AUKF's (Zhou et al. 2017, :class:`mmlib.papers.zhou2017.Setup`, its Table 4 analogue);
+  beta = 4.5 and forgetting factor rho = 0.95 (Liu & Wu 2017, :class:`mmlib.papers.liu2017.setup.Setup`); NAUKF's window
+  and Eq. 27-28 options and AUKF's (Zhou et al. 2017, :class:`mmlib.papers.zhou2017.setup.Setup`, its Table 4 analogue);
   the bootstrap's N, variance factor, likelihood and fused covariance, and the central-difference form (Hu et al.
-  2017, :class:`mmlib.papers.hu2017.Setup`); the FLAS's breakpoints, normalisation and window (Tseng et al. 2011,
-  :class:`mmlib.papers.tseng2011.Setup`);
+  2017, :class:`mmlib.papers.hu2017.setup.Setup`); the FLAS's breakpoints, normalisation and window (Tseng et al. 2011,
+  :class:`mmlib.papers.tseng2011.setup.Setup`);
 * what belongs to a scenario's set-up comes from the scenario: its models, process noise, P0, transition matrix,
   initial mode probabilities and its unscented rule's (alpha, beta, kappa) (each paper tunes its own UKF; the
   ladder uses (1, 2, 0));
@@ -30,25 +30,26 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from mmlib.core._validate import check_bool, check_choice, check_has, check_names
+from mmlib.core._validate import check_bool, check_choice, check_has
 from mmlib.core.estimation import IMM, MomentMixing, SingleModel
 from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
 from mmlib.core.layers.adaptive import InnovationAdaptive
 from mmlib.core.layers.adaptive_imm import NoiseAdaptiveIMM
+from mmlib.core.layers.fuzzy_noise import fuzzy_imm
 from mmlib.core.layers.bootstrap import ObservationBootstrap
 from mmlib.core.layers.strong_tracking import StrongTracking
 from mmlib.core.protocols import Estimator, MomentFilter
 from mmlib.core.mixing import CubatureMixing
-from mmlib.core.rules import Cubature, FifthDegreeCubature, SphericalSimplexRadial, Unscented
+from mmlib.core.rules import CentralDifference, Cubature, FifthDegreeCubature, SphericalSimplexRadial, Unscented
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment.scenario import Scenario
-from mmlib.papers import hu2017, liu2017, tseng2011, zhou2017
+from mmlib.papers import REGISTRY
 
 #: the proposing papers' headline set-ups (their headline readings), whose layer parameters the recipes use
-LIU = liu2017.setups(liu2017.SPACE.headline)["Example 1"]
-ZHOU = zhou2017.setups(zhou2017.SPACE.headline)[0]
-HU = hu2017.setups(hu2017.SPACE.headline)
-TSENG = tseng2011.setups(tseng2011.SPACE.headline)
+LIU = REGISTRY["liu2017"].headline_setup().example1
+ZHOU = REGISTRY["zhou2017"].headline_setup().case1
+HU = REGISTRY["hu2017"].headline_setup()
+TSENG = REGISTRY["tseng2011"].headline_setup()
 
 
 #: what a recipe builds on: the scenario's IMM modes, its single model, or its noise family (an IMM set online)
@@ -67,30 +68,33 @@ def ukf(s: Scenario) -> SigmaPointFilter:
 
 
 def cdkf(s: Scenario) -> SigmaPointFilter:
-    """Hu et al.'s CDKF in the form of their headline (:func:`mmlib.papers.hu2017.cdkf_filter`)."""
+    """Hu et al.'s CDKF (Eqs. 10-17) in the central-difference form of their headline (factor H-1)."""
     _check_scenario(s, "s")
-    return hu2017.cdkf_filter(HU)
+    return SigmaPointFilter(CentralDifference(form=HU.cd_form), name="CDKF")
 
 
 def naukf(s: Scenario, inflate_only: bool | None = None) -> InnovationAdaptive:
-    """NAUKF (Zhou et al. 2017, Eqs. 27-28) over the scenario's UKF, with the window and options of Zhou's headline
-    (:func:`mmlib.papers.zhou2017.naukf_filter`); ``inflate_only=True`` is the bounded reading of factor Z-12."""
+    """NAUKF (Zhou et al. 2017, Eqs. 27-39) over the scenario's UKF, with the window, psi (Eq. 32) and Z-12 reading
+    of Zhou's headline; ``inflate_only=True`` is the bounded reading of factor Z-12."""
     _check_inflate_only(inflate_only)
-    return zhou2017.naukf_filter(ukf(s), ZHOU, inflate_only)
+    return InnovationAdaptive(ukf(s), window=ZHOU.window, psi=ZHOU.psi,
+                              inflate_only=ZHOU.inflate_only if inflate_only is None else inflate_only, name="NAUKF")
 
 
 def aukf(s: Scenario, inflate_only: bool | None = None) -> InnovationAdaptive:
-    """The classic adaptive UKF of Zhou et al.'s Table 4 over the scenario's UKF, with NAUKF's window and Z-12 reading
-    (:func:`mmlib.papers.zhou2017.aukf_filter`)."""
+    """The classic innovation-based adaptive UKF that Zhou et al.'s Table 4 compares with NAUKF (Mohamed & Schwarz
+    1999: no adaptive gene, the window of innovations before the current one) over the scenario's UKF, with NAUKF's
+    window and Z-12 reading of Zhou's headline."""
     _check_inflate_only(inflate_only)
-    return zhou2017.aukf_filter(ukf(s), ZHOU.window, ZHOU.inflate_only if inflate_only is None else inflate_only)
+    return InnovationAdaptive(ukf(s), window=ZHOU.window, zeta=False, include_current=False,
+                              inflate_only=ZHOU.inflate_only if inflate_only is None else inflate_only, name="AUKF")
 
 
 def cdkf_obs(s: Scenario) -> ObservationBootstrap:
     """Observation bootstrapping (Hu et al. 2017) over the CDKF with Hu's headline N, variance factor, likelihood
-    and fused covariance (:func:`mmlib.papers.hu2017.cdkf_obs_filter`)."""
-    _check_scenario(s, "s")
-    return hu2017.cdkf_obs_filter(HU)
+    and fused covariance (Sec. 2.2, Eqs. 18-23; factors H-6, H-7, H-8)."""
+    return ObservationBootstrap(cdkf(s), n_boot=HU.n_boot, variance_factor=HU.boot_variance_factor,
+                                likelihood=HU.obs_likelihood, covariance=HU.obs_covariance, name="CDKF-OBS")
 
 
 def _check_inflate_only(value) -> None:
@@ -99,9 +103,10 @@ def _check_inflate_only(value) -> None:
 
 
 def strong(base: MomentFilter, name: str) -> StrongTracking:
-    """Strong tracking (Liu & Wu 2017) with Liu's headline beta and rho (:func:`mmlib.papers.liu2017.strong_tracking`;
-    the Jacobian form over an EKF: the STF)."""
-    return liu2017.strong_tracking(base, LIU, name)
+    """Strong tracking (Liu & Wu 2017, Eqs. 20-36) over ``base`` with the softening factor beta and forgetting factor
+    rho of Liu's headline Example 1; over an EKF the Jacobian form of the fading factor (the STF of Zhou & Frank)."""
+    form = {"form": "jacobian"} if isinstance(base, ExtendedKalmanFilter) else {}
+    return StrongTracking(base, beta=LIU.beta, rho=LIU.rho, name=name, **form)
 
 
 # ------------------------------------------------------------------------------------------------ recipes
@@ -109,12 +114,11 @@ def strong(base: MomentFilter, name: str) -> StrongTracking:
 class Recipe:
     """How to build one algorithm: ``kind`` "imm" (over the scenario's modes), "single" (over its single model) or
     "noise-adaptive imm" (over its noise family); ``filter(scenario)`` the mode filter (with its layers); ``mixing``
-    the IMM's interaction; ``papers`` the papers that run it (the first proposed it or its layer)."""
+    the IMM's interaction; :attr:`papers` the registered papers that run it."""
 
     name: str
     kind: str
     filter: Callable
-    papers: tuple
     description: str
     mixing: Callable = MomentMixing
 
@@ -127,7 +131,12 @@ class Recipe:
             if not callable(getattr(self, arg)):
                 raise ValueError(f"{arg}: expected a function of the scenario (or a mixing class), got "
                                  f"{type(getattr(self, arg)).__name__}")
-        object.__setattr__(self, "papers", tuple(check_names(self.papers, "papers")))
+
+    @property
+    def papers(self) -> tuple:
+        """The registered papers whose arena entry runs this algorithm (:attr:`mmlib.experiment.paper.ArenaEntry`), in
+        the registry's order."""
+        return tuple(n for n in REGISTRY if REGISTRY[n].arena is not None and self.name in REGISTRY[n].arena.algorithms)
 
     def build(self, s: Scenario) -> SingleModel | IMM | NoiseAdaptiveIMM:
         """The estimator on scenario ``s``; :class:`NotApplicable` (with the reason) where it cannot apply."""
@@ -141,8 +150,11 @@ class Recipe:
         if self.kind == "imm":
             return IMM(f, list(s.modes), s.measurement, s.transition, mixing=self.mixing(), name=self.name)
         levels = s.noise_levels
-        return tseng2011.fuzzy_imm(f, levels.family, levels.lower, levels.upper, s.transition, TSENG,
-                                   measurement=s.measurement, name=self.name)
+        # the FLAS of Tseng et al. 2011 (mmlib.core.layers.fuzzy_noise) with the breakpoints, normalisation and
+        # window of Tseng's headline, its level range the scenario's two noise levels
+        return fuzzy_imm(f, levels.family, levels.lower, levels.upper, s.transition, breakpoints=TSENG.breakpoints,
+                         normalise=TSENG.dod_normalise, window=TSENG.dod_window, measurement=s.measurement,
+                         name=self.name)
 
 
 def _check_scenario(s, name: str = "scenario"):
@@ -177,42 +189,42 @@ _SSR = (lambda s: SigmaPointFilter(SphericalSimplexRadial(), name="SSRCKF"))
 
 RECIPES = {r.name: r for r in (
     # Zhu, Wang & Yuan 2016
-    Recipe("IMM5CKF", "imm", _CKF5, ("zhu2016",), "IMM of fifth-degree cubature KFs (Jia, Xin & Cheng 2013)"),
-    Recipe("IMMCKF", "imm", _CKF, ("zhu2016", "hu2017", "zhou2017"), "IMM of third-degree cubature KFs"),
-    Recipe("IMMUKF", "imm", ukf, ("zhu2016", "hu2017", "zhou2017", "tseng2011"), "IMM of unscented KFs"),
-    Recipe("5CKF", "single", _CKF5, ("zhu2016",), "single-model fifth-degree cubature KF"),
+    Recipe("IMM5CKF", "imm", _CKF5, "IMM of fifth-degree cubature KFs (Jia, Xin & Cheng 2013)"),
+    Recipe("IMMCKF", "imm", _CKF, "IMM of third-degree cubature KFs"),
+    Recipe("IMMUKF", "imm", ukf, "IMM of unscented KFs"),
+    Recipe("5CKF", "single", _CKF5, "single-model fifth-degree cubature KF"),
     # Hu, Zhang, Fu & Li 2017
-    Recipe("IMMEKF", "imm", _EKF, ("hu2017", "zhou2017"), "IMM of extended KFs"),
-    Recipe("IMMCDKF", "imm", cdkf, ("hu2017",), "IMM of central-difference KFs"),
-    Recipe("IMMCDKF-OBS", "imm", cdkf_obs, ("hu2017",), "IMM of CDKFs fed bootstrapped observations"),
+    Recipe("IMMEKF", "imm", _EKF, "IMM of extended KFs"),
+    Recipe("IMMCDKF", "imm", cdkf, "IMM of central-difference KFs"),
+    Recipe("IMMCDKF-OBS", "imm", cdkf_obs, "IMM of CDKFs fed bootstrapped observations"),
     # Zhou, Zhao, Huang & Zhao 2017
-    Recipe("IMM-NAUKF", "imm", naukf, ("zhou2017",), "IMM of NAUKFs (adaptive R, Eqs. 27-28)"),
-    Recipe("CPIMM-UKF", "imm", ukf, ("zhou2017",), "cubature-principle mixing, UKF modes", mixing=CubatureMixing),
-    Recipe("CPIMM-NAUKF", "imm", naukf, ("zhou2017",), "cubature-principle mixing, NAUKF modes",
+    Recipe("IMM-NAUKF", "imm", naukf, "IMM of NAUKFs (adaptive R, Eqs. 27-28)"),
+    Recipe("CPIMM-UKF", "imm", ukf, "cubature-principle mixing, UKF modes", mixing=CubatureMixing),
+    Recipe("CPIMM-NAUKF", "imm", naukf, "cubature-principle mixing, NAUKF modes",
            mixing=CubatureMixing),
-    Recipe("NAUKF", "single", naukf, ("zhou2017",), "single-model NAUKF (Table 4)"),
-    Recipe("AUKF", "single", aukf, ("zhou2017",), "single-model innovation-adaptive UKF (Table 4)"),
+    Recipe("NAUKF", "single", naukf, "single-model NAUKF (Table 4)"),
+    Recipe("AUKF", "single", aukf, "single-model innovation-adaptive UKF (Table 4)"),
     # ... and under the bounded reading of Zhou's factor Z-12 (as printed, the adaptation diverges: see adaptive.py)
-    Recipe("IMM-NAUKF[inflate-only]", "imm", lambda s: naukf(s, True), ("zhou2017",),
+    Recipe("IMM-NAUKF[inflate-only]", "imm", lambda s: naukf(s, True),
            "IMM of NAUKFs, adaptive covariance only enlarged (reading Z-12)"),
-    Recipe("NAUKF[inflate-only]", "single", lambda s: naukf(s, True), ("zhou2017",),
+    Recipe("NAUKF[inflate-only]", "single", lambda s: naukf(s, True),
            "single-model NAUKF, adaptive covariance only enlarged (reading Z-12)"),
-    Recipe("AUKF[inflate-only]", "single", lambda s: aukf(s, True), ("zhou2017",),
+    Recipe("AUKF[inflate-only]", "single", lambda s: aukf(s, True),
            "single-model adaptive UKF, adaptive covariance only enlarged (reading Z-12)"),
     # Liu & Wu 2017
-    Recipe("SSRCKF", "single", _SSR, ("liu2017",), "spherical simplex-radial cubature KF"),
-    Recipe("STF", "single", lambda s: strong(ExtendedKalmanFilter(), "STF"), ("liu2017",),
+    Recipe("SSRCKF", "single", _SSR, "spherical simplex-radial cubature KF"),
+    Recipe("STF", "single", lambda s: strong(ExtendedKalmanFilter(), "STF"),
            "strong tracking filter (EKF, Jacobian fading factor)"),
-    Recipe("STUKF", "single", lambda s: strong(ukf(s), "STUKF"), ("liu2017",), "strong tracking UKF"),
-    Recipe("STCKF", "single", lambda s: strong(_CKF(s), "STCKF"), ("liu2017",), "strong tracking CKF"),
-    Recipe("STSSRCKF", "single", lambda s: strong(_SSR(s), "STSSRCKF"), ("liu2017",),
+    Recipe("STUKF", "single", lambda s: strong(ukf(s), "STUKF"), "strong tracking UKF"),
+    Recipe("STCKF", "single", lambda s: strong(_CKF(s), "STCKF"), "strong tracking CKF"),
+    Recipe("STSSRCKF", "single", lambda s: strong(_SSR(s), "STSSRCKF"),
            "strong tracking simplex-radial CKF"),
     # single-model baselines run by several papers
-    Recipe("EKF", "single", _EKF, ("zhou2017", "tseng2011"), "extended KF"),
-    Recipe("CKF", "single", _CKF, ("liu2017", "zhou2017"), "third-degree cubature KF"),
-    Recipe("UKF", "single", ukf, ("liu2017", "zhou2017", "tseng2011"), "unscented KF"),
+    Recipe("EKF", "single", _EKF, "extended KF"),
+    Recipe("CKF", "single", _CKF, "third-degree cubature KF"),
+    Recipe("UKF", "single", ukf, "unscented KF"),
     # Tseng, Chang & Jwo 2011
-    Recipe("FUZZY-IMMUKF", "noise-adaptive imm", ukf, ("tseng2011",),
+    Recipe("FUZZY-IMMUKF", "noise-adaptive imm", ukf,
            "two-level IMM-UKF whose noise levels a fuzzy system sets online"),
 )}
 
@@ -245,7 +257,8 @@ def initial_state(estimator: Estimator, s: Scenario, start: np.ndarray, runs: Se
                   mc: MonteCarlo) -> Any:
     """``estimator``'s state at step 0 on ``s``: means ``start`` (B, n), covariance ``s.P0``, the scenario's initial
     mode probabilities for IMMs, and for observation bootstrapping the pre-drawn standard normals of the runs' own
-    FILTER stream (:func:`mmlib.papers.hu2017.bootstrap_noise`, at the scenario's largest measurement dimension)."""
+    FILTER stream (:meth:`mmlib.experiment.montecarlo.MonteCarlo.bootstrap_noise`, at the scenario's largest measurement
+    dimension)."""
     _check_scenario(s, "s")
     if not isinstance(mc, MonteCarlo):
         raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
@@ -255,7 +268,7 @@ def initial_state(estimator: Estimator, s: Scenario, start: np.ndarray, runs: Se
     f = getattr(imm, "filter", None)
     extra = {}
     if isinstance(f, ObservationBootstrap):
-        extra["noise"] = hu2017.bootstrap_noise(mc, runs, s.n_steps, f.n_boot, s.measurement_dim)
+        extra["noise"] = mc.bootstrap_noise(runs, s.n_steps, f.n_boot, s.measurement_dim)
     if isinstance(imm, IMM):
         return estimator.init(start, s.P0, s.mode_probabilities, **extra)
     return estimator.init(start, s.P0, **extra)

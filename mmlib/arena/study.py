@@ -3,8 +3,9 @@ r"""The arena study: one *cell* per (algorithm, scenario), each an independent M
 A cell runs the algorithm (built by :mod:`mmlib.arena.recipes`) on its scenario's runs -- the first ``n_runs`` runs
 of the scenario's root seed, so every algorithm of a scenario sees the same truth, measurements and initial
 estimates (common random numbers), and a paper scenario's cell reproduces the paper's own evaluation of the same
-algorithm bit for bit (Hu et al. 2017 to round-off: its km are converted to m) -- and returns its metrics (:func:`cell_metrics`) with each run's time-averaged squared position error, from which the
-ranks within the scenario are computed afterwards (:func:`rank_scenario`).  An algorithm that cannot apply to a
+algorithm bit for bit (Hu et al. 2017 to round-off: its km are converted to m) -- and returns its metrics
+(:func:`cell_metrics`) with each run's time-averaged squared position error, from which the ranks within the scenario
+are computed afterwards (:func:`rank_scenario`).  An algorithm that cannot apply to a
 scenario gets a cell with the reason instead of metrics.
 
 Cells run through :func:`mmlib.experiment.grid.run_grid`: in parallel worker processes (or on a Dask cluster), cached
@@ -16,7 +17,8 @@ Metrics per cell (units: m, m/s; Bar-Shalom, Li & Kirubarajan 2001, Sec. 5.4.2 f
   position (velocity) components, with the delta-method standard error from the per-run time averages (the runs
   are the independent replications);
 * ``anees``: the NEES averaged over runs and steps, its standard error from the per-run averages, and ``band``, the
-  95 % band of a run-average of N consistent NEES values at one step, :math:`[\chi^2_{nN}(0.025), \chi^2_{nN}(0.975)]/N`.
+  95 % band of a run-average of N consistent NEES values at one step,
+  :math:`[\chi^2_{nN}(0.025), \chi^2_{nN}(0.975)]/N`.
   The errors of one run are correlated in time, so the time average of a consistent filter's ANEES has a spread
   between the white value and that of one step and lies inside this band with at least 95 % probability: ``inside``
   is a lenient test; ``steps_inside``, the fraction of steps whose run-average NEES lies inside the band, is the
@@ -55,12 +57,16 @@ from mmlib.core.protocols import Estimator
 from mmlib.experiment import evaluation, metrics, report
 from mmlib.experiment.grid import run_grid
 from mmlib.experiment.montecarlo import MonteCarlo, say_progress
+from mmlib.experiment.paper import Study
 from mmlib.experiment.scenario import Scenario
-from mmlib.papers import hu2017, liu2017, tseng2011, zhou2017, zhu2016
+from mmlib.papers import REGISTRY
 
 PAPER = "arena"
-PAPER_SCENARIOS = {m.PAPER: m for m in (zhu2016, hu2017, liu2017, zhou2017, tseng2011)}
-SCENARIOS = tuple(PAPER_SCENARIOS) + ladder.NAMES
+#: the arena notebook's name, root seed (the ladder's; paper scenarios keep their papers') and profiles: 1000 runs per
+#: cell, smoke the first 20 of the same streams (so the smoke digest equals the full study's)
+STUDY = Study(PAPER, ladder.ROOT_SEED, {"full": {"n_runs": 1000}, "smoke": {"n_runs": 20}})
+#: the default scenarios: every registered paper's headline (in the registry's order), then the ladder's rungs
+SCENARIOS = tuple(REGISTRY) + ladder.NAMES
 ALGORITHMS = recipes.ALGORITHMS
 CHUNK_SIZE = 250
 COST_RUNS = 100           #: runs of the batched run that measures a cell's cost (the same batch for every algorithm)
@@ -71,17 +77,24 @@ def scenario(name: str) -> Scenario:
     """The scenario ``name``: a paper's headline scenario (``zhu2016`` ...) or a ladder rung; ValueError listing the
     known names otherwise.  Built once per process (its arrays are read-only)."""
     if not isinstance(name, str):
-        raise ValueError(f"scenario: expected a scenario name, got {name!r}; known: {', '.join(SCENARIOS)}")
+        raise ValueError(f"scenario: expected a scenario name, got {name!r}; known: {', '.join(known_scenarios())}")
     return _scenario(name)
+
+
+def known_scenarios() -> tuple:
+    """Every scenario name: the registered papers' (:data:`mmlib.papers.REGISTRY`, including papers registered
+    after import) and the ladder's."""
+    return tuple(REGISTRY) + ladder.NAMES
 
 
 @functools.lru_cache(maxsize=32)
 def _scenario(name: str) -> Scenario:
-    if name in PAPER_SCENARIOS:
-        return PAPER_SCENARIOS[name].scenario()
+    if name in REGISTRY:
+        paper = REGISTRY[name]
+        return paper.scenario(paper.headline_setup())
     if name in ladder.NAMES:
         return ladder.scenario(name)
-    raise ValueError(f"scenario: unknown scenario {name!r}; known: {', '.join(SCENARIOS)}")
+    raise ValueError(f"scenario: unknown scenario {name!r}; known: {', '.join(known_scenarios())}")
 
 
 def seed_of(s: Scenario, seed: int | None) -> int:
@@ -335,8 +348,8 @@ def run_arena(n_runs: int, *, scenarios: Iterable[str] = SCENARIOS, algorithms: 
     if len(set(algorithms)) != len(algorithms):
         raise ValueError(f"algorithms: names the same algorithm twice (aliases resolved): {algorithms}")
     for name in scenarios:
-        if name not in SCENARIOS:
-            raise ValueError(f"scenarios: unknown scenario {name!r}; known: {', '.join(SCENARIOS)}")
+        if name not in known_scenarios():
+            raise ValueError(f"scenarios: unknown scenario {name!r}; known: {', '.join(known_scenarios())}")
     if isinstance(n_runs, bool) or not isinstance(n_runs, (int, np.integer)) or n_runs < 2:
         raise ValueError(f"n_runs: expected an integer >= 2 (a standard error needs two runs), got {n_runs!r}")
     # a numpy integer is not JSON (the readings key the cache): the check returns a Python int
@@ -346,7 +359,7 @@ def run_arena(n_runs: int, *, scenarios: Iterable[str] = SCENARIOS, algorithms: 
     results = run_grid(cell, readings, paper=PAPER, algorithms=[], n_runs=int(n_runs),
                        seed=ladder.ROOT_SEED if seed is None else int(seed), workers=workers, executor=executor,
                        progress=_every(len(readings), progress), use_cache=use_cache, cache_dir=cache_dir,
-                       label="arena", result_keys=RESULT_KEYS, unit="cell")
+                       label="arena", result_keys=RESULT_KEYS, unit="cell", result_type=None)
     cells, per_run, details = [], {}, {}
     for s in scenarios:
         here = {r["algorithm"]: res for r, res in zip(readings, results) if r["scenario"] == s}
@@ -384,28 +397,20 @@ def _every(total: int, progress, lines: int = 20):
     return throttled
 
 
-#: The papers' ideas as paired comparisons "A against B" (A adds the idea to B): (idea, A, B, paper).
-IDEAS = (
-    ("fifth-degree cubature rule", "IMM5CKF", "IMMCKF", "zhu2016"),
-    ("fifth-degree rule against the unscented", "IMM5CKF", "IMMUKF", "zhu2016"),
-    ("fifth-degree rule, single model", "5CKF", "CKF", "zhu2016"),
-    ("spherical simplex-radial rule", "SSRCKF", "CKF", "liu2017"),
-    ("strong tracking (simplex-radial CKF)", "STSSRCKF", "SSRCKF", "liu2017"),
-    ("strong tracking (UKF)", "STUKF", "UKF", "liu2017"),
-    ("strong tracking (EKF: STF)", "STF", "EKF", "liu2017"),
-    ("central differences", "IMMCDKF", "IMMUKF", "hu2017"),
-    ("observation bootstrapping", "IMMCDKF-OBS", "IMMCDKF", "hu2017"),
-    ("NAUKF innovation adaptation (IMM)", "IMM-NAUKF", "IMMUKF", "zhou2017"),
-    ("NAUKF innovation adaptation (single model)", "NAUKF", "UKF", "zhou2017"),
-    ("NAUKF against the classic adaptive UKF", "NAUKF", "AUKF", "zhou2017"),
-    ("NAUKF adaptation, inflate-only reading (IMM)", "IMM-NAUKF[inflate-only]", "IMMUKF", "zhou2017"),
-    ("NAUKF adaptation, inflate-only reading (single model)", "NAUKF[inflate-only]", "UKF", "zhou2017"),
-    ("NAUKF against AUKF, inflate-only reading", "NAUKF[inflate-only]", "AUKF[inflate-only]", "zhou2017"),
-    ("cubature-principle mixing", "CPIMM-UKF", "IMMUKF", "zhou2017"),
-    ("fuzzy-adapted process noise", "FUZZY-IMMUKF", "IMMUKF", "tseng2011"),
-    ("IMM over one model (UKF)", "IMMUKF", "UKF", "all"),
-    ("sigma points against linearisation (IMM)", "IMMUKF", "IMMEKF", "all"),
+#: The arena's own ideas as paired comparisons "A against B" (A adds the idea to B), on every scenario: (idea, A, B);
+#: each paper's ideas are its :attr:`mmlib.experiment.paper.ArenaEntry.ideas`
+ARENA_IDEAS = (
+    ("IMM over one model (UKF)", "IMMUKF", "UKF"),
+    ("sigma points against linearisation (IMM)", "IMMUKF", "IMMEKF"),
 )
+
+
+def all_ideas() -> tuple:
+    """``(idea, A, B, paper)``: every registered paper's ideas (its ``arena`` entry, in the registry's order), then
+    the arena's own (:data:`ARENA_IDEAS`, paper "all")."""
+    out = [(idea, a, b, name) for name in REGISTRY if REGISTRY[name].arena is not None
+           for idea, a, b in REGISTRY[name].arena.ideas]
+    return tuple(out) + tuple((idea, a, b, "all") for idea, a, b in ARENA_IDEAS)
 
 
 def compare(result: ArenaResult, a: str, b: str, scenario_name: str) -> dict | None:
@@ -448,13 +453,13 @@ def compare(result: ArenaResult, a: str, b: str, scenario_name: str) -> dict | N
 
 
 def ideas(result: ArenaResult, scenarios: Iterable[str] | None = None) -> list:
-    """Every idea of :data:`IDEAS` on every scenario where both its algorithms apply: ``[{idea, paper, a, b,
+    """Every idea of :func:`all_ideas` on every scenario where both its algorithms apply: ``[{idea, paper, a, b,
     comparisons: [compare(...)]}]``."""
     _check_result(result)
     names = list(dict.fromkeys(c["scenario"] for c in result.cells)) if scenarios is None else \
         check_names(scenarios, "scenarios")
     out = []
-    for idea, a, b, paper in IDEAS:
+    for idea, a, b, paper in all_ideas():
         comps = [c for c in (compare(result, a, b, s) for s in names) if c is not None]
         out.append({"idea": idea, "paper": paper, "a": a, "b": b, "comparisons": comps})
     return out
@@ -504,27 +509,20 @@ def scenario_table(names: Iterable[str] = SCENARIOS, n_index_runs: int = 50, max
     return rows
 
 
-#: Each paper's accuracy claims as "A is more accurate than B" comparisons, checked on every scenario where both apply.
-PAPER_CLAIMS = (
-    ("zhu2016", "IMM5CKF is more accurate than IMMCKF and IMMUKF", (("IMM5CKF", "IMMCKF"), ("IMM5CKF", "IMMUKF"))),
-    ("liu2017", "STSSRCKF is more accurate than SSRCKF, STUKF and STCKF",
-     (("STSSRCKF", "SSRCKF"), ("STSSRCKF", "STUKF"), ("STSSRCKF", "STCKF"))),
-    ("hu2017", "IMMCDKF-OBS is more accurate than IMMCDKF, IMMUKF and IMMEKF",
-     (("IMMCDKF-OBS", "IMMCDKF"), ("IMMCDKF-OBS", "IMMUKF"), ("IMMCDKF-OBS", "IMMEKF"))),
-    ("zhou2017", "CPIMM and NAUKF make the IMM more accurate (CPIMM-UKF, IMM-NAUKF and CPIMM-NAUKF beat IMM-UKF)",
-     (("CPIMM-UKF", "IMMUKF"), ("IMM-NAUKF", "IMMUKF"), ("CPIMM-NAUKF", "IMMUKF"))),
-    ("tseng2011", "FUZZY-IMMUKF is more accurate than IMMUKF, and IMMUKF than the UKF",
-     (("FUZZY-IMMUKF", "IMMUKF"), ("IMMUKF", "UKF"))),
-)
+def paper_claim_list() -> tuple:
+    """``(paper, claim, ((A, B), ...))``: each registered paper's central accuracy claim as "A is more accurate than
+    B" comparisons (its ``arena`` entry), checked on every scenario where both apply."""
+    return tuple((name, REGISTRY[name].arena.claim, REGISTRY[name].arena.claim_pairs) for name in REGISTRY
+                 if REGISTRY[name].arena is not None and REGISTRY[name].arena.claim)
 
 
 def paper_claims(result: ArenaResult) -> list:
-    """Each paper's accuracy claims (:data:`PAPER_CLAIMS`) across the arena: per pair, the verdict of "A is more
+    """Each paper's accuracy claims (:func:`paper_claim_list`) across the arena: per pair, the verdict of "A is more
     accurate than B" on every scenario where both algorithms apply (``compare(...)["claim"]``, the one rule)."""
     _check_result(result)
     names = list(dict.fromkeys(c["scenario"] for c in result.cells))
     out = []
-    for paper, claim, pairs in PAPER_CLAIMS:
+    for paper, claim, pairs in paper_claim_list():
         parts = []
         for a, b in pairs:
             verdicts = {}

@@ -63,16 +63,16 @@ def run_digest(results: Mapping[str, RunSet | Mapping], n_runs: int) -> dict:
     r"""Fingerprint of the per-run numbers of the first ``n_runs`` runs of an evaluation, for proving that
     committed results come from the committed code (``tests/tolerance/test_results.py``).
 
-    ``results``: ``{name: RunSet}`` as :func:`mmlib.experiment.evaluation.evaluate` returns, or a dict of such dicts (e.g. per case;
-    names flattened to ``"case / name"``); ``n_runs``: integer from 1 to the runs of every RunSet.
+    ``results``: ``{name: RunSet}`` as :func:`mmlib.experiment.evaluation.evaluate` returns, or a dict of such dicts
+    (e.g. per case; names flattened to ``"case / name"``); ``n_runs``: integer from 1 to the runs of every RunSet.
     Per run the streams are fixed (:mod:`mmlib.experiment.montecarlo`) and the filters give a run the same bits in
-    any batch, one run included (tests/test_batch_independence.py), so the digest of the first n runs is the same for an evaluation of
-    n runs and of any N > n runs, whatever the chunking.
+    any batch, one run included (tests/test_batch_independence.py), so the digest of the first n runs is the same for
+    an evaluation of n runs and of any N > n runs, whatever the chunking.
 
     ``sha256`` is the SHA-256 of, for each name in sorted order: the name, then for ``errors`` (N, K, n),
     ``diverged_step`` (N,), ``divergence_cause`` (N,), ``mode_probabilities`` (N, K, r) and ``diagnostics``
-    (N, K, d) (the last three when present) restricted to the first n runs, the field name, the shape and the float64 bytes
-    (C order, every NaN written as the one canonical NaN: NaN sign and payload bits are not results).
+    (N, K, d) (the last three when present) restricted to the first n runs, the field name, the shape and the float64
+    bytes (C order, every NaN written as the one canonical NaN: NaN sign and payload bits are not results).
     Beside it, for a readable mismatch message, per name: ``mean_squared_error`` (mean over the valid
     runs among the first n, the K steps and the n components of the squared error, in the squared unit
     of the state; None if no run is valid) and ``diverged`` (runs among the first n that diverged); ``kernel``:
@@ -237,13 +237,16 @@ def _close(a, b, rtol: float, atol: float) -> bool:
 
 
 def same_numbers(universe: Mapping, local: Mapping) -> bool:
-    """Whether a universe result (from :func:`mmlib.experiment.grid.run_grid`) equals one computed in this process.
+    """Whether a universe result (a :class:`~mmlib.experiment.universe.UniverseResult` or its JSON, from
+    :func:`mmlib.experiment.grid.run_grid`) equals one computed in this process.
 
     Bit for bit (``==``) when the universe was computed on a machine of this process's fingerprint: it then has
     no ``"machine"`` entry.  A universe computed on another machine (a Dask worker of another CPU) carries that
     machine's fingerprint under ``"machine"`` and is compared, without that entry, to round-off: every string,
     integer and flag equal, every float within ``RTOL_KERNEL`` of the larger magnitude or ``RTOL_MACHINE`` of the
     document's largest number (differences of near-equal numbers are pure round-off)."""
+    # a UniverseResult (mmlib.experiment.universe) is compared in its JSON form
+    universe, local = (x.as_json() if hasattr(x, "as_json") else x for x in (universe, local))
     for value, name in ((universe, "universe"), (local, "local")):
         if not isinstance(value, Mapping):
             raise ValueError(f"{name}: expected a result dict, got {type(value).__name__}")

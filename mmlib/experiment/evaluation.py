@@ -178,7 +178,8 @@ def evaluate(estimators: dict, make_batch: Callable, mc: MonteCarlo, *, chunk_si
     any batch, so the numbers are bit for bit those of a serial run, whatever the workers, executor or chunk size.
     ``estimators``, ``make_batch`` and ``measurement_models`` are sent to the workers with cloudpickle (closures
     and notebook functions are fine).  ``progress`` prints a line per finished chunk.  ``consistency=True`` also
-    records every run's NEES and NIS per step (``RunSet.nees``, ``nis``, ``nis_dof``; :func:`mmlib.core.estimation.run`)."""
+    records every run's NEES and NIS per step (``RunSet.nees``, ``nis``, ``nis_dof``;
+    :func:`mmlib.core.estimation.run`)."""
     return evaluate_with_cost(estimators, make_batch, mc, chunk_size=chunk_size, label=label, progress=progress,
                               measurement_models=measurement_models, workers=workers, executor=executor,
                               consistency=consistency)[0]
@@ -265,8 +266,8 @@ def paired_mse_difference(a: RunSet, b: RunSet, components: int | Sequence[int])
 def better_claim(results: dict, a: str, b: str,
                  quantities: Iterable[tuple[str, int | Sequence[int]]]) -> tuple[str, str]:
     """Verdict and evidence for "a is more accurate than b" over ``quantities`` = [(label, components)],
-    from paired differences on common random numbers (:func:`mmlib.experiment.report.claim_verdict`)."""
-    from mmlib.experiment.report import claim_verdict, combine_claim_verdicts
+    from paired differences on common random numbers (:func:`mmlib.experiment.verdicts.claim_verdict`)."""
+    from mmlib.experiment.verdicts import claim_verdict, combine_claim_verdicts
     _check_mapping(results, "results", "RunSets by estimator name")
     _check_name(a, "a", results)
     _check_name(b, "b", results)

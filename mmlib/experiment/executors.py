@@ -14,9 +14,9 @@ The one execution policy of :func:`mmlib.experiment.evaluation.evaluate` (a task
 
 The local pool is created on first use, kept for the life of the process and shut down at exit (a pool of another
 size replaces it).  Its workers are spawned -- fresh interpreters started with one BLAS thread each -- which costs
-about 1.5 s once per process (each imports numpy, scipy and numba; a fork would take 0.03 s, measured on the 2-core
-reference machine, but would copy a notebook kernel's threads and the parent's already-started BLAS thread pool,
-and would still need a serialiser for the tasks).  A worker leaves by itself when the process that started it dies
+an interpreter start and the imports of numpy, scipy and numba once per process (a fork would start faster, but
+would copy a notebook kernel's threads and the parent's already-started BLAS thread pool, and would still need a
+serialiser for the tasks).  A worker leaves by itself when the process that started it dies
 (a killed kernel leaves no worker computing for nobody).  Tasks and their shared arguments travel as cloudpickle
 bytes, so closures (``make_batch`` of :func:`mmlib.experiment.evaluation.make_batches`) and functions defined in a
 notebook's ``__main__`` run in any worker (plain pickle refuses both); results travel back by plain pickle.
@@ -42,6 +42,7 @@ import time
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 from mmlib.core._validate import check_positive_int
+from mmlib.experiment.source import source_hash
 
 if TYPE_CHECKING:
     import distributed
@@ -131,7 +132,6 @@ def _run_task(shared: bytes, payload: bytes, state: dict, source: str | None):
     """Runs in a worker: ``fn(*shared, *args)`` with the caller's process state, marked as a task."""
     import cloudpickle
     if source is not None:
-        from mmlib.experiment.grid import source_hash
         if source_hash() != source:
             import socket
             raise RuntimeError(f"{SCHEDULER_VARIABLE}: the worker on {socket.gethostname()} (pid {os.getpid()}) "
@@ -348,7 +348,6 @@ def run_tasks(fn: Callable, tasks: Sequence[tuple], *, shared: tuple = (), worke
     setting = "executor" if executor is not None else SCHEDULER_VARIABLE
     source = None
     if address is not None:          # a remote worker may hold another checkout: refuse it rather than differ
-        from mmlib.experiment.grid import source_hash
         source = source_hash()
     blob, state = cloudpickle.dumps(tuple(shared)), _process_state()
     futures = {ex.submit(_run_task, blob, cloudpickle.dumps((fn, task)), state, source): i

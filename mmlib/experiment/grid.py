@@ -45,33 +45,14 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 from mmlib.core._validate import as_plain_json, check_bool, check_names, check_positive_int
-from mmlib.experiment.machine import fingerprint, fingerprint_id
 # default_workers lived here: kept importable from this module
-from mmlib.experiment.montecarlo import say_progress
 from mmlib.experiment.executors import default_workers, run_tasks, worker_count  # noqa: F401
-
-
-#: modules that only render results (tables, figures): editing them cannot change a universe's numbers
-PRESENTATION_MODULES = ("experiment/views.py", "papers/presentation.py", "arena/views.py")
-
-
-@functools.lru_cache(maxsize=1)
-def source_hash() -> str:
-    """SHA-256 (first 16 hex digits) of every ``.py`` file of the installed ``mmlib`` package (but the
-    presentation modules), by relative path and content, and of the numpy and scipy versions: the
-    "mmlib version" of the cache key."""
-    import numpy
-    import scipy
-    root = Path(__file__).resolve().parent.parent
-    h = hashlib.sha256(f"numpy {numpy.__version__}; scipy {scipy.__version__}".encode())
-    for path in sorted(root.rglob("*.py")):
-        if path.relative_to(root).as_posix() in PRESENTATION_MODULES:
-            continue
-        h.update(str(path.relative_to(root)).encode())
-        h.update(b"\0")
-        h.update(path.read_bytes())
-        h.update(b"\0")
-    return h.hexdigest()[:16]
+from mmlib.experiment.machine import fingerprint, fingerprint_id
+from mmlib.experiment.universe import UniverseResult
+from mmlib.experiment.montecarlo import say_progress
+# source_hash and PRESENTATION_MODULES lived here (moved below executors, which needs them too): kept importable
+from mmlib.experiment.source import PRESENTATION_MODULES, source_hash  # noqa: F401
+from mmlib.experiment.writing import atomic_write_text
 
 
 def default_cache_dir() -> Path:
@@ -328,12 +309,6 @@ def key_document(*, paper: str, job: Callable, reading: Mapping, algorithms: Ite
             "seed": check_positive_int(seed, "seed", minimum=0), "mmlib": source_hash(), "machine": fingerprint_id()}
 
 
-def cache_key(**parts: Any) -> str:
-    """The cache file name of a universe: the first 32 hex digits of the SHA-256 of :func:`key_document`
-    ``(**parts)`` (same keyword arguments)."""
-    return hashlib.sha256(json.dumps(key_document(**parts), sort_keys=True).encode()).hexdigest()[:32]
-
-
 RESULT_KEYS = ("values", "claims", "effects", "diverged", "n_runs")
 
 
@@ -382,7 +357,6 @@ def _stale(path: Path, why: str) -> None:
 
 
 def _write_json_atomic(path: Path, doc) -> None:
-    from mmlib.experiment.report import atomic_write_text
     atomic_write_text(path, json.dumps(doc, allow_nan=False, sort_keys=True))
 
 
@@ -404,7 +378,7 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
              executor: cf.Executor | None = None, workers: int | None = None,
              cache_dir: str | Path | None = None, use_cache: bool = True,
              progress: bool | Callable = True, label: str = "", result_keys: Sequence[str] = RESULT_KEYS,
-             unit: str = "universe") -> list:
+             unit: str = "universe", result_type: type | None = UniverseResult) -> list:
     """Run ``job(reading, n_runs, seed)`` for every reading; results in the order of ``readings``.
 
     ``executor``: any ``concurrent.futures.Executor`` (it is not shut down here); by default
@@ -414,8 +388,11 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
     the results do not depend on where the jobs ran.  ``cache_dir``: where results are kept
     (``default_cache_dir()``); ``use_cache=False`` neither reads nor writes it.  ``progress``: True prints one line per
     universe to stderr, a callable receives that line, False is silent.  ``result_keys``: the keys every job result
-    must have (default: a universe result of :func:`mmlib.experiment.multiverse.universe_result`); ``unit``: what a
-    job is called in the progress lines ("universe", "cell").
+    must have in JSON (default: a universe result's, :class:`mmlib.experiment.universe.UniverseResult`); ``unit``: what
+    a job is called in the progress lines ("universe", "cell").  ``result_type``: a class with ``as_json()`` and
+    ``from_json(doc)`` that every job returns (default :class:`~mmlib.experiment.universe.UniverseResult`): results
+    are JSON only in the cache and are returned as ``result_type`` objects; None: jobs return plain JSON dicts
+    (the arena's cells), returned as such.
     """
     if isinstance(readings, (str, bytes, Mapping)) or not isinstance(readings, Iterable):
         raise ValueError(f"readings: expected a sequence of readings (dicts), got {type(readings).__name__}")
@@ -457,6 +434,8 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
     n_cached = len(readings) - len(todo)
     if say and n_cached:
         say(f"  [{tag}] {n_cached}/{len(readings)} {unit}s from the cache ({cache / paper})")
+    if result_type is not None:
+        results = [None if r is None else result_type.from_json(r) for r in results]
     if not todo:
         return results
     t0 = time.perf_counter()
@@ -468,6 +447,11 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
         nonlocal done
         i = todo[k]
         res, machine = out["result"], out["machine"]
+        if result_type is not None:
+            if not isinstance(res, result_type):
+                raise ValueError(f"job: {job_name(job)} returned {type(res).__name__}, expected a "
+                                 f"{result_type.__name__}")
+            res = res.as_json()
         if not isinstance(res, dict):
             raise ValueError(f"job: {job_name(job)} returned {type(res).__name__}, expected a dict")
         try:
@@ -477,7 +461,7 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
                              f"{readings[i]!r} ({err}; NaN and infinity are not allowed: use None)") from None
         if any(key not in results[i] for key in result_keys):
             raise ValueError(f"job: {job_name(job)} returned a dict without {tuple(result_keys)}"
-                             + (" (build it with multiverse.universe_result)" if result_keys == RESULT_KEYS else ""))
+                             + (" (build it with UniverseResult.build)" if result_keys == RESULT_KEYS else ""))
         if writable[0]:
             try:
                 _write_json_atomic(cache / paper / f"{keys[i]}.json",
@@ -489,9 +473,11 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
                               "runs uncached (its results are returned but not kept)", CacheWarning, stacklevel=2)
         if machine != fingerprint():
             results[i]["machine"] = machine
+        div = results[i].get("diverged") or {}
+        if result_type is not None:
+            results[i] = result_type.from_json(results[i])
         done += 1
         if say:
-            div = results[i].get("diverged") or {}
             ndiv = sum(div.values()) if isinstance(div, dict) else 0
             say(f"  [{tag}] {unit} {done}/{len(todo)} done ({time.perf_counter() - t0:.1f} s): "
                 f"{json.dumps(readings[i], sort_keys=False)}" + (f"; diverged runs {div}" if ndiv else ""))

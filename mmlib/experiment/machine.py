@@ -64,7 +64,8 @@ def openblas() -> dict:
             lib = ctypes.CDLL(path)
         except OSError:
             continue
-        for prefix, suffix in (("scipy_openblas", "64_"), ("scipy_openblas", ""), ("openblas", "64_"), ("openblas", "")):
+        for prefix, suffix in (("scipy_openblas", "64_"), ("scipy_openblas", ""), ("openblas", "64_"),
+                               ("openblas", "")):
             threads = getattr(lib, f"{prefix}_get_num_threads{suffix}", None)
             if threads is None:
                 continue

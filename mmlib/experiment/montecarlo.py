@@ -103,6 +103,16 @@ class MonteCarlo:
         w = self.standard_normal(runs, stream, (cov.shape[0],))
         return mean + matmul_rows(w, np.linalg.cholesky(cov).T)
 
+    def bootstrap_noise(self, runs: Sequence[int] | np.ndarray, n_steps: int, n_boot: int, m: int) -> np.ndarray:
+        """The standard normals, shape ``(len(runs), n_steps, n_boot, m)``, that an observation-bootstrap layer
+        (:class:`mmlib.core.layers.bootstrap.ObservationBootstrap`, Hu et al. 2017) adds to each step's
+        ``m``-dimensional measurement, from the run's :attr:`Stream.FILTER`; drawn for ``max(n_boot, 1)``
+        observations, so that a run's draws do not depend on ``n_boot`` being 0."""
+        n_steps = check_positive_int(n_steps, "n_steps")
+        n_boot = check_positive_int(n_boot, "n_boot", minimum=0)
+        m = check_positive_int(m, "m")
+        return self.standard_normal(runs, Stream.FILTER, (n_steps, max(n_boot, 1), m))[:, :, :n_boot]
+
     def chunks(self, chunk_size: int | None = None) -> list[range]:
         """Consecutive run-index ranges covering all runs, ``chunk_size`` (integer >= 1, None: all) runs each."""
         size = self.n_runs if chunk_size is None else check_positive_int(chunk_size, "chunk_size")

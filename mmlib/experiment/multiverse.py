@@ -5,7 +5,7 @@ A paper module provides
 * ``SPACE``: its :class:`~mmlib.experiment.readings.ReadingSpace`;
 * ``PUBLISHED``: every published number a universe can be compared with, as
   :class:`PublishedNumber` s (table, item, algorithm, quantity, the printed text);
-* a job ``universe(reading, n_runs, seed) -> dict`` built with :func:`universe_result`:
+* a job ``universe(reading, n_runs, seed) -> UniverseResult`` (:mod:`mmlib.experiment.universe`):
   the universe's ``values`` (one per published number it replicates, same item, algorithm
   and quantity), its ``claims`` (verdicts in the claim vocabulary of :mod:`mmlib.experiment.report`),
   its ``effects`` (named paired differences with standard errors, for the specification
@@ -34,115 +34,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Callable, Iterable, Mapping, NamedTuple
+from typing import Any, Callable, Iterable, Mapping
 
-import numpy as np
 
-from mmlib.core._validate import as_float_array, check_count, check_names, check_positive_int
+from mmlib.core._validate import check_names, check_positive_int
 from mmlib.experiment import report
 from mmlib.experiment.grid import run_grid
 from mmlib.experiment.readings import Design, ReadingSpace
+from mmlib.experiment.universe import Effect, PublishedNumber, UniverseResult, Value, finite_or_none, items
+
 
 #: a claim is robust when one verdict holds in at least this fraction of the universes
 ROBUST_FRACTION = 0.9
-
-
-class PublishedNumber(NamedTuple):
-    """A number printed in the paper: ``table`` groups cells for the table match (e.g.
-    "Table 1"), ``item``/``algorithm``/``quantity`` match a universe's value, ``printed`` is the
-    text as printed (its last digit sets the rounding uncertainty)."""
-
-    table: str
-    item: str
-    algorithm: str
-    quantity: str
-    printed: str
-
-    @property
-    def key(self) -> tuple:
-        """``(item, algorithm, quantity)``: what a universe's value must match."""
-        return (self.item, self.algorithm, self.quantity)
-
-
-def _finite_or_none(x):
-    if x is None:
-        return None
-    x = float(x)
-    return x if math.isfinite(x) else None
-
-
-def _number_or_none(x, name: str):
-    """A real number (Python or numpy, or a 0-d array) as :func:`_finite_or_none` stores it (NaN and infinities:
-    None, the value could not be produced), or None; a string, a bool, an array or any other object is a
-    ValueError naming ``name``."""
-    if x is None:
-        return None
-    if isinstance(x, (bool, np.bool_)):
-        raise ValueError(f"{name}: expected a number or None, got {x!r}")
-    arr = as_float_array(x, name)
-    if arr.ndim != 0:
-        raise ValueError(f"{name}: expected a number or None, got an array of shape {arr.shape}")
-    return _finite_or_none(x)
-
-
-def _text(x, name: str) -> str:
-    if not isinstance(x, str):
-        raise ValueError(f"{name}: expected a string, got {x!r}")
-    return x
-
-
-def _items(value, name: str, what: str) -> list:
-    if isinstance(value, (str, bytes, Mapping)) or not hasattr(value, "__iter__"):
-        raise ValueError(f"{name}: expected a sequence of {what}, got {value!r}")
-    return list(value)
-
-
-def _tuple_of(entry, name: str, sizes: tuple, what: str) -> tuple:
-    if isinstance(entry, (str, bytes)) or not isinstance(entry, (tuple, list)) or len(entry) not in sizes:
-        raise ValueError(f"{name}: expected {what}, got {entry!r}")
-    return tuple(entry)
-
-
-def universe_result(*, values: Iterable[tuple], claims: Iterable[Mapping[str, Any]], diverged: Mapping[str, int],
-                    effects: Iterable[tuple] = (), n_runs: int) -> dict:
-    """The JSON-able result of one universe (validated).
-
-    ``values``: iterable of ``(item, algorithm, quantity, replicated, stderr)``, optionally with a
-    sixth element ``failed`` (a reason, e.g. "diverged in 20/20 runs") for a value the method was
-    run for but could not produce: its verdict is "not reproduced: <reason>" and its standardized
-    distance infinite (it matches no printed number); ``claims``: a
-    :class:`mmlib.experiment.report.Claims` or dicts with ``claim`` and ``verdict``; ``diverged``: algorithm
-    -> number of diverged runs; ``effects``: iterable of ``(name, value, stderr)`` or
-    ``(name, value, stderr, published)``."""
-    n_runs = check_positive_int(n_runs, "n_runs")
-    vals = []
-    for i, v in enumerate(_items(values, "values", "(item, algorithm, quantity, replicated, stderr[, failed])")):
-        item, alg, qty, rep, se, *failed = _tuple_of(v, f"values[{i}]", (5, 6),
-                                                     "(item, algorithm, quantity, replicated, stderr[, failed])")
-        vals.append({"item": _text(item, f"values[{i}].item"), "algorithm": _text(alg, f"values[{i}].algorithm"),
-                     "quantity": _text(qty, f"values[{i}].quantity"),
-                     "replicated": _number_or_none(rep, f"values[{i}].replicated"),
-                     "stderr": _number_or_none(se, f"values[{i}].stderr")})
-        if failed and failed[0]:
-            vals[-1]["failed"] = str(failed[0])
-    cls = []
-    for i, c in enumerate(_items(claims, "claims", "claims (Claims, or dicts with 'claim' and 'verdict')")):
-        if not isinstance(c, Mapping) or "claim" not in c or "verdict" not in c:
-            raise ValueError(f"claims[{i}]: expected a dict with 'claim' and 'verdict', got {c!r}")
-        report.claim_category(_text(c["verdict"], f"claims[{i}].verdict"))
-        cls.append({"claim": _text(c["claim"], f"claims[{i}].claim"), "verdict": c["verdict"]})
-    effs = []
-    for i, e in enumerate(_items(effects, "effects", "(name, value, stderr[, published])")):
-        name, value, se, *pub = _tuple_of(e, f"effects[{i}]", (3, 4), "(name, value, stderr[, published])")
-        effs.append({"name": _text(name, f"effects[{i}].name"), "value": _number_or_none(value, f"effects[{i}].value"),
-                     "stderr": _number_or_none(se, f"effects[{i}].stderr"),
-                     "published": _number_or_none(pub[0], f"effects[{i}].published") if pub else None})
-    try:
-        diverged = dict(diverged)
-    except (TypeError, ValueError):
-        raise ValueError(f"diverged: expected a dict algorithm -> number of diverged runs, got {diverged!r}") from None
-    div = {str(k): check_count(v, f"diverged[{k!r}]", n_runs) for k, v in diverged.items()}
-    return {"values": vals, "claims": cls, "effects": effs, "diverged": div, "n_runs": n_runs}
 
 
 def _check_pub(pub) -> PublishedNumber:
@@ -152,8 +55,8 @@ def _check_pub(pub) -> PublishedNumber:
 
 
 def _check_universe(universe) -> None:
-    if not isinstance(universe, Mapping) or "values" not in universe or "effects" not in universe:
-        raise ValueError(f"universe: expected a universe result (an item of Multiverse.universes), got "
+    if not isinstance(universe, UniverseResult):
+        raise ValueError(f"universe: expected a UniverseResult (an item of Multiverse.universes), got "
                          f"{type(universe).__name__}")
 
 
@@ -178,11 +81,9 @@ class Multiverse:
         if len(self.universes) != len(self.design.readings):
             raise ValueError("universes: one result per reading of the design is needed")
         for i, u in enumerate(self.universes):
-            missing = [k for k in ("values", "claims", "effects", "diverged", "n_runs")
-                       if not isinstance(u, Mapping) or k not in u]
-            if missing:
-                raise ValueError(f"universes[{i}]: expected a universe result (multiverse.universe_result), "
-                                 f"lacking {', '.join(missing)}")
+            if not isinstance(u, UniverseResult):
+                raise ValueError(f"universes[{i}]: expected a UniverseResult (mmlib.experiment.universe), got "
+                                 f"{type(u).__name__}")
         if self.design.readings[0] != self.space.headline:
             raise ValueError("design: the headline must be the first universe")
         _check_published(self.published)
@@ -197,29 +98,21 @@ class Multiverse:
         return self.design.readings
 
     @property
-    def headline(self) -> dict:
+    def headline(self) -> UniverseResult:
         """The headline universe's result (``universes[0]``)."""
         return self.universes[0]
 
-    def value(self, universe: dict, key: tuple) -> dict | None:
-        """The entry of ``universe["values"]`` whose ``(item, algorithm, quantity)`` is ``key``
+    def value(self, universe: UniverseResult, key: tuple) -> Value | None:
+        """The universe's :class:`~mmlib.experiment.universe.Value` whose ``(item, algorithm, quantity)`` is ``key``
         (:attr:`PublishedNumber.key`), or None when the universe does not compute it."""
         _check_universe(universe)
-        if not (isinstance(key, tuple) and len(key) == 3):
-            raise ValueError(f"key: expected (item, algorithm, quantity) (PublishedNumber.key), got {key!r}")
-        for v in universe["values"]:
-            if (v["item"], v["algorithm"], v["quantity"]) == key:
-                return v
-        return None
+        return universe.value(key)
 
-    def effect(self, universe: dict, name: str) -> dict:
-        """The entry of ``universe["effects"]`` called ``name`` (``name``, ``value``, ``stderr``, ``published``);
-        ValueError naming the known effects otherwise."""
+    def effect(self, universe: UniverseResult, name: str) -> Effect:
+        """The universe's :class:`~mmlib.experiment.universe.Effect` called ``name``; ValueError naming the known
+        effects otherwise."""
         _check_universe(universe)
-        for e in universe["effects"]:
-            if e["name"] == name:
-                return e
-        raise ValueError(f"effect: no effect {name!r} (effects: {[e['name'] for e in universe['effects']]})")
+        return universe.effect(name)
 
     def number_verdict(self, pub: PublishedNumber, universe: dict) -> str:
         """The verdict rule on one universe's value; a value the universe computed but could not produce
@@ -228,9 +121,9 @@ class Multiverse:
         v = self.value(universe, _check_pub(pub).key)
         if v is None:
             return report.NOT_REPLICABLE
-        if v["replicated"] is None:
-            return f"{report.NOT_REPRODUCED}: {v.get('failed') or 'no value (every run diverged)'}"
-        return report.verdict(pub.printed, v["replicated"], v["stderr"], universe["n_runs"], self.n_runs_paper)
+        if v.replicated is None:
+            return f"{report.NOT_REPRODUCED}: {v.failed or 'no value (every run diverged)'}"
+        return report.verdict(pub.printed, v.replicated, v.stderr, universe.n_runs, self.n_runs_paper)
 
     def conclusive(self, pub: PublishedNumber, universe: dict) -> bool:
         """False when the universe's value is too uncertain to judge (verdict *inconclusive*)."""
@@ -243,9 +136,9 @@ class Multiverse:
         v = self.value(universe, _check_pub(pub).key)
         if v is None:
             return None
-        if v["replicated"] is None:
+        if v.replicated is None:
             return math.inf                       # run but failed: matches no printed value
-        return report.standardized_distance(pub.printed, v["replicated"], v["stderr"], universe["n_runs"],
+        return report.standardized_distance(pub.printed, v.replicated, v.stderr, universe.n_runs,
                                             self.n_runs_paper)
 
     # -- summaries --------------------------------------------------------------------------------------------
@@ -261,7 +154,7 @@ class Multiverse:
             first = self.universes[idx[0]]
             for i in idx[1:]:
                 u = self.universes[i]
-                if (u["claims"], u["effects"], u["diverged"]) != (first["claims"], first["effects"], first["diverged"]):
+                if (u.claims, u.effects, dict(u.diverged)) != (first.claims, first.effects, dict(first.diverged)):
                     raise ValueError(f"universes {idx[0]} and {i} differ only in metric-only factors but not only in "
                                      f"their values: a metric-only factor changed a claim, an effect or a divergence")
         return list(groups.values())
@@ -272,15 +165,15 @@ class Multiverse:
         when one verdict holds in at least ``ROBUST_FRACTION`` of them."""
         groups = self.simulations()
         out = []
-        for c in self.headline["claims"]:
-            verdicts = [u_c["verdict"] for idx in groups for u_c in self.universes[idx[0]]["claims"]
-                        if u_c["claim"] == c["claim"]]
+        for c in self.headline.claims:
+            verdicts = [u_c.verdict for idx in groups for u_c in self.universes[idx[0]].claims
+                        if u_c.claim == c.claim]
             counts: dict = {}
             for v in verdicts:
                 cat = report.claim_category(v)
                 counts[cat] = counts.get(cat, 0) + 1
             top = max(counts.values())
-            out.append({"claim": c["claim"], "headline_verdict": c["verdict"],
+            out.append({"claim": c.claim, "headline_verdict": c.verdict,
                         "verdict_counts": {k: counts[k] for k in report.CLAIM_VERDICTS if k in counts},
                         "n_simulations": len(verdicts), "n_universes": len(self.universes),
                         "robust": top >= ROBUST_FRACTION * len(verdicts)})
@@ -304,11 +197,11 @@ class Multiverse:
                 _, i = min(finite)
                 v = self.value(self.universes[i], pub.key)
                 closest = {"universe": i, "reading": dict(self.readings[i]),
-                           "describe": self.space.describe(self.readings[i]), "replicated": v["replicated"],
-                           "stderr": v["stderr"], "distance": _finite_or_none(dists[i]), "verdict": verdicts[i]}
+                           "describe": self.space.describe(self.readings[i]), "replicated": v.replicated,
+                           "stderr": v.stderr, "distance": finite_or_none(dists[i]), "verdict": verdicts[i]}
             out.append({"table": pub.table, "item": pub.item, "algorithm": pub.algorithm, "quantity": pub.quantity,
                         "paper": pub.printed, "headline_verdict": verdicts[0],
-                        "headline_distance": _finite_or_none(dists[0]),
+                        "headline_distance": finite_or_none(dists[0]),
                         "n_reproduced": sum(v == report.REPRODUCED for v in verdicts),
                         "n_qualitative": sum(v == report.QUALITATIVE for v in verdicts),
                         "n_inconclusive": sum(v.startswith(report.INCONCLUSIVE) for v in verdicts),
@@ -352,16 +245,17 @@ class Multiverse:
             n_rep = [sum(self.number_verdict(p, u) == report.REPRODUCED for p in pubs) for u in self.universes]
             most = max(range(len(n_rep)), key=lambda i: (n_rep[i], -i))
             entry = {"table": table, "n_cells": sum(1 for p in pubs if self.distance(p, self.headline) is not None),
-                     "headline_sum": _finite_or_none(sums[0]), "headline_n_reproduced": n_rep[0],
+                     "headline_sum": finite_or_none(sums[0]), "headline_n_reproduced": n_rep[0],
                      "n_excluded_inconclusive": sum(not j for j in judged),
                      "most_n_reproduced": n_rep[most], "most_universe": most,
-                     "most_reading": dict(self.readings[most]), "most_describe": self.space.describe(self.readings[most]),
+                     "most_reading": dict(self.readings[most]),
+                     "most_describe": self.space.describe(self.readings[most]),
                      "best_universe": None, "best_reading": None, "best_describe": "no universe can be judged",
                      "best_sum": None, "best_n_reproduced": 0}
             if finite:
                 best, i = min(finite)
                 entry.update({"best_universe": i, "best_reading": dict(self.readings[i]),
-                              "best_describe": self.space.describe(self.readings[i]), "best_sum": _finite_or_none(best),
+                              "best_describe": self.space.describe(self.readings[i]), "best_sum": finite_or_none(best),
                               "best_n_reproduced": n_rep[i]})
             out.append(entry)
         return out
@@ -381,7 +275,7 @@ class Multiverse:
         """Algorithm -> diverged runs summed over all universes."""
         tot: dict = {}
         for u in self.universes:
-            for k, v in u["diverged"].items():
+            for k, v in u.diverged.items():
                 tot[k] = tot.get(k, 0) + v
         return tot
 
@@ -391,7 +285,7 @@ class Multiverse:
                 "design_description": self.design.description, "n_universes": len(self.universes),
                 "n_simulations": len(self.simulations()),
                 "full_factorial_size": self.space.size, "n_runs": self.n_runs,
-                "universes": [{"reading": dict(r), **u} for r, u in zip(self.readings, self.universes)],
+                "universes": [{"reading": dict(r), **u.as_json()} for r, u in zip(self.readings, self.universes)],
                 "claims_summary": self.claims_summary(), "numbers_summary": self.numbers_summary(),
                 "table_match": self.table_match(), "diverged_total": self.diverged_total()}
 
@@ -411,18 +305,19 @@ def run_multiverse(space: ReadingSpace, job: Callable, *, published: Iterable[Pu
         check_positive_int(n_runs_paper, "n_runs_paper")
     d = space.design(design)
     results = run_grid(job, d.readings, paper=space.paper, algorithms=algorithms, n_runs=n_runs, seed=seed,
-                       **grid_options)
+                       result_type=UniverseResult, **grid_options)
     return Multiverse(space, d, results, published, n_runs, n_runs_paper)
 
 
 def _check_published(published) -> tuple:
     """``published`` as a tuple of :class:`PublishedNumber` whose ``printed`` texts are numbers."""
-    out = tuple(_items(published, "published", "PublishedNumber"))
+    out = tuple(items(published, "published", "PublishedNumber"))
     for i, p in enumerate(out):
         if not isinstance(p, PublishedNumber):
             raise ValueError(f"published[{i}]: expected a PublishedNumber, got {p!r}")
         for field in PublishedNumber._fields:
-            _text(getattr(p, field), f"published[{i}].{field}")
+            if not isinstance(getattr(p, field), str):
+                raise ValueError(f"published[{i}].{field}: expected a string, got {getattr(p, field)!r}")
         try:
             float(p.printed)
         except ValueError:
@@ -444,6 +339,6 @@ def from_dict(space: ReadingSpace, doc: dict, published: Iterable[PublishedNumbe
         if not isinstance(u, Mapping) or "reading" not in u:
             raise ValueError(f"doc: universe {i} has no 'reading'")
     readings = tuple(space.validate(u["reading"]) for u in doc["universes"])
-    universes = [{k: v for k, v in u.items() if k != "reading"} for u in doc["universes"]]
+    universes = [UniverseResult.from_json(u) for u in doc["universes"]]
     return Multiverse(space, Design(doc["design"], doc["design_description"], readings), universes,
                       tuple(published), doc["n_runs"], n_runs_paper)

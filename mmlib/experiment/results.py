@@ -1,6 +1,6 @@
 """The results contract: its JSON Schema and the one reader of results files.
 
-A paper's ``data/results/<paper>.json`` (written by :func:`mmlib.experiment.report.write_results`) and the arena's
+A paper's ``data/results/<paper>.json`` (written by :func:`mmlib.experiment.writing.write_results`) and the arena's
 ``data/results/arena.json`` follow the JSON Schema ``results.schema.json`` beside this module (draft 2020-12;
 :func:`results_schema`).  :func:`read_results` is how every tool and test reads them: it names the file and the
 place (byte, line and column, or the JSON path of the first violation) when one is unreadable or breaks the
@@ -47,8 +47,8 @@ def _schema() -> dict:
 
 def results_schema() -> dict:
     """The JSON Schema (draft 2020-12) of the results contract, ``mmlib/experiment/results.schema.json``: what a
-    paper's ``data/results/<paper>.json`` (:func:`write_results`) and the arena's ``data/results/arena.json`` hold.
-    A new copy on every call."""
+    paper's ``data/results/<paper>.json`` (:func:`mmlib.experiment.writing.write_results`) and the arena's
+    ``data/results/arena.json`` hold.  A new copy on every call."""
     return copy.deepcopy(_schema())
 
 
@@ -139,7 +139,7 @@ def _violations(x: Any, schema: Any, path: tuple) -> Iterator[tuple[tuple, str]]
     unknown = set(schema) - _KEYWORDS - _ANNOTATIONS
     if unknown:
         raise RuntimeError(f"results schema: keyword(s) {sorted(unknown)} (checking {_json_path(path)}) are not "
-                           f"implemented by mmlib.experiment.report's validator")
+                           f"implemented by mmlib.experiment.results' validator")
     if "$ref" in schema:
         yield from _violations(x, _resolve(schema["$ref"]), path)
     if "type" in schema:

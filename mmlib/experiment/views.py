@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any, Iterable, Sequence
 import numpy as np
 
 from mmlib.core._validate import check_bool, check_positive_int
-from mmlib.experiment import report
+from mmlib.experiment import verdicts
 from mmlib.experiment.multiverse import ROBUST_FRACTION, Multiverse
 from mmlib.experiment.readings import ReadingSpace
 
@@ -53,8 +53,8 @@ def markdown_table(header: Sequence[Any], rows: Iterable[Sequence[Any]]) -> str:
 def value_pm(value: float | None, stderr: float | None, digits: int = 3) -> str:
     """``"value ± stderr"`` with ``digits`` decimals; the value alone when ``stderr`` is None or not finite, "--"
     when ``value`` is None.  ``digits`` an integer >= 0."""
-    report._real(value, "value")
-    report._real(stderr, "stderr")
+    verdicts._real(value, "value")
+    verdicts._real(stderr, "stderr")
     check_positive_int(digits, "digits", minimum=0)
     if value is None:
         return "--"
@@ -65,14 +65,10 @@ def value_pm(value: float | None, stderr: float | None, digits: int = 3) -> str:
 
 def _positive(x, name: str) -> float:
     """A finite real number > 0, returned unchanged."""
-    report._real(x, name, none=False)
+    verdicts._real(x, name, none=False)
     if not (math.isfinite(x) and x > 0):
         raise ValueError(f"{name}: expected a finite number > 0, got {x!r}")
     return x
-
-
-def _reading_text(space, reading) -> str:
-    return space.describe(reading)
 
 
 def _summary(mv, key: str):
@@ -106,8 +102,8 @@ def factors_table(space: ReadingSpace | list[dict]) -> str:
     rows = []
     factors = _factors(space)
     for f in factors:
-        opts = "; ".join((f"**{o['name']}**: {o['label']}" if o["name"] == f["headline"] else f"{o['name']}: {o['label']}")
-                         for o in f["option_details"])
+        opts = "; ".join((f"**{o['name']}**: {o['label']}" if o["name"] == f["headline"]
+                          else f"{o['name']}: {o['label']}") for o in f["option_details"])
         rows.append([f["id"], f["label"], opts, f["source"], "yes" if f["influential"] else "no"])
     return markdown_table(["factor", "ambiguity", "options (headline in bold)", "where in the paper",
                            "influential"], rows)
@@ -189,18 +185,18 @@ def one_factor_table(mv: Multiverse, columns: Sequence[tuple[str, tuple]]) -> st
         for _, key in columns:
             if key[0] == "effect":
                 e = mv.effect(u, key[1])
-                cells.append(value_pm(e["value"], e["stderr"], 3 if abs(e["value"] or 0) < 100 else 0))
+                cells.append(value_pm(e.value, e.stderr, 3 if abs(e.value or 0) < 100 else 0))
             else:
                 v = mv.value(u, key)
-                cells.append("--" if v is None else value_pm(v["replicated"], v["stderr"], 2))
-        ndiv = sum(u["diverged"].values())
+                cells.append("--" if v is None else value_pm(v.replicated, v.stderr, 2))
+        ndiv = sum(u.diverged.values())
         cells.append(str(ndiv) if ndiv else "")
         rows.append(cells)
     return markdown_table(["reading (one factor changed)"] + [h for h, _ in columns] + ["diverged runs"], rows)
 
 
 def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str, published: float | None = None,
-                        interval: float = report.SIGMA_FACTOR, symlog: bool = False) -> matplotlib.figure.Figure:
+                        interval: float = verdicts.SIGMA_FACTOR, symlog: bool = False) -> matplotlib.figure.Figure:
     """Universes sorted by an effect (value ± ``interval`` standard errors; the verdict rule's band),
     the headline in red, the published value dashed, and below it which option each universe uses
     (Simonsohn, Simmons & Nelson 2020)."""
@@ -211,12 +207,12 @@ def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str,
         if not isinstance(value, str):
             raise ValueError(f"{arg}: expected a string, got {value!r}")
     if published is not None:
-        report._real(published, "published")
+        verdicts._real(published, "published")
     interval = _positive(interval, "interval")
     check_bool(symlog, "symlog")
     vals = [mv.effect(u, effect) for u in mv.universes]
-    y = np.array([np.nan if v["value"] is None else v["value"] for v in vals])
-    se = np.array([0.0 if v["stderr"] is None else v["stderr"] for v in vals])
+    y = np.array([np.nan if v.value is None else v.value for v in vals])
+    se = np.array([0.0 if v.stderr is None else v.stderr for v in vals])
     order = np.argsort(np.where(np.isfinite(y), y, np.inf), kind="stable")
     n = len(order)
     factors = mv.space.factors
@@ -227,7 +223,7 @@ def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str,
     ys, ses = y[order], se[order]
     head_pos = int(np.where(order == 0)[0][0])
     has = np.isfinite(ys)
-    no_se = has & np.array([vals[i]["stderr"] is None for i in order])       # e.g. a single surviving run
+    no_se = has & np.array([vals[i].stderr is None for i in order])       # e.g. a single surviving run
     plain = has & ~no_se & (x != head_pos)
     ax.errorbar(x[has], ys[has], yerr=interval * ses[has], fmt="none", ecolor="0.6", elinewidth=0.8, zorder=1)
     ax.scatter(x[plain], ys[plain], c="C0", s=14, zorder=2, label="universe (± %g s.e.)" % interval)
@@ -237,7 +233,7 @@ def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str,
     if has[head_pos]:
         ax.scatter([head_pos], [ys[head_pos]], c="C3", s=40, marker="D", zorder=3, label="headline reading")
     ax.axhline(0.0, color="k", lw=0.8)
-    pub = published if published is not None else vals[0].get("published")
+    pub = published if published is not None else vals[0].published
     if pub is not None:
         ax.axhline(pub, color="C2", ls="--", lw=1.2, label=f"published ({pub:.3g})")
     if symlog:        # linear within the decade of the smallest |effect|, logarithmic beyond

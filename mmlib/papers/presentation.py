@@ -1,13 +1,16 @@
 """Small rendering helpers shared by the paper notebooks (Markdown tables, figure styling)."""
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Iterable
+from typing import TYPE_CHECKING, Any, Iterable, Mapping
 
+from mmlib.experiment.paper import Paper, Study
 from mmlib.experiment.readings import Deviation
 from mmlib.experiment.report import Row
 from mmlib.experiment.views import markdown_table, value_pm
 
 if TYPE_CHECKING:
+    from mmlib.experiment.montecarlo import MonteCarlo
+    from mmlib.experiment.multiverse import Multiverse
     import matplotlib.axes
     import matplotlib.figure
 
@@ -40,14 +43,19 @@ PARAMETER_MINIMUM = {"N_RUNS": 2, "SEED": 0, "N_TIMING_RUNS": 1, "WORKERS": 1, "
 
 
 class NotebookRun:
-    """Validated notebook parameters and output locations, shared by every paper notebook.
+    """A notebook's validated parameters, output locations and results file, for a :class:`Paper` (or a
+    :class:`Study`): ``NotebookRun(paper, PROFILE=..., N_RUNS=..., ...)`` with the papermill parameters.
 
-    ``profiles`` maps a profile name to defaults (``n_runs``, ``timing_runs``, ``timing_repeats``);
-    the papermill parameters override them.  Bad parameters raise ``ValueError`` naming them."""
+    The profile (``paper.profiles[PROFILE]``) gives the defaults (``n_runs``, ``timing_runs``, ``timing_repeats``,
+    ``mv_runs``, ``mv_design``); the parameters override them.  Bad parameters raise ``ValueError`` naming them.
+    :meth:`show` saves and captions a figure; :meth:`write_results` writes ``data/results/<name>.json``."""
 
-    def __init__(self, paper: str, root_seed: int, profiles: dict, *, PROFILE, N_RUNS=None, SEED=None,
-                 OUTPUT_ROOT="", N_TIMING_RUNS=None, WORKERS=None, MULTIVERSE_RUNS=None, MULTIVERSE_DESIGN=None):
+    def __init__(self, paper: Paper | Study, *, PROFILE, N_RUNS=None, SEED=None, OUTPUT_ROOT="", N_TIMING_RUNS=None,
+                 WORKERS=None, MULTIVERSE_RUNS=None, MULTIVERSE_DESIGN=None, PROGRESS=True):
         from pathlib import Path
+        if not isinstance(paper, (Paper, Study)):
+            raise ValueError(f"paper: expected a Paper (mmlib.papers.REGISTRY) or a Study, got {paper!r}")
+        profiles = paper.profiles
         if PROFILE not in profiles:
             raise ValueError(f"PROFILE: expected one of {sorted(profiles)}, got {PROFILE!r}")
         # the least value of each integer parameter: a standard error needs at least two Monte Carlo runs
@@ -61,26 +69,46 @@ class NotebookRun:
                              f"got {MULTIVERSE_DESIGN!r}")
         if not isinstance(OUTPUT_ROOT, str):
             raise ValueError(f"OUTPUT_ROOT: expected a path string, got {OUTPUT_ROOT!r}")
+        if not isinstance(PROGRESS, bool):
+            raise ValueError(f"PROGRESS: expected True or False, got {PROGRESS!r}")
         cfg = dict(profiles[PROFILE])
-        self.paper, self.profile = paper, PROFILE
+        self.study, self.paper, self.profile, self.progress = paper, paper.name, PROFILE, PROGRESS
+        self.config = cfg
         self.n_runs = N_RUNS or cfg["n_runs"]
-        self.seed = root_seed if SEED is None else SEED
+        self.seed = paper.root_seed if SEED is None else SEED
         self.timing_runs = min(N_TIMING_RUNS or cfg.get("timing_runs", 1), self.n_runs)
         self.timing_repeats = cfg.get("timing_repeats")
         # the reading-space multiverse: Monte Carlo runs per universe and design (profile defaults)
         self.mv_runs = MULTIVERSE_RUNS or cfg.get("mv_runs", self.n_runs)
         self.mv_design = MULTIVERSE_DESIGN or cfg.get("mv_design", "auto")
+        #: the runs of the digest: the smoke profile's headline runs, the same first runs in every profile
+        self.digest_runs = min(self.n_runs, int(profiles["smoke"]["n_runs"]))
         from mmlib.experiment.executors import default_workers
         self.workers = WORKERS or default_workers()
         cwd = Path.cwd().resolve()
         self.root = Path(OUTPUT_ROOT) if OUTPUT_ROOT else (cwd.parent if cwd.name == "notebooks" else cwd)
-        self.fig_dir = self.root / "figures" / paper
-        self.results_path = self.root / "data" / "results" / f"{paper}.json"
+        self.fig_dir = self.root / "figures" / paper.name
+        self.results_path = self.root / "data" / "results" / f"{paper.name}.json"
         self.figures: dict = {}
 
     def __repr__(self):
         return (f"profile={self.profile} runs={self.n_runs} seed={self.seed} multiverse: {self.mv_design} design, "
                 f"{self.mv_runs} runs per universe, {self.workers} worker(s)")
+
+    def mc(self) -> MonteCarlo:
+        """The headline's :class:`~mmlib.experiment.montecarlo.MonteCarlo` (``seed``, ``n_runs``)."""
+        from mmlib.experiment.montecarlo import MonteCarlo
+        return MonteCarlo(self.seed, self.n_runs)
+
+    def multiverse(self, **options: Any) -> Multiverse:
+        """The paper's reading space run at this notebook's runs per universe, design, seed and workers
+        (:func:`mmlib.experiment.multiverse.run_multiverse` with the paper's job, published numbers and algorithms;
+        ``options`` go to it, e.g. ``executor``)."""
+        from mmlib.experiment.multiverse import run_multiverse
+        p = self.study
+        return run_multiverse(p.space, p.universe, published=p.published, n_runs=self.mv_runs, seed=self.seed,
+                              algorithms=p.algorithms, design=self.mv_design, n_runs_paper=p.n_runs,
+                              workers=self.workers, progress=self.progress, **options)
 
     def show(self, fig: matplotlib.figure.Figure, stem: str, claim: str, ours: str) -> None:
         """Save ``fig`` as figures/<paper>/<stem>.{png,svg}, display it with the paper's claim and ours."""
@@ -93,6 +121,43 @@ class NotebookRun:
                               "files": [os.path.relpath(p, self.root) for p in paths]}
         plt.show()
         display(Markdown(f"**Paper:** {claim}  \n**Ours:** {ours}"))
+
+    def write_results(self, *, rows: Iterable, provenance: Mapping[str, Any] | None = None, **sections: Any) -> dict:
+        """Write ``data/results/<name>.json`` (:func:`mmlib.experiment.report.write_results`) with the provenance of
+        this run (commit, seed, runs, profile, the citation, a paper's timing and multiverse settings, mmlib's version,
+        updated with ``provenance``), the figures shown, ``rows`` and the other ``sections`` (``digest``,
+        ``claims``, ``multiverse``, ...: a :class:`~mmlib.experiment.multiverse.Multiverse` is written with
+        ``as_dict()``, a :class:`~mmlib.experiment.report.Claims` with ``as_list()``); prints the verdict counts and
+        returns the document."""
+        import mmlib
+        from mmlib.experiment import report
+        extra = {"paper_citation": self.study.citation} if self.study.citation else {}
+        if isinstance(self.study, Paper):
+            extra.update({"timing_runs": self.timing_runs, "timing_repeats": self.timing_repeats})
+        extra["mmlib"] = mmlib.__version__
+        if isinstance(self.study, Paper):
+            mv = sections.get("multiverse")
+            # the design run (e.g. "fractional"), not the profile's request ("auto")
+            extra.update({"multiverse_runs": self.mv_runs,
+                          "multiverse_design": mv.design.kind if hasattr(mv, "design") else self.mv_design})
+        extra.update(provenance or {})
+        prov = report.provenance(root_seed=self.seed, n_runs=self.n_runs, profile=self.profile, extra=extra)
+        for key, value in list(sections.items()):
+            if hasattr(value, "as_dict") and not isinstance(value, Mapping):
+                sections[key] = value.as_dict()
+            elif isinstance(value, report.Claims):
+                sections[key] = value.as_list()
+        if self.figures and "figures" not in sections:       # before the multiverse, where the notebooks put it
+            keys = list(sections)
+            at = keys.index("multiverse") if "multiverse" in keys else len(keys)
+            sections = {**{k: sections[k] for k in keys[:at]}, "figures": self.figures,
+                        **{k: sections[k] for k in keys[at:]}}
+        rows = list(rows)
+        doc = report.write_results(self.results_path, paper=self.paper, provenance=prov, rows=rows, **sections)
+        counts = {v: sum(str(r["verdict"] if isinstance(r, Mapping) else r.verdict).startswith(v) for r in rows)
+                  for v in report.VERDICTS}
+        print(f"wrote {self.results_path.name} ({len(rows)} rows): {counts}")
+        return doc
 
 
 def plot_style() -> None:

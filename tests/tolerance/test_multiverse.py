@@ -6,20 +6,16 @@ Tolerance: the smoke run of a universe uses the first runs of the same streams a
 run of that universe (nested samples), so the difference of the two estimates has a standard
 deviation below sqrt(se_smoke^2 + se_full^2); 4 of those is the band (as in test_results.py).
 """
-import importlib
 import math
 
 import pytest
 
 from mmlib.experiment import report
+from mmlib.papers import REGISTRY
 from test_results import PAPERS, load
 
 KEYS = ("factors", "design", "design_description", "n_universes", "n_runs", "universes", "claims_summary",
         "numbers_summary", "table_match")
-
-
-def _module(paper):
-    return importlib.import_module(f"mmlib.papers.{paper}")
 
 
 def _by_reading(mv):
@@ -28,29 +24,29 @@ def _by_reading(mv):
 
 @pytest.mark.parametrize("paper", sorted(PAPERS))
 def test_committed_multiverse_is_the_declared_design(paper):
-    mod = _module(paper)
+    space = REGISTRY[paper].space
     mv = load(paper, "full")["multiverse"]
     assert all(k in mv for k in KEYS)
-    assert [f["id"] for f in mv["factors"]] == list(mod.SPACE.ids)
-    for f, decl in zip(mv["factors"], mod.SPACE.factors):
+    assert [f["id"] for f in mv["factors"]] == list(space.ids)
+    for f, decl in zip(mv["factors"], space.factors):
         assert f["options"] == list(decl.names) and f["headline"] == decl.headline
-    design = mod.SPACE.design(mv["design"])
+    design = space.design(mv["design"])
     assert [u["reading"] for u in mv["universes"]] == list(design.readings)
     assert mv["n_universes"] == len(design) == len(mv["universes"])
-    assert mv["universes"][0]["reading"] == mod.SPACE.headline
+    assert mv["universes"][0]["reading"] == space.headline
 
 
 @pytest.mark.parametrize("paper", sorted(PAPERS))
 @pytest.mark.parametrize("profile", ["smoke", "full"])
 def test_every_verdict_in_the_vocabulary_and_every_number_summarised(paper, profile):
-    mod = _module(paper)
+    published = REGISTRY[paper].published
     mv = load(paper, profile)["multiverse"]
     for u in mv["universes"]:
         assert isinstance(u["diverged"], dict)
         for c in u["claims"]:
             report.claim_category(c["verdict"])
     assert {(n["item"], n["algorithm"], n["quantity"]) for n in mv["numbers_summary"]} == \
-        {p.key for p in mod.PUBLISHED}
+        {p.key for p in published}
     for n in mv["numbers_summary"]:
         report.verdict_category(n["headline_verdict"])
         assert 0 <= n["n_reproduced"] <= n["n_universes"] == mv["n_universes"]

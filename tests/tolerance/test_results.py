@@ -16,9 +16,10 @@ from pathlib import Path
 import pytest
 
 from mmlib.experiment import digests, report, results
+from mmlib.papers import REGISTRY
 
 REPO = Path(__file__).resolve().parents[2]
-PAPERS = {"zhu2016": 100, "liu2017": 200, "hu2017": 100, "zhou2017": 100, "tseng2011": 100}          # paper -> full Monte Carlo count
+PAPERS = tuple(REGISTRY)          # every registered paper (mmlib.papers.REGISTRY)
 REQUIRED_ROW_KEYS = ("item", "algorithm", "quantity", "paper", "replicated", "stderr", "verdict", "deviations")
 
 
@@ -57,7 +58,7 @@ def test_results_contract(paper):
         assert all(set(r["deviations"]) <= ids for r in doc["rows"])
     assert smoke["provenance"]["profile"] == "smoke" and full["provenance"]["profile"] == "full"
     assert smoke["provenance"]["root_seed"] == full["provenance"]["root_seed"]
-    assert full["provenance"]["n_runs"] == PAPERS[paper]
+    assert full["provenance"]["n_runs"] == REGISTRY[paper].runs("full")
 
 
 def _digest_table(smoke: dict, full: dict) -> str:
@@ -131,12 +132,12 @@ def test_figures_exist_and_no_silent_divergence(paper):
 
 
 def test_zhu2016_paper_values_and_coincidence():
-    from mmlib.papers import zhu2016 as paper
+    from mmlib.papers.zhu2016 import text
     full, smoke = load("zhu2016", "full"), load("zhu2016", "smoke")
     for row in full["rows"]:
         if row["quantity"].startswith("RMSE"):
-            qi = [q for q, _ in paper.QUANTITIES].index(row["quantity"])
-            assert row["paper"] == paper.TABLE1[row["algorithm"]][qi]
+            qi = [q for q, _ in text.QUANTITIES].index(row["quantity"])
+            assert row["paper"] == text.TABLE1[row["algorithm"]][qi]
     for doc in (smoke, full):
         diffs = doc["coincidence"]["max_abs_estimate_difference_vs_IMM_KF"]
         assert set(diffs) == {"IMM5CKF", "IMMCKF", "IMMUKF"} and max(diffs.values()) < 1e-6
@@ -151,10 +152,9 @@ def test_zhu2016_identity_in_every_universe(profile):
     """In every universe IMM5CKF equals IMM-KF to round-off (linear models: the identity holds under every
     reading) and nothing diverges; the headline universe is the declared headline."""
     doc = load("zhu2016", profile)
-    from mmlib.papers import zhu2016 as paper
     mv = doc["multiverse"]
     head = mv["universes"][0]
-    assert head["reading"] == paper.SPACE.headline
+    assert head["reading"] == REGISTRY["zhu2016"].headline
     for u in mv["universes"]:
         ident = [e for e in u["effects"] if e["name"].startswith("max |IMM5CKF − IMM-KF|")][0]
         assert ident["value"] < 1e-6, u["reading"]              # positions ~1e4 m: round-off scale
@@ -162,12 +162,12 @@ def test_zhu2016_identity_in_every_universe(profile):
 
 
 def test_liu2017_paper_values_and_near_equality():
-    from mmlib.papers import liu2017 as paper
+    from mmlib.papers.liu2017 import text
     full = load("liu2017", "full")
     for row in full["rows"]:
         if row["item"] == "Table 1":
-            qi = [q for q, _ in paper.QUANTITIES].index(row["quantity"])
-            assert row["paper"] == paper.TABLE1[row["algorithm"]][qi]
+            qi = [q for q, _ in text.QUANTITIES].index(row["quantity"])
+            assert row["paper"] == text.TABLE1[row["algorithm"]][qi]
     # third-degree rules under weak nonlinearity: position ARMSE within 0.5 % of STSSRCKF's
     pos = {r["algorithm"]: r["replicated"] for r in full["rows"]
            if r["item"] == "Table 1" and r["quantity"].startswith("Position")}
@@ -183,8 +183,7 @@ def test_hu2017_coincidence_and_over_confidence():
     assert full["nees_time_average"]["IMMCDKF-OBS"][0] > 10 * full["nees_time_average"]["IMMCDKF"][0]
     assert {f"fig0{i}" for i in range(1, 8)} <= {k[:5] for k in full["figures"]}
     # H-11 is metric-only: the claims are summarised once per distinct simulation
-    from mmlib.papers import hu2017
-    sims = {hu2017.SPACE.simulation_key(u["reading"]) for u in full["multiverse"]["universes"]}
+    sims = {REGISTRY["hu2017"].space.simulation_key(u["reading"]) for u in full["multiverse"]["universes"]}
     assert full["multiverse"]["n_simulations"] == len(sims) < full["multiverse"]["n_universes"]
     assert all(c["n_simulations"] == len(sims) for c in full["multiverse"]["claims_summary"])
 

@@ -1,0 +1,153 @@
+"""The contract a replicated paper fulfils: one frozen :class:`Paper` per paper, listed in ``mmlib.papers.REGISTRY``.
+
+A paper package (``mmlib/papers/<name>/``) declares, as data,
+
+* what the paper printed: ``published`` numbers (:class:`~mmlib.experiment.universe.PublishedNumber`) and the
+  numbered ``deviations`` (:class:`~mmlib.experiment.readings.Deviation`) where its text is missing, contradictory
+  or wrong;
+* the ``space`` of defensible readings of that text (:class:`~mmlib.experiment.readings.ReadingSpace`), whose
+  headline reading is the one the notebook shows first;
+
+and three callables, the only way the rest of the repository reaches its code:
+
+* ``setup(reading) -> setup_type``: the set-up of a reading (a ``ValueError`` names an unknown factor or option);
+* ``scenario(setup) -> Scenario``: the headline case of a set-up as an arena scenario
+  (:class:`~mmlib.experiment.scenario.Scenario`), so the arena runs every algorithm on every paper's problem;
+* ``universe(reading, n_runs, seed) -> UniverseResult``: one universe of the reading space, run for ``n_runs``
+  Monte Carlo runs on root seed ``seed`` (:class:`~mmlib.experiment.universe.UniverseResult`: the values of the
+  published numbers, the claims' verdicts, the named effects, the diverged runs);
+
+plus ``batch(setup, mc) -> (make_batch, estimators[, measurement_models])``, the Monte Carlo batch of a set-up's
+headline case on the runs of ``mc`` (``make_batch(runs) -> (truth, measurements, {estimator: initial state})`` for
+:func:`mmlib.experiment.evaluation.evaluate`, with the per-step measurement models where the sensor changes from step
+to step; the batch-independence and arena tests run it for every paper), and
+``headline_digest(n_runs)``, the run digest of the headline's first runs
+(:func:`mmlib.experiment.digests.run_digest`) that the notebook stores and the tests recompute.
+
+The arena, the notebook runner, the site and the tests iterate over the registry; a new paper is a new package
+and one registry line (``docs/new-paper.md`` walks through a minimal one).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any, Callable, Mapping, NamedTuple
+
+from mmlib.core._validate import check_positive_int
+from mmlib.experiment.readings import Deviation, ReadingSpace
+from mmlib.experiment.universe import PublishedNumber, UniverseResult
+
+__all__ = ["Paper", "Study", "ArenaEntry", "UniverseResult", "PublishedNumber", "PROFILE_KEYS"]
+
+#: what a notebook profile may set: headline runs, timing runs and repeats, runs per universe, the design
+PROFILE_KEYS = ("n_runs", "timing_runs", "timing_repeats", "mv_runs", "mv_design")
+
+
+class ArenaEntry(NamedTuple):
+    """What the arena (:mod:`mmlib.arena`) runs on a paper's headline scenario: the ``algorithms`` (recipe names of
+    :data:`mmlib.arena.recipes.RECIPES`), the ``ideas`` the paper contributes (``(idea, algorithm, baseline)``: the
+    arena asks whether the idea helps, across every scenario) and the paper's central ``claim`` with the
+    ``(algorithm, baseline)`` pairs that test it."""
+
+    algorithms: tuple[str, ...]
+    ideas: tuple[tuple[str, str, str], ...] = ()
+    claim: str = ""
+    claim_pairs: tuple[tuple[str, str], ...] = ()
+
+
+class Study(NamedTuple):
+    """What a study that is not a paper (the arena) declares to its notebook
+    (``mmlib.papers.presentation.NotebookRun``): its ``name`` (the results file's and the figures folder's),
+    ``root_seed``, ``profiles`` (as :attr:`Paper.profiles`) and ``citation`` (empty when none)."""
+
+    name: str
+    root_seed: int
+    profiles: Mapping[str, Mapping[str, Any]]
+    citation: str = ""
+
+
+@dataclass(frozen=True)
+class Paper:
+    """One replicated paper (see the module docstring).
+
+    ``name`` is the registry key, the reading space's and the results file's name (``data/results/<name>.json``);
+    ``n_runs`` the paper's own Monte Carlo count, whose error the verdict rule adds to ours (None when the paper
+    does not state it); ``profiles`` the notebook's profiles (``"full"`` and ``"smoke"``, each a mapping of
+    :data:`PROFILE_KEYS`; a paper may add its own keys); ``algorithms`` the estimators every universe runs;
+    ``key_effect`` the name of the effect its specification curve sorts by; ``notebook`` the notebook's stem in
+    ``notebooks/``; ``title`` a short title for pages and tables."""
+
+    name: str
+    title: str
+    citation: str
+    doi: str
+    root_seed: int
+    n_runs: int | None
+    setup_type: type
+    deviations: tuple[Deviation, ...]
+    space: ReadingSpace
+    published: tuple[PublishedNumber, ...]
+    algorithms: tuple[str, ...]
+    key_effect: str
+    setup: Callable[[Mapping[str, str]], Any]
+    scenario: Callable[[Any], Any]
+    universe: Callable[[Mapping[str, str], int, int], UniverseResult]
+    batch: Callable[[Any, Any], tuple]
+    headline_digest: Callable[[int], dict]
+    notebook: str
+    profiles: Mapping[str, Mapping[str, Any]]
+    arena: ArenaEntry | None = None
+
+    def __post_init__(self):
+        for name in ("name", "title", "citation", "doi", "key_effect", "notebook"):
+            if not isinstance(getattr(self, name), str) or not getattr(self, name):
+                raise ValueError(f"{name}: expected a non-empty string, got {getattr(self, name)!r}")
+        check_positive_int(self.root_seed, "root_seed", minimum=0)
+        if self.n_runs is not None:
+            check_positive_int(self.n_runs, "n_runs", minimum=2)
+        if not isinstance(self.setup_type, type):
+            raise ValueError(f"setup_type: expected a class, got {self.setup_type!r}")
+        if not isinstance(self.space, ReadingSpace) or self.space.paper != self.name:
+            raise ValueError(f"space: expected the ReadingSpace of {self.name!r}, got {self.space!r}")
+        for field_, kind in (("deviations", Deviation), ("published", PublishedNumber)):
+            value = getattr(self, field_)
+            if not isinstance(value, tuple) or not all(isinstance(v, kind) for v in value):
+                raise ValueError(f"{field_}: expected a tuple of {kind.__name__}, got {value!r}")
+        if not isinstance(self.algorithms, tuple) or not self.algorithms \
+                or not all(isinstance(a, str) for a in self.algorithms):
+            raise ValueError(f"algorithms: expected a non-empty tuple of names, got {self.algorithms!r}")
+        for name in ("setup", "scenario", "universe", "batch", "headline_digest"):
+            if not callable(getattr(self, name)):
+                raise ValueError(f"{name}: expected a callable, got {getattr(self, name)!r}")
+        if not isinstance(self.profiles, Mapping) or not {"full", "smoke"} <= set(self.profiles):
+            raise ValueError(f"profiles: expected a mapping with 'full' and 'smoke', got {self.profiles!r}")
+        for pname, prof in self.profiles.items():
+            if not isinstance(prof, Mapping) or "n_runs" not in prof:
+                raise ValueError(f"profiles[{pname!r}]: expected a mapping with 'n_runs', got {prof!r}")
+            check_positive_int(prof["n_runs"], f"profiles[{pname!r}]['n_runs']", minimum=2)
+        if self.arena is not None and not isinstance(self.arena, ArenaEntry):
+            raise ValueError(f"arena: expected an ArenaEntry or None, got {self.arena!r}")
+        object.__setattr__(self, "profiles", MappingProxyType({k: MappingProxyType(dict(v))
+                                                               for k, v in self.profiles.items()}))
+
+    @property
+    def headline(self) -> dict:
+        """The headline reading (factor id -> option name)."""
+        return self.space.headline
+
+    def runs(self, profile: str) -> int:
+        """The headline's Monte Carlo runs in ``profile`` ("full" or "smoke")."""
+        if profile not in self.profiles:
+            raise ValueError(f"profile: expected one of {sorted(self.profiles)}, got {profile!r}")
+        return int(self.profiles[profile]["n_runs"])
+
+    def headline_setup(self) -> Any:
+        """The set-up of the headline reading."""
+        return self.setup(self.space.headline)
+
+    def deviation(self, id_: str) -> Deviation:
+        """The deviation numbered ``id_`` (e.g. "Z-5"); ValueError listing the ids otherwise."""
+        for d in self.deviations:
+            if d.id == id_:
+                return d
+        raise ValueError(f"id_: no deviation {id_!r} in {self.name} ({[d.id for d in self.deviations]})")

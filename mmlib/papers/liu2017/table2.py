@@ -1,0 +1,120 @@
+"""Table 2 of Liu & Wu 2017: computational complexity and time per run.
+
+The complexity column is judged from the operations per step counted in the code (:data:`text.TABLE2_COUNTS`,
+n = 6, m = 2): a printed complexity is reproduced when its order in the number of points and in n equal those of
+the counts (:func:`complexity_rows`).  The times (s per run) are measured in repeats with every filter interleaved
+within each repeat; the ratio to SSRCKF is formed per repeat and judged by the verdict rule (:func:`table2`).
+"""
+from __future__ import annotations
+
+import re
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from mmlib.experiment import metrics, report
+from mmlib.papers.liu2017.text import FILTERS, TABLE2_COMPLEXITY, TABLE2_COUNTS, TABLE2_N, TABLE2_TIME
+
+
+def printed_complexity_orders(text: str) -> tuple:
+    """``(order in the number of points, order in n)`` of a complexity printed as ``O(n^k)``,
+    ``O((a n + b)^k)`` or ``O((a n + b) n^k)``, where ``a n + b`` is the filter's number of points
+    (``O(n^2)`` has no points: order 0 in them).  ValueError for any other form."""
+    t = text.replace(" ", "")
+    pts = r"\((\d*)n([+-]\d+)?\)"
+    m = re.fullmatch(r"O\(n\^(\d+)\)", t)
+    if m:
+        return 0, int(m.group(1))
+    m = re.fullmatch(r"O\(" + pts + r"\^(\d+)\)", t)
+    if m:
+        return int(m.group(3)), int(m.group(3))
+    m = re.fullmatch(r"O\(" + pts + r"n(?:\^(\d+))?\)", t)
+    if m:
+        return 1, 1 + int(m.group(3) or 1)
+    raise ValueError(f"text: cannot read a complexity order from {text!r}")
+
+
+def counted_complexity_orders(counts: Mapping[str, Sequence[int]] | None = None) -> dict:
+    """``{filter: (order in the number of points, order in n, slope)}`` of the operations per step counted in
+    ``counts`` (default :data:`TABLE2_COUNTS`).
+
+    Order in the points: the log-log slope of the f and h evaluations per step against the number of points,
+    fitted across the strong-tracking sigma-point filters (identical algorithm, different rule: 12, 13 and 14
+    points), and the same for the Cholesky and n x n x n operation counts; the largest slope, rounded, applies
+    to every filter with points (SSRCKF is the same sigma-point filter without the layer).  Order in n: 3 when a
+    step does an n x n Cholesky factorisation or an n x n x n product or solve, else 2 (f of a linear model is
+    an n x n matrix-vector product)."""
+    counts = TABLE2_COUNTS if counts is None else counts
+    group = [a for a in counts if a.startswith("ST") and counts[a][0] > 0]
+    pts = np.log([counts[a][0] for a in group])
+    slopes = []
+    for col in ((2, 3), (1,), (4,)):
+        y = [sum(counts[a][i] for i in col) for a in group]
+        if min(y) > 0 and np.ptp(pts) > 0:
+            slopes.append(float(np.polyfit(pts, np.log(y), 1)[0]))
+        elif np.ptp(pts) > 0:
+            slopes.append(0.0)
+    slope = max(slopes) if slopes else float("nan")
+    out = {}
+    for alg, (npts, chol, nf, nh, nnn) in counts.items():
+        order_n = 3 if (chol or nnn) else 2
+        out[alg] = (int(round(slope)) if npts > 0 else 0, order_n, slope if npts > 0 else None)
+    return out
+
+
+def complexity_rows(printed: Mapping[str, str] | None = None,
+                    counts: Mapping[str, Sequence[int]] | None = None) -> list:
+    """Table 2's complexity rows, judged from the counts: the printed complexity is *reproduced* when its
+    order in the number of points and its order in n both equal those of the counted operations per step
+    (:func:`counted_complexity_orders`), else *not reproduced*, with the finding as the note."""
+    printed = TABLE2_COMPLEXITY if printed is None else printed
+    counts = TABLE2_COUNTS if counts is None else counts
+    counted = counted_complexity_orders(counts)
+    rows = []
+    for alg in FILTERS:
+        p_pts, p_n = printed_complexity_orders(printed[alg])
+        c_pts, c_n, slope = counted[alg]
+        npts, chol, nf, nh, nnn = counts[alg]
+        holds = (p_pts, p_n) == (c_pts, c_n)
+        what = (f"{chol} Cholesky factorisation(s) and {nnn} other n × n × n operation(s) (products, solves), "
+                f"{nf} f and {nh} h evaluation(s) per step")
+        if npts:
+            finding = (f"printed order {p_pts} in the number of points ({npts} at n = {TABLE2_N}) and {p_n} in n; "
+                       f"counted: {npts} points, {what}; the evaluations grow linearly with the points (log-log "
+                       f"slope {slope:.2f} across STCKF, STUKF, STSSRCKF), the factorisations not at all: order "
+                       f"{c_pts} in the points, {c_n} in n, O(points · n² + n³)")
+        else:
+            finding = (f"printed order {p_n} in n; counted: no points, {what}: order {c_n} in n")
+        rows.append(report.analytic_row("Table 2", alg, "computational complexity per step", printed[alg], finding,
+                                        holds))
+    return rows
+
+
+def table2(per_run: dict, batched: dict) -> tuple:
+    """Rows, the timing claim and a display table for Table 2 from repeated timings (dicts name ->
+    seconds per run, one value per repeat).  Ratios to SSRCKF are formed per repeat (adjacent
+    measurements), so their standard errors come from the repeats; the verdict rule judges them."""
+    ref = float(TABLE2_TIME["SSRCKF"])
+    rows, display = [], []
+    counted = counted_complexity_orders()
+    complexity = {r.algorithm: r for r in complexity_rows()}
+    for alg in FILTERS:
+        pts, chol, nf, nh, nnn = TABLE2_COUNTS[alg]
+        ratio_paper = float(TABLE2_TIME[alg]) / ref
+        r1 = metrics.timing_ratio(per_run[alg], per_run["SSRCKF"])
+        r2 = metrics.timing_ratio(batched[alg], batched["SSRCKF"])
+        c_pts, c_n, _ = counted[alg]
+        actual = f"O(n^{c_n})" if not pts else ("O(points · n² + n³)" if c_pts == 1 else f"O(points^{c_pts} + n^{c_n})")
+        display.append([alg, TABLE2_COMPLEXITY[alg], pts, chol, nf, nh, nnn, actual, TABLE2_TIME[alg],
+                        f"{ratio_paper:.2f}", (float(r1.value), float(r1.stderr)), (float(r2.value), float(r2.stderr))])
+        rows.append(complexity[alg])
+        if alg != "SSRCKF":
+            note = f"{1e3 * per_run[alg].mean():.1f} ms per run here vs {TABLE2_TIME[alg]} s"
+            rows.append(report.make_row("Table 2", alg, "time ratio to SSRCKF (one run at a time)",
+                                        f"{ratio_paper:.3f}", r1.value, r1.stderr, deviations=[], note=note))
+    st = metrics.timing_ratio(per_run["STSSRCKF"], per_run["SSRCKF"])
+    claim = ("STSSRCKF needs more computational time than SSRCKF (Table 2: 0.15 s vs 0.07 s per run)",
+             report.paired_claim(float(st.value) - 1.0, float(st.stderr), +1),
+             f"time ratio STSSRCKF / SSRCKF, one run at a time: {st.value:.2f} ± {st.stderr:.2f} over "
+             f"{len(per_run['SSRCKF'])} repeats (paper 2.14); 'acceptable' is a judgement, not tested")
+    return rows, claim, display

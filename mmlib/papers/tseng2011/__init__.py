@@ -1,0 +1,53 @@
+"""Tseng, Chang & Jwo 2011, "Fuzzy Adaptive Interacting Multiple Model Nonlinear Filter for
+Integrated Navigation Sensor Fusion", Sensors 11(2), 2090-2111, doi:10.3390/s110202090.
+
+A *documented reconstruction*: the paper's Section 4 (simulation set-up) did not survive, only
+the table of the vehicle's seven motion segments, two figure captions (13, 15) and the table of
+East/North position RMS errors.  Every element of the set-up that is not in the surviving text is a
+numbered deviation (T-1 ... T-15, ``text.DEVIATIONS``).
+
+The ambiguities that move a result are the factors of ``space.SPACE`` (issue 10): T-1 speed, T-4
+pseudorange noise, T-5 the receiver clock, T-7 the IMM's levels, T-8 the single UKF's level, T-9 the
+IMM's Markov chain, T-10a/b the FLAS's input normalisation and breakpoints, T-11 the DOD window.
+``study.universe(reading, n_runs, seed)`` is the multiverse job; the notebook's headline rows and claims are
+``study.table_rows`` and ``study.judge_claims`` of ``study.evaluate_reading`` on the headline reading, the same
+functions.  Held fixed (not factors), each with its reason in its deviation: T-2, T-3, T-6 (the UKF equals the
+EKF to 1e-6 m here, so its spread parameters cannot matter), T-9's initial mode probabilities and T-12
+(measured: neither moves any value by as much as one standard error, ``space.NON_INFLUENTIAL``), T-13 and T-15.
+
+The fuzzy logic adaptive system (FLAS) and the IMM it drives are a core layer,
+:mod:`mmlib.core.layers.fuzzy_noise`; this package holds the paper's reading of them (breakpoints, levels,
+normalisation, window: the fields of ``setup.Setup``).
+
+The package: ``text`` (the surviving tables, deviations, published numbers, effects), ``space`` (factors, reading
+space, the held-fixed changes), ``setup`` (the set-up of a reading and its filters), ``simulation`` (trajectory,
+sky, Monte Carlo batch, arena scenario), ``study`` (one universe: evaluation, values, rows, claims, effects,
+summary, digest) and ``diagnostics`` (the notebook's UKF/EKF coincidence and clairvoyant schedules); ``PAPER`` is
+its :class:`~mmlib.experiment.paper.Paper`.
+"""
+from __future__ import annotations
+
+from mmlib.experiment.paper import ArenaEntry, Paper
+from mmlib.papers.tseng2011 import setup, simulation, space, study, text
+
+PAPER = Paper(
+    name=text.NAME, title=text.TITLE, citation=text.CITATION, doi=text.DOI, root_seed=text.ROOT_SEED,
+    n_runs=None, setup_type=setup.Setup, deviations=text.DEVIATIONS, space=space.SPACE,
+    published=text.PUBLISHED, algorithms=text.ALGORITHMS, key_effect=text.KEY_EFFECT, setup=setup.setup,
+    scenario=simulation.scenario, universe=study.universe, batch=simulation.batch,
+    headline_digest=study.headline_digest, notebook="tseng2011_fuzzy_immukf",
+    # full: the headline at 100 runs (the paper's count is not known, T-13), the oracle reference at 50, the
+    # multiverse's fractional design (26 universes) at 25 runs per universe (standard errors are shown throughout);
+    # smoke: a prefix of the same runs and the star design at the smoke run count, so its headline universe is
+    # the notebook's headline bit for bit
+    profiles={"full": dict(n_runs=text.N_RUNS, timing_runs=1, timing_repeats=1, oracle_runs=50, mv_runs=25,
+                           mv_design="auto"),
+              "smoke": dict(n_runs=6, timing_runs=1, timing_repeats=1, oracle_runs=6, mv_runs=6, mv_design="star")},
+    # what the arena runs on this paper's scenario, the ideas it contributes and its central claim there
+    arena=ArenaEntry(
+        algorithms=("IMMUKF", "EKF", "UKF", "FUZZY-IMMUKF"),
+        ideas=(("fuzzy-adapted process noise", "FUZZY-IMMUKF", "IMMUKF"),),
+        claim="FUZZY-IMMUKF is more accurate than IMMUKF, and IMMUKF than the UKF",
+        claim_pairs=(("FUZZY-IMMUKF", "IMMUKF"), ("IMMUKF", "UKF"))))
+
+__all__ = ["PAPER"]

@@ -1,0 +1,74 @@
+"""What only the notebook of Tseng et al. 2011 uses: the UKF/EKF coincidence claim and the clairvoyant reference
+("oracle") schedules of the process noise.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from mmlib.core.estimation import KnownModeSequence
+from mmlib.core.filters import SigmaPointFilter
+from mmlib.core.rules import Unscented
+from mmlib.experiment import evaluation, report
+from mmlib.experiment.montecarlo import MonteCarlo
+from mmlib.papers.tseng2011.setup import Setup, noise_model
+from mmlib.papers.tseng2011.simulation import Experiment, make_batch_fn, motion_schedule
+from mmlib.papers.tseng2011.study import rms, rms_reduction
+from mmlib.papers.tseng2011.text import AXES, EAST, NAME, NORTH
+
+
+def ekf_claim(results: dict) -> tuple:
+    """Verdict and evidence on "the UKF avoids the EKF's linearisation errors" (needs the EKF in
+    ``results``): not assessable when the two coincide to far below the noise (1 mm), since there are
+    then no linearisation errors to avoid; else the paired comparison.  Returns ``((verdict, evidence),
+    largest |UKF - EKF| position difference (m))``."""
+    diff = float(np.abs(results["UKF"].errors[..., [0, 2, 4]] - results["EKF"].errors[..., [0, 2, 4]]).max())
+    if diff < 1e-3:
+        return (f"{report.NOT_ASSESSABLE}: the pseudoranges are linear over the filter's spread, so there are no "
+                f"linearisation errors to avoid", f"|UKF - EKF| <= {diff:.1e} m over all runs and epochs"), diff
+    return evaluation.better_claim(results, "UKF", "EKF", [("East", EAST), ("North", NORTH)]), diff
+
+
+def maneuver_flags(setup: Setup) -> np.ndarray:
+    """1 for the steps the truth spends turning, else 0 (K,): the schedule's own step-to-segment map."""
+    return (motion_schedule(setup).modes() > 0).astype(int)
+
+
+def clairvoyant_schedules(ex: Experiment, straight: Sequence[float] = (0.0, 1e-4, 1e-3),
+                          turning: Sequence[float] = (0.1, 0.3, 1.0)) -> dict:
+    """NOT a filter one can run: the UKF told *when* the vehicle maneuvers, with process-noise level
+    ``straight`` on the straight legs (down to 0, the truth's value) and ``turning`` in the turns (m^2/s^3).  The
+    best schedule of the grid (chosen in hindsight) is a *reference* for what adapting Q to the
+    maneuvers can buy -- not a strict bound (other schedules, or an IMM with adapted modes, could
+    do somewhat better)."""
+    noise = noise_model(ex.setup)
+    ukf = SigmaPointFilter(Unscented(*ex.setup.ukf), name="UKF")
+    flags = maneuver_flags(ex.setup)
+    return {f"oracle S_p {a:g}/{b:g}": KnownModeSequence(ukf, [noise.dynamics(a), noise.dynamics(b)], flags, None,
+                                                         name=f"oracle {a:g}/{b:g}")
+            for a in straight for b in turning}
+
+
+def evaluate_oracles(ex: Experiment, mc: MonteCarlo, progress: bool = False) -> dict:
+    """``{schedule: RunSet}`` of the :func:`clairvoyant_schedules` on ``ex``'s geometry and the runs of ``mc`` (the
+    same truth and measurements as the filters)."""
+    oracles = clairvoyant_schedules(ex)
+    ex_or = Experiment(ex.setup, ex.truth_plane, ex.sky, oracles)
+    return evaluation.evaluate(oracles, make_batch_fn(ex_or, mc), mc, label=f"{NAME} oracle", progress=progress,
+                               measurement_models=ex.measurement_models)
+
+
+def oracle_summary(oracles: dict, imm: evaluation.RunSet) -> list:
+    """Per schedule of ``oracles`` (:func:`evaluate_oracles`): its East and North RMS errors ``[value, s.e.]`` (m)
+    and its RMS reductions against the IMMUKF's runs ``imm`` (the same runs) ``[[East], [North]]`` (%), as the
+    results file's ``oracle_schedules``."""
+    out = []
+    for name, r_ in oracles.items():
+        e_, n_ = rms(r_, EAST), rms(r_, NORTH)
+        red_e, red_n = (rms_reduction(r_, imm, comp) for _, _, comp in AXES)
+        out.append({"schedule": name, "east": [float(e_.value), float(e_.stderr)],
+                    "north": [float(n_.value), float(n_.stderr)],
+                    "reduction_vs_immukf_percent": [[float(red_e.value), float(red_e.stderr)],
+                                                    [float(red_n.value), float(red_n.stderr)]]})
+    return out

@@ -1,0 +1,117 @@
+"""What only the notebook of Zhou et al. 2017 shows: Case 1's consistency (NEES), and Section 4.2, whose field
+experiments (Tables 4-5) rest on unpublished data (Z-11), with a clearly labelled synthetic analogue of the
+vehicle INS/GPS test (NOT a replication).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping
+
+import numpy as np
+
+from mmlib.core import estimation, models
+from mmlib.core.estimation import SingleModel
+from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
+from mmlib.core.layers.adaptive import InnovationAdaptive
+from mmlib.core.rules import Cubature, Unscented
+from mmlib.experiment import evaluation, metrics, report
+from mmlib.experiment.montecarlo import MonteCarlo, Stream
+from mmlib.papers.zhou2017.setup import Setup, build, make_batch_fn, setup
+from mmlib.papers.zhou2017.text import MAE_QUANTITIES, TABLE4, TABLE5
+
+
+def nees_case1(reading: Mapping, mc: MonteCarlo, n: int = 50) -> dict:
+    """Time-averaged NEES (4 = consistent) of IMM-UKF and CPIMM-UKF in Case 1 over the first ``n`` runs."""
+    case1 = setup(reading).case1
+    mb, est, _ = make_batch_fn(case1, mc, names=("IMM-UKF", "CPIMM-UKF"))
+    truth, z, init = mb(range(min(mc.n_runs, n)))
+    out = {}
+    for alg in ("IMM-UKF", "CPIMM-UKF"):
+        tr = estimation.run(est[alg], init[alg], z)
+        out[alg] = float(metrics.nees(tr.mean - truth[:, 1:], tr.cov, valid=~tr.diverged)[~tr.diverged].mean())
+    return out
+
+
+def field_experiment_rows() -> list:
+    """Tables 4-5: kept with the paper's values and the verdict 'not replicable' (Z-11)."""
+    rows = []
+    for table, name in ((TABLE4, "Table 4"), (TABLE5, "Table 5")):
+        for alg, values in table.items():
+            for q, printed in zip(MAE_QUANTITIES, values):
+                rows.append(report.make_row(name, alg, q, printed, None, None, reason="data not published (Z-11)",
+                                            deviations=["Z-11"]))
+    return rows
+
+
+# ---------------------------------------------------------------- synthetic analogue of Section 4.2.1
+@dataclass(frozen=True)
+class GPSAnalogue:
+    """NOT a replication: a GPS-like position/velocity sensor (5 m, 0.05 m/s, the paper's stated GPS
+    precision) on the Section 4.1 trajectory, carrying the paper's two fault types -- a fixed position
+    deviation (x, U[-5, 5] m per run) and a drift (y, rate U[0, 0.1] m/s per run, accumulating)."""
+
+    base: Setup = Setup()
+    pos_sd: float = 5.0
+    vel_sd: float = 0.05
+    offset_max: float = 5.0
+    drift_rate_max: float = 0.1
+    window: int = 10
+    inflate_only: bool = False
+
+
+def gps_analogue(an: GPSAnalogue, mc: MonteCarlo) -> tuple:
+    """``(make_batch, estimators, schedule)`` of the synthetic analogue (NOT a replication): single-model EKF, CKF,
+    UKF, AUKF and NAUKF on the CV model, measuring position and velocity [x, vx, y, vy] (m, m/s) with the fixed x
+    offset and the accumulating y drift of ``an`` drawn per run from the FAULT stream; ``make_batch(runs) ->
+    (truth (B, K+1, 4), measurements (B, K, 4), {name: initial state})``, every filter started at the true x0
+    with P0 = diag(P0_sd)^2."""
+    T = an.base.T
+    cv = models.constant_velocity(T, an.base.q_cv)
+    gps = models.LinearMeasurement(np.eye(4), np.diag([an.pos_sd ** 2, an.vel_sd ** 2, an.pos_sd ** 2, an.vel_sd ** 2]),
+                                   "GPS")
+    schedule, _, _ = build(an.base)
+    ukf = SigmaPointFilter(Unscented(*an.base.ukf), name="UKF")
+    filters = {"EKF": ExtendedKalmanFilter(name="EKF"), "CKF": SigmaPointFilter(Cubature(), name="CKF"), "UKF": ukf,
+               "AUKF": InnovationAdaptive(ukf, window=an.window, zeta=False, include_current=False,
+                                          inflate_only=an.inflate_only, name="AUKF"),   # Mohamed & Schwarz 1999
+               "NAUKF": InnovationAdaptive(ukf, window=an.window, inflate_only=an.inflate_only, name="NAUKF")}
+    estimators = {k: SingleModel(f, cv, gps, name=k) for k, f in filters.items()}
+    P0 = np.diag(np.square(an.base.P0_sd))
+
+    def fault(runs):
+        from scipy.special import ndtr
+        p = ndtr(mc.standard_normal(runs, Stream.FAULT, (2,)))
+        t = schedule.times
+        delta = np.zeros((len(runs), len(t), 4))
+        delta[:, :, 0] = ((2 * p[:, 0] - 1) * an.offset_max)[:, None]
+        delta[:, :, 2] = (p[:, 1] * an.drift_rate_max)[:, None] * t[None, :]
+        return models.SensorFault(delta)
+
+    make_batch = evaluation.make_batches(mc, schedule, gps, an.base.x0, estimators,
+                                         lambda est, m0, runs: est.init(m0, P0),
+                                         process_noise=an.base.truth_process_noise, fault=fault)
+    return make_batch, estimators, schedule
+
+
+def gps_analogue_table(mc: MonteCarlo) -> tuple[list, dict]:
+    """The synthetic analogue's table (NOT a replication): x and y mean absolute errors (m, mean over runs
+    with standard errors) and diverged runs of EKF, CKF, UKF, AUKF and NAUKF as printed, and of AUKF and
+    NAUKF in the inflate-only reading (Z-12).  Returns (rows of cells, {filter [reading]: {"diverged": n}})."""
+    from mmlib.experiment.views import value_pm
+    rows, diverged = [], {}
+    for label, an in (("as printed", GPSAnalogue()), ("inflate-only", GPSAnalogue(inflate_only=True))):
+        mba, esta, _ = gps_analogue(an, mc)
+        names = tuple(esta) if label == "as printed" else ("AUKF", "NAUKF")
+        resa = evaluation.evaluate(evaluation.select(esta, names), mba, mc, progress=False)
+        for alg, rs in resa.items():
+            ok = rs.valid
+            cells = [f"{alg} ({label})" if alg in ("AUKF", "NAUKF") else alg]
+            for comp in (0, 2):
+                mae = metrics.mean_with_se(np.abs(rs.errors[..., comp]).mean(axis=1), ok)
+                cells.append(value_pm(float(mae.value), float(mae.stderr), 2) if mae.n_runs else "--")
+            cells.append(f"{int((~ok).sum())}/{mc.n_runs}")
+            rows.append(cells)
+            diverged[f"{alg} [{label}]"] = {"diverged": int((~ok).sum())}
+    return rows, diverged
+
+

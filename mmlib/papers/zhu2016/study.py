@@ -1,0 +1,201 @@
+"""One universe of Zhu, Wang & Yuan 2016: the Monte Carlo evaluation of a reading and everything judged from it.
+
+:func:`universe` is the multiverse job (``PAPER.universe``); the notebook's headline rows and claims come from the
+same :func:`evaluate_reading`, :func:`table1_rows`, :func:`judge_claims` and :func:`summarise` applied to the
+headline reading, so the headline universe and the headline rows are one computation.
+
+RMSE (Eq. 64, deviation Z-13): per component, the root of the mean over runs and over the 100 steps of the squared
+error (m or m/s); the per-run time means are the independent replications of its standard error.  Accuracy claims
+are paired differences of mean squared error over common random numbers; the floor is the RMSE of the Kalman filter
+told the true mode sequence ("clairvoyant KF"), the minimum-MSE estimator when the truth follows the filters' model.
+"""
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+from mmlib.experiment import digests, evaluation, metrics, report
+from mmlib.experiment.montecarlo import MonteCarlo
+from mmlib.experiment.universe import UniverseResult
+from mmlib.papers.zhu2016 import text
+from mmlib.papers.zhu2016.setup import Setup, batch, build, setup
+from mmlib.papers.zhu2016.text import MV_ALGORITHMS, QUANTITIES, RMSE_ALGORITHMS, TABLE1
+
+
+def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False) -> dict:
+    """``{estimator: RunSet}`` for :data:`MV_ALGORITHMS` under ``reading``, on the runs of ``mc``
+    (common random numbers: the per-run truth, measurement and initial-estimate streams do not
+    depend on the reading)."""
+    make_batch, estimators = batch(setup(reading), mc)
+    return evaluation.evaluate(evaluation.select(estimators, MV_ALGORITHMS), make_batch, mc,
+                               label=f"{text.NAME} {text.SPACE.describe(reading)}"[:60], progress=progress)
+
+
+def rmse_values(results: dict) -> dict:
+    """Eq. 64 (Z-13) per algorithm of Table 1 and per quantity: ``{(algorithm, quantity): MCValue}``
+    (m or m/s; diverged runs excluded and counted)."""
+    return {(alg, q): metrics.rmse_time_averaged(results[alg].errors[..., comp], results[alg].valid)
+            for alg in RMSE_ALGORITHMS for q, comp in QUANTITIES}
+
+
+def table1_rows(results: dict) -> list:
+    """The RMSE rows of Table 1 (:func:`mmlib.experiment.report.make_row`; OMTM-IMM 'not replicable', Z-14)."""
+    rmse = rmse_values(results)
+    rows = []
+    for alg in RMSE_ALGORITHMS + ("OMTM-IMM",):
+        for qi, (q, _) in enumerate(QUANTITIES):
+            printed = TABLE1[alg][qi]
+            if alg == "OMTM-IMM":
+                rows.append(report.make_row("Table 1", alg, q, printed, None, None,
+                                            reason="method not specified (Z-14)", deviations=["Z-14"]))
+                continue
+            est = rmse[(alg, q)]
+            devs = ["Z-4", "Z-5", "Z-6", "Z-7", "Z-9", "Z-12", "Z-13"] + (["Z-8"] if alg.startswith("IMM") else []) \
+                + (["Z-1", "Z-2"] if "5CKF" in alg else []) + (["Z-10"] if alg == "5CKF" else []) \
+                + (["Z-11"] if alg == "IMMUKF" else [])
+            rows.append(report.make_row("Table 1", alg, q, printed, est.value, est.stderr, n_runs=est.n_runs,
+                                        n_runs_paper=text.N_RUNS, deviations=devs,
+                                        note=f"{est.n_excluded} diverged runs excluded" if est.n_excluded else ""))
+    return rows
+
+
+def coincidence(results: dict) -> dict:
+    """Largest absolute difference over runs and steps between each sigma-point IMM and the IMM-KF: estimates
+    (m, m/s) and mode probabilities.  Zero up to round-off under every reading (the package docstring)."""
+    ref = results["IMM-KF"]
+    return {"max_abs_estimate_difference_vs_IMM_KF":
+            {a: float(np.nanmax(np.abs(results[a].errors - ref.errors))) for a in ("IMM5CKF", "IMMCKF", "IMMUKF")},
+            "max_abs_mode_probability_difference_vs_IMM_KF":
+            {a: float(np.nanmax(np.abs(results[a].mode_probabilities - ref.mode_probabilities)))
+             for a in ("IMM5CKF", "IMMCKF", "IMMUKF")}}
+
+
+FLOOR_CLAIM = "Table 1's IMM errors lie above the minimum-MSE floor of the set-up (implicit)"
+
+
+def floor_is_bound(setup: Setup) -> bool:
+    """Whether the clairvoyant KF is the minimum-MSE estimator of this set-up: the truth must follow the
+    filters' own model, i.e. be driven by Q (Z-7) and start from an initial error drawn from N(0, P0)
+    (Z-9).  Under a noise-free truth or a filter started at the true X0 with P0 = diag(1000, ...) it is
+    a reference, not a bound (a filter knowing the truth has no noise could do better)."""
+    return bool(setup.truth_process_noise) and setup.initial_estimate == "sampled"
+
+
+def floor_check(results: dict) -> list:
+    """Table 1's IMM values against the minimum-MSE floor of this reading.
+
+    With linear-Gaussian modes the Kalman filter told the true mode sequence ("clairvoyant KF")
+    is the MMSE estimator, so no IMM can have a smaller expected squared error.  Per quantity: the
+    floor (RMSE of the clairvoyant KF, with its standard error), the smallest printed IMM value, and
+    ``z`` = (floor - printed) / sigma with the combined sigma of the verdict rule (our error, the
+    paper's estimated from its 100 runs, half a unit of the printed digit); ``z >= 3`` means the
+    printed value lies significantly below the floor: unattainable under this reading."""
+    out = []
+    for qi, (q, comp) in enumerate(QUANTITIES):
+        b = metrics.rmse_time_averaged(results["clairvoyant KF"].errors[..., comp], results["clairvoyant KF"].valid)
+        printed = min((TABLE1[a][qi] for a in ("IMM5CKF", "IMMCKF", "IMMUKF")), key=float)
+        z = report.standardized_distance(printed, float(b.value), float(b.stderr), b.n_runs, text.N_RUNS)
+        # sigma of the verdict rule: the standardized distance of a unit difference is 1 / sigma
+        sigma = 1.0 / report.standardized_distance(printed, float(printed) + 1.0, float(b.stderr), b.n_runs,
+                                                   text.N_RUNS)
+        out.append({"quantity": q, "floor": float(b.value), "floor_stderr": float(b.stderr),
+                    "paper_min_imm": printed, "margin": float(printed) - float(b.value), "sigma": sigma, "z": z})
+    return out
+
+
+def _switch_window_probability(rs, true_modes, window: int = 10):
+    """Per run: mean probability of the true mode over the ``window`` steps after each mode switch."""
+    switch = [k for k in range(1, len(true_modes)) if true_modes[k] != true_modes[k - 1]]
+    steps = sorted({k + j for k in switch for j in range(window) if k + j < len(true_modes)})
+    mu = rs.mode_probabilities[:, steps, :]
+    return np.take_along_axis(mu, np.asarray(true_modes)[steps][None, :, None], axis=2)[..., 0].mean(axis=1)
+
+
+def judge_claims(results: dict, setup: Setup) -> report.Claims:
+    """The paper's accuracy, switching and divergence claims and the implicit attainability of Table 1,
+    each in the claim vocabulary of :mod:`mmlib.experiment.report` (the timing claim is judged by
+    :func:`mmlib.papers.zhu2016.timing.judge_timing`)."""
+    claims = report.Claims()
+    for other in ("IMMCKF", "IMMUKF", "5CKF"):
+        claims.add(f"IMM5CKF is more accurate than {other}",
+                   *evaluation.better_claim(results, "IMM5CKF", other, QUANTITIES))
+    claims.add("IMM5CKF is more accurate than OMTM-IMM", "not assessable: OMTM-IMM is not specified (Z-14)",
+               "Zhou et al. 2014 give no equations, initial values or mode filter")
+    fl = floor_check(results)
+    evidence = "; ".join(f"{f['quantity']}: smallest printed IMM value {f['paper_min_imm']} vs floor "
+                         f"{f['floor']:.3f} ± {f['floor_stderr']:.3f} (z = {f['z']:+.1f})" for f in fl)
+    if floor_is_bound(setup):
+        # the part verdict of claim_verdict on the z-score (unit standard error): 'holds' if printed >= floor + 3 sigma
+        verdict = report.combine_claim_verdicts(f"{report.claim_verdict(-f['z'], 1.0, +1)} ({f['quantity']})"
+                                                for f in fl)
+    else:
+        verdict = ("not assessable: the clairvoyant KF is the minimum-MSE bound only when the simulated truth "
+                   "follows the filters' model (Z-7 noisy truth, Z-9 initial error drawn from N(0, P0))")
+    claims.add(FLOOR_CLAIM, verdict, evidence)
+    true_modes = build(setup)[0].modes()
+    parts, ev = [], []
+    p5 = _switch_window_probability(results["IMM5CKF"], true_modes)
+    for other in ("IMMCKF", "IMMUKF"):
+        po = _switch_window_probability(results[other], true_modes)
+        d = metrics.mean_with_se(p5 - po)
+        parts.append(f"{report.claim_verdict(float(d.value), float(d.stderr), +1, reference=float(po.mean()))} "
+                     f"({other})")
+        ev.append(f"vs {other}: Δ(probability of the true mode, 10 steps after each switch) = "
+                  f"{float(d.value):.2g} ± {float(d.stderr):.2g}")
+    claims.add("IMM5CKF switches modes more quickly than IMMCKF/IMMUKF", report.combine_claim_verdicts(parts),
+               "; ".join(ev))
+    diverged = {a: int((~results[a].valid).sum()) for a in RMSE_ALGORITHMS}
+    claims.add("No algorithm diverges", "holds" if not any(diverged.values()) else
+               f"contradicted: {sum(diverged.values())} diverged runs", f"diverged runs: {diverged}")
+    return claims
+
+
+def _published_mse_difference(a: str, b: str, comps) -> float:
+    """Table 1's counterpart of a paired MSE difference: sum over the components of RMSE_a^2 - RMSE_b^2."""
+    return sum(float(TABLE1[a][c]) ** 2 - float(TABLE1[b][c]) ** 2 for c in comps)
+
+
+#: the key effect of the specification curve
+KEY_EFFECT = "IMM5CKF − IMMCKF: position MSE (m²)"
+
+
+def effects(results: dict) -> list:
+    """Named paired differences (value, standard error, Table 1's counterpart) and the floor margins."""
+    out = []
+    for name, a, b, comps in ((KEY_EFFECT, "IMM5CKF", "IMMCKF", (0, 2)),
+                              ("IMM5CKF − IMMCKF: velocity MSE (m²/s²)", "IMM5CKF", "IMMCKF", (1, 3)),
+                              ("IMM5CKF − IMMUKF: position MSE (m²)", "IMM5CKF", "IMMUKF", (0, 2)),
+                              ("IMM5CKF − 5CKF: position MSE (m²)", "IMM5CKF", "5CKF", (0, 2))):
+        d = evaluation.paired_mse_difference(results[a], results[b], comps)
+        out.append((name, float(d.value), float(d.stderr), _published_mse_difference(a, b, comps)))
+    for f in floor_check(results):
+        out.append((f"smallest printed IMM value − floor: {f['quantity']}", f["margin"], f["sigma"]))
+    c = coincidence(results)
+    out.append(("max |IMM5CKF − IMM-KF| estimate (m, m/s)",
+                c["max_abs_estimate_difference_vs_IMM_KF"]["IMM5CKF"], None))
+    return out
+
+
+def summarise(results: dict, n_runs: int, setup: Setup) -> UniverseResult:
+    """The universe's result (:meth:`UniverseResult.build`): Table 1's RMSE cells and the floor (values),
+    :func:`judge_claims`, :func:`effects` and the diverged runs per estimator."""
+    values = [("Table 1", alg, q, float(v.value), float(v.stderr)) for (alg, q), v in rmse_values(results).items()]
+    for f in floor_check(results):
+        values.append(("floor", "clairvoyant KF", f["quantity"], f["floor"], f["floor_stderr"]))
+    return UniverseResult.build(values=values, claims=judge_claims(results, setup), effects=effects(results),
+                                diverged={a: int((~rs.valid).sum()) for a, rs in results.items()}, n_runs=n_runs)
+
+
+def universe(reading: Mapping, n_runs: int, seed: int) -> UniverseResult:
+    """The multiverse job: one reading, ``n_runs`` Monte Carlo runs on root seed ``seed``."""
+    mc = MonteCarlo(seed, n_runs)
+    return summarise(evaluate_reading(reading, mc), n_runs, setup(reading))
+
+
+
+def headline_digest(n_runs: int) -> dict:
+    """The run digest (:func:`mmlib.experiment.digests.run_digest`) of the headline universe's first ``n_runs``
+    runs (the six estimators of the headline) on the paper's root seed: what the notebook stores as ``digest`` in
+    ``data/results/zhu2016.json``, recomputed without the notebook (tests/tolerance/test_digest.py)."""
+    return digests.run_digest(evaluate_reading(text.SPACE.headline, MonteCarlo(text.ROOT_SEED, n_runs)), n_runs)
