@@ -54,7 +54,7 @@ from IPython.display import Markdown, display
 from mmlib.arena import ladder, recipes, study, views as arena_views
 from mmlib.experiment import report
 from mmlib.papers import REGISTRY
-from mmlib.papers.presentation import NotebookRun, markdown_table, plot_style
+from mmlib.experiment.notebook import NotebookRun, markdown_table, plot_style
 
 # profiles (study.STUDY): full runs 1000 per cell; smoke the first 20 runs of the same streams, so its digest equals
 # the full study's.

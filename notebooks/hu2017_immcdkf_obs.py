@@ -53,7 +53,7 @@ from IPython.display import Markdown, display
 from mmlib.experiment import digests, evaluation, metrics, views
 from mmlib.papers import REGISTRY
 from mmlib.papers.hu2017 import diagnostics, study, text, timing
-from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
+from mmlib.experiment.notebook import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                        shade_intervals, value_pm)
 
 paper = REGISTRY["hu2017"]

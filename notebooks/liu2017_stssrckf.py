@@ -51,7 +51,7 @@ from IPython.display import Markdown, display
 
 from mmlib.experiment import digests, evaluation, metrics, report, views
 from mmlib.papers import REGISTRY
-from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
+from mmlib.experiment.notebook import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                        shade_intervals, value_pm)
 
 paper = REGISTRY["liu2017"]

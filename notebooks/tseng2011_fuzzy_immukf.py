@@ -62,7 +62,7 @@ from mmlib.core.layers.fuzzy_noise import fuzzy_system
 from mmlib.experiment import digests, evaluation, metrics, report, views
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.papers import REGISTRY
-from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
+from mmlib.experiment.notebook import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                        shade_intervals, value_pm)
 from mmlib.papers.tseng2011 import diagnostics, simulation, study, text
 

@@ -52,7 +52,7 @@ from scipy import stats
 
 from mmlib.experiment import digests, evaluation, metrics, report, views
 from mmlib.papers import REGISTRY
-from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
+from mmlib.experiment.notebook import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                        shade_intervals, value_pm)
 from mmlib.papers.zhou2017 import diagnostics, section23, study, text
 from mmlib.papers.zhou2017.setup import make_batch_fn
@@ -361,12 +361,14 @@ key_vals = [(mv.effect(u_, paper.key_effect), r_) for u_, r_ in zip(mv.universes
 published_key = mv.effect(mv.headline, paper.key_effect).published
 valued = [(e, r_) for e, r_ in key_vals if e.value is not None]
 defined = [(e, r_) for e, r_ in valued if e.stderr is not None]
-neg = [(e, r_) for e, r_ in defined if e.value + 3 * e.stderr < 0]
-pos = [(e, r_) for e, r_ in defined if e.value - 3 * e.stderr > 0]
-# the verdict rule's test: within 3 s.e. of the published value AND precise enough to tell (3 s.e. <= 25 %)
-match = [(e, r_) for e, r_ in defined if abs(e.value - published_key) <= 3 * e.stderr
-         and 3 * e.stderr <= report.RELATIVE_BAND * abs(published_key)]
-vague = [(e, r_) for e, r_ in defined if abs(e.value - published_key) <= 3 * e.stderr]
+k_se = report.SIGMA_FACTOR
+neg = [(e, r_) for e, r_ in defined if e.value + k_se * e.stderr < 0]
+pos = [(e, r_) for e, r_ in defined if e.value - k_se * e.stderr > 0]
+# the verdict rule's test on an implied (not printed) number: within SIGMA_FACTOR s.e. of it AND precise enough to
+# tell (SIGMA_FACTOR s.e. <= RELATIVE_BAND of it)
+match = [(e, r_) for e, r_ in defined if abs(e.value - published_key) <= k_se * e.stderr
+         and k_se * e.stderr <= report.RELATIVE_BAND * abs(published_key)]
+vague = [(e, r_) for e, r_ in defined if abs(e.value - published_key) <= k_se * e.stderr]
 lines.append(f"* Key effect (CPIMM-NAUKF − IMM-UKF, Case 2 position MSE; the paper implies {published_key:.1f} m²): "
              f"a value in {len(valued)} of {len(mv.universes)} universes (in the others CPIMM-NAUKF diverges in every "
              f"run; {len(valued) - len(defined)} value(s) rest on a single surviving run, without a standard error); "

@@ -47,10 +47,9 @@ import time
 import matplotlib.pyplot as plt
 from IPython.display import Markdown, display
 
-import mmlib
 from mmlib.experiment import digests, evaluation, metrics, report, views
 from mmlib.papers import REGISTRY
-from mmlib.papers.presentation import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
+from mmlib.experiment.notebook import (NotebookRun, deviations_table, markdown_table, plot_style, rows_table,
                                        shade_intervals, value_pm)
 from mmlib.papers.zhu2016 import diagnostics, study, text, timing
 from mmlib.papers.zhu2016.setup import build
@@ -275,11 +274,9 @@ fig, ax = plt.subplots(figsize=(7, 3.6))
 shade_intervals(ax, maneuvers)
 nees_summary = {}
 for alg in ("IMM5CKF", "5CKF"):
-    tr = mmlib.run(estimators[alg], init_c[alg], z_c)
-    nees = metrics.nees(tr.mean - truth_c[:, 1:], tr.cov, valid=~tr.diverged)[~tr.diverged]
-    ax.plot(t, nees.mean(axis=0), label=alg, **styles[alg])
-    avg = metrics.mean_with_se(nees.mean(axis=1))
-    nees_summary[alg] = [float(avg.value), float(avg.stderr)]
+    prof = evaluation.nees_profile(estimators[alg], init_c[alg], z_c, truth_c)
+    ax.plot(t, prof.per_step, label=alg, **styles[alg])
+    nees_summary[alg] = [float(prof.time_average.value), float(prof.time_average.stderr)]
 lo, hi = metrics.chi2_band(4, n_runs)
 ax.axhspan(lo, hi, color="C2", alpha=0.15, label="95 % χ² band")
 ax.set(yscale="log", xlabel="time (s)", ylabel="average NEES (4 dof)",

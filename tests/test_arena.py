@@ -98,18 +98,30 @@ def test_unknown_algorithm_and_scenario_list_the_known_names():
 
 # ================================================================= 2. a paper's cell is the paper's own evaluation
 @pytest.mark.parametrize("name", list(REGISTRY))
+def test_every_arena_entry_names_recipes(name):
+    entry = REGISTRY[name].arena
+    assert entry is not None and entry.algorithms, name
+    assert set(entry.algorithms) <= set(recipes.ALGORITHMS), name
+    assert {x for _, a, b in entry.ideas for x in (a, b)} <= set(recipes.ALGORITHMS), name
+    assert {x for pair in entry.claim_pairs for x in pair} <= set(recipes.ALGORITHMS), name
+
+
+@pytest.mark.parametrize("name", list(REGISTRY))
 def test_paper_cell_equals_the_papers_own_evaluation_bit_for_bit(name):
     """Every registered paper's arena cell is the paper's own evaluation of its headline batch (``Paper.batch``):
     the same runs, models and initial states, so the same bits, for every estimator the arena also runs."""
     paper = REGISTRY[name]
+    if paper.arena is None:
+        pytest.skip(f"{name} declares no arena entry")
     s = study.scenario(name)
     if name == "hu2017":           # the arena runs Hu et al.'s km set-up in metres: equal to round-off, tested below
         pytest.skip("a rescaling to metres: test_hu2017_cell_is_the_papers_evaluation_in_metres")
     n = 8 if s.n_steps <= 500 else 3                   # the 1800-epoch GNSS scenario: 3 runs
     mc = MonteCarlo(paper.root_seed, n)
     make_batch, estimators, *models = paper.batch(paper.headline_setup(), mc)
-    algs = [a for a in estimators if recipes.ALIASES.get(a, a) in recipes.ALGORITHMS]
-    assert algs, f"{name}: no estimator of the paper is an arena algorithm"
+    # every estimator of the batch that the paper's arena entry runs (by its recipe name or an alias)
+    algs = [a for a in estimators if recipes.ALIASES.get(a, a) in paper.arena.algorithms]
+    assert algs, f"{name}: no estimator of the paper's batch is one of its arena algorithms"
     own = evaluation.evaluate({a: estimators[a] for a in algs}, make_batch, mc, progress=False, workers=1,
                               measurement_models=models[0] if models else None)
     for alg in algs:

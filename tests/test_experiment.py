@@ -396,10 +396,10 @@ def test_presentation_modules_left_out_of_the_hash_are_not_used_by_any_computati
             "for name in REGISTRY:\n"
             "    paper = REGISTRY[name]\n"
             "    paper.universe(paper.space.headline, 2, 1)\n"
-            "print(sorted(n for n in sys.modules if n in ('mmlib.experiment.views', 'mmlib.papers.presentation')))")
+            "print(sorted(n for n in sys.modules if n in ('mmlib.experiment.views', 'mmlib.experiment.notebook')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=True)
     assert out.stdout.strip() == "[]", out.stdout
-    assert {rel.split("/")[-1] for rel in grid.PRESENTATION_MODULES} == {"views.py", "presentation.py"}
+    assert {rel.split("/")[-1] for rel in grid.PRESENTATION_MODULES} == {"views.py", "notebook.py"}
 
 
 def test_inconclusive_is_never_reproduced():

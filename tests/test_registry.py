@@ -66,9 +66,15 @@ def _literal_paper_lists(path: Path, root: Path = REPO) -> list[str]:
     names = set(PACKAGES)
     out = []
     for node in ast.walk(tree):
-        elts = node.keys if isinstance(node, ast.Dict) else getattr(node, "elts", None) \
-            if isinstance(node, (ast.Tuple, ast.List, ast.Set)) else None
-        if elts is None:
+        if isinstance(node, ast.Dict):
+            elts = [*node.keys, *node.values]
+        elif isinstance(node, (ast.Tuple, ast.List, ast.Set)):
+            elts = node.elts
+        elif isinstance(node, ast.BoolOp):                      # name == "a" or name == "b"
+            elts = [c for v in node.values if isinstance(v, ast.Compare) for c in (v.left, *v.comparators)]
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str):      # "a b".split()
+            elts = [ast.Constant(w) for w in node.value.replace(",", " ").split()]
+        else:
             continue
         hit = {e.value for e in elts if isinstance(e, ast.Constant) and e.value in names}
         if len(hit) >= 2:
@@ -88,10 +94,14 @@ def test_no_hard_coded_paper_list_outside_the_registry():
 
 def test_the_lint_finds_a_planted_list(tmp_path):
     planted = tmp_path / "planted.py"
-    planted.write_text(f"X = 1\nPAPERS = ({PACKAGES[0]!r}, {PACKAGES[1]!r})\nRUNS = {{{PACKAGES[2]!r}: 1, "
-                       f"{PACKAGES[3]!r}: 2}}\nONE = [{PACKAGES[0]!r}, 'other']\n")
-    assert _literal_paper_lists(planted, tmp_path) == [f"planted.py:2: {sorted(PACKAGES[:2])}",
-                                                       f"planted.py:3: {sorted(PACKAGES[2:4])}"]
+    a, b, c, d = PACKAGES[:4]
+    planted.write_text(f"X = 1\nPAPERS = ({a!r}, {b!r})\nRUNS = {{{c!r}: 1, {d!r}: 2}}\nONE = [{a!r}, 'other']\n"
+                       f"S = {{{a!r}, {c!r}}}\nL = [p for p in [{b!r}, {d!r}]]\nif n == {a!r} or n == {b!r}: pass\n"
+                       f"W = '{c} {d}'.split()\nV = {{'x': {a!r}, 'y': {d!r}}}\n")
+    assert sorted(_literal_paper_lists(planted, tmp_path)) == [
+        f"planted.py:2: {sorted([a, b])}", f"planted.py:3: {sorted([c, d])}", f"planted.py:5: {sorted([a, c])}",
+        f"planted.py:6: {sorted([b, d])}", f"planted.py:7: {sorted([a, b])}", f"planted.py:8: {sorted([c, d])}",
+        f"planted.py:9: {sorted([a, d])}"]
 
 
 # ------------------------------------------------------------------------ a sixth paper, through the registry alone
@@ -113,43 +123,52 @@ def minimal():
         REGISTRY.unregister(module.PAPER.name)
 
 
-def test_minimal_paper_runs_through_the_registry(minimal, tmp_path):
-    """Register the worked example, run its reading space (smoke profile), write its results file through the
-    results contract and render its report: the path a sixth paper takes."""
+def test_minimal_paper_runs_through_the_registry(minimal, tmp_path, monkeypatch):
+    """Register the worked example and take the path its notebook would: NotebookRun (smoke profile), its reading
+    space, the results file through the results contract, and the rendered report."""
     from mmlib.arena import study
     from mmlib.experiment import report
-    from mmlib.experiment.multiverse import run_multiverse
+    from mmlib.experiment.notebook import NotebookRun
     sys.path.insert(0, str(REPO / "tools"))
     try:
         import make_report
     finally:
         sys.path.remove(str(REPO / "tools"))
+    monkeypatch.setenv("MMLIB_CACHE", str(tmp_path / "cache"))
     paper = REGISTRY["example2026"]
     assert paper is minimal.PAPER and "example2026" in list(REGISTRY)
-    runs = paper.runs("smoke")
-    mv = run_multiverse(paper.space, paper.universe, published=paper.published, n_runs=runs, seed=paper.root_seed,
-                        algorithms=paper.algorithms, design="full", n_runs_paper=paper.n_runs, workers=1,
-                        cache_dir=tmp_path / "cache", progress=False)
+    # a registered paper lives in this process only: one worker
+    nb = NotebookRun(paper, PROFILE="smoke", OUTPUT_ROOT=str(tmp_path), WORKERS=1, PROGRESS=False)
+    runs = nb.n_runs
+    assert runs == paper.runs("smoke") and nb.seed == paper.root_seed and nb.digest_runs == runs
+    results = minimal.evaluate_reading(paper.headline, nb.mc())
+    mv = nb.multiverse()
     assert len(mv.universes) == 2 and all(isinstance(u, UniverseResult) for u in mv.universes)
     # the headline universe is the job run in this process, bit for bit
-    assert mv.headline == paper.universe(paper.headline, runs, paper.root_seed)
+    assert mv.headline == minimal.summarise(results, runs) == paper.universe(paper.headline, runs, paper.root_seed)
     # theory: on a linear-Gaussian model the CKF returns the Kalman moments, so the key effect is round-off
     for u in mv.universes:
         e = u.effect(paper.key_effect)
         assert abs(e.value) < 1e-9 and u.claim("the CKF is more accurate than the KF").startswith("not supported")
     # the arena reaches the new paper's scenario through the registry
-    assert study.scenario("example2026").name == "example2026"
-    digest = paper.headline_digest(runs)
+    assert study.scenario("example2026").name == "example2026" and "example2026" in study.known_scenarios()
+    digest = digests.run_digest(results, nb.digest_runs)
     assert digests.compare_digests(digest, paper.headline_digest(runs)).ok
     rows = [report.make_row(p.item, p.algorithm, p.quantity, p.printed, v.replicated, v.stderr, n_runs=runs,
                             n_runs_paper=paper.n_runs, deviations=["E-1"])
             for p in paper.published for v in [mv.headline.value(p.key)]]
-    path = tmp_path / "data" / "results" / "example2026.json"
-    doc = report.write_results(path, paper=paper.name,
-                               provenance=report.provenance(root_seed=paper.root_seed, n_runs=runs, profile="smoke"),
-                               rows=rows, digest=digest,
-                               claims=[c._asdict() | {"evidence": ""} for c in mv.headline.claims],
-                               deviations=[d.as_dict() for d in paper.deviations], multiverse=mv.as_dict())
+    claims = report.Claims()
+    for c in mv.headline.claims:
+        claims.add(c.claim, c.verdict, "")
+    with pytest.raises(ValueError, match="^provenance: .*git_commit"):
+        nb.write_results(rows=rows, provenance={"git_commit": "forged"})
+    doc = nb.write_results(rows=rows, digest=digest, claims=claims, multiverse=mv,
+                           deviations=[d.as_dict() for d in paper.deviations])
+    assert nb.results_path == tmp_path / "data" / "results" / "example2026.json" and nb.results_path.is_file()
+    prov = doc["provenance"]
+    assert prov["paper_citation"] == paper.citation and prov["multiverse_design"] == mv.design.kind == "star"
+    assert prov["multiverse_runs"] == runs and "timing_runs" not in prov          # the profile times nothing
+    assert doc["multiverse"]["n_universes"] == 2 and doc["claims"][0]["claim"] == claims.as_list()[0]["claim"]
     page = make_report.render(doc, tmp_path, tmp_path / "reports")
     assert "example2026" in page and "Table 1" in page and "Reading space" in page
     for p in paper.published:
@@ -168,9 +187,35 @@ def test_register_refuses_what_is_not_a_new_paper(minimal):
 
 def test_paper_contract_rejects_bad_declarations():
     base = _minimal_paper().PAPER
-    for change, arg in (({"name": ""}, "name"), ({"root_seed": -1}, "root_seed"), ({"n_runs": 1}, "n_runs"),
+    from mmlib.experiment.paper import ArenaEntry
+    full, smoke = dict(base.profiles["full"]), dict(base.profiles["smoke"])
+    for change, arg in (({"name": ""}, "name"), ({"name": "doe_2026"}, "name"), ({"root_seed": -1}, "root_seed"),
+                        ({"n_runs": 1}, "n_runs"), ({"notebook": "other_topic"}, "notebook"),
                         ({"setup_type": "Setup"}, "setup_type"), ({"universe": None}, "universe"),
-                        ({"published": list(base.published)}, "published"), ({"algorithms": ()}, "algorithms"),
-                        ({"profiles": {"full": {"n_runs": 10}}}, "profiles"), ({"space": None}, "space")):
+                        ({"published": list(base.published)}, "published"),
+                        ({"published": base.published * 2}, "published"),
+                        ({"deviations": base.deviations * 2}, "deviations"), ({"algorithms": ()}, "algorithms"),
+                        ({"profiles": {"full": {"n_runs": 10}}}, "profiles"), ({"space": None}, "space"),
+                        ({"profiles": {"full": full, "smoke": {**smoke, "mv_design": "bogus"}}}, "profiles"),
+                        ({"profiles": {"full": full, "smoke": {**smoke, "n_runs": 1000}}}, "profiles"),
+                        ({"arena": ArenaEntry("KF")}, "arena.algorithms"),
+                        ({"arena": ArenaEntry(("KF",), ideas=(("idea", "KF"),))}, "arena.ideas"),
+                        ({"arena": ArenaEntry(("KF",), claim="KF wins")}, "arena.claim")):
         with pytest.raises(ValueError, match=f"^{arg}"):
             dataclasses.replace(base, **change)
+
+
+def test_nees_profile_of_a_correct_kalman_filter_averages_the_state_dimension():
+    """evaluation.nees_profile on the worked example's KF (a linear-Gaussian model the filter knows exactly, initial
+    error drawn from P0): the time-averaged NEES is the state dimension, 4, within 4 standard errors (a chi-square
+    mean); the per-step curve has one value per step."""
+    from mmlib.experiment import evaluation
+    from mmlib.experiment.montecarlo import MonteCarlo
+    minimal = _minimal_paper()
+    mc = MonteCarlo(minimal.ROOT_SEED, 200)
+    make_batch, estimators = minimal.batch(minimal.Setup(), mc)
+    truth, z, init = make_batch(range(200))
+    prof = evaluation.nees_profile(estimators["KF"], init["KF"], z, truth)
+    assert prof.per_step.shape == (z.shape[1],) and prof.n_diverged == 0
+    assert abs(float(prof.time_average.value) - 4.0) <= 4 * float(prof.time_average.stderr)
+

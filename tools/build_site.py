@@ -130,9 +130,9 @@ def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
     papers = [d for d in docs if d.get("kind") != "arena"]
     commits = sorted({d["provenance"]["git_commit"][:10] for d in docs})
     return "\n".join([
-        "# Five tracking papers, replicated", "",
-        "Five papers on maneuvering-target tracking with interacting multiple model (IMM) and sigma-point Kalman "
-        "filters, replicated with `mmlib`, a batched filter library; every published number is set beside the "
+        "# Tracking papers, replicated", "",
+        f"{len(papers)} papers on maneuvering-target tracking with interacting multiple model (IMM) and sigma-point "
+        "Kalman filters, replicated with `mmlib`, a batched filter library; every published number is set beside the "
         "replication with its Monte Carlo standard error and a verdict from one rule "
         "(`mmlib/experiment/verdicts.py`), every ambiguity of the text is run as a declared reading, and every "
         "algorithm is run on every scenario in the arena.", "",

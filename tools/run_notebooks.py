@@ -12,7 +12,7 @@ or a path; default: all of them) is converted to .ipynb and executed with the ``
   other settings is never written over the committed outputs (nor over the smoke outputs the tolerance tests read).
 
 Every argument is checked before anything runs: ``-p`` names a parameter the notebook declares, with a value the
-notebooks accept (the rules of ``mmlib.papers.presentation.NotebookRun``: e.g. at least two Monte Carlo runs,
+notebooks accept (the rules of ``mmlib.experiment.notebook.NotebookRun``: e.g. at least two Monte Carlo runs,
 since a standard error needs two); a bad one is an error naming it (exit status 2).
 
 Promotion is all-or-nothing per paper.  Only if every cell succeeds are the paper's reports rendered into its
@@ -203,7 +203,7 @@ def check_values(params: dict, declared: dict[str, str], profile: str) -> None:
     if not params:
         return
     from mmlib.experiment.paper import Study
-    from mmlib.papers.presentation import NotebookRun
+    from mmlib.experiment.notebook import NotebookRun
     accepted = inspect.signature(NotebookRun).parameters
     shared = {k: v for k, v in params.items() if k in accepted and k != "PROFILE"}
     probe = Study("probe", 0, {p: dict(n_runs=2, timing_runs=1, timing_repeats=1) for p in (profile, "smoke")})

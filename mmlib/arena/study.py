@@ -329,13 +329,15 @@ def _check_result(result) -> ArenaResult:
     return result
 
 
-def run_arena(n_runs: int, *, scenarios: Iterable[str] = SCENARIOS, algorithms: Iterable[str] = ALGORITHMS,
+def run_arena(n_runs: int, *, scenarios: Iterable[str] | None = None, algorithms: Iterable[str] = ALGORITHMS,
               seed: int | None = None, workers: int | None = None, executor: cf.Executor | None = None,
               progress: bool | Callable[[str], None] = True, use_cache: bool = True,
               cache_dir: str | Path | None = None) -> ArenaResult:
     """Every cell of ``algorithms`` x ``scenarios`` at ``n_runs`` runs (integer >= 2), in parallel and cached
     (:func:`mmlib.experiment.grid.run_grid`), with the ranks of each scenario.  Unknown names are a ValueError listing
-    the known ones.  ``seed`` overrides every scenario's root seed."""
+    the known ones; ``scenarios`` None is every known one (:func:`known_scenarios`).  ``seed`` overrides every
+    scenario's root seed."""
+    scenarios = known_scenarios() if scenarios is None else scenarios
     scenarios = check_names(scenarios, "scenarios")
     algorithms = check_names(algorithms, "algorithms")
     check_bool(use_cache, "use_cache")
@@ -492,10 +494,12 @@ def digest(result: ArenaResult, n_runs: int) -> dict:
             "machine": fingerprint()}
 
 
-def scenario_table(names: Iterable[str] = SCENARIOS, n_index_runs: int = 50, max_run_steps: int = 18_000) -> list:
+def scenario_table(names: Iterable[str] | None = None, n_index_runs: int = 50, max_run_steps: int = 18_000) -> list:
     """One row per scenario: name, title, source, steps, state and measurement dimensions, its properties and its
     computed nonlinearity index (:func:`mmlib.arena.ladder.nonlinearity_index`) over ``n_index_runs`` runs, or fewer
-    where they would exceed ``max_run_steps`` run-steps (10 runs for the 1800-epoch GNSS scenario)."""
+    where they would exceed ``max_run_steps`` run-steps (10 runs for the 1800-epoch GNSS scenario); ``names`` None is
+    every known scenario."""
+    names = known_scenarios() if names is None else names
     for value, name in ((n_index_runs, "n_index_runs"), (max_run_steps, "max_run_steps")):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 2:
             raise ValueError(f"{name}: expected an integer >= 2, got {value!r}")

@@ -655,8 +655,10 @@ def run(estimator: protocols.Estimator, state: tuple, measurements: ArrayLike | 
     with_cov = keep_cov or x_true is not None
     # this module's estimators split step() into _check_step() and _step(): the state, the flag and each measurement
     # model are checked once, at the first step that uses them (the measurements were checked whole above); any
-    # other estimator's step() runs every step, checking its inputs or not
-    check, advance = getattr(estimator, "_check_step", None), getattr(estimator, "_step", None)
+    # other estimator's step() runs every step, checking its inputs or not -- and so does a subclass or wrapper that
+    # overrides step() (the fast path is taken only where step() is this module's own)
+    split = getattr(type(estimator), "step", None) in (SingleModel.step, KnownModeSequence.step, IMM.step)
+    check, advance = (estimator._check_step, estimator._step) if split else (None, None)
     models: dict = {}                       # id(a step's measurement model; None: the default) -> the model
     for k, (z_k, model_k) in enumerate(steps):
         if check is None or advance is None:

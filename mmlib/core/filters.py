@@ -242,13 +242,15 @@ class SigmaPointFilter(_FilterBase):
         :math:`\hat z` = ``measurement.average`` of :math:`h(X_i)` (..., m) (angles averaged about a reference
         point), :math:`S = \mathrm{cov}_{rule}(h(X_i)) + R` (..., m, m) and
         :math:`P_{xz} = \mathrm{cross}_{rule}(X_i, h(X_i))` (..., n, m), deviations residual-wrapped; no ``H``.
-        A measurement model that states its ``angular`` components, with a ``weighted_moments`` rule, takes the
-        fused :func:`mmlib.core.linalg.measurement_moments` (its average and residual by those flags)."""
+        A model of this library that states its ``angular`` components, with a ``weighted_moments`` rule, takes the
+        fused :func:`mmlib.core.linalg.measurement_moments` (average and residual by those flags, which is what the
+        library's models' ``average`` and ``residual`` do); a model whose ``average`` or ``residual`` is defined
+        elsewhere (a user's override) always goes through its own methods."""
         X = self._points(state)
         Z = measurement.h(X)
         up = self.rule.unit_points(state.mean.shape[-1])
         angular = getattr(measurement, "angular", None)
-        if angular is not None and self.rule.weighted_moments:
+        if angular is not None and self.rule.weighted_moments and _library_moments(measurement):
             z_pred, S, pxz = linalg.measurement_moments(X, state.mean, Z, up.wm, up.wc, angular, measurement.R)
             return MeasurementPrediction(z_pred, S, pxz)
         wm = up.wm
@@ -329,3 +331,11 @@ def filter_by_name(name: str, **rule_params: Any) -> ExtendedKalmanFilter | Sigm
                              f"parameters")
         return ExtendedKalmanFilter(name=_FILTER_NAMES[key])
     return SigmaPointFilter(rule_by_name(key, **rule_params), name=str(name).upper())
+
+
+def _library_moments(measurement: MeasurementModel) -> bool:
+    """Whether ``measurement``'s ``average`` and ``residual`` are this library's (defined in ``mmlib.core``), whose
+    results the fused measurement moments reproduce from the model's ``angular`` flags."""
+    cls = type(measurement)
+    return all(getattr(getattr(cls, m, None), "__module__", "").startswith("mmlib.core.") for m in ("average",
+                                                                                                   "residual"))

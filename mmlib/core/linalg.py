@@ -22,8 +22,9 @@ affected runs are returned in a mask and their factor is NaN, so that the
 divergence propagates to that run only and is *reported* by the caller
 (:func:`mmlib.core.estimation.run`) instead of being patched.
 
-This module imports nothing else of :mod:`mmlib` (its compiled twins load :mod:`mmlib.core._kernels` on
-first use): it is the bottom of the estimation core's imports.
+This module imports nothing else of :mod:`mmlib` but :mod:`mmlib.core._kernels`, the compiled twins (when loaded,
+to see whether numba imports; that module imports nothing of :mod:`mmlib`): it is the bottom of the estimation core's
+imports.
 """
 from __future__ import annotations
 
@@ -113,7 +114,8 @@ _KERNELS_MODULE: list = []
 
 
 def _compiled_module():
-    """:mod:`mmlib.core._kernels`, imported on first use (it imports numba)."""
+    """:mod:`mmlib.core._kernels` (imported when this module loads, unless ``MMLIB_KERNEL=numpy``; it imports
+    numba)."""
     if not _KERNELS_MODULE:
         from mmlib.core import _kernels
         _KERNELS_MODULE.append(_kernels)

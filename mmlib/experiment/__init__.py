@@ -3,7 +3,8 @@ scenarios as data (``scenario``), metrics with standard errors (``metrics``), Mo
 numbers (``evaluation``), reading spaces (``readings``), the grid runner with its cache (``grid``) and executors
 (``executors``), universe results (``universe``), multiverse summaries (``multiverse``), the paper contract
 (``paper``), run digests and machine fingerprints (``digests``, ``machine``), the one verdict rule (``verdicts``),
-the results contract and its writing (``results``, ``report``) and their tables and figures (``views``).
+the results contract and its writing (``results``, ``report``), their tables and figures (``views``) and what
+every notebook shares (``notebook``).
 
 It depends only on the estimation core (``mmlib.core``); the paper set-ups (``mmlib.papers``) and the arena
 (``mmlib.arena``) depend on it.

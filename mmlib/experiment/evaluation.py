@@ -6,7 +6,7 @@ import concurrent.futures as cf
 import gc
 import time
 from collections.abc import Mapping
-from typing import Callable, Iterable, NamedTuple, Sequence
+from typing import Any, Callable, Iterable, NamedTuple, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -16,7 +16,7 @@ from mmlib.core._validate import (as_float_array, check_bool, check_finite, chec
                                   check_index, check_positive_int)
 from mmlib.core.estimation import run, select_runs, summarise_divergence
 from mmlib.experiment.montecarlo import MonteCarlo, Progress
-from mmlib.core.protocols import MeasurementModel
+from mmlib.core.protocols import Estimator, MeasurementModel
 from mmlib.experiment.simulate import ManeuverSchedule, simulate
 from mmlib.experiment.executors import run_tasks
 
@@ -291,6 +291,27 @@ def better_claim(results: dict, a: str, b: str,
                          f"({f'{100 * v / r:+.2g} %' if r > 0 else 'reference 0'})"
                          for lab, v, se, r, _ in parts)
     return verdict, evidence
+
+
+class NEESProfile(NamedTuple):
+    """An estimator's normalised estimation error squared over a batch: ``per_step`` (K,) the mean over the runs that
+    did not diverge, ``time_average`` the per-run time averages' mean with its standard error, ``n_diverged`` the runs
+    left out."""
+
+    per_step: np.ndarray
+    time_average: metrics.MCValue
+    n_diverged: int
+
+
+def nees_profile(estimator: Estimator, init: Any, measurements: ArrayLike, truth: ArrayLike) -> NEESProfile:
+    r"""The NEES :math:`\tilde x_k^T P_k^{-1} \tilde x_k` of ``estimator`` run from ``init`` on ``measurements``
+    (B, K, m) against ``truth`` (B, K+1, n; its first state is the start), per step and time-averaged over the runs
+    that did not diverge (:func:`mmlib.experiment.metrics.nees`); consistent filters average the state dimension n."""
+    truth = np.asarray(truth)
+    tr = run(estimator, init, measurements)
+    ok = ~tr.diverged
+    nees = metrics.nees(tr.mean - truth[:, 1:], tr.cov, valid=ok)[ok]
+    return NEESProfile(nees.mean(axis=0), metrics.mean_with_se(nees.mean(axis=1)), int((~ok).sum()))
 
 
 def time_algorithms(estimators: dict, init: dict, measurements: ArrayLike, *, repeats: int = 3,

@@ -48,7 +48,7 @@ from mmlib.core._validate import as_plain_json, check_bool, check_names, check_p
 # default_workers lived here: kept importable from this module
 from mmlib.experiment.executors import default_workers, run_tasks, worker_count  # noqa: F401
 from mmlib.experiment.machine import fingerprint, fingerprint_id
-from mmlib.experiment.universe import UniverseResult
+from mmlib.experiment.universe import JSON_KEYS, UniverseResult
 from mmlib.experiment.montecarlo import say_progress
 # source_hash and PRESENTATION_MODULES lived here (moved below executors, which needs them too): kept importable
 from mmlib.experiment.source import PRESENTATION_MODULES, source_hash  # noqa: F401
@@ -309,7 +309,7 @@ def key_document(*, paper: str, job: Callable, reading: Mapping, algorithms: Ite
             "seed": check_positive_int(seed, "seed", minimum=0), "mmlib": source_hash(), "machine": fingerprint_id()}
 
 
-RESULT_KEYS = ("values", "claims", "effects", "diverged", "n_runs")
+RESULT_KEYS = JSON_KEYS
 
 
 def result_checksum(result: Mapping) -> str:

@@ -29,6 +29,7 @@ and one registry line (``docs/new-paper.md`` walks through a minimal one).
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, Callable, Mapping, NamedTuple
@@ -39,15 +40,21 @@ from mmlib.experiment.universe import PublishedNumber, UniverseResult
 
 __all__ = ["Paper", "Study", "ArenaEntry", "UniverseResult", "PublishedNumber", "PROFILE_KEYS"]
 
-#: what a notebook profile may set: headline runs, timing runs and repeats, runs per universe, the design
+#: what a notebook profile may set (checked): headline runs, timing runs and repeats, runs per universe, the design;
+#: a paper may add keys of its own (e.g. tseng2011's oracle runs)
 PROFILE_KEYS = ("n_runs", "timing_runs", "timing_repeats", "mv_runs", "mv_design")
+#: the designs of a reading space (:meth:`mmlib.experiment.readings.ReadingSpace.design`)
+DESIGNS = ("auto", "full", "fractional", "star")
+#: a paper's name: a results file's (mmlib/experiment/results.schema.json)
+NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9-]*")
 
 
 class ArenaEntry(NamedTuple):
-    """What the arena (:mod:`mmlib.arena`) runs on a paper's headline scenario: the ``algorithms`` (recipe names of
-    :data:`mmlib.arena.recipes.RECIPES`), the ``ideas`` the paper contributes (``(idea, algorithm, baseline)``: the
-    arena asks whether the idea helps, across every scenario) and the paper's central ``claim`` with the
-    ``(algorithm, baseline)`` pairs that test it."""
+    """A paper's part in the arena (:mod:`mmlib.arena`, which runs every algorithm on every scenario, the paper's
+    headline scenario among them): the ``algorithms`` it proposes or runs (recipe names of
+    :data:`mmlib.arena.recipes.RECIPES`, credited to it in the arena's algorithm table), the ``ideas`` it
+    contributes (``(idea, algorithm, baseline)``: the arena asks whether the idea helps, scenario by scenario) and
+    its central ``claim`` with the ``(algorithm, baseline)`` pairs that test it."""
 
     algorithms: tuple[str, ...]
     ideas: tuple[tuple[str, str, str], ...] = ()
@@ -57,7 +64,7 @@ class ArenaEntry(NamedTuple):
 
 class Study(NamedTuple):
     """What a study that is not a paper (the arena) declares to its notebook
-    (``mmlib.papers.presentation.NotebookRun``): its ``name`` (the results file's and the figures folder's),
+    (``mmlib.experiment.notebook.NotebookRun``): its ``name`` (the results file's and the figures folder's),
     ``root_seed``, ``profiles`` (as :attr:`Paper.profiles`) and ``citation`` (empty when none)."""
 
     name: str
@@ -102,6 +109,11 @@ class Paper:
         for name in ("name", "title", "citation", "doi", "key_effect", "notebook"):
             if not isinstance(getattr(self, name), str) or not getattr(self, name):
                 raise ValueError(f"{name}: expected a non-empty string, got {getattr(self, name)!r}")
+        if not NAME_PATTERN.fullmatch(self.name):
+            raise ValueError(f"name: expected letters, digits and '-' (a results file's paper name), got {self.name!r}")
+        if self.notebook != self.name and not self.notebook.startswith(self.name + "_"):
+            raise ValueError(f"notebook: expected {self.name!r} or '{self.name}_<topic>' (the runner and the site find "
+                             f"a paper's notebook by that prefix), got {self.notebook!r}")
         check_positive_int(self.root_seed, "root_seed", minimum=0)
         if self.n_runs is not None:
             check_positive_int(self.n_runs, "n_runs", minimum=2)
@@ -113,6 +125,9 @@ class Paper:
             value = getattr(self, field_)
             if not isinstance(value, tuple) or not all(isinstance(v, kind) for v in value):
                 raise ValueError(f"{field_}: expected a tuple of {kind.__name__}, got {value!r}")
+            keys = [v.id if kind is Deviation else v.key for v in value]
+            if len(set(keys)) != len(keys):
+                raise ValueError(f"{field_}: {sorted({str(k) for k in keys if keys.count(k) > 1})} appear twice")
         if not isinstance(self.algorithms, tuple) or not self.algorithms \
                 or not all(isinstance(a, str) for a in self.algorithms):
             raise ValueError(f"algorithms: expected a non-empty tuple of names, got {self.algorithms!r}")
@@ -124,9 +139,16 @@ class Paper:
         for pname, prof in self.profiles.items():
             if not isinstance(prof, Mapping) or "n_runs" not in prof:
                 raise ValueError(f"profiles[{pname!r}]: expected a mapping with 'n_runs', got {prof!r}")
-            check_positive_int(prof["n_runs"], f"profiles[{pname!r}]['n_runs']", minimum=2)
-        if self.arena is not None and not isinstance(self.arena, ArenaEntry):
-            raise ValueError(f"arena: expected an ArenaEntry or None, got {self.arena!r}")
+            for key, least in (("n_runs", 2), ("mv_runs", 2), ("timing_runs", 1), ("timing_repeats", 1)):
+                if key in prof:
+                    check_positive_int(prof[key], f"profiles[{pname!r}][{key!r}]", minimum=least)
+            if prof.get("mv_design", "auto") not in DESIGNS:
+                raise ValueError(f"profiles[{pname!r}]['mv_design']: expected one of {DESIGNS}, got "
+                                 f"{prof['mv_design']!r}")
+        if self.profiles["smoke"]["n_runs"] > self.profiles["full"]["n_runs"]:
+            raise ValueError("profiles: the smoke profile's runs are a prefix of the full profile's: no more of them")
+        if self.arena is not None:
+            _check_arena(self.arena)
         object.__setattr__(self, "profiles", MappingProxyType({k: MappingProxyType(dict(v))
                                                                for k, v in self.profiles.items()}))
 
@@ -151,3 +173,26 @@ class Paper:
             if d.id == id_:
                 return d
         raise ValueError(f"id_: no deviation {id_!r} in {self.name} ({[d.id for d in self.deviations]})")
+
+
+def _check_arena(entry) -> None:
+    """``entry`` as an :class:`ArenaEntry` of tuples of names, or ValueError naming the field."""
+    if not isinstance(entry, ArenaEntry):
+        raise ValueError(f"arena: expected an ArenaEntry or None, got {entry!r}")
+
+    def names(value, field_, size=None):
+        ok = isinstance(value, tuple) and all(
+            isinstance(v, str) and v if size is None else
+            isinstance(v, tuple) and len(v) == size and all(isinstance(x, str) and x for x in v) for v in value)
+        if not ok:
+            what = "names" if size is None else f"{size}-tuples of names"
+            raise ValueError(f"arena.{field_}: expected a tuple of {what}, got {value!r}")
+
+    names(entry.algorithms, "algorithms")
+    if not entry.algorithms:
+        raise ValueError("arena.algorithms: expected at least one algorithm")
+    names(entry.ideas, "ideas", 3)
+    names(entry.claim_pairs, "claim_pairs", 2)
+    if not isinstance(entry.claim, str) or bool(entry.claim) != bool(entry.claim_pairs):
+        raise ValueError(f"arena.claim: expected a claim with its pairs, or neither, got {entry.claim!r} with "
+                         f"{len(entry.claim_pairs)} pair(s)")

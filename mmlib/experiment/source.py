@@ -11,7 +11,7 @@ import hashlib
 from pathlib import Path
 
 #: modules that only render results (tables, figures): editing them cannot change a universe's numbers
-PRESENTATION_MODULES = ("experiment/views.py", "papers/presentation.py", "arena/views.py")
+PRESENTATION_MODULES = ("experiment/views.py", "experiment/notebook.py", "arena/views.py")
 
 
 @functools.lru_cache(maxsize=1)

@@ -214,7 +214,7 @@ class UniverseResult:
         validated as :meth:`build` does."""
         if not isinstance(doc, Mapping):
             raise ValueError(f"doc: expected a universe result's JSON object, got {type(doc).__name__}")
-        missing = [k for k in ("values", "claims", "effects", "diverged", "n_runs") if k not in doc]
+        missing = [k for k in JSON_KEYS if k not in doc]
         if missing:
             raise ValueError(f"doc: expected a universe result's JSON object, lacking {', '.join(missing)}")
         try:

@@ -40,7 +40,11 @@ class Registry(Mapping):
         return len(self._packages)
 
     def register(self, paper: Paper) -> Paper:
-        """Add a paper defined outside this package (returns it); ValueError if the name is taken by another."""
+        """Add a paper defined outside this package (returns it); ValueError if the name is taken by another.
+
+        In this process only: worker processes (``workers`` > 1, a Dask cluster) and notebook kernels import the
+        registry afresh and see the packages of :data:`PACKAGES`.  A paper meant to be run by ``make figures`` or
+        in parallel is a package here, added to :data:`PACKAGES`."""
         if not isinstance(paper, Paper):
             raise ValueError(f"paper: expected a mmlib.experiment.paper.Paper, got {type(paper).__name__}")
         if paper.name in self._packages and self.get(paper.name) is not paper:
@@ -54,6 +58,8 @@ class Registry(Mapping):
         """Remove a paper added with :meth:`register` (the packages of this folder stay)."""
         if name in PACKAGES:
             raise ValueError(f"name: {name!r} is a package of mmlib.papers and cannot be removed")
+        if name not in self._packages:
+            raise ValueError(f"name: {name!r} is not registered")
         self._packages.remove(name)
         self._loaded.pop(name, None)
 

@@ -19,7 +19,7 @@ DOI = "10.3390/s110202090"
 CITATION = ("C.-H. Tseng, C.-W. Chang, D.-J. Jwo, Fuzzy Adaptive Interacting Multiple Model Nonlinear Filter for "
             "Integrated Navigation Sensor Fusion, Sensors 11(2), 2090-2111, 2011, doi:10.3390/s110202090")
 ROOT_SEED = 20110211
-N_RUNS = 100            # our headline's Monte Carlo runs: the paper's run count is not known (T-13)
+HEADLINE_RUNS = 100     # our headline's Monte Carlo runs: the paper's run count is not known (T-13)
 
 #: Brown & Hwang 1997 (Introduction to Random Signals and Applied Kalman Filtering, 3rd ed., Sec. 9.3):
 #: Allan-variance coefficients (h0, h-2) of a temperature-compensated and an oven-controlled crystal

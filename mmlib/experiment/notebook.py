@@ -1,4 +1,8 @@
-"""Small rendering helpers shared by the paper notebooks (Markdown tables, figure styling)."""
+"""What every notebook shares: :class:`NotebookRun` (a paper's or a study's validated papermill parameters, output
+locations, reading-space run and results file) and small rendering helpers (Markdown tables, figure styling).
+
+Paper-agnostic: it reaches a paper only through the contract (:class:`mmlib.experiment.paper.Paper`).  Like
+:mod:`mmlib.experiment.views`, nothing a universe computes uses it (the cache key leaves it out)."""
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, Iterable, Mapping
@@ -38,6 +42,9 @@ def shade_intervals(ax: matplotlib.axes.Axes, intervals: Iterable[tuple[float, f
         ax.axvspan(a, b, color=color, zorder=0, label=label if i == 0 else None)
 
 
+#: the provenance keys every results file gets from :func:`mmlib.experiment.writing.provenance`
+CORE_PROVENANCE = frozenset({"git_commit", "root_seed", "n_runs", "profile", "python", "packages", "kernel"})
+
 #: Least value of each integer notebook parameter (two runs for a standard error).
 PARAMETER_MINIMUM = {"N_RUNS": 2, "SEED": 0, "N_TIMING_RUNS": 1, "WORKERS": 1, "MULTIVERSE_RUNS": 2}
 
@@ -76,13 +83,14 @@ class NotebookRun:
         self.config = cfg
         self.n_runs = N_RUNS or cfg["n_runs"]
         self.seed = paper.root_seed if SEED is None else SEED
-        self.timing_runs = min(N_TIMING_RUNS or cfg.get("timing_runs", 1), self.n_runs)
+        # run-time measurement (None where the profile measures none)
+        self.timing_runs = min(N_TIMING_RUNS or cfg["timing_runs"], self.n_runs) if "timing_runs" in cfg else None
         self.timing_repeats = cfg.get("timing_repeats")
         # the reading-space multiverse: Monte Carlo runs per universe and design (profile defaults)
         self.mv_runs = MULTIVERSE_RUNS or cfg.get("mv_runs", self.n_runs)
         self.mv_design = MULTIVERSE_DESIGN or cfg.get("mv_design", "auto")
         #: the runs of the digest: the smoke profile's headline runs, the same first runs in every profile
-        self.digest_runs = min(self.n_runs, int(profiles["smoke"]["n_runs"]))
+        self.digest_runs = min(self.n_runs, int(profiles.get("smoke", cfg)["n_runs"]))
         from mmlib.experiment.executors import default_workers
         self.workers = WORKERS or default_workers()
         cwd = Path.cwd().resolve()
@@ -106,6 +114,8 @@ class NotebookRun:
         ``options`` go to it, e.g. ``executor``)."""
         from mmlib.experiment.multiverse import run_multiverse
         p = self.study
+        if not isinstance(p, Paper):
+            raise ValueError(f"multiverse: {p.name} is a study, not a paper: it has no reading space")
         return run_multiverse(p.space, p.universe, published=p.published, n_runs=self.mv_runs, seed=self.seed,
                               algorithms=p.algorithms, design=self.mv_design, n_runs_paper=p.n_runs,
                               workers=self.workers, progress=self.progress, **options)
@@ -132,7 +142,7 @@ class NotebookRun:
         import mmlib
         from mmlib.experiment import report
         extra = {"paper_citation": self.study.citation} if self.study.citation else {}
-        if isinstance(self.study, Paper):
+        if self.timing_runs is not None:
             extra.update({"timing_runs": self.timing_runs, "timing_repeats": self.timing_repeats})
         extra["mmlib"] = mmlib.__version__
         if isinstance(self.study, Paper):
@@ -140,6 +150,9 @@ class NotebookRun:
             # the design run (e.g. "fractional"), not the profile's request ("auto")
             extra.update({"multiverse_runs": self.mv_runs,
                           "multiverse_design": mv.design.kind if hasattr(mv, "design") else self.mv_design})
+        clash = sorted(set(provenance or {}) & (set(extra) | CORE_PROVENANCE))
+        if clash:
+            raise ValueError(f"provenance: {clash} are written by NotebookRun itself")
         extra.update(provenance or {})
         prov = report.provenance(root_seed=self.seed, n_runs=self.n_runs, profile=self.profile, extra=extra)
         for key, value in list(sections.items()):
@@ -156,7 +169,7 @@ class NotebookRun:
         doc = report.write_results(self.results_path, paper=self.paper, provenance=prov, rows=rows, **sections)
         counts = {v: sum(str(r["verdict"] if isinstance(r, Mapping) else r.verdict).startswith(v) for r in rows)
                   for v in report.VERDICTS}
-        print(f"wrote {self.results_path.name} ({len(rows)} rows): {counts}")
+        print(f"wrote {self.results_path.name}" + (f" ({len(rows)} rows): {counts}" if rows else ""))
         return doc
 
 
