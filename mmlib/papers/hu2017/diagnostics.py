@@ -1,8 +1,8 @@
 """What only the Hu et al. 2017 notebook shows: the truth's plausibility under the readings of the noise unit
 (H-4, H-13), how closely the five IMMs coincide, and how the reading space's universes move from the headline.
 
-Lengths in km, speeds in km/s.  No algorithm lives here: everything is computed from :mod:`.setup` and
-:mod:`.study`.
+Lengths in km, speeds in km/s.  No algorithm lives here: everything is computed from :mod:`mmlib.papers.hu2017.setup`
+and :mod:`mmlib.papers.hu2017.study`.
 """
 from __future__ import annotations
 

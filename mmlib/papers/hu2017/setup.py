@@ -92,8 +92,8 @@ def _gamma(T: float) -> np.ndarray:
 
 def truth_and_radar(setup: Setup) -> tuple:
     """``(schedule, radar)``: the truth's :class:`ManeuverSchedule` (the two turn modes with the truth's ``q``, mode
-    2 at the steps ``mode2_steps``, H-5) and the range-bearing radar (variances ``sigma_r``^2 in km^2 and
-    ``sigma_theta_deg``^2 in rad^2)."""
+    2 at the steps ``mode2_steps``, H-5) and the range-bearing radar (variances: ``sigma_r`` squared in km², and
+    ``sigma_theta_deg`` in radians, squared, in rad²)."""
     T = setup.T
     truth_modes = [models.coordinated_turn(T, w, q, _gamma(T)) for w, q in zip(setup.omegas, setup.q)]
     radar = models.range_bearing(np.diag([setup.sigma_r ** 2, math.radians(setup.sigma_theta_deg) ** 2]))

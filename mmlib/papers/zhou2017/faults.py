@@ -16,10 +16,10 @@ from mmlib.core.models import radar_drift
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
 
 if TYPE_CHECKING:
-    from mmlib.papers.zhou2017.setup import Setup
+    import mmlib
 
 
-def radar_fault(setup: Setup, mc: MonteCarlo, runs: Sequence[int] | np.ndarray,
+def radar_fault(setup: mmlib.papers.zhou2017.setup.Setup, mc: MonteCarlo, runs: Sequence[int] | np.ndarray,
                 times: Sequence[float] | np.ndarray) -> models.SensorFault:
     """The Case 2 fault (Eq. 2's delta h_out) of the runs, from the FAULT stream; every fault kind uses
     the same 2K + 2 normals per run (common random numbers across the Z-6 readings):
