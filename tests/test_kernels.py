@@ -137,9 +137,10 @@ def test_fused_steps_agree_across_kernels():
         _close(getattr(e1, f), getattr(e2, f), 1e-12, f"imm.step {f}")
 
 
-def _bits_equal(a, b, label):
-    a, b = np.asarray(a), np.asarray(b)
-    assert a.shape == b.shape and a.tobytes() == b.tobytes(), f"{label}: not bit-identical"
+def _bit_differences(pairs) -> list:
+    """The labels of the ``(got, expected, label)`` pairs whose arrays differ in shape or in any bit."""
+    return [label for got, expected, label in pairs
+            if np.shape(got) != np.shape(expected) or np.asarray(got).tobytes() != np.asarray(expected).tobytes()]
 
 
 def test_fused_numpy_bodies_are_the_generic_composition_bit_for_bit():
@@ -156,19 +157,20 @@ def test_fused_numpy_bodies_are_the_generic_composition_bit_for_bit():
     P = _spd(rng, B * r, n, cond=5.0).reshape(B, r, n, n) * 100.0
     mean = rng.standard_normal((B, r, n)) * 100.0 + np.array([2e4, 10.0, -1e4, 5.0])
     up = Unscented(1.0, 2.0, 0.0).unit_points(n)
+    pairs = []                                  # (numpy body's result, the generic composition's, label)
     with linalg.use_kernel("numpy"):
         for dynamics, m, c in ((stacked, mean, P), (dyn[1], mean[:, 0], P[:, 0])):    # per mode, and one model
             got = linalg.linear_predict(m, c, dynamics.F, dynamics.Q)
             cov, _ = linalg.congruence(dynamics.jacobian(m), c, dynamics.Q)
-            _bits_equal(got[0], dynamics.transition(m[..., None, :])[..., 0, :], "linear_predict mean")
-            _bits_equal(got[1], cov, "linear_predict cov")
+            pairs += [(got[0], dynamics.transition(m[..., None, :])[..., 0, :], "linear_predict mean"),
+                      (got[1], cov, "linear_predict cov")]
             got = linalg.sigma_point_predict_linear(m, c, up.xi, up.wm, up.wc, dynamics.F, dynamics.Q)
             X, _ = linalg.sigma_points(m, c, up.xi)
             Y = dynamics.transition(X)
             ym = linalg.weighted_mean(Y, up.wm)
-            _bits_equal(got[0], ym, "sigma_point_predict_linear mean")
-            _bits_equal(got[1], linalg.weighted_covariances(Y - ym[..., None, :], up.wc, None, dynamics.Q)[0],
-                        "sigma_point_predict_linear cov")
+            pairs += [(got[0], ym, "sigma_point_predict_linear mean"),
+                      (got[1], linalg.weighted_covariances(Y - ym[..., None, :], up.wc, None, dynamics.Q)[0],
+                       "sigma_point_predict_linear cov")]
         X, _ = linalg.sigma_points(mean, P, up.xi)
         for meas in (models.RangeBearing(np.diag([100.0, 1e-4]), sensor=(-3e4, 2e3)),
                      models.position_measurement(np.diag([4.0, 9.0]))):
@@ -177,13 +179,22 @@ def test_fused_numpy_bodies_are_the_generic_composition_bit_for_bit():
             z_pred = meas.average(Z, up.wm)
             S, Pxz = linalg.weighted_covariances(meas.residual(Z, z_pred[..., None, :]), up.wc,
                                                  X - mean[..., None, :], meas.R)
-            for g, e, f in zip(got, (z_pred, S, Pxz), ("z_pred", "S", "Pxz")):
-                _bits_equal(g, e, f"measurement_moments {meas.name} {f}")
+            pairs += [(g, e, f"measurement_moments {meas.name} {f}")
+                      for g, e, f in zip(got, (z_pred, S, Pxz), ("z_pred", "S", "Pxz"))]
         mu = rng.dirichlet(np.ones(r), size=B)
         T = np.array([[0.9, 0.05, 0.05], [0.1, 0.8, 0.1], [0.0, 0.3, 0.7]])
         c, w = mixing_weights(mu, T)
-        for g, e, f in zip(linalg.imm_mix(mu, T, mean, P), (c,) + MomentMixing()(mean, P, w), ("c", "means", "covs")):
-            _bits_equal(g, e, f"imm_mix {f}")
+        pairs += [(g, e, f"imm_mix {f}")
+                  for g, e, f in zip(linalg.imm_mix(mu, T, mean, P), (c,) + MomentMixing()(mean, P, w),
+                                     ("c", "means", "covs"))]
+    assert len(pairs) == 4 * 2 + 3 * 2 + 3
+    assert not _bit_differences(pairs), _bit_differences(pairs)
+    # the comparison is bitwise: one ulp in one element of any result is a difference
+    for k in range(len(pairs)):
+        got, expected, label = pairs[k]
+        nudged = np.array(got, dtype=float)
+        nudged.flat[0] = np.nextafter(nudged.flat[0], np.inf)
+        assert _bit_differences([(nudged, expected, label)]) == [label]
 
 
 def test_every_operation_has_a_numpy_body_and_a_compiled_twin():
