@@ -229,17 +229,43 @@ def _timing_inputs(n=3):
     return {a: est[a] for a in ("IMMCKF", "5CKF")}, init, z
 
 
-def test_time_algorithms_shapes_fastest_run_and_gc_restored():
+def test_time_algorithms_shapes_fastest_run_and_gc_restored(monkeypatch):
+    """The bookkeeping of time_algorithms on a scripted clock (a timed assertion would flip with machine load):
+    each (start, stop) pair of thread_time calls is given a known duration, so the per-repeat value must be the
+    fastest of that repeat's one-at-a-time runs of that estimator, and the batched value the call's time per run."""
     import gc
+    import itertools
     ests, init, z = _timing_inputs()
+    names, repeats, per_repeat, n = list(ests), 3, 2, z.shape[0]
+    durations = iter(itertools.count(1))                       # the k-th timed call lasts k seconds
+    clock = {"t": 0.0, "open": False}
+
+    def fake_thread_time():
+        if clock["open"]:
+            clock["t"] += next(durations)
+        clock["open"] = not clock["open"]
+        return clock["t"]
+
+    monkeypatch.setattr(evaluation.time, "thread_time", fake_thread_time)
     assert gc.isenabled()
-    per_run, batched = evaluation.time_algorithms(ests, init, z, repeats=3, per_repeat=2)
+    per_run, batched = evaluation.time_algorithms(ests, init, z, repeats=repeats, per_repeat=per_repeat)
     assert gc.isenabled()                                      # the collector is paused only while timing
-    for a in ests:
-        assert per_run[a].shape == (3,) and batched[a].shape == (3,)
-        assert (per_run[a] > 0).all() and (batched[a] > 0).all()
-    # the single-model filter does a third of an IMM's work: cheaper in every repeat
-    assert (per_run["5CKF"] < per_run["IMMCKF"]).all()
+    # the expected values from the documented call order: per repeat, runs b in turn, the estimators rotated
+    k, single, batch = itertools.count(1), {a: [] for a in names}, {a: [] for a in names}
+    for r in range(repeats):
+        order = names[r % len(names):] + names[:r % len(names)]
+        times = {a: [] for a in names}
+        for _b in range(per_repeat):
+            for a in order:
+                times[a].append(next(k))
+        for a in order:
+            batch[a].append(next(k) / n)
+        for a in names:
+            single[a].append(min(times[a]))
+    for a in names:
+        assert per_run[a].shape == (repeats,) and batched[a].shape == (repeats,)
+        np.testing.assert_array_equal(per_run[a], single[a])
+        np.testing.assert_array_equal(batched[a], batch[a])
     with pytest.raises(ValueError, match="per_repeat"):
         evaluation.time_algorithms(ests, init, z, repeats=3, per_repeat=4)
     with pytest.raises(ValueError, match="repeats"):
