@@ -7,7 +7,7 @@ import numpy as np
 from mmlib.experiment import metrics
 from mmlib.experiment import Factor, Option, PublishedNumber, ReadingSpace, UniverseResult
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
-from mmlib.experiment.report import Claims, paired_claim
+from mmlib.experiment.report import Claims, judge, part
 
 SPACE = ReadingSpace("toy", (
     Factor("A", "bias", (Option("zero", "no bias", "Sec. 1", {"bias": 0.0}),
@@ -32,7 +32,7 @@ def toy_universe(reading, n_runs, seed):
     x = ch["bias"] + ch["scale"] * mc.standard_normal(range(n_runs), Stream.TRUTH, ())
     m = metrics.mean_with_se(x)
     claims = Claims()
-    claims.add("the mean is positive", paired_claim(float(m.value), float(m.stderr), +1))
+    claims.add("the mean is positive", judge([part("mean − 0", "value", float(m.value), float(m.stderr), +1)]))
     sd = float(np.std(x, ddof=1))
     return UniverseResult.build(values=[("T1", "alg", "mean", m.value, m.stderr),
                                         ("T1", "alg", "sd", sd, sd / np.sqrt(2 * n_runs))],
@@ -65,3 +65,29 @@ def metric_universe(reading, n_runs, seed):
     x = ch["bias"] + ch["scale"] * mc.standard_normal(range(n_runs), Stream.TRUTH, ())
     sd = base.values[1]._replace(replicated=float(np.std(x, ddof=ch["ddof"])))
     return dataclasses.replace(base, values=(base.values[0], sd, *base.values[2:]))
+
+
+#: a space of 3 x 3 x 2 x 4 = 72 universes for the share estimator (tests/test_shares.py); budget 20: sampled
+SHARE_SPACE = ReadingSpace("toy-shares", tuple(
+    Factor(f"S{i}", f"factor {i}", tuple(Option(f"o{j}", f"option {j}", "Sec. 1", {f"s{i}": j}) for j in range(n)),
+           "o0", "Sec. 1") for i, n in enumerate((3, 3, 2, 4))), budget=20)
+
+SHARE_PUBLISHED = (PublishedNumber("Table S", "S", "alg", "x", "3.0"),)
+
+
+def share_verdict(reading) -> str:
+    """The claim's verdict as a known function of the reading: "holds" when s0 + s1 + s3 >= 3, else "contradicted"
+    when s2 = 1, else "not supported" (so each verdict's share of the 72 universes is known exactly)."""
+    ch = SHARE_SPACE.changes(reading)
+    if ch["s0"] + ch["s1"] + ch["s3"] >= 3:
+        return "holds"
+    return "contradicted" if ch["s2"] == 1 else "not supported"
+
+
+def share_universe(reading, n_runs, seed):
+    """A universe without simulation: the claim of :func:`share_verdict` and a value x = 1 + s0 + s1/2 +- 0.05
+    (no randomness; ``n_runs`` and ``seed`` unused)."""
+    ch = SHARE_SPACE.changes(reading)
+    return UniverseResult.build(values=[("S", "alg", "x", 1.0 + ch["s0"] + ch["s1"] / 2, 0.05)],
+                                claims=[{"claim": "the claim", "verdict": share_verdict(reading)}],
+                                diverged={}, n_runs=n_runs)

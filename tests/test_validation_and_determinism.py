@@ -121,11 +121,6 @@ def test_verdict_rule():
     assert report.claim_verdict(1.0, 0.1, -1) == "contradicted"
     assert report.claim_verdict(0.1, 0.1, -1) == "no detectable difference"
     assert report.claim_verdict(-1.0, 0.1, -1, reference=1000.0) == "holds, but negligible (< 1 %)"
-    assert report.combine_claim_verdicts(["holds (a)", "holds (b)"]) == "holds"
-    assert report.combine_claim_verdicts(["no detectable difference (a)"] * 2).startswith("not supported")
-    assert report.combine_claim_verdicts(["holds, but negligible (< 1 %) (a)", "no detectable difference (b)"]
-                                         ).startswith("not supported: differences negligible")
-    assert report.combine_claim_verdicts(["holds (a)", "contradicted (b)"]).startswith("partly")
 
 
 def test_nees_of_the_exact_kalman_filter_averages_to_the_state_dimension():

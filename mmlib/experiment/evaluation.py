@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import gc
+import math
 import time
 from collections.abc import Mapping
 from typing import Any, Callable, Iterable, NamedTuple, Sequence
@@ -34,6 +35,7 @@ class RunSet(NamedTuple):
     nees: object = None              # (N, K) NEES per run and step (evaluate(..., consistency=True)), or None
     nis: object = None               # (N, K) NIS per run and step, or None
     nis_dof: object = None           # (K,) measurement dimension m_k of every step (the NIS's degrees of freedom)
+    ops: object = None               # floating-point operations of one run (run_operations), or None if unknown
 
     @property
     def valid(self) -> np.ndarray:
@@ -216,9 +218,45 @@ def evaluate_with_cost(estimators: dict, make_batch: Callable, mc: MonteCarlo, *
         per = [part[name] for part in parts]
         cat = (lambda field: np.concatenate([p[field] for p in per]) if per[0][field] is not None else None)
         out[name] = RunSet(cat("err"), cat("mu"), cat("div"), per[0]["first"], cat("diag"), cat("cause"),
-                           cat("nees"), cat("nis"), per[0]["nis_dof"])
+                           cat("nees"), cat("nis"), per[0]["nis_dof"],
+                           run_operations(estimators[name], per[0]["err"].shape[1], measurement_models))
         cpu[name] = float(sum(p["cpu"] for p in per))
     return out, cpu
+
+
+def run_operations(estimator: Estimator, steps: int,
+                   measurement_models: Sequence[MeasurementModel] | None = None) -> int | None:
+    r"""The operation count ``c`` of the round-off floor of a run of ``estimator`` over ``steps`` steps
+    (:func:`mmlib.experiment.verdicts.identity_floor`): its flops per step :math:`f` by the cost model
+    (:func:`mmlib.core.cost.step_flops`; with per-step ``measurement_models``, those of the largest) times
+    :math:`\sqrt K` for the ``K`` steps, rounded up: the worst-case rounding of one step's operations, accumulating over
+    the steps like a random walk (Higham 2002, *Accuracy and Stability of Numerical Algorithms*, Sec. 2.8) -- a
+    filter forgets old steps, so the errors of a whole run do not add linearly.  None when the cost model does not
+    know the estimator."""
+    from mmlib.core import cost
+    steps = check_positive_int(steps, "steps")
+    if measurement_models is not None and (isinstance(measurement_models, (str, bytes, Mapping))
+                                           or not hasattr(measurement_models, "__len__")):
+        raise ValueError(f"measurement_models: expected None or a sequence of measurement models, got "
+                         f"{measurement_models!r}")
+    try:
+        if measurement_models is not None and len(measurement_models):
+            largest = max(measurement_models, key=lambda mm: mm.dim)
+            per_step = cost.step_flops(estimator, measurement=largest)["total"]
+        else:
+            per_step = cost.step_flops(estimator)["total"]
+    except ValueError:
+        return None
+    return int(math.ceil(per_step * math.sqrt(steps)))
+
+
+def pair_operations(a: RunSet, b: RunSet) -> int:
+    """The operation count of the round-off floor of a paired comparison of the runs ``a`` and ``b``: the larger of
+    their ``RunSet.ops`` (:func:`run_operations`), ``ROUNDOFF_OPS`` when either is unknown."""
+    from mmlib.experiment.verdicts import ROUNDOFF_OPS
+    _check_runset(a, "a")
+    _check_runset(b, "b")
+    return ROUNDOFF_OPS if a.ops is None or b.ops is None else max(int(a.ops), int(b.ops))
 
 
 def _evaluate_chunk(estimators: dict, make_batch: Callable, measurement_models, consistency: bool, runs) -> dict:
@@ -263,11 +301,15 @@ def paired_mse_difference(a: RunSet, b: RunSet, components: int | Sequence[int])
     return metrics.mean_with_se(d, ok)
 
 
-def better_claim(results: dict, a: str, b: str,
-                 quantities: Iterable[tuple[str, int | Sequence[int]]]) -> tuple[str, str]:
-    """Verdict and evidence for "a is more accurate than b" over ``quantities`` = [(label, components)],
-    from paired differences on common random numbers (:func:`mmlib.experiment.verdicts.claim_verdict`)."""
-    from mmlib.experiment.verdicts import claim_verdict, combine_claim_verdicts
+def better_claim(results: dict, a: str, b: str, quantities: Iterable[tuple[str, int | Sequence[int]]], *,
+                 unit: str = "") -> tuple:
+    """Judgement and evidence for "a is more accurate than b" over ``quantities`` = [(label, components)]: one
+    :class:`~mmlib.experiment.verdicts.Part` per quantity from the paired difference of mean squared errors on
+    common random numbers (:func:`paired_mse_difference`), relative to b's mean squared error, combined by
+    :func:`mmlib.experiment.verdicts.judge`; the round-off floor's operation count is the larger of the two runs'
+    (``RunSet.ops``, :func:`run_operations`; ``ROUNDOFF_OPS`` when unknown).  ``unit``: the squared unit of the
+    components (e.g. ``"m²"``).  Returns ``(Judgement, evidence text)``."""
+    from mmlib.experiment.verdicts import judge, part
     _check_mapping(results, "results", "RunSets by estimator name")
     _check_name(a, "a", results)
     _check_name(b, "b", results)
@@ -279,18 +321,19 @@ def better_claim(results: dict, a: str, b: str,
     if not quantities or not all(isinstance(q, (tuple, list)) and len(q) == 2 and isinstance(q[0], str)
                                  for q in quantities):
         raise ValueError(f"quantities: expected a non-empty sequence of (label, components) pairs, got {quantities!r}")
+    ops = pair_operations(results[a], results[b])
     parts = []
     for label, comp in quantities:
         d = paired_mse_difference(results[a], results[b], comp)
         idx = [comp] if np.isscalar(comp) else list(comp)
         ref = float((results[b].errors[results[b].valid][..., idx] ** 2).sum(axis=-1).mean())
-        parts.append((label, float(d.value), float(d.stderr), ref,
-                      claim_verdict(float(d.value), float(d.stderr), -1, reference=ref)))
-    verdict = combine_claim_verdicts(f"{v} ({lab})" for lab, _, _, _, v in parts)
-    evidence = "; ".join(f"{lab}: Δ(mean squared error) = {v:.3g} ± {se:.2g} "
-                         f"({f'{100 * v / r:+.2g} %' if r > 0 else 'reference 0'})"
-                         for lab, v, se, r, _ in parts)
-    return verdict, evidence
+        parts.append(part(f"{a} − {b}", f"{label} MSE", float(d.value), float(d.stderr), -1, reference=ref,
+                          unit=unit, ops=ops))
+    evidence = "; ".join(f"{p.quantity}: Δ = {p.difference:.3g} ± {p.stderr:.2g}"
+                         f"{' ' + p.unit if p.unit else ''} "
+                         f"({f'{100 * p.difference / p.reference:+.2g} %' if p.reference else 'reference 0'}; "
+                         f"{p.verdict})" for p in parts)
+    return judge(parts), evidence
 
 
 class NEESProfile(NamedTuple):
@@ -379,7 +422,7 @@ def first_runs(rs: RunSet, n: int) -> RunSet:
         raise ValueError(f"n: {n} runs asked of a RunSet of {rs.errors.shape[0]} runs")
     cut = (lambda a: None if a is None else a[:n])
     return RunSet(rs.errors[:n], cut(rs.mode_probabilities), rs.diverged_step[:n], rs.example_mean, cut(rs.diagnostics),
-                  cut(rs.divergence_cause), cut(rs.nees), cut(rs.nis), rs.nis_dof)
+                  cut(rs.divergence_cause), cut(rs.nees), cut(rs.nis), rs.nis_dof, rs.ops)
 
 
 def _checked_batch(batch, runs, estimators, per_step: bool):

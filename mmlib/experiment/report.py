@@ -12,12 +12,16 @@ from __future__ import annotations
 # re-exported: the results contract
 from mmlib.experiment.results import read_results, results_schema, validate_results  # noqa: F401
 # re-exported: the verdict rule
-from mmlib.experiment.verdicts import (CLAIM_VERDICTS, CONTRADICTED, HOLDS, INCONCLUSIVE, NEGLIGIBLE,  # noqa: F401
-                                       NOT_ASSESSABLE, NOT_REPLICABLE, NOT_REPRODUCED, NOT_SUPPORTED, PARTLY,
-                                       QUALITATIVE, RELATIVE_BAND, REPRODUCED, SIGMA_FACTOR, VERDICTS, ClaimVerdict,
-                                       Claims, Row, Verdict, analytic_row, claim_category, claim_verdict,
-                                       combine_claim_verdicts, make_row, paired_claim, printed_half_unit,
-                                       standardized_distance, verdict, verdict_category)
+from mmlib.experiment.verdicts import (CLAIM_VERDICTS, CONTRADICTED, COST_MARGIN, HOLDS, INCONCLUSIVE,  # noqa: F401
+                                       ISOLATED, JOINT_ALPHA, NEGLIGIBLE, NOT_ASSESSABLE, NOT_REPLICABLE,
+                                       NOT_REPRODUCED, NOT_REPRODUCED_EXACT, NOT_SUPPORTED, PAPER_ERROR_ASSUMPTION,
+                                       PARTLY, QUALITATIVE, RELATIVE_BAND, REPRODUCED, REPRODUCED_EXACT,
+                                       ROUNDOFF_OPS, SIGMA_FACTOR, VERDICTS, ClaimVerdict, Claims, JointTest,
+                                       Judgement, Part, PartVerdict, Row, Verdict, analytic_row, claim_category,
+                                       claim_verdict, exact_part, exact_row, identity_floor,
+                                       is_reproduced, joint_test, joint_tests, judge, make_row, part,
+                                       printed_half_unit, ratio_part, standardized_distance, verdict,
+                                       verdict_category)
 # re-exported: writing the outputs
 from mmlib.experiment.writing import (atomic_write_text, git_commit, provenance, save_figure,  # noqa: F401
                                       write_results)

@@ -61,11 +61,13 @@ class Value(NamedTuple):
 
 
 class JudgedClaim(NamedTuple):
-    """A claim of the paper and its verdict in the claim vocabulary
-    (:func:`mmlib.experiment.verdicts.claim_verdict`)."""
+    """A claim of the paper, its verdict (one term of the claim vocabulary,
+    :class:`mmlib.experiment.verdicts.ClaimVerdict`) and the decisive number or reason that produced it
+    (:class:`mmlib.experiment.verdicts.Judgement`)."""
 
     claim: str
     verdict: str
+    decisive: str = ""
 
 
 class Effect(NamedTuple):
@@ -153,8 +155,11 @@ class UniverseResult:
                 c = c._asdict()
             if not isinstance(c, Mapping) or "claim" not in c or "verdict" not in c:
                 raise ValueError(f"claims[{i}]: expected a dict with 'claim' and 'verdict', got {c!r}")
-            verdicts.claim_category(_text(c["verdict"], f"claims[{i}].verdict"))
-            cls_.append(JudgedClaim(_text(c["claim"], f"claims[{i}].claim"), str(c["verdict"])))
+            text = _text(c["verdict"], f"claims[{i}].verdict")
+            cat = verdicts.claim_category(text)
+            decisive = c.get("decisive") or (text.split(":", 1)[1].strip() if ":" in text else "")
+            cls_.append(JudgedClaim(_text(c["claim"], f"claims[{i}].claim"), str(cat),
+                                    _text(decisive, f"claims[{i}].decisive") if decisive else ""))
         effs = []
         for i, e in enumerate(items(effects, "effects", "(name, value, stderr[, published])")):
             name, value, se, *pub = _tuple_of(e, f"effects[{i}]", (3, 4), "(name, value, stderr[, published])")

@@ -19,29 +19,45 @@ error ``s`` from ``N`` runs, where the paper used ``N_p`` runs:
 * **not replicable**        when no replicated value can be produced (method or data
   not published); the reason is part of the verdict text.
 
-These five categories are the members of :class:`Verdict` (``VERDICTS`` in this order).
+Three refinements complete the rule:
+
+* **exact values**: a value computed analytically (no Monte Carlo error) is **reproduced (exact)** when it equals
+  the printed number to the printed precision, **not reproduced (exact)** otherwise (:func:`exact_row`);
+* **joint tests**: a table (the rows of one item) and each of its rows (one item and algorithm) are tested
+  jointly: the sum of squared standardized distances of their Monte Carlo cells against chi-squared with one
+  degree of freedom per cell at the level of the 3-sigma rule, 2 Phi(-3) = 0.0027 (:func:`joint_test`); a cell
+  *reproduced* inside a table or row that fails is **reproduced (isolated)**, a coincidence that never counts as
+  reproducing the paper (:func:`joint_tests`, :func:`is_reproduced`);
+* the paper's own Monte Carlo error is an assumption (:data:`PAPER_ERROR_ASSUMPTION`), stated in every report.
+
+These categories are the members of :class:`Verdict` (``VERDICTS`` in this order).
 
 Claims (rankings, "A is better than B") get a separate verdict from a paired
 comparison on common random numbers.  Each tested part of a claim (one quantity,
-one pair of algorithms) gets a *part verdict* from :func:`claim_verdict`:
+one pair of algorithms, a :class:`Part`) gets a *part verdict* :class:`PartVerdict` from :func:`claim_verdict`:
 
+* ``identical (to round-off)`` the difference and its standard error both lie within the round-off floor
+  :func:`identity_floor` (c x eps x the reference, c the operations of one run: steps x flops per step by the cost
+  model, ``ROUNDOFF_OPS`` when unknown): the two computations are one in exact arithmetic as far as floating point
+  can tell, and no z-score is computed on round-off;
 * ``holds``                   the difference has the claimed sign, >= 3 standard errors from 0;
 * ``contradicted``            the opposite sign, >= 3 standard errors from 0;
 * ``no detectable difference`` otherwise;
 * ``..., but negligible (< 1 %)`` appended to a detected difference smaller than 1 % of the
   reference mean squared error (paired differences detect effects too small to matter).
 
-A claim's verdict is one of the *claim vocabulary* :class:`ClaimVerdict` (``CLAIM_VERDICTS``), optionally
-followed by ``": "`` and detail, combined from its parts by :func:`combine_claim_verdicts`:
+A deterministic ratio (a cost from :mod:`mmlib.core.cost`) is a part by :func:`ratio_part`: it holds or is
+contradicted beyond the equivalence margin ``COST_MARGIN`` (±10 %), and is no difference within it.
 
-* **holds**           every part holds (non-negligibly);
-* **partly**          some parts hold, others do not;
-* **contradicted**    no part holds and at least one is contradicted (non-negligibly);
-* **not supported**   no part holds or is contradicted: differences undetectable or negligible;
-* **not assessable**  the claim cannot be tested by this replication (the reason follows).
+A claim's verdict is a :class:`Judgement`: one term of the *claim vocabulary* :class:`ClaimVerdict`
+(``CLAIM_VERDICTS``), the one *decisive* number that produced it, and its parts, combined by :func:`judge`:
 
-Run times are judged by the same rules: a timing row's standard error comes from
-repeated timings, and a timing claim is a part verdict on a ratio minus one.
+* **holds**           every part holds (non-negligibly); decisive: the weakest part;
+* **partly**          some parts hold, others do not; decisive: the count and the most adverse part;
+* **contradicted**    no part holds and at least one is contradicted (non-negligibly); decisive: the strongest;
+* **not supported**   no part holds or is contradicted: differences identical, undetectable or negligible;
+  decisive: the part nearest to detection, or the identity;
+* **not assessable**  the claim cannot be tested by this replication (decisive: the reason).
 
 The categories are string enums (:class:`enum.StrEnum`): a member equals, hashes, formats, prints and serialises
 to JSON as its string (``Verdict.REPRODUCED == "reproduced"``), so verdict texts written with them are plain strings
@@ -52,8 +68,8 @@ from __future__ import annotations
 
 import enum
 import math
-from dataclasses import dataclass, field
-from typing import Iterable, Mapping
+from dataclasses import dataclass, field, replace
+from typing import Iterable, Mapping, NamedTuple
 
 import numpy as np
 
@@ -70,10 +86,25 @@ class Verdict(_Vocabulary):
     """The categories of the verdict rule (module docstring); a row's verdict text starts with one."""
 
     REPRODUCED = "reproduced"
+    REPRODUCED_EXACT = "reproduced (exact)"
+    ISOLATED = "reproduced (isolated)"
     QUALITATIVE = "qualitatively reproduced"
     INCONCLUSIVE = "inconclusive"
     NOT_REPRODUCED = "not reproduced"
+    NOT_REPRODUCED_EXACT = "not reproduced (exact)"
     NOT_REPLICABLE = "not replicable"
+
+
+class PartVerdict(_Vocabulary):
+    """The verdict on one tested part of a claim (one quantity, one pair of algorithms): :func:`claim_verdict`."""
+
+    HOLDS = "holds"
+    HOLDS_NEGLIGIBLE = "holds, but negligible (< 1 %)"
+    CONTRADICTED = "contradicted"
+    CONTRADICTED_NEGLIGIBLE = "contradicted, but negligible (< 1 %)"
+    NO_DIFFERENCE = "no detectable difference"
+    IDENTICAL = "identical (to round-off)"
+    NOT_COMPARABLE = "not comparable"
 
 
 class ClaimVerdict(_Vocabulary):
@@ -87,9 +118,12 @@ class ClaimVerdict(_Vocabulary):
 
 
 REPRODUCED = Verdict.REPRODUCED
+REPRODUCED_EXACT = Verdict.REPRODUCED_EXACT
+ISOLATED = Verdict.ISOLATED
 QUALITATIVE = Verdict.QUALITATIVE
 INCONCLUSIVE = Verdict.INCONCLUSIVE
 NOT_REPRODUCED = Verdict.NOT_REPRODUCED
+NOT_REPRODUCED_EXACT = Verdict.NOT_REPRODUCED_EXACT
 NOT_REPLICABLE = Verdict.NOT_REPLICABLE
 #: the number vocabulary, in the order of the rule
 VERDICTS = tuple(Verdict)
@@ -102,12 +136,26 @@ NOT_ASSESSABLE = ClaimVerdict.NOT_ASSESSABLE
 #: the claim vocabulary, in the order of the module docstring
 CLAIM_VERDICTS = tuple(ClaimVerdict)
 
+#: the assumption every report states about the paper's own Monte Carlo error (the rule's ``s_p``)
+PAPER_ERROR_ASSUMPTION = ("The papers print no standard errors. The rule assumes the paper's Monte Carlo error is "
+                          "that of the same estimator over the paper's own run count: s_p = s·√(N/N_p) from our "
+                          "standard error s over N runs, and adds half a unit of the printed last digit.")
 #: the number of combined standard errors within which a value is reproduced, and a claim's difference detected
 SIGMA_FACTOR = 3.0
 #: the qualitative band: within this fraction of the printed value
 RELATIVE_BAND = 0.25
 #: a detected claim difference below this fraction of the reference is negligible
 NEGLIGIBLE = 0.01
+#: the default operation count ``c`` of the round-off floor :func:`identity_floor`, for a comparison whose runs'
+#: operations are unknown; a paired comparison of two runs passes their count instead (the larger of the two: flops
+#: per step by :mod:`mmlib.core.cost` times the square root of the steps,
+#: :func:`mmlib.experiment.evaluation.run_operations`).  2^21 = 2.1e6 covers the papers' own filters (the largest,
+#: tseng2011's FUZZY-IMMUKF: 3.05e4 flops per epoch over 1800 epochs, 1.3e6)
+ROUNDOFF_OPS = 2 ** 21
+#: the equivalence margin of a deterministic ratio (:func:`ratio_part`): within ±10 % is no difference
+COST_MARGIN = 0.10
+#: the level of the joint test (:func:`joint_test`): the two-sided tail of the 3-sigma rule of one cell, 2 Phi(-3)
+JOINT_ALPHA = math.erfc(SIGMA_FACTOR / math.sqrt(2.0))
 
 
 def _printed(text, name: str) -> str:
@@ -206,29 +254,274 @@ def verdict(paper: str | float | None, replicated: float | None, stderr: float |
     return NOT_REPRODUCED
 
 
-def claim_verdict(difference: float, stderr: float, expected_sign: int, reference: float | None = None) -> str:
+def identity_floor(reference: float, ops: int = ROUNDOFF_OPS) -> float:
+    r"""The round-off floor of a paired difference of two computations of one quantity of size ``reference``:
+    :math:`c\,\varepsilon\,|\mathrm{reference}|` with :math:`c` = ``ops`` and :math:`\varepsilon` the float64
+    unit round-off 2.2e-16.
+
+    For a run of a filter, :math:`c = f\sqrt K` (:func:`mmlib.experiment.evaluation.run_operations`):
+    :math:`f\varepsilon` is the worst-case relative error of one step's :math:`f` operations (Higham 2002,
+    *Accuracy and Stability of Numerical Algorithms*, Lemma 3.1, :math:`\gamma_f`), and the steps' errors accumulate
+    like a random walk over the :math:`K` steps.  A model, checked rather than proved: every pair of the arena's
+    algorithms equal in exact arithmetic lies below it (e.g. IMM5CKF and IMMCKF on zhu2016's linear models, 5e-14
+    of the reference against a floor of 3e-11), and differences the models really make lie above it (UKF and EKF on
+    tseng2011's pseudoranges, 1e-9 against 2.6e-10; tests/test_verdicts.py).  A genuine difference of 1e-6 of the
+    reference is far above it (4.7e-10 of the reference for the default ``ops``)."""
+    _real(reference, "reference", none=False)
+    if not math.isfinite(reference):
+        raise ValueError(f"reference: expected a finite number, got {reference!r}")
+    if isinstance(ops, (bool, np.bool_)) or not isinstance(ops, (int, np.integer)) or ops < 1:
+        raise ValueError(f"ops: expected a positive integer operation count, got {ops!r}")
+    return float(ops) * float(np.finfo(np.float64).eps) * abs(float(reference))
+
+
+def claim_verdict(difference: float, stderr: float, expected_sign: int, reference: float | None = None,
+                  ops: int = ROUNDOFF_OPS) -> PartVerdict:
     """Verdict on a claim "A < B" (``expected_sign=-1``) or "A > B" (``+1``) from a paired
-    difference A - B with its standard error: 'holds' if the difference has the expected sign
-    and is at least 3 standard errors from 0, 'contradicted' if it has the opposite sign
-    by at least 3 standard errors, 'no detectable difference' otherwise; 'not comparable' when the
-    difference or its standard error is not a finite number (fewer than two runs valid in both
-    algorithms: nothing was compared, which must not read as "no difference")."""
+    difference A - B with its standard error (a :class:`PartVerdict`):
+
+    * *identical (to round-off)* when ``|difference|`` and ``stderr`` are both within the round-off floor
+      :func:`identity_floor` of ``reference`` (``ops`` its operation count), or both exactly 0: no z-score is
+      computed on round-off;
+    * *holds* if the difference has the expected sign and is at least 3 standard errors from 0, *contradicted* if
+      it has the opposite sign by at least 3 standard errors (either ", but negligible (< 1 %)" when smaller than
+      1 % of ``reference``), *no detectable difference* otherwise;
+    * *not comparable* when the difference or its standard error is not a finite number (fewer than two runs
+      valid in both algorithms: nothing was compared, which must not read as "no difference")."""
     _real(difference, "difference", none=False)
     _real(stderr, "stderr", none=False)
     _real(reference, "reference")
     if isinstance(expected_sign, (bool, np.bool_)) or expected_sign not in (-1, 1):
         raise ValueError(f"expected_sign: expected -1 (claim A < B) or +1 (A > B), got {expected_sign!r}")
+    if stderr < 0:
+        raise ValueError(f"stderr: expected a standard error >= 0, got {stderr!r}")
     if not (math.isfinite(difference) and math.isfinite(stderr)):
-        return "not comparable"
-    if stderr == 0.0 and difference == 0.0:
-        return "no detectable difference (identical)"
+        return PartVerdict.NOT_COMPARABLE
+    floor = identity_floor(reference, ops) if reference is not None and math.isfinite(reference) else 0.0
+    if abs(difference) <= floor and abs(stderr) <= floor:
+        return PartVerdict.IDENTICAL
     z = difference / stderr if stderr > 0 else math.copysign(math.inf, difference)
     small = reference is not None and abs(difference) < NEGLIGIBLE * abs(reference)
     if z * expected_sign >= SIGMA_FACTOR:
-        return "holds, but negligible (< 1 %)" if small else "holds"
+        return PartVerdict.HOLDS_NEGLIGIBLE if small else PartVerdict.HOLDS
     if z * expected_sign <= -SIGMA_FACTOR:
-        return "contradicted, but negligible (< 1 %)" if small else "contradicted"
-    return "no detectable difference"
+        return PartVerdict.CONTRADICTED_NEGLIGIBLE if small else PartVerdict.CONTRADICTED
+    return PartVerdict.NO_DIFFERENCE
+
+
+@dataclass(frozen=True)
+class Part:
+    """One tested part of a claim: ``comparison`` (e.g. ``"IMM5CKF − IMMCKF"``; for a ratio ``"IMM5CKF/IMMCKF"``)
+    on ``quantity`` (e.g. ``"position MSE"``), its :class:`PartVerdict`, the ``difference`` A - B (``kind``
+    ``"difference"``, in ``unit``, with its Monte Carlo ``stderr``) or the ratio A/B minus one (``kind``
+    ``"ratio"``, deterministic: ``stderr`` None), and the ``reference`` the difference is relative to (B's value;
+    None if none)."""
+
+    comparison: str
+    quantity: str
+    verdict: PartVerdict
+    difference: float
+    stderr: float | None = None
+    reference: float | None = None
+    unit: str = ""
+    kind: str = "difference"
+    margin: float | None = None
+
+    def __post_init__(self):
+        for arg in ("comparison", "quantity", "unit"):
+            if not isinstance(getattr(self, arg), str):
+                raise ValueError(f"{arg}: expected a string, got {getattr(self, arg)!r}")
+        if self.verdict not in tuple(PartVerdict):
+            raise ValueError(f"verdict: expected a PartVerdict, got {self.verdict!r}")
+        object.__setattr__(self, "verdict", PartVerdict(self.verdict))
+        if self.kind not in ("difference", "ratio", "exact"):
+            raise ValueError(f"kind: expected 'difference', 'ratio' or 'exact', got {self.kind!r}")
+        _real(self.difference, "difference", none=False)
+        _real(self.stderr, "stderr")
+        _real(self.reference, "reference")
+        _real(self.margin, "margin")
+        if self.stderr is not None and self.stderr < 0:
+            raise ValueError(f"stderr: expected a standard error >= 0 or None, got {self.stderr!r}")
+        object.__setattr__(self, "difference", float(self.difference))
+        for arg in ("stderr", "reference", "margin"):
+            if getattr(self, arg) is not None:
+                object.__setattr__(self, arg, float(getattr(self, arg)))
+
+    def z(self) -> float:
+        """The difference in standard errors (in margins for a ratio); NaN when not comparable or identical."""
+        if self.verdict in (PartVerdict.NOT_COMPARABLE, PartVerdict.IDENTICAL):
+            return math.nan
+        scale = self.margin if self.kind in ("ratio", "exact") else self.stderr
+        if not scale:
+            return 0.0 if self.difference == 0 else math.copysign(math.inf, self.difference)
+        return self.difference / scale
+
+    def number(self) -> str:
+        """The part as one number: ``"IMMCDKF-OBS − IMMCDKF: position MSE +2.4e+03 %"``, ``"IMM5CKF − IMMCKF:
+        position MSE identical to round-off (|Δ| 3e-13 m²)"``, ``"IMM5CKF/IMMCKF: flops per step 2.31×
+        (equivalence ±10 %)"`` or, without a reference, the difference with its standard error."""
+        head = f"{self.comparison}: {self.quantity}"
+        unit = f" {self.unit}" if self.unit else ""
+        if self.verdict == PartVerdict.NOT_COMPARABLE:
+            return f"{head} not comparable (too few runs valid in both)"
+        if self.verdict == PartVerdict.IDENTICAL and self.kind == "exact":
+            return f"{head} equal within the numerical error ({abs(self.difference):.0e} ≤ {self.margin:.1e}{unit})"
+        if self.verdict == PartVerdict.IDENTICAL:
+            if self.difference == 0.0 and not self.stderr:
+                return f"{head} equal (Δ = 0 in every run)"
+            return f"{head} identical to round-off (|Δ| {abs(self.difference):.0e}{unit})"
+        if self.kind == "ratio":
+            return f"{head} {1.0 + self.difference:.3g}× (equivalence ±{100 * (self.margin or 0):.0f} %)"
+        if self.kind == "exact":
+            size = (f"{100 * self.difference / abs(self.reference):+.2g} %" if self.reference
+                    else f"{self.difference:+.3g}{unit}")
+            return f"{head} {size} (exact; numerical error ≤ {self.margin:.1e}{unit})"
+        note = {PartVerdict.HOLDS_NEGLIGIBLE: ", negligible < 1 %", PartVerdict.CONTRADICTED_NEGLIGIBLE:
+                ", negligible < 1 %", PartVerdict.NO_DIFFERENCE: ", not detected"}.get(self.verdict, "")
+        if self.reference:
+            return f"{head} {100 * self.difference / abs(self.reference):+.2g} % (z = {self.z():+.3g}{note})"
+        se = f" ± {self.stderr:.2g}" if self.stderr is not None else ""
+        return f"{head} {self.difference:+.3g}{se}{unit}" + (f" ({note[2:]})" if note else "")
+
+    def as_json(self) -> dict:
+        """The fields as a JSON-able dict (the verdict as its string, non-finite numbers as None)."""
+        def fin(x):
+            return None if x is None or not math.isfinite(x) else x
+        return {"comparison": self.comparison, "quantity": self.quantity, "verdict": str(self.verdict),
+                "difference": fin(self.difference), "stderr": fin(self.stderr), "reference": fin(self.reference),
+                "unit": self.unit, "kind": self.kind, "margin": self.margin, "number": self.number()}
+
+
+def part(comparison: str, quantity: str, difference: float, stderr: float, expected_sign: int, *,
+         reference: float | None = None, unit: str = "", ops: int = ROUNDOFF_OPS) -> Part:
+    """A :class:`Part` from a paired Monte Carlo difference A - B and its standard error, judged by
+    :func:`claim_verdict` (``expected_sign`` -1 for the claim "A < B", +1 for "A > B")."""
+    v = claim_verdict(difference, stderr, expected_sign, reference, ops)
+    return Part(comparison, quantity, v, float(difference), float(stderr), reference, unit)
+
+
+def ratio_part(comparison: str, quantity: str, ratio: float, expected_sign: int, *,
+               margin: float = COST_MARGIN) -> Part:
+    """A :class:`Part` from a deterministic ratio A/B (e.g. flops per step from a cost model): for the claim "A >
+    B" (``expected_sign`` +1; -1 for "A < B") it *holds* if ``expected_sign (ratio - 1) > margin``, is
+    *contradicted* if ``< -margin`` and is *no detectable difference* (equivalent within the margin) otherwise."""
+    _real(ratio, "ratio", none=False)
+    _real(margin, "margin", none=False)
+    if not (math.isfinite(ratio) and ratio > 0):
+        raise ValueError(f"ratio: expected a positive finite ratio, got {ratio!r}")
+    if not 0 <= margin < 1:
+        raise ValueError(f"margin: expected a fraction in [0, 1), got {margin!r}")
+    if isinstance(expected_sign, (bool, np.bool_)) or expected_sign not in (-1, 1):
+        raise ValueError(f"expected_sign: expected -1 (claim A < B) or +1 (A > B), got {expected_sign!r}")
+    d = float(ratio) - 1.0
+    v = (PartVerdict.HOLDS if expected_sign * d > margin else
+         PartVerdict.CONTRADICTED if expected_sign * d < -margin else PartVerdict.NO_DIFFERENCE)
+    return Part(comparison, quantity, v, d, None, None, "", "ratio", float(margin))
+
+
+def exact_part(comparison: str, quantity: str, difference: float, expected_sign: int, *, tolerance: float,
+               reference: float | None = None, unit: str = "") -> Part:
+    """A :class:`Part` from a difference computed without Monte Carlo error (an analysis, a quadrature): *identical*
+    when ``|difference| <= tolerance`` (its stated numerical error, e.g. a quadrature's error bound), otherwise
+    *holds* or *contradicted* by its sign against ``expected_sign`` (", but negligible" below 1 % of ``reference``).
+    No z-score: the tolerance is a bound, not a standard error."""
+    _real(difference, "difference", none=False)
+    _real(tolerance, "tolerance", none=False)
+    _real(reference, "reference")
+    if not math.isfinite(difference):
+        raise ValueError(f"difference: expected a finite number, got {difference!r}")
+    if not (math.isfinite(tolerance) and tolerance >= 0):
+        raise ValueError(f"tolerance: expected a finite bound >= 0, got {tolerance!r}")
+    if isinstance(expected_sign, (bool, np.bool_)) or expected_sign not in (-1, 1):
+        raise ValueError(f"expected_sign: expected -1 (claim A < B) or +1 (A > B), got {expected_sign!r}")
+    d = float(difference)
+    small = reference is not None and abs(d) < NEGLIGIBLE * abs(reference)
+    if abs(d) <= tolerance:
+        v = PartVerdict.IDENTICAL
+    elif expected_sign * d > 0:
+        v = PartVerdict.HOLDS_NEGLIGIBLE if small else PartVerdict.HOLDS
+    else:
+        v = PartVerdict.CONTRADICTED_NEGLIGIBLE if small else PartVerdict.CONTRADICTED
+    return Part(comparison, quantity, v, d, None, reference, unit, "exact", float(tolerance))
+
+
+@dataclass(frozen=True)
+class Judgement:
+    """A claim's verdict: one term of the claim vocabulary, the ``decisive`` number (or reason) that produced it,
+    and the ``parts`` it was combined from (:func:`judge`; empty for a claim judged otherwise,
+    :meth:`of`)."""
+
+    verdict: ClaimVerdict
+    decisive: str
+    parts: tuple = ()
+
+    def __post_init__(self):
+        if self.verdict not in CLAIM_VERDICTS:
+            raise ValueError(f"verdict: expected a term of the claim vocabulary {CLAIM_VERDICTS}, got "
+                             f"{self.verdict!r}")
+        object.__setattr__(self, "verdict", ClaimVerdict(self.verdict))
+        if not isinstance(self.decisive, str):
+            raise ValueError(f"decisive: expected a string, got {self.decisive!r}")
+        if isinstance(self.parts, (str, bytes)) or not hasattr(self.parts, "__iter__"):
+            raise ValueError(f"parts: expected a sequence of Part, got {self.parts!r}")
+        parts = tuple(self.parts)
+        for i, p in enumerate(parts):
+            if not isinstance(p, Part):
+                raise ValueError(f"parts[{i}]: expected a Part, got {p!r}")
+        object.__setattr__(self, "parts", parts)
+
+    @classmethod
+    def of(cls, verdict: str, decisive: str) -> "Judgement":
+        """A claim judged without paired parts (an analysis, a count, or *not assessable* with its reason)."""
+        return cls(verdict, decisive)
+
+    def text(self) -> str:
+        """``"<verdict> — <decisive>"`` (the verdict alone when nothing is decisive)."""
+        return f"{self.verdict} — {self.decisive}" if self.decisive else str(self.verdict)
+
+
+_HOLD = (PartVerdict.HOLDS,)
+_AGAINST = (PartVerdict.CONTRADICTED,)
+
+
+def judge(parts: Iterable[Part]) -> Judgement:
+    """One claim verdict from its parts (module docstring): *not assessable* if a part is not comparable;
+    *holds* if every part holds (non-negligibly), decisive the weakest part; *partly* if some hold, decisive the
+    count and the most adverse part; *contradicted* if none holds and one is contradicted (non-negligibly),
+    decisive the most contradicting; *not supported* otherwise, decisive the part nearest to detection (or the
+    identity to round-off)."""
+    if isinstance(parts, (str, bytes, Part)) or not hasattr(parts, "__iter__"):
+        raise ValueError(f"parts: expected a sequence of Part, got {parts!r}")
+    parts = tuple(parts)
+    if not parts:
+        raise ValueError("parts: a claim needs at least one part")
+    for i, p in enumerate(parts):
+        if not isinstance(p, Part):
+            raise ValueError(f"parts[{i}]: expected a Part, got {p!r}")
+    n = len(parts)
+    of = "" if n == 1 else f" ({n} parts)"
+
+    def strength(p):          # |z|, NaN last
+        z = abs(p.z())
+        return -1.0 if math.isnan(z) else z
+
+    bad = [p for p in parts if p.verdict == PartVerdict.NOT_COMPARABLE]
+    if bad:
+        return Judgement(NOT_ASSESSABLE, bad[0].number() + of, parts)
+    holds = [p for p in parts if p.verdict in _HOLD]
+    against = [p for p in parts if p.verdict in _AGAINST]
+    if len(holds) == n:
+        return Judgement(HOLDS, min(holds, key=strength).number() + ("" if n == 1 else f" (weakest of {n})"), parts)
+    if holds:
+        adverse = max(against, key=strength) if against else max((p for p in parts if p not in holds), key=strength)
+        return Judgement(PARTLY, f"{len(holds)} of {n} hold; {adverse.number()}", parts)
+    if against:
+        return Judgement(CONTRADICTED, max(against, key=strength).number() + of, parts)
+    identical = [p for p in parts if p.verdict == PartVerdict.IDENTICAL]
+    if len(identical) == n:
+        return Judgement(NOT_SUPPORTED, identical[0].number() + of, parts)
+    nearest = max((p for p in parts if p.verdict != PartVerdict.IDENTICAL), key=strength)
+    return Judgement(NOT_SUPPORTED, nearest.number() + of, parts)
 
 
 @dataclass
@@ -246,6 +539,7 @@ class Row:
     verdict: str
     deviations: list = field(default_factory=list)
     note: str = ""
+    distance: float | None = None
 
 
 def make_row(item: str, algorithm: str, quantity: str, paper: str | None, replicated: float | None,
@@ -259,8 +553,115 @@ def make_row(item: str, algorithm: str, quantity: str, paper: str | None, replic
     _check_rule(paper, replicated, stderr, n_runs, n_runs_paper)
     rep = None if replicated is None else float(replicated)
     se = None if stderr is None else float(stderr)
+    dist = None
+    if rep is not None and paper is not None and math.isfinite(rep):
+        d = standardized_distance(paper, rep, se, n_runs, n_runs_paper)
+        dist = d if math.isfinite(d) else None
     return Row(item, algorithm, quantity, paper, rep, se,
-               verdict(paper, rep, se, n_runs, n_runs_paper, reason), deviations, note)
+               verdict(paper, rep, se, n_runs, n_runs_paper, reason), deviations, note, dist)
+
+
+def exact_row(item: str, algorithm: str, quantity: str, paper: str, value: float, *,
+              deviations: Iterable[str] = (), note: str = "") -> Row:
+    """A row whose value is computed analytically (no Monte Carlo error): *reproduced (exact)* when ``value``
+    rounded to the printed number's precision (half a unit of its last digit, :func:`printed_half_unit`) equals
+    the printed number, *not reproduced (exact)* otherwise; the standard error is 0 and no z-score is computed."""
+    _check_row_text(item, algorithm, quantity, note)
+    _printed(paper, "paper")
+    _real(value, "value", none=False)
+    if not math.isfinite(value):
+        raise ValueError(f"value: expected a finite number, got {value!r}")
+    same = abs(float(value) - float(paper)) <= printed_half_unit(paper) * (1 + 1e-12)
+    return Row(item, algorithm, quantity, paper, float(value), 0.0,
+               REPRODUCED_EXACT if same else NOT_REPRODUCED_EXACT, _deviations(deviations), note, None)
+
+
+def is_reproduced(text: str) -> bool:
+    """Whether a row's verdict text counts as reproducing the printed number: *reproduced* or *reproduced
+    (exact)*; never *reproduced (isolated)* (a coincidence inside a row or table that fails its joint test)."""
+    return verdict_category(text) in (REPRODUCED, REPRODUCED_EXACT)
+
+
+class JointTest(NamedTuple):
+    """The joint test of a group of cells: ``statistic`` the sum of their squared standardized distances,
+    ``dof`` the number of cells, ``p_value`` its chi-squared tail and ``passes`` (``p_value >= JOINT_ALPHA``)."""
+
+    statistic: float
+    dof: int
+    p_value: float
+    passes: bool
+
+
+def joint_test(distances: Iterable[float]) -> JointTest:
+    r"""Whether a group of cells is jointly consistent with the printed numbers: under the verdict rule's model
+    each standardized distance :math:`z_i` is standard normal, so :math:`\sum_i z_i^2 \sim \chi^2_k` with one
+    degree of freedom per cell; the group passes when the tail probability is at least ``JOINT_ALPHA``
+    (2 Phi(-3), the level of one cell's 3-sigma rule).  An infinite distance (a value that could not be produced,
+    or a printed value met with zero uncertainty by a different number) fails.  ValueError for an empty group
+    or a NaN distance."""
+    from scipy.stats import chi2
+
+    if isinstance(distances, (str, bytes)) or not hasattr(distances, "__iter__"):
+        raise ValueError(f"distances: expected a sequence of standardized distances, got {distances!r}")
+    zs = [float(_real(z, "distances", none=False)) for z in distances]
+    if not zs:
+        raise ValueError("distances: a joint test needs at least one cell")
+    if any(math.isnan(z) for z in zs):
+        raise ValueError("distances: a NaN distance (no value to compare) cannot enter a joint test")
+    stat = math.fsum(z * z for z in zs)
+    p = 0.0 if math.isinf(stat) else float(chi2.sf(stat, len(zs)))
+    return JointTest(stat, len(zs), p, p >= JOINT_ALPHA)
+
+
+def rule() -> dict:
+    """The rule's stated assumptions and constants, as every results file records them (``rule``)."""
+    return {"paper_error_assumption": PAPER_ERROR_ASSUMPTION, "joint_alpha": JOINT_ALPHA,
+            "roundoff_ops": ROUNDOFF_OPS, "cost_margin": COST_MARGIN}
+
+
+def _monte_carlo(row: Row) -> bool:
+    """A row judged from a Monte Carlo value: it has a finite distance and a standard error, and is neither exact
+    nor not replicable (a deterministic value, such as a cost model's ratio, has no standard error: it is judged
+    against the printed precision alone and does not enter a joint test)."""
+    cat = verdict_category(row.verdict)
+    return (row.distance is not None and row.stderr is not None
+            and cat not in (REPRODUCED_EXACT, NOT_REPRODUCED_EXACT, NOT_REPLICABLE))
+
+
+def joint_tests(rows: Iterable[Row]) -> tuple[list, list]:
+    """The joint tests (:func:`joint_test`) of every table (rows of one ``item``) and every row of a table (one
+    ``item`` and ``algorithm``) over their Monte Carlo cells, and the rows with each *reproduced* cell inside a
+    failing table or row re-judged *reproduced (isolated)*.  Returns ``(rows, tests)``: new :class:`Row` s in the
+    same order (the input is not changed) and one dict per group (``item``, ``algorithm`` (None for a whole
+    table), ``statistic``, ``dof``, ``p_value``, ``passes``, ``n_isolated``).  Idempotent: an isolated cell keeps
+    its distance, so a second pass finds the same tests."""
+    if isinstance(rows, (str, bytes)) or not hasattr(rows, "__iter__"):
+        raise ValueError(f"rows: expected a sequence of Row, got {rows!r}")
+    rows = list(rows)
+    for i, r in enumerate(rows):
+        if not isinstance(r, Row):
+            raise ValueError(f"rows[{i}]: expected a Row (make_row), got {r!r}")
+    groups: dict = {}
+    for i, r in enumerate(rows):
+        if _monte_carlo(r):
+            groups.setdefault((r.item, None), []).append(i)
+            groups.setdefault((r.item, r.algorithm), []).append(i)
+    failing, tests = set(), []
+    for (item, alg), idx in groups.items():
+        t = joint_test(rows[i].distance for i in idx)
+        if not t.passes:
+            failing.update(idx)
+        tests.append({"item": item, "algorithm": alg, "statistic": t.statistic, "dof": t.dof,
+                      "p_value": t.p_value, "passes": t.passes,
+                      "n_isolated": 0 if t.passes else sum(verdict_category(rows[i].verdict) in (REPRODUCED, ISOLATED)
+                                                           for i in idx)})
+    out = []
+    for i, r in enumerate(rows):
+        cat = verdict_category(r.verdict) if r.verdict else None
+        if cat in (REPRODUCED, ISOLATED):
+            r = replace(r, verdict=ISOLATED if i in failing else REPRODUCED)
+        out.append(r)
+    return out, tests
 
 
 def _check_row_text(item, algorithm, quantity, last, last_name: str = "note") -> None:
@@ -283,15 +684,15 @@ def _deviations(deviations) -> list:
 
 def analytic_row(item: str, algorithm: str, quantity: str, paper: str | None, finding: str, holds: bool, *,
                  deviations: Iterable[str] = ()) -> Row:
-    """A row judged by analysis rather than by Monte Carlo (e.g. a complexity class): no number,
-    verdict 'reproduced' or 'not reproduced', with the finding as the note."""
+    """A row judged by analysis rather than by Monte Carlo (e.g. a complexity class): no number, verdict
+    *reproduced (exact)* or *not reproduced (exact)* (no Monte Carlo error), with the finding as the note."""
     _check_row_text(item, algorithm, quantity, finding, "finding")
     if paper is not None and not isinstance(paper, str):
         raise ValueError(f"paper: expected the printed text or None, got {paper!r}")
     if not isinstance(holds, (bool, np.bool_)):
         raise ValueError(f"holds: expected True or False, got {holds!r}")
     return Row(item, algorithm, quantity, paper, None, None,
-               REPRODUCED if holds else f"{NOT_REPRODUCED}: {finding}", _deviations(deviations), finding)
+               REPRODUCED_EXACT if holds else f"{NOT_REPRODUCED_EXACT}: {finding}", _deviations(deviations), finding)
 
 
 def claim_category(text: str) -> ClaimVerdict:
@@ -301,43 +702,19 @@ def claim_category(text: str) -> ClaimVerdict:
     head = str(text).split(":")[0].strip()
     if head not in CLAIM_VERDICTS:
         raise ValueError(f"verdict: {text!r} is not in the claim vocabulary {CLAIM_VERDICTS} "
-                         f"(combine part verdicts with combine_claim_verdicts)")
+                         f"(combine part verdicts with judge)")
     return ClaimVerdict(head)
 
 
-def combine_claim_verdicts(verdicts: Iterable[str]) -> str:
-    """One claim verdict (module docstring) from the part verdicts of :func:`claim_verdict`, each
-    optionally labelled as ``"<part verdict> (<quantity>)"``."""
-    if isinstance(verdicts, (str, bytes)) or not hasattr(verdicts, "__iter__"):
-        raise ValueError(f"verdicts: expected a sequence of part verdicts (a list of strings), got {verdicts!r}")
-    verdicts = list(verdicts)
-    if not verdicts:
-        raise ValueError("verdicts: a claim needs at least one part verdict")
-    for v in verdicts:
-        if not isinstance(v, str):
-            raise ValueError(f"verdicts: expected part verdicts as strings, got {v!r}")
-    kinds = [v.split(" (")[0] for v in verdicts]
-    for v, k in zip(verdicts, kinds):
-        if k not in ("holds", "contradicted", "no detectable difference", "holds, but negligible",
-                     "contradicted, but negligible", "not comparable"):
-            raise ValueError(f"verdicts: {v!r} is not a part verdict of claim_verdict")
-    detail = "; ".join(verdicts)
-    if any(k == "not comparable" for k in kinds):
-        return f"{NOT_ASSESSABLE}: too few runs valid in both algorithms; {detail}"
-    if all(k == "holds" for k in kinds):
-        return HOLDS
-    if any(k == "holds" for k in kinds):
-        return f"{PARTLY}: {detail}"
-    if any(k == "contradicted" for k in kinds):
-        return CONTRADICTED if all(k == "contradicted" for k in kinds) else f"{CONTRADICTED}: {detail}"
-    if all(k == "no detectable difference" for k in kinds) and len(kinds) == 1:
-        return f"{NOT_SUPPORTED}: no detectable difference" + (" (identical)" if "identical" in detail else "")
-    return f"{NOT_SUPPORTED}: differences negligible or undetectable; {detail}"
-
-
-def paired_claim(difference: float, stderr: float, expected_sign: int, reference: float | None = None) -> str:
-    """A one-part claim's verdict (claim vocabulary) from a paired difference and its standard error."""
-    return combine_claim_verdicts([claim_verdict(difference, stderr, expected_sign, reference)])
+def _judgement(verdict) -> Judgement:
+    """A :class:`Judgement`, or a verdict text ``"<claim verdict>[: <decisive>]"`` read as one."""
+    if isinstance(verdict, Judgement):
+        return verdict
+    if not isinstance(verdict, str):
+        raise ValueError(f"verdict: expected a Judgement (verdicts.judge) or a claim verdict text, got {verdict!r}")
+    cat = claim_category(verdict)
+    rest = str(verdict).split(":", 1)[1].strip() if ":" in str(verdict) else ""
+    return Judgement(cat, rest)
 
 
 class Claims:
@@ -349,21 +726,30 @@ class Claims:
     def __init__(self):
         self.items: list = []
 
-    def add(self, claim: str, verdict: str, evidence: str = "") -> str:
-        """Record ``claim`` with its ``verdict`` (claim vocabulary, :func:`claim_category`) and ``evidence``;
-        returns the verdict.  ValueError for an empty claim, a verdict outside the vocabulary or a claim already
-        judged."""
+    def add(self, claim: str, verdict: Judgement | str, evidence: str = "") -> Judgement:
+        """Record ``claim`` with its ``verdict`` (a :class:`Judgement`, or a text ``"<claim verdict>[:
+        <decisive>]"``) and ``evidence``; returns the judgement.  ValueError for an empty claim, a verdict outside
+        the vocabulary or a claim already judged."""
         if not isinstance(claim, str) or not claim.strip():
             raise ValueError(f"claim: expected a non-empty string, got {claim!r}")
-        if not isinstance(verdict, str):
-            raise ValueError(f"verdict: expected a claim verdict (a string), got {verdict!r}")
+        j = _judgement(verdict)
         if not isinstance(evidence, str):
             raise ValueError(f"evidence: expected a string, got {evidence!r}")
-        claim_category(verdict)
         if any(c["claim"] == claim for c in self.items):
             raise ValueError(f"claim: {claim!r} is already judged")
-        self.items.append({"claim": claim, "verdict": verdict, "evidence": evidence})
-        return verdict
+        self.items.append({"claim": claim, "verdict": j.verdict, "decisive": j.decisive,
+                           "parts": [p.as_json() for p in j.parts], "evidence": evidence})
+        return j
+
+    def extend(self, other: "Claims") -> None:
+        """Record every claim of ``other`` (another :class:`Claims`) after these, with its decisive number and
+        parts; ValueError if one is already judged here."""
+        if not isinstance(other, Claims):
+            raise ValueError(f"other: expected a Claims, got {type(other).__name__}")
+        for c in other.items:
+            if any(mine["claim"] == c["claim"] for mine in self.items):
+                raise ValueError(f"other: claim {c['claim']!r} is already judged")
+        self.items.extend({**c, "parts": [dict(p) for p in c["parts"]]} for c in other.items)
 
     def __iter__(self):
         return iter(self.items)
@@ -372,5 +758,7 @@ class Claims:
         return len(self.items)
 
     def as_list(self) -> list:
-        """Copies of the recorded claims, ``{"claim", "verdict", "evidence"}`` each, in order."""
-        return [dict(c) for c in self.items]
+        """Copies of the recorded claims, in order: ``{"claim", "verdict"`` (one term of the claim vocabulary),
+        ``"decisive"`` (the number or reason that produced it), ``"parts"`` (:meth:`Part.as_json` of each) and
+        ``"evidence"}``."""
+        return [{**c, "parts": [dict(p) for p in c["parts"]]} for c in self.items]

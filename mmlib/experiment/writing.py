@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from mmlib.experiment import results
+from mmlib.experiment import results, verdicts
 from mmlib.experiment.verdicts import Row
 
 if TYPE_CHECKING:
@@ -117,12 +117,35 @@ def atomic_write_text(path: Path, text: str, *, durable: bool = False) -> None:
             os.close(dir_fd)
 
 
+def _as_row(r, i: int) -> Row:
+    """A row of ``rows``: a :class:`Row`, or a mapping of its fields (``distance`` optional)."""
+    if isinstance(r, Row):
+        return r
+    if not isinstance(r, Mapping):
+        raise ValueError(f"rows[{i}]: expected a Row (verdicts.make_row) or a mapping of its fields, got {r!r}")
+    fields = list(Row.__dataclass_fields__)
+    missing = [k for k in fields if k not in r and k not in ("note", "distance")]
+    if missing:
+        raise ValueError(f"rows[{i}]: lacks {', '.join(missing)}")
+    if not set(r) <= set(fields):
+        raise ValueError(f"rows[{i}]: keys {sorted(set(r) - set(fields))} are not fields of a Row")
+    return Row(**r)
+
+
 def write_results(path: str | Path, *, paper: str, provenance: dict, rows: Iterable[Row | Mapping[str, Any]],
                   **sections: Any) -> dict:
     """Write ``data/results/<paper>.json`` atomically, after checking it against the results contract
     (:func:`mmlib.experiment.results.validate_results`): a document that breaks it, or holds a NaN or an infinity,
-    is a ValueError naming ``path`` and the JSON path of the first problem, and nothing is written."""
-    rows = [asdict(r) if isinstance(r, Row) else dict(r) for r in rows]
+    is a ValueError naming ``path`` and the JSON path of the first problem, and nothing is written.  The rows are
+    joint-tested on the way (:func:`mmlib.experiment.verdicts.joint_tests`: a reproduced cell of a failing table or
+    row is written *reproduced (isolated)*), and the sections ``rule`` (the rule's stated assumptions) and
+    ``joint_tests`` are added."""
+    try:
+        judged, tests = verdicts.joint_tests([_as_row(r, i) for i, r in enumerate(rows)])
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+    rows = [asdict(r) for r in judged]
+    sections = {"rule": verdicts.rule(), "joint_tests": tests, **sections}
     doc = {"paper": paper, "provenance": provenance, "rows": rows, **sections}
     plain = json.loads(json.dumps(doc, default=_jsonable))          # numpy values and Rows as plain JSON
     try:
