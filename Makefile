@@ -66,6 +66,7 @@ test: $(STAMP)
 # Options: BENCH_REPEATS (interleaved repeats per library, default 5), BENCH_MAX_RUNS (largest size, default 100000)
 bench: $(STAMP)
 	$(PY) bench/imm_ukf.py
+	$(PY) bench/cost_model.py
 	$(PY) tools/emulated_tests.py --measure
 
 clean:

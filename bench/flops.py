@@ -1,7 +1,7 @@
 r"""The flop floor of the benchmark job: the floating-point operations of one IMM-UKF run-step,
-counted analytically (:func:`imm_ukf_flops`), and this core's peak double-precision rate
-(:func:`peak_gflops`).  ``floor = flops / peak`` is the time one run-step would take if every
-operation ran at the rate of a large matrix product; ``measured / floor`` says how far the
+counted analytically (:func:`imm_ukf_flops`, the library's one counting, :mod:`mmlib.core.cost`), and this
+core's peak double-precision rate (:func:`peak_gflops`).  ``floor = flops / peak`` is the time one run-step
+would take if every operation ran at the rate of a large matrix product; ``measured / floor`` says how far the
 implementation is from the arithmetic.
 
 **What is counted.**  The arithmetic of the equations mmlib implements for this job (the
@@ -31,32 +31,8 @@ from __future__ import annotations
 
 import time
 
-#: Range-bearing measurement of one point: two differences to the sensor, a hypotenuse
-#: (2 products, 1 sum, 1 sqrt) and one atan2.
-RANGE_BEARING_H_FLOPS = 7
-
-#: Wrapping one angle to (-pi, pi]: ``a + 2 pi floor((pi - a) / 2 pi)`` (mmlib.core.models.wrap_angle).
-WRAP_FLOPS = 5
-
-
-def dot(k: int) -> int:
-    """Flops of a dot product of length ``k``: ``k`` products and ``k - 1`` sums."""
-    return 2 * k - 1
-
-
-def cholesky_flops(n: int) -> int:
-    r"""Cholesky factor of an ``n x n`` matrix (column by column, LAPACK's ``potf2``): column j costs
-    ``2j`` for its pivot (j squares subtracted), one ``sqrt``, and ``2j + 1`` for each of its ``n - 1 - j``
-    entries below (j products subtracted, one division): :math:`\sum_j [2j + 1 + (n-1-j)(2j+1)]
-    = n(n+1)(2n+1)/6` (30 for n = 4, 5 for n = 2)."""
-    return n * (n + 1) * (2 * n + 1) // 6
-
-
-def tril_inverse_flops(m: int) -> int:
-    r"""Inverse of an ``m x m`` lower-triangular factor by forward substitution (mmlib.core.linalg.tril_inverse):
-    ``m`` reciprocals of the diagonal, and for entry (i, j), i > j, ``i - j`` products, ``i - j - 1`` sums
-    and one product by the reciprocal: :math:`m + \sum_{i>j} 2(i-j) = m + (m^3 - m)/3`."""
-    return m + (m ** 3 - m) // 3
+from mmlib.core.cost import (RANGE_BEARING_H_FLOPS, WRAP_FLOPS, FunctionCosts, cholesky_flops,  # noqa: F401
+                             dot, filter_flops, imm_flops, tril_inverse_flops)
 
 
 def imm_ukf_flops(n: int = 4, m: int = 2, r: int = 3, *, h_flops: int = RANGE_BEARING_H_FLOPS,
@@ -67,49 +43,20 @@ def imm_ukf_flops(n: int = 4, m: int = 2, r: int = 3, *, h_flops: int = RANGE_BE
     ``angles`` wrapped components (1 for range-bearing: its residuals wrap the bearing, and its mean
     of predicted measurements is taken relative to the first point; 0: plain differences and mean).
 
-    Returns ``{term: flops}`` in the order of the algorithm, with ``"total"`` last.  The defaults are the
+    Returns ``{term: flops}`` in the order of the algorithm, with ``"total"`` last: the counting of
+    :mod:`mmlib.core.cost` (:func:`~mmlib.core.cost.filter_flops` of the UKF,
+    :func:`~mmlib.core.cost.imm_flops` with moment mixing, no fused covariance).  The defaults are the
     benchmark job: n = 4, m = 2, r = 3, 9 points.
     """
     for name, v in (("n", n), ("m", m), ("r", r)):
         if not isinstance(v, int) or v < 1:
             raise ValueError(f"{name}: expected a positive integer, got {v!r}")
-    p = 2 * n + 1
-    residual = m + WRAP_FLOPS * angles                       # z_a - z_b, bearing wrapped
-    if angles:                                               # ref + sum_i w_i (Z_i - ref), ref = Z_0, wrapped
-        average = p * residual + m * dot(p) + m + WRAP_FLOPS * angles
-    else:                                                    # sum_i w_i Z_i
-        average = m * dot(p)
-    terms = {
-        # 1. c_j = sum_i p_ij mu_i and mu_i|j = p_ij mu_i / c_j, with the products p_ij mu_i shared
-        "mixing weights": r * r + r * (r - 1) + r * r,
-        # 2. x0_j = sum_i mu_i|j x_i
-        "mixed means": r * n * dot(r),
-        # 3. P0_j = sum_i mu_i|j P_i + sum_i (mu_i|j d_ji) d_ji^T, d_ji = x_i - x0_j
-        #    (mmlib.core.estimation.combine_covariances)
-        "mixed covariances": r * r * n + r * r * n + 2 * r * n * n * dot(r) + r * n * n,
-        # 4.-7. time update of each mode: factor, points, transition F X_i, mean and covariance (+ Q)
-        "predict: Cholesky": r * cholesky_flops(n),
-        "predict: sigma points": r * 3 * n * n,
-        "predict: transition": r * p * n * dot(n),
-        "predict: moments": r * (n * dot(p) + 2 * p * n + n * n * dot(p) + n * n),
-        # 8.-11. measurement prediction of each mode: fresh points from P-, h, mean, S (+ R) and Pxz
-        "measurement prediction: Cholesky": r * cholesky_flops(n),
-        "measurement prediction: sigma points": r * 3 * n * n,
-        "measurement prediction: h": r * p * h_flops,
-        "measurement prediction: moments": r * (average + p * residual + p * n + p * m
-                                                + m * m * dot(p) + n * m * dot(p) + m * m),
-        # 12. Kalman update of each mode (mmlib.core.filters.kalman_update): nu, S = L L^T, L^-1, A = Pxz L^-T,
-        #     e = L^-1 nu, x + A e, P - A A^T, NIS e^T e, log-likelihood -(NIS + 2 sum log L_ii + m log 2 pi)/2
-        "update": r * (residual + cholesky_flops(m) + tril_inverse_flops(m) + n * m * dot(m) + m * dot(m)
-                       + n * dot(m) + n + n * n * dot(m) + n * n + dot(m) + (m + (m - 1) + 1) + 3),
-        # 13. mu_j = exp(log L_j + log c_j - max) / sum: r logs, r sums, r - 1 comparisons, r differences,
-        #     r exps, r - 1 sums, r divisions
-        "mode probabilities": r + r + (r - 1) + r + r + (r - 1) + r,
-        # 14. fused mean sum_j mu_j x_j (the fused covariance is not computed: keep_cov=False)
-        "combination": n * dot(r),
-    }
-    terms["total"] = sum(terms.values())
-    return terms
+    from mmlib.core.filters import SigmaPointFilter
+    from mmlib.core.rules import Unscented
+
+    functions = FunctionCosts(f=n * dot(n), f_jacobian=0, h=h_flops, h_jacobian=0, angles=angles)
+    mode = filter_flops(SigmaPointFilter(Unscented(1.0, 2.0, 0.0)), n, m, functions)
+    return imm_flops(mode, n, r)
 
 
 def peak_gflops(size: int = 2000, repeats: int = 10) -> dict:

@@ -7,7 +7,6 @@ implementation's numbers are checked against mmlib's ``IMM.step``, so the counte
 one the library runs (up to the symmetrisations and checks the floor leaves out).
 """
 import math
-from collections import Counter
 
 import numpy as np
 import pytest
@@ -39,121 +38,9 @@ def test_bench_agreement_fails_for_another_algorithm():
 
 
 # --------------------------------------------------------------------------- the flop count
-COUNT = Counter()
-STAGE = [""]
-
-
-class C:
-    """A float that counts the arithmetic done with it (under the current ``STAGE``); negation is free."""
-
-    __slots__ = ("v",)
-
-    def __init__(self, v):
-        self.v = float(v)
-
-
-def _v(x):
-    return x.v if isinstance(x, C) else float(x)
-
-
-def _op(value):
-    COUNT[STAGE[0]] += 1
-    return C(value)
-
-
-C.__add__ = lambda a, b: _op(a.v + _v(b))
-C.__radd__ = lambda a, b: _op(_v(b) + a.v)
-C.__sub__ = lambda a, b: _op(a.v - _v(b))
-C.__rsub__ = lambda a, b: _op(_v(b) - a.v)
-C.__mul__ = lambda a, b: _op(a.v * _v(b))
-C.__rmul__ = lambda a, b: _op(_v(b) * a.v)
-C.__truediv__ = lambda a, b: _op(a.v / _v(b))
-C.__rtruediv__ = lambda a, b: _op(_v(b) / a.v)
-C.__neg__ = lambda a: C(-a.v)
-
-
-def _gt(a, b):
-    COUNT[STAGE[0]] += 1
-    return _v(a) > _v(b)
-
-
-def _fn(f):
-    return lambda *xs: _op(f(*map(_v, xs)))
-
-
-sqrt, log, exp, atan2, floor = (_fn(f) for f in (math.sqrt, math.log, math.exp, math.atan2, math.floor))
-
-
-def dot(a, b):
-    acc = a[0] * b[0]
-    for k in range(1, len(a)):
-        acc = acc + a[k] * b[k]
-    return acc
-
-
-def chol(A):
-    n = len(A)
-    L = [[C(0.0) for _ in range(n)] for _ in range(n)]       # dense: the zeros are operands too
-    for j in range(n):
-        s = A[j][j]
-        for k in range(j):
-            s = s - L[j][k] * L[j][k]
-        L[j][j] = sqrt(s)
-        for i in range(j + 1, n):
-            s = A[i][j]
-            for k in range(j):
-                s = s - L[i][k] * L[j][k]
-            L[i][j] = s / L[j][j]
-    return L
-
-
-def tril_inverse(L):
-    m = len(L)
-    dinv = [1.0 / L[i][i] for i in range(m)]
-    inv = [[C(0.0) for _ in range(m)] for _ in range(m)]
-    for i in range(m):
-        inv[i][i] = dinv[i]
-        for j in range(i):
-            acc = L[i][j] * inv[j][j]
-            for k in range(j + 1, i):
-                acc = acc + L[i][k] * inv[k][j]
-            inv[i][j] = -acc * dinv[i]
-    return inv
-
-
-TWO_PI = 2.0 * math.pi
-
-
-def wrap(a):
-    return a + TWO_PI * floor((math.pi - a) / TWO_PI)
-
-
-class Measurement:
-    """Range-bearing (sensor at the origin, positions at 0 and 2) or a dense linear ``H x``."""
-
-    def __init__(self, H=None):
-        self.H = H
-        self.angles = 0 if H is not None else 1
-
-    def h(self, x):
-        if self.H is not None:
-            return [dot(list(row), x) for row in self.H]
-        dx, dy = x[0] - 0.0, x[2] - 0.0
-        return [sqrt(dx * dx + dy * dy), atan2(dy, dx)]
-
-    def residual(self, a, b):
-        if self.H is not None:
-            return [ai - bi for ai, bi in zip(a, b)]
-        return [a[0] - b[0], wrap(a[1] - b[1])]
-
-    def average(self, Z, wm):
-        m = len(Z[0])
-        if self.H is not None:
-            return [dot(wm, [z[a] for z in Z]) for a in range(m)]
-        res = [self.residual(z, Z[0]) for z in Z]
-        mean = [Z[0][a] + dot(wm, [q[a] for q in res]) for a in range(m)]
-        mean[1] = wrap(mean[1])
-        return mean
+# the counting numbers and scalar helpers, shared with tests/test_cost.py
+from counting import COUNT, STAGE, TWO_PI, C, Measurement, chol, dot, exp, log, tril_inverse  # noqa: E402
+from counting import gt as _gt  # noqa: E402
 
 
 def counted_imm_ukf_step(x, P, mu, z, M, F, Q, R, meas, ukf=(1.0, 2.0, 0.0)):
