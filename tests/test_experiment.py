@@ -51,8 +51,8 @@ def test_star_design_varies_each_option_alone():
                                                 ([6, 2, 2, 2, 2, 2, 3], None)])
 def test_fractional_design_covers_every_option_and_influential_pair(levels, influential):
     space = _space(levels, influential, budget=1)
-    d = space.design()
-    assert d.kind == "fractional" and d.readings[0] == space.headline
+    d = space.design("fractional")
+    assert d.kind == "fractional" and d.readings[0] == space.headline and d.sample == () and d.seed is None
     assert len(d) < space.size
     rows = [tuple(r.values()) for r in d.readings]
     assert len(set(rows)) == len(rows)
@@ -67,12 +67,16 @@ def test_fractional_design_covers_every_option_and_influential_pair(levels, infl
 
 def test_fractional_design_is_deterministic():
     a, b = _space([3, 3, 2, 4], budget=5), _space([3, 3, 2, 4], budget=5)
-    assert a.design().readings == b.design().readings
+    assert a.design("fractional").readings == b.design("fractional").readings
 
 
 def test_auto_design_uses_the_budget():
     assert _space([2, 2], budget=4).design().kind == "full"
-    assert _space([2, 2, 2], budget=4).design().kind == "fractional"
+    d = _space([2, 2, 2], budget=4).design()
+    assert d.kind == "sampled" and len(d.sample) == 4 and d.seed is not None
+    # the override of the sample size: more universes, or the full factorial once it fits
+    assert len(_space([2, 2, 2], budget=4).design(sample_size=6).sample) == 6
+    assert _space([2, 2, 2], budget=4).design(sample_size=8).kind == "full"
 
 
 # -- readings: bad input ---------------------------------------------------------------------------------------
@@ -214,9 +218,22 @@ def _hand_verdict(r, se, printed, p):
     return d, ("qualitatively reproduced" if abs(r - p) <= 0.25 * abs(p) else "not reproduced")
 
 
+def _hand_isolated(mv):
+    """Per universe, whether Table 1 (its two cells, also its one row) fails the joint test, by hand: with two
+    cells, the chi-squared tail of the sum of squares is exp(-S/2), compared with 2 Phi(-3)."""
+    alpha = math.erfc(3 / math.sqrt(2))
+    out = []
+    for u in mv.universes:
+        ds = [_hand_verdict(u.values[k].replicated, u.values[k].stderr, p, float(p))[0]
+              for k, p in ((0, "1.0"), (1, "2.0"))]
+        out.append(math.exp(-(ds[0] ** 2 + ds[1] ** 2) / 2) < alpha)
+    return out
+
+
 def test_numbers_summary_by_hand(tmp_path):
     mv = _mv(tmp_path)
     s = {x["quantity"]: x for x in mv.numbers_summary()}
+    failing = _hand_isolated(mv)
     for k, (qty, printed) in enumerate((("mean", "1.0"), ("sd", "2.0"))):
         verdicts, dists = [], []
         for u in mv.universes:
@@ -226,38 +243,57 @@ def test_numbers_summary_by_hand(tmp_path):
             verdicts.append(verdict)
         got = s[qty]
         assert [mv.number_verdict(toy.PUBLISHED[k], u).split(":")[0] for u in mv.universes] == verdicts
-        assert got["n_reproduced"] == verdicts.count("reproduced")
+        rep = [verdicts[i] == "reproduced" and not failing[i] for i in range(12)]
+        iso = [verdicts[i] == "reproduced" and failing[i] for i in range(12)]
+        assert got["n_reproduced"] == sum(rep) and got["n_isolated"] == sum(iso)
         assert got["n_inconclusive"] == verdicts.count("inconclusive")
-        judged = [j for j in range(len(dists)) if verdicts[j] != "inconclusive"]
-        i = min(judged, key=lambda j: abs(dists[j]))
-        assert got["closest"]["universe"] == i and got["closest"]["distance"] == pytest.approx(dists[i])
+        assert got["n_counted"] == 12 and got["weighting"] == "full factorial of 12"
+        # the closest: among the universes with s.e. <= 10 % of the printed value, the smallest relative distance
+        precise = [j for j, u in enumerate(mv.universes) if u.values[k].stderr <= 0.1 * float(printed)]
+        rel = [abs(u.values[k].replicated - float(printed)) / float(printed) for u in mv.universes]
+        i = min(precise, key=rel.__getitem__)
+        assert got["closest_status"] == "found" and got["n_precise"] == len(precise)
+        assert got["closest"]["universe"] == i and got["closest"]["relative_distance"] == pytest.approx(rel[i])
+        assert got["closest"]["distance"] == pytest.approx(dists[i])
+        assert got["isolated"] is (verdicts[0] == "reproduced" and failing[0])
+        assert got["joint_test"]["table"]["dof"] == 2 and got["joint_test"]["table"]["passes"] is (not failing[0])
     assert s["mean"]["headline_verdict"] == "not reproduced"                # headline has no bias
     assert s["mean"]["n_reproduced"] >= 1 and s["mean"]["n_inconclusive"] >= 1   # both branches exercised
+    assert sum(s[q]["n_isolated"] for q in ("mean", "sd")) >= 1             # an isolated coincidence exercised
     never = s["never computed"]
     assert never["headline_verdict"] == "not replicable" and never["n_reproduced"] == 0 and never["closest"] is None
+    assert never["closest_status"] == "not computed" and never["joint_test"] is None
 
 
 def test_table_match_by_hand(tmp_path):
     mv = _mv(tmp_path)
     tm = {t["table"]: t for t in mv.table_match()}
     assert set(tm) == {"Table 1"}                       # Table 2 has no replicated cell
-    sums, judged, n_rep = [], [], []
-    for u in mv.universes:
-        s, ok, n = 0.0, True, 0
+    failing = _hand_isolated(mv)
+    sums, precise, rms, n_rep, n_iso = [], [], [], [], []
+    for i, u in enumerate(mv.universes):
+        s, ok, n, r2 = 0.0, True, 0, 0.0
         for k, p in ((0, "1.0"), (1, "2.0")):
             v = u.values[k]
             d, verdict = _hand_verdict(v.replicated, v.stderr, p, float(p))
             s += d * d
-            ok &= verdict != "inconclusive"
+            ok &= v.stderr <= 0.1 * float(p)
             n += verdict == "reproduced"
+            r2 += ((v.replicated - float(p)) / float(p)) ** 2
         sums.append(s)
-        judged.append(ok)
-        n_rep.append(n)
-    best = min((j for j in range(len(sums)) if judged[j]), key=sums.__getitem__)
+        precise.append(ok)
+        rms.append(math.sqrt(r2 / 2))
+        n_rep.append(0 if failing[i] else n)
+        n_iso.append(n if failing[i] else 0)
+    best = min((j for j in range(len(sums)) if precise[j]), key=rms.__getitem__)
     t = tm["Table 1"]
-    assert t["best_universe"] == best and t["best_sum"] == pytest.approx(sums[best])
-    assert t["headline_sum"] == pytest.approx(sums[0]) and t["n_excluded_inconclusive"] == judged.count(False)
-    assert t["most_n_reproduced"] == max(n_rep) and t["headline_n_reproduced"] == n_rep[0]
+    assert t["best_universe"] == best and t["best_rms_relative"] == pytest.approx(rms[best])
+    assert t["best_sum"] == pytest.approx(sums[best]) and t["best_joint_test"]["statistic"] == pytest.approx(sums[best])
+    assert t["headline_sum"] == pytest.approx(sums[0]) and t["n_excluded_imprecise"] == precise.count(False)
+    assert t["headline_rms_relative"] == pytest.approx(rms[0])
+    assert t["most_n_reproduced"] == max(n_rep) and t["headline_n_reproduced"] == n_rep[0] and t["isolated"] == n_iso[0]
+    assert t["n_passing"] == failing.count(False) and t["n_counted"] == 12
+    assert t["joint_test"]["passes"] is (not failing[0]) and t["joint_test"]["dof"] == 2
     assert mv.readings[best]["A"] == "one" and mv.readings[best]["B"] == "s2"   # bias 1, s.d. 2: the printed table
 
 
@@ -269,6 +305,15 @@ def test_claims_summary_by_hand(tmp_path):
     assert c["n_universes"] == 12 and c["headline_verdict"] == mv.universes[0].claims[0].verdict
     assert c["robust"] is (max(cats.count(k) for k in set(cats)) >= 0.9 * 12)
     assert c["robust"] is False                        # the mean is positive only under bias 1
+    # the full factorial: exact shares, the interval of zero width
+    assert c["share"] == {k: cats.count(k) / 12 for k in report.CLAIM_VERDICTS}
+    assert c["interval"] == {k: [cats.count(k) / 12] * 2 for k in report.CLAIM_VERDICTS}
+    assert c["weighting"] == "full factorial of 12" and c["robustness"] == "depends on the reading"
+    # the star (headline and each option alone) is reported apart: A=one, B=s2, B=s3, C=c2
+    star = [i for i, r in enumerate(mv.readings) if len(toy.SPACE.differs(r)) == 1]
+    assert c["n_star"] == len(star) == 4
+    assert c["star_counts"] == {k: [cats[i] for i in star].count(k) for k in report.CLAIM_VERDICTS
+                                if k in [cats[i] for i in star]}
 
 
 def test_robust_threshold_is_ninety_percent(tmp_path):
@@ -284,12 +329,14 @@ def test_robust_threshold_is_ninety_percent(tmp_path):
     assert mv.claims_summary()[0]["robust"] is False   # 10 of 12 < 90 %
 
 
-def test_multiverse_json_round_trip(tmp_path):
-    mv = _mv(tmp_path, design="fractional")
+@pytest.mark.parametrize("design", ["fractional", "sampled"])
+def test_multiverse_json_round_trip(tmp_path, design):
+    mv = _mv(tmp_path, design=design)
     doc = json.loads(json.dumps(mv.as_dict(), allow_nan=False))
+    assert doc["design_sample"] == list(mv.design.sample) and doc["design_seed"] == mv.design.seed
     for key in ("factors", "design", "n_universes", "universes", "claims_summary", "numbers_summary", "table_match"):
         assert key in doc
-    assert doc["design"] == "fractional" and doc["n_universes"] == len(doc["universes"])
+    assert doc["design"] == design and doc["n_universes"] == len(doc["universes"])
     assert all({"reading", "values", "claims", "diverged"} <= set(u) for u in doc["universes"])
     assert {f["id"] for f in doc["factors"]} == {"A", "B", "C"}
     back = from_dict(toy.SPACE, doc, toy.PUBLISHED, 6400)
@@ -298,17 +345,41 @@ def test_multiverse_json_round_trip(tmp_path):
 
 
 # -- the claim vocabulary --------------------------------------------------------------------------------------
+def _p(v, z=5.0, ref=None):
+    """A part with verdict ``v`` (a PartVerdict) and a difference of ``z`` standard errors."""
+    return report.Part("A − B", f"q{z}", v, z, 1.0, ref)
+
+
+H, C, N, I = (report.PartVerdict.HOLDS, report.PartVerdict.CONTRADICTED, report.PartVerdict.NO_DIFFERENCE,
+              report.PartVerdict.IDENTICAL)
+
+
 @pytest.mark.parametrize("parts,expected", [
-    (["holds (x)", "holds (y)"], "holds"),
-    (["holds (x)", "no detectable difference (y)"], "partly"),
-    (["no detectable difference (x)", "contradicted (y)"], "contradicted"),
-    (["contradicted (x)", "contradicted (y)"], "contradicted"),
-    (["holds, but negligible (< 1 %) (x)", "no detectable difference (y)"], "not supported"),
-    (["contradicted, but negligible (< 1 %) (x)"], "not supported"),
-    (["no detectable difference"], "not supported"),
+    ([H, H], "holds"),
+    ([H, N], "partly"),
+    ([N, C], "contradicted"),
+    ([C, C], "contradicted"),
+    ([report.PartVerdict.HOLDS_NEGLIGIBLE, N], "not supported"),
+    ([report.PartVerdict.CONTRADICTED_NEGLIGIBLE], "not supported"),
+    ([N], "not supported"),
+    ([I, I], "not supported"),
+    ([H, report.PartVerdict.NOT_COMPARABLE], "not assessable"),
 ])
-def test_combined_claim_verdicts(parts, expected):
-    assert report.claim_category(report.combine_claim_verdicts(parts)) == expected
+def test_judge_combines_parts_by_the_claim_rule(parts, expected):
+    j = report.judge([_p(v, z=3.0 + k) for k, v in enumerate(parts)])
+    assert j.verdict == expected and isinstance(j.verdict, report.ClaimVerdict) and j.decisive
+
+
+def test_judge_names_the_decisive_part():
+    """holds: the weakest part; contradicted: the strongest contradiction; partly: the count and the most adverse."""
+    weak, strong = report.part("A − B", "x MSE", -4.0, 1.0, -1), report.part("A − B", "y MSE", -40.0, 1.0, -1)
+    assert report.judge([strong, weak]).decisive == weak.number() + " (weakest of 2)"
+    c1, c2 = report.part("A − B", "x MSE", 4.0, 1.0, -1), report.part("A − B", "y MSE", 40.0, 1.0, -1)
+    assert report.judge([c1, c2]).decisive == c2.number() + " (2 parts)"
+    assert report.judge([weak, c1, c2]).decisive == f"1 of 3 hold; {c2.number()}"
+    same = report.part("A − B", "x MSE", 1e-13, 1e-14, -1, reference=100.0, unit="m²")
+    j = report.judge([same])
+    assert j.verdict == "not supported" and "identical to round-off" in j.decisive and same.z() != same.z()
 
 
 def test_claims_collector_rejects_verdicts_outside_the_vocabulary():
@@ -320,16 +391,18 @@ def test_claims_collector_rejects_verdicts_outside_the_vocabulary():
         c.add("C beats D", "holds, but negligible (< 1 %)")      # a part verdict, not a claim verdict
     with pytest.raises(ValueError, match="already judged"):
         c.add("A beats B", "holds")
-    with pytest.raises(ValueError, match="part verdict"):
-        report.combine_claim_verdicts(["depends"])
-    assert c.as_list() == [{"claim": "A beats B", "verdict": "holds", "evidence": "evidence"}]
-
-
-def test_paired_claim_is_the_part_rule():
-    assert report.paired_claim(-5.0, 1.0, -1) == "holds"
-    assert report.paired_claim(5.0, 1.0, -1) == "contradicted"
-    assert report.claim_category(report.paired_claim(-2.0, 1.0, -1)) == "not supported"
-    assert report.claim_category(report.paired_claim(-5.0, 1.0, -1, reference=1e4)) == "not supported"
+    j = c.add("E beats F", report.judge([report.part("E − F", "MSE", -5.0, 1.0, -1, reference=100.0)]))
+    assert c.as_list()[0] == {"claim": "A beats B", "verdict": "holds", "decisive": "", "parts": [],
+                              "evidence": "evidence"}
+    e = c.as_list()[1]
+    assert e["verdict"] == "holds" == j.verdict and e["decisive"] == j.decisive and len(e["parts"]) == 1
+    assert e["parts"][0]["verdict"] == "holds" and e["parts"][0]["number"] == j.parts[0].number()
+    other = report.Claims()
+    other.add("G beats H", report.Judgement.of("not assessable", "G is not specified"))
+    c.extend(other)
+    assert [x["claim"] for x in c] == ["A beats B", "E beats F", "G beats H"]
+    with pytest.raises(ValueError, match="already judged"):
+        c.extend(other)
 
 
 def test_standardized_distance_is_the_verdict_rule():
@@ -420,14 +493,17 @@ def test_closest_and_best_match_skip_inconclusive_universes(tmp_path):
     mean, sd = head.values[0]._replace(replicated=1.0001, stderr=5.0), head.values[1]._replace(replicated=2.0001,
                                                                                                stderr=5.0)
     noisy = dataclasses.replace(head, values=(mean, sd, *head.values[2:]))   # "matches" only because it is noisy
+    was_precise = mv.precise(toy.PUBLISHED[0], mv.universes[2])
     mv.universes[2] = noisy
     pub = toy.PUBLISHED[0]
     assert mv.number_verdict(pub, noisy).startswith("inconclusive") and abs(mv.distance(pub, noisy)) < 1e-3
     s = {x["quantity"]: x for x in mv.numbers_summary()}
-    assert s["mean"]["closest"]["universe"] != 2
+    assert s["mean"]["closest"]["universe"] != 2 and not mv.precise(pub, noisy)
     assert s["mean"]["n_inconclusive"] == before["mean"]["n_inconclusive"] + 1
+    assert s["mean"]["n_precise"] == before["mean"]["n_precise"] - was_precise
     tm = mv.table_match()[0]
     assert tm["best_universe"] != 2 and tm["n_excluded_inconclusive"] == tm_before["n_excluded_inconclusive"] + 1
+    assert tm["n_excluded_imprecise"] == tm_before["n_excluded_imprecise"] + 1
     assert tm["most_n_reproduced"] == 2 and mv.readings[tm["most_universe"]]["A"] == "one"
 
 
@@ -440,7 +516,7 @@ def _triples(space, readings):
 def test_fractional_design_spends_the_budget_on_three_factor_combinations():
     space = _space([3, 3, 2, 2, 3], budget=20)
     cover = space.covering()
-    d = space.design()
+    d = space.design("fractional")
     assert d.kind == "fractional" and len(cover) < len(d) == 20 < space.size
     assert list(d.readings[:len(cover)]) == cover                 # the strength-2 covering comes first
     assert len({tuple(r.values()) for r in d.readings}) == 20
@@ -449,7 +525,7 @@ def test_fractional_design_spends_the_budget_on_three_factor_combinations():
     # with a budget beyond what strength 3 needs, filling stops once every triple is covered
     roomy = _space([2, 2, 2, 2], budget=15)
     full_triples = _triples(roomy, roomy.full())
-    dr = roomy.design()
+    dr = roomy.design("fractional")
     assert _triples(roomy, dr.readings) == full_triples and len(dr) < 15
     assert "three-factor" in d.description and "budget of 20" in d.description
 
@@ -460,7 +536,10 @@ def test_metric_only_factor_counts_each_simulation_once(tmp_path):
                         workers=1)
     assert len(mv.universes) == 24 and len(mv.simulations()) == 12
     (c,) = mv.claims_summary()
-    assert c["n_universes"] == 24 and c["n_simulations"] == 12 and sum(c["verdict_counts"].values()) == 12
+    # every universe of the full factorial counts once (a simulation as many times as it has metric readings)
+    assert c["n_universes"] == 24 and c["n_simulations"] == 12 and sum(c["verdict_counts"].values()) == 24
+    (c12,) = _mv(tmp_path / "plain").claims_summary()
+    assert c["share"] == c12["share"] and c["verdict_counts"] == {k: 2 * n for k, n in c12["verdict_counts"].items()}
     assert mv.as_dict()["n_simulations"] == 12
     r = toy.METRIC_SPACE.with_headline(M="ml", B="s2")
     assert toy.METRIC_SPACE.simulation_key(r) == toy.METRIC_SPACE.simulation_key({**r, "M": "unbiased"})
@@ -523,7 +602,8 @@ def test_as_json_is_the_dict_universe_result_built():
                    {"item": "T1", "algorithm": "alg", "quantity": "sd", "replicated": None, "stderr": None,
                     "failed": "diverged in 3/3 runs"},
                    {"item": "T2", "algorithm": "alg", "quantity": "x", "replicated": -0.0, "stderr": None}],
-        "claims": [{"claim": "A beats B", "verdict": "holds"}, {"claim": "B beats C", "verdict": "contradicted"}],
+        "claims": [{"claim": "A beats B", "verdict": "holds", "decisive": ""},
+                   {"claim": "B beats C", "verdict": "contradicted", "decisive": ""}],
         "effects": [{"name": "d", "value": 5e-324, "stderr": 2.0 / 3.0, "published": None},
                     {"name": "e", "value": -1.5, "stderr": 0.25, "published": None},
                     {"name": "f", "value": None, "stderr": 0.1, "published": 2.5}],
@@ -531,7 +611,7 @@ def test_as_json_is_the_dict_universe_result_built():
     assert list(doc) == list(JSON_KEYS) == list(grid.RESULT_KEYS)
     value_keys = ["item", "algorithm", "quantity", "replicated", "stderr"]
     assert [list(v) for v in doc["values"]] == [value_keys, value_keys + ["failed"], value_keys]
-    assert all(list(c) == ["claim", "verdict"] for c in doc["claims"])
+    assert all(list(c) == ["claim", "verdict", "decisive"] for c in doc["claims"])
     assert all(list(e) == ["name", "value", "stderr", "published"] for e in doc["effects"])
     assert type(doc["values"][0]["replicated"]) is float and type(doc["diverged"]) is dict
     assert json.loads(json.dumps(doc, allow_nan=False)) == doc
@@ -539,7 +619,8 @@ def test_as_json_is_the_dict_universe_result_built():
     claims = report.Claims()
     claims.add("A beats B", "holds", "a paired difference")
     assert UniverseResult.build(values=[], claims=claims, diverged={}, n_runs=1).as_json() == {
-        "values": [], "claims": [{"claim": "A beats B", "verdict": "holds"}], "effects": [], "diverged": {},
+        "values": [], "claims": [{"claim": "A beats B", "verdict": "holds", "decisive": ""}], "effects": [],
+        "diverged": {},
         "n_runs": 1}
 
 

@@ -137,17 +137,21 @@ def test_library_validator_refuses_a_keyword_it_does_not_implement():
 def test_schema_vocabularies_are_those_of_the_code(schema):
     """The verdict patterns are the vocabularies of mmlib/experiment/verdicts.py, and the arena's verdict."""
     defs = schema["$defs"]
-    assert defs["number_verdict"]["pattern"] == f"^({'|'.join(report.VERDICTS)})(:[\\s\\S]*)?$"
-    assert defs["claim_verdict"]["pattern"] == f"^({'|'.join(report.CLAIM_VERDICTS)})(:[\\s\\S]*)?$"
+    alternatives = "|".join(v.replace("(", r"\(").replace(")", r"\)") for v in report.VERDICTS)
+    assert defs["number_verdict"]["pattern"] == f"^({alternatives})(:[\\s\\S]*)?$"
+    assert defs["claim_verdict"]["pattern"] == f"^({'|'.join(report.CLAIM_VERDICTS)})$"
+    assert defs["part"]["properties"]["verdict"]["enum"] == list(report.PartVerdict)
     number, claim = re.compile(defs["number_verdict"]["pattern"]), re.compile(defs["claim_verdict"]["pattern"])
     for text in ["reproduced", "not replicable: no method", report.verdict("2.0", 2.0, 0.001, 10, 10),
                  report.verdict("2.0", 9.0, 0.001), report.verdict("2.0", 2.3, 0.01), report.verdict("2.0", 2.0, 9.0),
                  report.verdict(None, None, None, reason="not published")]:
         assert number.search(text) and report.verdict_category(text), text
-    for text in ["holds", report.paired_claim(-1.0, 0.1, -1), report.paired_claim(1.0, 0.1, -1),
-                 report.paired_claim(0.0, 1.0, -1), report.paired_claim(float("nan"), 1.0, -1),
-                 report.combine_claim_verdicts(["holds (a)", "no detectable difference (b)"])]:
+    parts = [report.part("A − B", "MSE", d, se, -1) for d, se in ((-1.0, 0.1), (1.0, 0.1), (0.0, 1.0),
+                                                                     (float("nan"), 1.0))]
+    for text in ["holds", *(report.judge([p]).verdict for p in parts), report.judge(parts[:3]).verdict]:
         assert claim.search(text) and report.claim_category(text), text
+    assert not claim.search("partly: holds (a)")                        # one term, the detail is 'decisive'
+    assert report.verdict_category("reproduced (exact)") == report.REPRODUCED_EXACT
     for text in ["Reproduced", "reproducedish", "roughly: reproduced", "holds"]:
         assert not number.search(text), text
     assert not claim.search("reproduced") and not claim.search("no detectable difference")
@@ -179,7 +183,8 @@ def test_write_results_names_a_non_finite_number(tmp_path, value):
 
 def test_what_write_results_writes_reads_back(tmp_path):
     claims = report.Claims()
-    claims.add("A beats B", report.paired_claim(-1.0, 0.1, -1), "paired difference")
+    claims.add("A beats B", report.judge([report.part("A − B", "MSE", -1.0, 0.1, -1, reference=4.0)]),
+               "paired difference")
     rows = [report.make_row("Table 1", "A", "RMSE (m)", "2.0", 2.01, 0.01, n_runs=10, n_runs_paper=10,
                             deviations=["D-1"]),
             report.make_row("Table 1", "B", "RMSE (m)", "3.0", None, None, reason="not published"),

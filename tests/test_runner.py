@@ -67,8 +67,8 @@ doc = {{"paper": PAPER,
        "provenance": {{"profile": PROFILE, "n_runs": N_RUNS or 4, "root_seed": SEED or 0, "git_commit": "test",
                       "paper_citation": "test"}},
        "rows": [{{"item": "T1", "algorithm": "A", "quantity": "q", "paper": 1.0, "replicated": 1.0, "stderr": 0.1,
-                 "verdict": "reproduced", "deviations": [], "note": tag}}],
-       "claims": [{{"claim": "claim " + tag, "verdict": "holds", "evidence": "e"}}],
+                 "verdict": "reproduced", "deviations": [], "note": tag, "distance": 0.0}}],
+       "claims": [{{"claim": "claim " + tag, "verdict": "holds", "decisive": "", "parts": [], "evidence": "e"}}],
        "figures": {{"fig01": {{"paper_claim": "c", "ours": tag, "files": ["figures/" + PAPER + "/fig01.png"]}}}}}}
 (root / "data" / "results").mkdir(parents=True)
 (root / "data" / "results" / (PAPER + ".json")).write_text(json.dumps(doc))

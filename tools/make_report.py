@@ -25,13 +25,31 @@ from mmlib.experiment.views import markdown_table, value_pm  # noqa: E402
 
 
 def render_multiverse(mv: dict) -> list:
-    """The reading-space section of a paper's report, from the stored ``multiverse`` object."""
+    """The reading-space section of a paper's report, from the stored ``multiverse`` object: the design and its
+    weighting, the factors and options, the claims' shares of the reading space with their intervals, the claim x
+    option table, the published numbers (joint tests, precision-aware closest universe) and the table match."""
+    from mmlib.experiment.multiverse import PRECISION, ROBUST_FRACTION
+    shares = ("Every universe of the full factorial weighs the same: a share is exact when the full factorial is "
+              "run, else estimated from the uniform random sample with a 95 % Wilson score interval; the headline "
+              "and the universes varying one option alone (the star) are reported apart and not counted. A verdict "
+              f"is *robust* when its interval's lower bound is at least {100 * ROBUST_FRACTION:.0f} %."
+              if mv["weighting"].startswith(("full", "uniform")) else
+              "The design is not a uniform sample of the reading space, so no share is computed from it; the counts "
+              "describe the design only.")
     return ["", "## Reading space (multiverse)", "",
             f"Design: {mv['design_description']}; {mv['n_runs']} Monte Carlo runs per universe, common random "
-            f"numbers across universes. {views.summary_line(mv)}.", "", "### Factors", "",
+            f"numbers across universes. Weighting: {mv['weighting']}. {views.summary_line(mv)}.", "",
+            "### Factors", "",
             views.factors_table(mv["factors"]), "", "Each option, and where the paper's text supports it:", "",
-            views.options_table(mv["factors"]), "", "### Claims across the universes", "", views.claims_table(mv), "",
-            "### Published numbers across the universes", "", views.numbers_table(mv), "",
+            views.options_table(mv["factors"]), "", "### Claims across the reading space", "", shares, "",
+            views.claims_table(mv), "", "### Claim × option", "",
+            "Share of each claim's most frequent verdict among the counted universes with each option: what drives "
+            "the verdict.", "", views.claim_option_table(mv), "",
+            "### Published numbers across the universes", "",
+            "A cell reproduced inside a row or table that fails its joint test (Σz² against χ² with one degree of "
+            "freedom per cell) is *isolated* and not counted as reproduced. The closest universe is chosen among "
+            f"those whose value is precise enough (s.e. ≤ {100 * PRECISION:.0f} % of the printed value), by relative "
+            "distance.", "", views.numbers_table(mv), "",
             "### Which reading matches each published table", "", views.table_match_table(mv),
             "", "The best-matching reading is a forensic finding (which declared reading the printed table is "
             "consistent with), not the headline; no continuous parameter is fitted."]
@@ -86,16 +104,35 @@ def render(doc: dict, root: Path, out_dir: Path) -> str:
              f"{prov.get('paper_citation', '')}", "",
              f"Generated from `data/results/{doc['paper']}.json` — profile `{prov['profile']}`, "
              f"{prov['n_runs']} Monte Carlo runs, root seed {prov['root_seed']}, commit `{prov['git_commit']}`. "
-             "Verdict rule: `mmlib/experiment/verdicts.py`.", "", "## Comparison", ""]
+             "Verdict rule: `mmlib/experiment/verdicts.py`.", ""]
+    if doc.get("rule"):
+        lines += [f"*Assumption of the rule:* {doc['rule']['paper_error_assumption']}", ""]
+    lines += ["## Comparison", ""]
     lines.append(markdown_table(
-        ["item", "algorithm", "quantity", "paper", "replicated ± s.e.", "verdict", "deviations", "note"],
+        ["item", "algorithm", "quantity", "paper", "replicated ± s.e.", "z", "verdict", "deviations", "note"],
         [[r["item"], r["algorithm"], r["quantity"], r["paper"] or "--",
-          value_pm(r["replicated"], r["stderr"]), r["verdict"], ", ".join(r["deviations"]), r.get("note", "")]
+          value_pm(r["replicated"], r["stderr"]), "--" if r.get("distance") is None else f"{r['distance']:+.1f}",
+          r["verdict"], ", ".join(r["deviations"]), r.get("note", "")]
          for r in doc["rows"]]))
+    failing = [t for t in doc.get("joint_tests", []) if not t["passes"]]
+    if doc.get("joint_tests"):
+        lines += ["", f"Joint tests (Σz² against χ² with one degree of freedom per Monte Carlo cell, level "
+                      f"{doc['rule']['joint_alpha']:.2g}): {len(doc['joint_tests']) - len(failing)} of "
+                      f"{len(doc['joint_tests'])} tables and rows pass"
+                  + ("." if not failing else "; failing: " + "; ".join(
+                      f"{t['item']}{'' if t['algorithm'] is None else ', ' + t['algorithm']} (Σz² {t['statistic']:.3g}"
+                      f" on {t['dof']} cells"
+                      + (f", {t['n_isolated']} reproduced cell(s) isolated" if t["n_isolated"] else "") + ")"
+                      for t in failing) + ".")]
     if doc.get("claims"):
+        across = {c["claim"]: c for c in doc.get("multiverse", {}).get("claims_summary", [])}
         lines += ["", "## Claims of the abstract and conclusions", "",
-                  markdown_table(["claim", "verdict", "evidence"],
-                                 [[c["claim"], c["verdict"], c["evidence"]] for c in doc["claims"]])]
+                  markdown_table(["claim", "verdict — decisive number — share of the reading space", "evidence"],
+                                 [[c["claim"], views.claim_cell(c, across.get(c["claim"])), c["evidence"]]
+                                  for c in doc["claims"]])]
+        if any(c.get("parts") for c in doc["claims"]):
+            from mmlib.experiment.notebook import claim_matrix
+            lines += ["", "### Claim × comparison", "", claim_matrix(doc["claims"])]
     if doc.get("multiverse"):
         lines += render_multiverse(doc["multiverse"])
     if doc.get("figures"):
@@ -113,16 +150,19 @@ def render_index(docs, link=None, title: str = "# All papers: what holds") -> st
 
     ``link(paper)`` is the Markdown link to a paper's page (default: its report, ``[<paper>.md](<paper>.md)``; the
     site links its notebook pages instead); ``title`` the first line."""
-    from mmlib.experiment.verdicts import VERDICTS
+    from mmlib.experiment.multiverse import PRECISION
+    from mmlib.experiment.verdicts import PAPER_ERROR_ASSUMPTION, VERDICTS, verdict_category
     link = link or (lambda paper: f"[{paper}.md]({paper}.md)")
     arena = [d for d in docs if d.get("kind") == "arena"]
     docs = [d for d in docs if d.get("kind") != "arena"]
     lines = [title, "",
              "Generated from `data/results/*.json`. Verdict rule: `mmlib/experiment/verdicts.py`. Counts are over the "
-             "comparison rows of each paper (tables; timing rows included).", "",
+             "comparison rows of each paper (tables; timing rows included); a *reproduced (isolated)* cell matched "
+             "inside a table or row that fails its joint test and does not count as reproduced.", "",
+             f"*Assumption of the rule:* {PAPER_ERROR_ASSUMPTION}", "",
              markdown_table(["paper", "runs", *VERDICTS, "report"],
                             [[d["paper"], d["provenance"]["n_runs"],
-                              *[sum(r["verdict"].startswith(v) for r in d["rows"]) for v in VERDICTS],
+                              *[sum(verdict_category(r["verdict"]) == v for r in d["rows"]) for v in VERDICTS],
                               link(d["paper"])] for d in docs]), ""]
     with_mv = [d for d in docs if d.get("multiverse")]
     if with_mv:
@@ -130,29 +170,34 @@ def render_index(docs, link=None, title: str = "# All papers: what holds") -> st
                   "Each paper's ambiguities are declared as factors and every universe of the design is run "
                   "(common random numbers). *Headline* is the reading chosen on the text before any run; "
                   "*best reading* is the declared reading whose numbers are closest to the whole printed table "
-                  "(sum of squared standardized distances, among universes whose values are precise enough to judge) "
-                  "-- a forensic finding, never the headline.", "",
-                  markdown_table(["paper", "universes", "runs each", "table", "cells", "reproduced: headline universe",
+                  "(root-mean-square relative distance, among universes whose every value has a standard error "
+                  f"within {100 * PRECISION:.0f} % of the printed one) -- a forensic finding, never the headline. A "
+                  "cell reproduced inside a row or table failing its joint test is isolated and not counted.", "",
+                  markdown_table(["paper", "universes", "runs each", "weighting", "table", "cells",
+                                  "reproduced: headline universe", "headline joint test",
                                   "reproduced: best-matching reading", "best-matching reading",
                                   "most cells any reading reproduces", "that reading"],
-                                 [[d["paper"], d["multiverse"]["n_universes"], d["multiverse"]["n_runs"], t["table"],
-                                   t["n_cells"], t["headline_n_reproduced"], t["best_n_reproduced"], t["best_describe"],
+                                 [[d["paper"], d["multiverse"]["n_universes"], d["multiverse"]["n_runs"],
+                                   d["multiverse"]["weighting"], t["table"], t["n_cells"], t["headline_n_reproduced"],
+                                   "--" if t["joint_test"] is None else
+                                   ("passes" if t["joint_test"]["passes"] else "fails"),
+                                   t["best_n_reproduced"], t["best_describe"],
                                    t["most_n_reproduced"], views.most_reading(t)]
                                   for d in with_mv for t in d["multiverse"]["table_match"]]), ""]
-    lines += ["## Claims", "", "Verdict of the headline reading, and how it fares across the paper's reading space "
-              "(*robust*: one verdict in at least 90 % of the universes).", ""]
+    lines += ["## Claims", "", "Each claim: the headline reading's verdict, the one number that decided it, and the "
+              "share of the paper's reading space (every universe of the full factorial weighted equally) with that "
+              "verdict, with its 95 % interval when estimated from a uniform sample of universes; *robust* when one "
+              "verdict's interval lies at or above 90 %.", ""]
     for d in docs:
-        across = {c["claim"]: c for c in d.get("multiverse", {}).get("claims_summary", [])}
-
-        def spread(c):
-            s = across.get(c["claim"])
-            if s is None:
-                return "--"
-            counts = ", ".join(f"{k} {n}" for k, n in s["verdict_counts"].items())
-            return ("robust: " if s["robust"] else "depends on the reading: ") + counts
-        lines += [f"### {d['paper']}", "", markdown_table(["claim", "verdict", "across the reading space"],
-                                                          [[c["claim"], c["verdict"], spread(c)]
-                                                           for c in d.get("claims", [])]), ""]
+        mv = d.get("multiverse", {})
+        across = {c["claim"]: c for c in mv.get("claims_summary", [])}
+        note = f" ({mv['weighting']})" if mv.get("weighting") else ""
+        lines += [f"### {d['paper']}", "",
+                  markdown_table(["claim", "verdict — decisive number — share of the reading space" + note,
+                                  "across the reading space"],
+                                 [[c["claim"], views.claim_cell(c, across.get(c["claim"])),
+                                   across[c["claim"]]["robustness"] if c["claim"] in across else "--"]
+                                  for c in d.get("claims", [])]), ""]
     for d in arena:
         lines += ["## The arena: every algorithm on every scenario", "",
                   f"{len(d['cells'])} cells ({sum('reason' not in c for c in d['cells'])} applicable) at "

@@ -254,3 +254,29 @@ def jackknife(statistic: Callable, samples: ArrayLike, valid: ArrayLike | None =
     loo = np.array([_statistic_value(statistic(np.delete(s, i, axis=0))) for i in range(n)])
     se = float(np.sqrt((n - 1) / n * ((loo - loo.mean()) ** 2).sum()))
     return MCValue(value, se, n, int((~ok).sum()))
+
+
+def wilson_interval(successes: int, n: int, level: float = 0.95) -> tuple[float, float]:
+    r"""Wilson score interval for a binomial proportion (Wilson 1927, J. Amer. Statist. Assoc. 22:209; Agresti &
+    Coull 1998, The American Statistician 52(2):119): with :math:`\hat p = k/n` and
+    :math:`z = \Phi^{-1}((1 + \mathrm{level})/2)` (1.96 at 95 %),
+
+    .. math:: \frac{\hat p + z^2/(2n) \pm z\sqrt{\hat p(1-\hat p)/n + z^2/(4n^2)}}{1 + z^2/n}.
+
+    ``successes`` k and ``n`` integers with 0 <= k <= n, n >= 1; ``level`` in (0, 1).  Returns ``(low, high)``
+    within [0, 1] (exactly 0 when k = 0 and 1 when k = n).  For a sample drawn without replacement from a finite
+    population the interval is conservative (it ignores the finite-population correction)."""
+    n = check_positive_int(n, "n")
+    k = check_positive_int(successes, "successes", minimum=0)
+    if k > n:
+        raise ValueError(f"successes: {k} of only n = {n}")
+    level = check_scalar(level, "level", positive=True)
+    if not level < 1.0:
+        raise ValueError(f"level: expected a probability in (0, 1), got {level!r}")
+    z = float(stats.norm.ppf(0.5 + level / 2))
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    low = 0.0 if k == 0 else max(0.0, float(centre - half))
+    high = 1.0 if k == n else min(1.0, float(centre + half))
+    return low, high

@@ -15,20 +15,32 @@ A paper module provides
 returns a :class:`Multiverse`, whose :meth:`Multiverse.as_dict` is the ``multiverse``
 object of ``data/results/<paper>.json``:
 
-* ``factors``, ``design``, ``design_description``, ``n_universes``, ``n_runs``;
+* ``factors``, ``design``, ``design_description``, ``design_sample``, ``design_seed``, ``n_universes``,
+  ``n_runs``, ``n_counted`` and ``weighting``;
 * ``universes``: [{``reading``, ``values``, ``claims``, ``effects``, ``diverged``}];
-* ``claims_summary``: per claim, the headline verdict, the count of each verdict across the
-  distinct simulations (universes that differ only in metric-only factors count once), and
-  ``robust`` (one verdict in at least 90 % of them);
-* ``numbers_summary``: per published number, the headline verdict, ``n_reproduced`` (universes
-  whose value is *reproduced* under the one verdict rule) and ``closest``, the universe of
-  smallest standardized distance, with its reading and verdict;
-* ``table_match``: per published table, the universe minimising the sum over its cells of the
-  squared standardized distances, that sum, and the headline's.
+* ``claims_summary``: per claim, the headline verdict, the verdicts of the star universes (each option varied
+  alone, reported apart) and the *share of the declared reading space* holding each verdict: every universe of
+  the full factorial weighted equally, exact when the full factorial is run, otherwise estimated from the design's
+  uniform random sample (:attr:`~mmlib.experiment.readings.Design.sample`) with a 95 % Wilson score interval
+  (:func:`~mmlib.experiment.metrics.wilson_interval`); ``robust`` when the interval's lower bound reaches
+  ``ROBUST_FRACTION`` for one verdict; ``by_option``, the shares among the counted universes with each option
+  of each factor (the claim x option table).  A covering ("fractional") or star design weights the readings by
+  the design, not equally: no share is computed from it;
+* ``numbers_summary``: per published number, the headline verdict after the joint tests, the counted universes
+  that reproduce it (``n_reproduced``; a cell reproduced inside a row or table that fails its joint test is
+  *isolated* and not counted) and ``closest``, the universe whose value is closest to the printed number among
+  those precise enough to judge it (s.e. at most ``PRECISION`` times the printed value), ranked by relative
+  distance;
+* ``table_match``: per published table, the precise universe of smallest root-mean-square relative distance
+  over the table's cells, with its sum of squared standardized distances and joint test, and the headline's.
 
-The closest universe and the best table match are forensic findings ("Table 1 is
-consistent with reading X"), never the headline; only the declared discrete options take
-part, so nothing continuous is fitted to a published number.
+The joint test of a group of cells (one published table; one row: the cells of one item and algorithm) is
+:func:`mmlib.experiment.verdicts.joint_test`: the sum of the cells' squared standardized distances against
+chi-squared with one degree of freedom per cell, over the cells with a finite distance.
+
+The closest universe and the best table match are forensic findings ("Table 1 is consistent with reading X"),
+never the headline, and every run universe takes part in them (the star included); only the declared discrete
+options take part, so nothing continuous is fitted to a published number.
 """
 from __future__ import annotations
 
@@ -40,12 +52,26 @@ from typing import Any, Callable, Iterable, Mapping
 from mmlib.core._validate import check_names, check_positive_int
 from mmlib.experiment import report
 from mmlib.experiment.grid import run_grid
+from mmlib.experiment.metrics import wilson_interval
 from mmlib.experiment.readings import Design, ReadingSpace
 from mmlib.experiment.universe import Effect, PublishedNumber, UniverseResult, Value, finite_or_none, items
 
 
-#: a claim is robust when one verdict holds in at least this fraction of the universes
+#: a claim is robust when the lower bound of the interval of one verdict's share of the reading space is at least
+#: this fraction (the share itself when it is exact, the full factorial run)
 ROBUST_FRACTION = 0.9
+
+#: the coverage of the interval of a share estimated from a uniform sample (Wilson score interval)
+INTERVAL_LEVEL = 0.95
+
+#: a universe's value is precise enough to be the closest to a printed number (or to take part in a table match)
+#: when its standard error is at most this fraction of the printed value's magnitude (of half a unit of its last
+#: digit when it is printed as 0): 10 %, so that the relative distances that rank the universes are known to
+#: about +-10 % of the printed value, and a value "close" only because it is noisy cannot win
+PRECISION = 0.1
+
+#: the robustness label of a claim whose shares cannot be computed
+NO_SHARE = "no share: the design is not a uniform sample"
 
 
 def _check_pub(pub) -> PublishedNumber:
@@ -86,6 +112,10 @@ class Multiverse:
                                  f"{type(u).__name__}")
         if self.design.readings[0] != self.space.headline:
             raise ValueError("design: the headline must be the first universe")
+        drawn = [tuple(self.space.validate(self.design.readings[i]).items()) for i in self.design.sample]
+        if len(set(drawn)) != len(drawn):
+            raise ValueError("design: the counted universes repeat a reading (a uniform sample is drawn without "
+                             "replacement)")
         _check_published(self.published)
         check_positive_int(self.n_runs, "n_runs")
         if self.n_runs_paper is not None:
@@ -129,6 +159,25 @@ class Multiverse:
         """False when the universe's value is too uncertain to judge (verdict *inconclusive*)."""
         return not self.number_verdict(pub, universe).startswith(report.INCONCLUSIVE)
 
+    def precise(self, pub: PublishedNumber, universe: UniverseResult) -> bool:
+        """Whether the universe's value of ``pub`` is precise enough to be compared by its distance: produced, with
+        a finite standard error at most ``PRECISION`` times the printed value's magnitude (times half a unit of
+        its last digit when it is printed as 0).  A value without a standard error (a single run) is not."""
+        v = self.value(universe, _check_pub(pub).key)
+        if v is None or v.replicated is None or v.stderr is None or not math.isfinite(v.stderr):
+            return False
+        return v.stderr <= PRECISION * _scale(pub)
+
+    def relative_distance(self, pub: PublishedNumber, universe: UniverseResult) -> float | None:
+        """``|replicated - printed| / |printed|`` (over half a unit of the last digit when printed as 0); None when
+        the universe does not compute the number, ``inf`` when it computed it but could not produce a value."""
+        v = self.value(universe, _check_pub(pub).key)
+        if v is None:
+            return None
+        if v.replicated is None:
+            return math.inf
+        return abs(v.replicated - float(pub.printed)) / _scale(pub)
+
     def distance(self, pub: PublishedNumber, universe: dict) -> float | None:
         """The standardized distance of the universe's value from the printed number
         (:func:`mmlib.experiment.report.standardized_distance`); None when the universe does not compute it,
@@ -140,6 +189,85 @@ class Multiverse:
             return math.inf                       # run but failed: matches no printed value
         return report.standardized_distance(pub.printed, v.replicated, v.stderr, universe.n_runs,
                                             self.n_runs_paper)
+
+    # -- which universes a share counts -----------------------------------------------------------------------
+    @property
+    def uniform(self) -> bool:
+        """True when the counted universes are the full factorial or a uniform sample of it (shares computed)."""
+        return self.design.uniform
+
+    @property
+    def exact(self) -> bool:
+        """True when the counted universes are the whole full factorial (shares exact, no interval width)."""
+        return self.uniform and len(self.design.sample) == self.space.size
+
+    def counted(self) -> list:
+        """Indices of the universes counted in the summaries' counts and shares: the design's sample (every
+        universe of a full design, the uniform sample of a sampled one, the headline and star universes only if
+        drawn); for a covering or star design, which counts none for shares, every universe (descriptive counts
+        only)."""
+        return sorted(self.design.sample) if self.uniform else list(range(len(self.universes)))
+
+    def weighting(self) -> str:
+        """How the counted universes weight the reading space: ``"full factorial of M"``, ``"uniform sample of N
+        of M, seed S"``, or, for a covering or star design, that it is not a uniform sample."""
+        m = self.space.size
+        if self.exact:
+            return f"full factorial of {m}"
+        if self.uniform:
+            return f"uniform sample of {len(self.design.sample)} of {m}, seed {self.design.seed}"
+        return f"none: a {self.design.kind} design of {len(self.universes)} of {m} universes is not a uniform sample"
+
+    def star_indices(self) -> list:
+        """Indices of the universes that differ from the headline in exactly one factor (the star without the
+        headline), reported apart from the shares."""
+        return [i for i, r in enumerate(self.readings) if len(self.space.differs(r)) == 1]
+
+    def shares(self, labels: Iterable[str], vocabulary: Iterable[str]) -> dict:
+        """The share of the reading space of each term of ``vocabulary`` given the label of each counted universe
+        (``labels``, one per counted universe, in :meth:`counted` order): ``counts``, ``share`` ({term:
+        fraction}, every term) and ``interval`` ({term: [low, high]}: ``[share, share]`` when :attr:`exact`, else
+        the Wilson score interval at ``INTERVAL_LEVEL``), ``robust`` and ``robustness``.  For a design that is not
+        a uniform sample, ``share``, ``interval`` and ``robust`` are None."""
+        labels, vocabulary = list(labels), list(vocabulary)
+        counts = {k: labels.count(k) for k in vocabulary if k in labels}
+        if len(labels) != sum(counts.values()):
+            raise ValueError(f"labels: {sorted(set(labels) - set(vocabulary))} are outside the vocabulary")
+        n = len(labels)
+        if not self.uniform or n == 0:
+            return {"counts": counts, "share": None, "interval": None, "robust": None,
+                    "robustness": NO_SHARE if not self.uniform else "no share: no counted universe"}
+        share = {k: labels.count(k) / n for k in vocabulary}
+        if self.exact:
+            interval = {k: [f, f] for k, f in share.items()}
+        else:
+            interval = {k: list(wilson_interval(labels.count(k), n, INTERVAL_LEVEL)) for k in vocabulary}
+        robust = max(lo for lo, _ in interval.values()) >= ROBUST_FRACTION
+        return {"counts": counts, "share": share, "interval": interval, "robust": robust,
+                "robustness": "robust" if robust else "depends on the reading"}
+
+    def by_option(self, labels: Iterable[str], vocabulary: Iterable[str],
+                  indices: Iterable[int] | None = None) -> dict | None:
+        """The label x option table: per factor, per option, ``n`` (counted universes with that option) and
+        ``share`` ({term: fraction} over them, the terms that occur, in vocabulary order; empty when ``n`` is 0);
+        ``labels`` one per universe of ``indices`` (default :meth:`counted`).  None for a design that is not a
+        uniform sample."""
+        if not self.uniform:
+            return None
+        labels, vocabulary = list(labels), list(vocabulary)
+        counted = self.counted() if indices is None else list(indices)
+        if len(counted) != len(labels):
+            raise ValueError(f"labels: {len(labels)} labels for {len(counted)} universes")
+        if any(lab not in vocabulary for lab in labels):
+            raise ValueError(f"labels: {sorted(set(labels) - set(vocabulary))} are outside the vocabulary")
+        out = {}
+        for f in self.space.factors:
+            out[f.id] = {}
+            for o in f.names:
+                mine = [lab for i, lab in zip(counted, labels) if self.readings[i][f.id] == o]
+                out[f.id][o] = {"n": len(mine),
+                                "share": {k: mine.count(k) / len(mine) for k in vocabulary if k in mine}}
+        return out
 
     # -- summaries --------------------------------------------------------------------------------------------
     def simulations(self) -> list:
@@ -160,52 +288,115 @@ class Multiverse:
         return list(groups.values())
 
     def claims_summary(self) -> list:
-        """Per claim of the headline: the verdict counts over the distinct simulations (each once, whatever
-        its number of metric-only readings; without metric-only factors, one per universe) and ``robust``
-        when one verdict holds in at least ``ROBUST_FRACTION`` of them."""
-        groups = self.simulations()
+        """Per claim of the headline: ``headline_verdict`` (and ``headline_decisive``), ``star_counts`` (the
+        verdicts of the universes varying one option alone, not counted), and over the counted universes
+        (:meth:`counted`; every universe of the full factorial weighted equally, so a metric-only factor's readings
+        count as the universes they are) ``verdict_counts``, ``share``, ``interval``, ``weighting``, ``robust``,
+        ``robustness`` (:meth:`shares`) and ``by_option`` (:meth:`by_option`).  A universe without the claim takes
+        no part."""
+        sims = self.simulations()              # checks that metric-only factors change no claim
+        counted = self.counted()
+        star = self.star_indices()
+        sim_of = {i: k for k, idx in enumerate(sims) for i in idx}
         out = []
         for c in self.headline.claims:
-            verdicts = [u_c.verdict for idx in groups for u_c in self.universes[idx[0]].claims
-                        if u_c.claim == c.claim]
-            counts: dict = {}
-            for v in verdicts:
-                cat = report.claim_category(v)
-                counts[cat] = counts.get(cat, 0) + 1
-            top = max(counts.values())
-            out.append({"claim": c.claim, "headline_verdict": c.verdict,
-                        "verdict_counts": {k: counts[k] for k in report.CLAIM_VERDICTS if k in counts},
-                        "n_simulations": len(verdicts), "n_universes": len(self.universes),
-                        "robust": top >= ROBUST_FRACTION * len(verdicts)})
+            def verdicts_of(indices):
+                got = []
+                for i in indices:
+                    v = next((x.verdict for x in self.universes[i].claims if x.claim == c.claim), None)
+                    if v is not None:
+                        got.append((i, str(report.claim_category(v))))
+                return got
+            mine = verdicts_of(counted)
+            labels = [v for _, v in mine]
+            sh = self.shares(labels, report.CLAIM_VERDICTS)
+            table = self.by_option(labels, report.CLAIM_VERDICTS, [i for i, _ in mine])
+            star_v = [v for _, v in verdicts_of(star)]
+            out.append({"claim": c.claim, "headline_verdict": c.verdict, "headline_decisive": c.decisive,
+                        "verdict_counts": sh["counts"], "n_counted": len(labels),
+                        "n_simulations": len({sim_of[i] for i, _ in mine}), "n_universes": len(self.universes),
+                        "weighting": self.weighting(), "share": sh["share"], "interval": sh["interval"],
+                        "robust": sh["robust"], "robustness": sh["robustness"], "by_option": table,
+                        "star_counts": {k: star_v.count(k) for k in report.CLAIM_VERDICTS if k in star_v},
+                        "n_star": len(star_v)})
         return out
 
+    def _cells(self) -> dict:
+        """Every universe's cells judged with the joint tests: ``verdict[i][j]`` (universe i, published number j;
+        a reproduced cell inside a failing row or table re-judged *reproduced (isolated)*), ``distance[i][j]``,
+        ``tests[i]`` ({("table", table) or ("row", table, item, algorithm): joint-test dict}) and
+        ``groups[j]`` (the table and row keys of number j)."""
+        pubs = self.published
+        groups = [(("table", p.table), ("row", p.table, p.item, p.algorithm)) for p in pubs]
+        verdicts, distances, tests = [], [], []
+        for u in self.universes:
+            vs = [self.number_verdict(p, u) for p in pubs]
+            ds = [self.distance(p, u) for p in pubs]
+            members: dict = {}
+            for j, d in enumerate(ds):
+                if d is not None and math.isfinite(d):            # the Monte Carlo cells with a distance
+                    for g in groups[j]:
+                        members.setdefault(g, []).append(j)
+            mine = {}
+            failing = set()
+            for g, idx in members.items():
+                t = report.joint_test(ds[j] for j in idx)
+                if not t.passes:
+                    failing.update(idx)
+                n_iso = 0 if t.passes else sum(vs[j] == report.REPRODUCED for j in idx)
+                mine[g] = {"item": g[1] if g[0] == "table" else g[2], "algorithm": None if g[0] == "table" else g[3],
+                           "statistic": t.statistic, "dof": t.dof, "p_value": t.p_value, "passes": t.passes,
+                           "n_isolated": n_iso}
+            vs = [report.ISOLATED if (v == report.REPRODUCED and j in failing) else v for j, v in enumerate(vs)]
+            verdicts.append(vs)
+            distances.append(ds)
+            tests.append(mine)
+        return {"verdict": verdicts, "distance": distances, "tests": tests, "groups": groups}
+
     def numbers_summary(self) -> list:
-        """Per published number: its headline verdict and distance, the counts of universes that reproduce it
-        (``n_reproduced``), reproduce it qualitatively and are inconclusive, and ``closest``, the universe of
-        smallest absolute standardized distance among the judged ones (its reading, value, distance and verdict;
-        None if none)."""
+        """Per published number: its headline verdict (after the joint tests) and distance, whether the headline's
+        cell is ``isolated`` and the headline's ``joint_test`` of the cell's ``table`` and ``row`` (None where the
+        cell has no finite distance); over the counted universes (:meth:`counted`, ``n_counted``, ``weighting``)
+        the counts of universes that reproduce it (``n_reproduced``, isolated cells excluded), whose cell is
+        reproduced but isolated (``n_isolated``), reproduce it qualitatively and are inconclusive; and, among every
+        run universe whose value is precise enough (:meth:`precise`; ``n_precise``), the ``closest`` by relative
+        distance (its universe, reading, value, standardized and relative distance and verdict), with
+        ``closest_status`` "found", "none precise enough" or "not computed"."""
+        cells = self._cells()
+        counted = self.counted()
         out = []
-        for pub in self.published:
-            verdicts = [self.number_verdict(pub, u) for u in self.universes]
-            dists = [self.distance(pub, u) for u in self.universes]
-            # the closest universe among those whose value can be judged (an inconclusive value is close
-            # only because it is noisy)
-            finite = [(abs(d), i) for i, d in enumerate(dists)
-                      if d is not None and math.isfinite(d) and not verdicts[i].startswith(report.INCONCLUSIVE)]
-            closest = None
-            if finite:
-                _, i = min(finite)
+        for j, pub in enumerate(self.published):
+            verdicts = [cells["verdict"][i][j] for i in range(len(self.universes))]
+            dists = [cells["distance"][i][j] for i in range(len(self.universes))]
+            mine = [verdicts[i] for i in counted]
+            rel = [self.relative_distance(pub, u) for u in self.universes]
+            precise = [i for i, u in enumerate(self.universes) if self.precise(pub, u)]
+            closest, status = None, "not computed"
+            if any(r is not None for r in rel):
+                status = "none precise enough"
+            if precise:
+                i = min(precise, key=lambda k: (rel[k], k))
                 v = self.value(self.universes[i], pub.key)
                 closest = {"universe": i, "reading": dict(self.readings[i]),
                            "describe": self.space.describe(self.readings[i]), "replicated": v.replicated,
-                           "stderr": v.stderr, "distance": finite_or_none(dists[i]), "verdict": verdicts[i]}
+                           "stderr": v.stderr, "distance": finite_or_none(dists[i]),
+                           "relative_distance": finite_or_none(rel[i]), "verdict": verdicts[i]}
+                status = "found"
+            head_tests = cells["tests"][0]
+            table_key, row_key = cells["groups"][j]
+            joint = (None if table_key not in head_tests or dists[0] is None or not math.isfinite(dists[0]) else
+                     {"table": head_tests[table_key], "row": head_tests[row_key]})
             out.append({"table": pub.table, "item": pub.item, "algorithm": pub.algorithm, "quantity": pub.quantity,
                         "paper": pub.printed, "headline_verdict": verdicts[0],
                         "headline_distance": finite_or_none(dists[0]),
-                        "n_reproduced": sum(v == report.REPRODUCED for v in verdicts),
-                        "n_qualitative": sum(v == report.QUALITATIVE for v in verdicts),
-                        "n_inconclusive": sum(v.startswith(report.INCONCLUSIVE) for v in verdicts),
-                        "n_universes": len(verdicts), "closest": closest})
+                        "isolated": verdicts[0] == report.ISOLATED, "joint_test": joint,
+                        "n_reproduced": sum(v == report.REPRODUCED for v in mine),
+                        "n_isolated": sum(v == report.ISOLATED for v in mine),
+                        "n_qualitative": sum(v == report.QUALITATIVE for v in mine),
+                        "n_inconclusive": sum(v.startswith(report.INCONCLUSIVE) for v in mine),
+                        "n_counted": len(mine), "weighting": self.weighting(), "n_universes": len(self.universes),
+                        "precision": PRECISION, "n_precise": len(precise), "closest": closest,
+                        "closest_status": status})
         return out
 
     def table_distances(self, table: str) -> list:
@@ -221,6 +412,30 @@ class Multiverse:
             out.append(sum(d * d for d in ds) if ds else None)
         return out
 
+    def table_relative_distances(self, table: str) -> list:
+        """Root-mean-square over the table's computed cells of the relative distances (:meth:`relative_distance`),
+        per universe (None when the universe computes no cell, ``inf`` when a cell failed)."""
+        if table not in self.tables:
+            raise ValueError(f"table: unknown table {table!r}; published: {self.tables}")
+        pubs = [p for p in self.published if p.table == table]
+        out = []
+        for u in self.universes:
+            rs = [r for r in (self.relative_distance(p, u) for p in pubs) if r is not None]
+            out.append(math.sqrt(math.fsum(r * r for r in rs) / len(rs)) if rs else None)
+        return out
+
+    def table_precise(self, table: str) -> list:
+        """Per universe: whether it computes some cell of the table and every cell it computes is precise enough
+        (:meth:`precise`): the universes that take part in the table match."""
+        if table not in self.tables:
+            raise ValueError(f"table: unknown table {table!r}; published: {self.tables}")
+        pubs = [p for p in self.published if p.table == table]
+        out = []
+        for u in self.universes:
+            computed = [p for p in pubs if self.value(u, p.key) is not None]
+            out.append(bool(computed) and all(self.precise(p, u) for p in computed))
+        return out
+
     @property
     def tables(self) -> list:
         """The published tables' names, in order of first appearance in ``published``."""
@@ -231,32 +446,52 @@ class Multiverse:
         return seen
 
     def table_match(self) -> list:
-        """Per table: the best match (smallest sum of squared standardized distances, among the universes
-        none of whose cells in the table is inconclusive -- a noisy universe is close only because it is
-        noisy), the headline's sum, and the most cells any universe reproduces."""
+        """Per table with a computed cell: the best match (``best_*``: among the universes whose every cell of the
+        table is precise enough, :meth:`table_precise`, the one of smallest root-mean-square relative distance,
+        with its sum of squared standardized distances ``best_sum`` and its ``best_joint_test``), the headline's
+        (``headline_sum``, ``headline_rms_relative``, its ``joint_test`` of the table and the number of its cells
+        ``isolated``), ``n_passing`` (counted universes whose table passes its joint test, of ``n_counted``), and
+        the most cells any universe reproduces (isolated cells excluded).  Cells reproduced only as isolated
+        coincidences never count as reproduced."""
+        cells = self._cells()
+        counted = self.counted()
         out = []
         for table in self.tables:
-            pubs = [p for p in self.published if p.table == table]
+            idx = [j for j, p in enumerate(self.published) if p.table == table]
+            pubs = [self.published[j] for j in idx]
             sums = self.table_distances(table)
-            judged = [all(self.conclusive(p, u) for p in pubs) for u in self.universes]
-            finite = [(s, i) for i, s in enumerate(sums) if s is not None and math.isfinite(s) and judged[i]]
             if not any(s is not None for s in sums):
                 continue
-            n_rep = [sum(self.number_verdict(p, u) == report.REPRODUCED for p in pubs) for u in self.universes]
+            rms = self.table_relative_distances(table)
+            eligible = self.table_precise(table)
+            judged = [all(self.conclusive(p, u) for p in pubs) for u in self.universes]
+            n_rep = [sum(cells["verdict"][i][j] == report.REPRODUCED for j in idx) for i in range(len(self.universes))]
+            n_iso = [sum(cells["verdict"][i][j] == report.ISOLATED for j in idx) for i in range(len(self.universes))]
+            test = [cells["tests"][i].get(("table", table)) for i in range(len(self.universes))]
             most = max(range(len(n_rep)), key=lambda i: (n_rep[i], -i))
             entry = {"table": table, "n_cells": sum(1 for p in pubs if self.distance(p, self.headline) is not None),
-                     "headline_sum": finite_or_none(sums[0]), "headline_n_reproduced": n_rep[0],
+                     "precision": PRECISION, "headline_sum": finite_or_none(sums[0]),
+                     "headline_rms_relative": finite_or_none(rms[0]), "headline_n_reproduced": n_rep[0],
+                     "joint_test": test[0], "isolated": n_iso[0],
+                     "n_passing": sum(bool(test[i] and test[i]["passes"]) for i in counted), "n_counted": len(counted),
+                     "weighting": self.weighting(),
+                     "n_excluded_imprecise": sum(not e for e in eligible),
                      "n_excluded_inconclusive": sum(not j for j in judged),
                      "most_n_reproduced": n_rep[most], "most_universe": most,
                      "most_reading": dict(self.readings[most]),
                      "most_describe": self.space.describe(self.readings[most]),
-                     "best_universe": None, "best_reading": None, "best_describe": "no universe can be judged",
-                     "best_sum": None, "best_n_reproduced": 0}
+                     "best_universe": None, "best_reading": None,
+                     "best_describe": "none precise enough (no universe has every cell's s.e. within "
+                                      f"{100 * PRECISION:.0f} % of the printed value)",
+                     "best_sum": None, "best_rms_relative": None, "best_joint_test": None, "best_n_reproduced": 0}
+            finite = [(rms[i], i) for i in range(len(self.universes))
+                      if eligible[i] and rms[i] is not None and math.isfinite(rms[i])]
             if finite:
                 best, i = min(finite)
                 entry.update({"best_universe": i, "best_reading": dict(self.readings[i]),
-                              "best_describe": self.space.describe(self.readings[i]), "best_sum": finite_or_none(best),
-                              "best_n_reproduced": n_rep[i]})
+                              "best_describe": self.space.describe(self.readings[i]),
+                              "best_sum": finite_or_none(sums[i]), "best_rms_relative": best,
+                              "best_joint_test": test[i], "best_n_reproduced": n_rep[i]})
             out.append(entry)
         return out
 
@@ -282,7 +517,9 @@ class Multiverse:
     def as_dict(self) -> dict:
         """The ``multiverse`` object of ``data/results/<paper>.json`` (see the module docstring); JSON-able."""
         return {"factors": self.space.as_dict(), "design": self.design.kind,
-                "design_description": self.design.description, "n_universes": len(self.universes),
+                "design_description": self.design.description, "design_sample": list(self.design.sample),
+                "design_seed": self.design.seed, "n_counted": len(self.design.sample), "weighting": self.weighting(),
+                "n_universes": len(self.universes),
                 "n_simulations": len(self.simulations()),
                 "full_factorial_size": self.space.size, "n_runs": self.n_runs,
                 "universes": [{"reading": dict(r), **u.as_json()} for r, u in zip(self.readings, self.universes)],
@@ -292,9 +529,12 @@ class Multiverse:
 
 def run_multiverse(space: ReadingSpace, job: Callable, *, published: Iterable[PublishedNumber], n_runs: int,
                    seed: int, algorithms: Iterable[str], design: str = "auto", n_runs_paper: int | None = None,
+                   sample_size: int | None = None, sample_seed: int | None = None,
                    **grid_options: Any) -> Multiverse:
-    """Run ``job`` on every universe of ``space.design(design)`` (see :func:`run_grid` for the
-    executor, worker, cache and progress options)."""
+    """Run ``job`` on every universe of ``space.design(design, sample_size=sample_size, seed=sample_seed)``
+    (``sample_size`` None: the space's budget; ``sample_seed`` None: the paper's
+    :func:`~mmlib.experiment.readings.sample_seed`; see :func:`run_grid` for the executor, worker, cache and progress
+    options).  ``seed`` is the Monte Carlo root seed, not the sample's."""
     if not isinstance(space, ReadingSpace):
         raise ValueError(f"space: expected a ReadingSpace, got {type(space).__name__}")
     algorithms = check_names(algorithms, "algorithms", nonempty=False)
@@ -303,7 +543,7 @@ def run_multiverse(space: ReadingSpace, job: Callable, *, published: Iterable[Pu
     check_positive_int(seed, "seed", minimum=0)
     if n_runs_paper is not None:
         check_positive_int(n_runs_paper, "n_runs_paper")
-    d = space.design(design)
+    d = space.design(design, sample_size=sample_size, seed=sample_seed)
     results = run_grid(job, d.readings, paper=space.paper, algorithms=algorithms, n_runs=n_runs, seed=seed,
                        result_type=UniverseResult, **grid_options)
     return Multiverse(space, d, results, published, n_runs, n_runs_paper)
@@ -340,5 +580,14 @@ def from_dict(space: ReadingSpace, doc: dict, published: Iterable[PublishedNumbe
             raise ValueError(f"doc: universe {i} has no 'reading'")
     readings = tuple(space.validate(u["reading"]) for u in doc["universes"])
     universes = [UniverseResult.from_json(u) for u in doc["universes"]]
-    return Multiverse(space, Design(doc["design"], doc["design_description"], readings), universes,
-                      tuple(published), doc["n_runs"], n_runs_paper)
+    sample = doc.get("design_sample")
+    return Multiverse(space, Design(doc["design"], doc["design_description"], readings,
+                                    None if sample is None else tuple(sample), doc.get("design_seed")),
+                      universes, tuple(published), doc["n_runs"], n_runs_paper)
+
+
+def _scale(pub: PublishedNumber) -> float:
+    """The magnitude a published number's precision and relative distance refer to: ``|printed|``, or half a unit
+    of its last printed digit when it is printed as 0."""
+    p = abs(float(pub.printed))
+    return p if p > 0 else report.printed_half_unit(pub.printed)

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any, Iterable, Mapping
 
 from mmlib.experiment.paper import Paper, Study
 from mmlib.experiment.readings import Deviation
-from mmlib.experiment.report import Row
+from mmlib.experiment.report import PartVerdict, Row, joint_tests
 from mmlib.experiment.views import markdown_table, value_pm
 
 if TYPE_CHECKING:
@@ -27,11 +27,69 @@ def deviations_table(deviations: Iterable[Deviation]) -> str:
 
 
 def rows_table(rows: Iterable[Row]) -> str:
-    """A Markdown table of :class:`~mmlib.experiment.report.Row` s: item, algorithm, quantity, the printed value,
-    ours ± its standard error, the verdict and the deviations that bear on it."""
-    return markdown_table(["item", "algorithm", "quantity", "paper", "replicated ± s.e.", "verdict", "deviations"],
-                          [[r.item, r.algorithm, r.quantity, r.paper or "--", value_pm(r.replicated, r.stderr),
-                            r.verdict, ", ".join(r.deviations)] for r in rows])
+    """A Markdown table of :class:`~mmlib.experiment.report.Row` s, joint-tested as the results file writes them
+    (:func:`~mmlib.experiment.verdicts.joint_tests`): item, algorithm, quantity, the printed value, ours ± its
+    standard error, the standardized distance z, the verdict and the deviations that bear on it; then one line per
+    table and row that fails its joint test."""
+    judged, tests = joint_tests(list(rows))
+    table = markdown_table(["item", "algorithm", "quantity", "paper", "replicated ± s.e.", "z", "verdict",
+                            "deviations"],
+                           [[r.item, r.algorithm, r.quantity, r.paper or "--", value_pm(r.replicated, r.stderr),
+                             "--" if r.distance is None else f"{r.distance:+.1f}", r.verdict, ", ".join(r.deviations)]
+                            for r in judged])
+    failing = [t for t in tests if not t["passes"]]
+    if not failing:
+        return table
+    lines = [f"- {t['item']}{'' if t['algorithm'] is None else ', ' + t['algorithm']}: Σz² = {t['statistic']:.3g} "
+             f"on {t['dof']} cells, p = {t['p_value']:.2g}: fails the joint test"
+             + (f" ({t['n_isolated']} reproduced cell(s) isolated)" if t["n_isolated"] else "") for t in failing]
+    return table + "\n\nJoint tests (χ², one degree of freedom per cell, level 0.0027):\n\n" + "\n".join(lines)
+
+
+#: the symbols of the claim x comparison matrix, by part verdict
+PART_SYMBOLS = {PartVerdict.HOLDS: "✓", PartVerdict.HOLDS_NEGLIGIBLE: "(✓)", PartVerdict.CONTRADICTED: "✗",
+                PartVerdict.CONTRADICTED_NEGLIGIBLE: "(✗)", PartVerdict.NO_DIFFERENCE: "·",
+                PartVerdict.IDENTICAL: "≡", PartVerdict.NOT_COMPARABLE: "?"}
+
+
+def claims_table(claims: Iterable[Mapping]) -> str:
+    """A Markdown table of judged claims (:meth:`mmlib.experiment.verdicts.Claims.as_list` entries): the claim, its
+    one verdict and the decisive number that produced it."""
+    return markdown_table(["claim", "verdict", "decisive"],
+                          [[c["claim"], c["verdict"], c.get("decisive", "")] for c in claims])
+
+
+def claim_matrix(claims: Iterable[Mapping]) -> str:
+    """The claim x comparison matrix: one row per claim with parts, one column per comparison and quantity, a
+    symbol per part verdict (:data:`PART_SYMBOLS`: ✓ holds, ✗ contradicted, (✓)/(✗) negligible (< 1 %),
+    · no detectable difference, ≡ identical to round-off, ? not comparable) with the part's percentage or ratio."""
+    claims = [c for c in claims if c.get("parts")]
+    columns: list = []
+    for c in claims:
+        for p in c["parts"]:
+            col = f"{p['comparison']}: {p['quantity']}"
+            if col not in columns:
+                columns.append(col)
+    rows = []
+    for c in claims:
+        cells = {f"{p['comparison']}: {p['quantity']}": p for p in c["parts"]}
+        row = [c["claim"], c["verdict"]]
+        for col in columns:
+            p = cells.get(col)
+            if p is None:
+                row.append("")
+                continue
+            sym = PART_SYMBOLS[PartVerdict(p["verdict"])]
+            if p["kind"] == "ratio" and p["difference"] is not None:
+                row.append(f"{sym} {1 + p['difference']:.2f}×")
+            elif p["reference"] and p["difference"] is not None and p["verdict"] != PartVerdict.IDENTICAL:
+                row.append(f"{sym} {100 * p['difference'] / abs(p['reference']):+.2g} %")
+            else:
+                row.append(sym)
+        rows.append(row)
+    legend = "✓ holds · ✗ contradicted · (✓)/(✗) detected but negligible (< 1 %) · · no detectable difference · " \
+             "≡ identical to round-off · ? not comparable"
+    return markdown_table(["claim", "verdict", *columns], rows) + "\n\n" + legend
 
 
 def shade_intervals(ax: matplotlib.axes.Axes, intervals: Iterable[tuple[float, float]],
@@ -46,7 +104,11 @@ def shade_intervals(ax: matplotlib.axes.Axes, intervals: Iterable[tuple[float, f
 CORE_PROVENANCE = frozenset({"git_commit", "root_seed", "n_runs", "profile", "python", "packages", "kernel"})
 
 #: Least value of each integer notebook parameter (two runs for a standard error).
-PARAMETER_MINIMUM = {"N_RUNS": 2, "SEED": 0, "N_TIMING_RUNS": 1, "WORKERS": 1, "MULTIVERSE_RUNS": 2}
+PARAMETER_MINIMUM = {"N_RUNS": 2, "SEED": 0, "N_TIMING_RUNS": 1, "WORKERS": 1, "MULTIVERSE_RUNS": 2,
+                     "MULTIVERSE_UNIVERSES": 1}
+
+#: the values of the MULTIVERSE_DESIGN parameter (None: the profile's)
+DESIGNS = (None, "auto", "full", "sampled", "fractional", "star")
 
 
 class NotebookRun:
@@ -54,11 +116,16 @@ class NotebookRun:
     :class:`Study`): ``NotebookRun(paper, PROFILE=..., N_RUNS=..., ...)`` with the papermill parameters.
 
     The profile (``paper.profiles[PROFILE]``) gives the defaults (``n_runs``, ``timing_runs``, ``timing_repeats``,
-    ``mv_runs``, ``mv_design``); the parameters override them.  Bad parameters raise ``ValueError`` naming them.
+    ``mv_runs``, ``mv_design`` and optionally ``mv_universes``); the parameters override them.
+    ``MULTIVERSE_UNIVERSES`` is the size of the uniform sample of the reading space (default: the profile's
+    ``mv_universes``, else the space's budget): more universes narrow the intervals of the shares, and a size at
+    least the full factorial's runs the full factorial under the "auto" design.  Bad parameters raise
+    ``ValueError`` naming them.
     :meth:`show` saves and captions a figure; :meth:`write_results` writes ``data/results/<name>.json``."""
 
     def __init__(self, paper: Paper | Study, *, PROFILE, N_RUNS=None, SEED=None, OUTPUT_ROOT="", N_TIMING_RUNS=None,
-                 WORKERS=None, MULTIVERSE_RUNS=None, MULTIVERSE_DESIGN=None, PROGRESS=True):
+                 WORKERS=None, MULTIVERSE_RUNS=None, MULTIVERSE_DESIGN=None, MULTIVERSE_UNIVERSES=None,
+                 PROGRESS=True):
         from pathlib import Path
         if not isinstance(paper, (Paper, Study)):
             raise ValueError(f"paper: expected a Paper (mmlib.papers.REGISTRY) or a Study, got {paper!r}")
@@ -67,12 +134,13 @@ class NotebookRun:
             raise ValueError(f"PROFILE: expected one of {sorted(profiles)}, got {PROFILE!r}")
         # the least value of each integer parameter: a standard error needs at least two Monte Carlo runs
         for name, value in (("N_RUNS", N_RUNS), ("SEED", SEED), ("N_TIMING_RUNS", N_TIMING_RUNS),
-                            ("WORKERS", WORKERS), ("MULTIVERSE_RUNS", MULTIVERSE_RUNS)):
+                            ("WORKERS", WORKERS), ("MULTIVERSE_RUNS", MULTIVERSE_RUNS),
+                            ("MULTIVERSE_UNIVERSES", MULTIVERSE_UNIVERSES)):
             least = PARAMETER_MINIMUM[name]
             if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < least):
                 raise ValueError(f"{name}: expected an integer >= {least} or None, got {value!r}")
-        if MULTIVERSE_DESIGN not in (None, "auto", "full", "fractional", "star"):
-            raise ValueError(f"MULTIVERSE_DESIGN: expected None, 'auto', 'full', 'fractional' or 'star', "
+        if MULTIVERSE_DESIGN not in DESIGNS:
+            raise ValueError(f"MULTIVERSE_DESIGN: expected None, 'auto', 'full', 'sampled', 'fractional' or 'star', "
                              f"got {MULTIVERSE_DESIGN!r}")
         if not isinstance(OUTPUT_ROOT, str):
             raise ValueError(f"OUTPUT_ROOT: expected a path string, got {OUTPUT_ROOT!r}")
@@ -89,6 +157,8 @@ class NotebookRun:
         # the reading-space multiverse: Monte Carlo runs per universe and design (profile defaults)
         self.mv_runs = MULTIVERSE_RUNS or cfg.get("mv_runs", self.n_runs)
         self.mv_design = MULTIVERSE_DESIGN or cfg.get("mv_design", "auto")
+        #: the uniform sample's size (None: the reading space's budget)
+        self.mv_universes = MULTIVERSE_UNIVERSES or cfg.get("mv_universes")
         #: the runs of the digest: the smoke profile's headline runs, the same first runs in every profile
         self.digest_runs = min(self.n_runs, int(profiles.get("smoke", cfg)["n_runs"]))
         from mmlib.experiment.executors import default_workers
@@ -100,8 +170,9 @@ class NotebookRun:
         self.figures: dict = {}
 
     def __repr__(self):
-        return (f"profile={self.profile} runs={self.n_runs} seed={self.seed} multiverse: {self.mv_design} design, "
-                f"{self.mv_runs} runs per universe, {self.workers} worker(s)")
+        sample = "" if self.mv_universes is None else f", sample of {self.mv_universes} universes"
+        return (f"profile={self.profile} runs={self.n_runs} seed={self.seed} multiverse: {self.mv_design} design"
+                f"{sample}, {self.mv_runs} runs per universe, {self.workers} worker(s)")
 
     def mc(self) -> MonteCarlo:
         """The headline's :class:`~mmlib.experiment.montecarlo.MonteCarlo` (``seed``, ``n_runs``)."""
@@ -109,7 +180,7 @@ class NotebookRun:
         return MonteCarlo(self.seed, self.n_runs)
 
     def multiverse(self, **options: Any) -> Multiverse:
-        """The paper's reading space run at this notebook's runs per universe, design, seed and workers
+        """The paper's reading space run at this notebook's runs per universe, design, sample size, seed and workers
         (:func:`mmlib.experiment.multiverse.run_multiverse` with the paper's job, published numbers and algorithms;
         ``options`` go to it, e.g. ``executor``)."""
         from mmlib.experiment.multiverse import run_multiverse
@@ -118,7 +189,7 @@ class NotebookRun:
             raise ValueError(f"multiverse: {p.name} is a study, not a paper: it has no reading space")
         return run_multiverse(p.space, p.universe, published=p.published, n_runs=self.mv_runs, seed=self.seed,
                               algorithms=p.algorithms, design=self.mv_design, n_runs_paper=p.n_runs,
-                              workers=self.workers, progress=self.progress, **options)
+                              sample_size=self.mv_universes, workers=self.workers, progress=self.progress, **options)
 
     def show(self, fig: matplotlib.figure.Figure, stem: str, claim: str, ours: str) -> None:
         """Save ``fig`` as figures/<paper>/<stem>.{png,svg}, display it with the paper's claim and ours."""
@@ -150,6 +221,8 @@ class NotebookRun:
             # the design run (e.g. "fractional"), not the profile's request ("auto")
             extra.update({"multiverse_runs": self.mv_runs,
                           "multiverse_design": mv.design.kind if hasattr(mv, "design") else self.mv_design})
+            if hasattr(mv, "design") and mv.design.kind == "sampled":     # the sample actually drawn
+                extra.update({"multiverse_universes": len(mv.design.sample), "multiverse_sample_seed": mv.design.seed})
         clash = sorted(set(provenance or {}) & (set(extra) | CORE_PROVENANCE))
         if clash:
             raise ValueError(f"provenance: {clash} are written by NotebookRun itself")
@@ -167,8 +240,9 @@ class NotebookRun:
                         **{k: sections[k] for k in keys[at:]}}
         rows = list(rows)
         doc = report.write_results(self.results_path, paper=self.paper, provenance=prov, rows=rows, **sections)
-        counts = {v: sum(str(r["verdict"] if isinstance(r, Mapping) else r.verdict).startswith(v) for r in rows)
-                  for v in report.VERDICTS}
+        # by category (verdict_category), so "reproduced (isolated)" is not also counted as "reproduced"
+        cats = [report.verdict_category(str(r["verdict"] if isinstance(r, Mapping) else r.verdict)) for r in rows]
+        counts = {str(v): cats.count(v) for v in report.VERDICTS}
         print(f"wrote {self.results_path.name}" + (f" ({len(rows)} rows): {counts}" if rows else ""))
         return doc
 

@@ -11,19 +11,24 @@ The :class:`ReadingSpace` is the full factorial product of the factors (a
 multiverse analysis: Steegen, Tuerlinckx, Gelman & Vanpaemel 2016, Perspectives on
 Psychological Science 11(5):702, doi:10.1177/1745691616658637; a specification curve:
 Simonsohn, Simmons & Nelson 2020, Nature Human Behaviour 4:1208,
-doi:10.1038/s41562-020-0912-z).  Where the product exceeds the paper's budget of
-universes, :meth:`ReadingSpace.design` returns a stated fractional design instead:
-the headline, every option of every factor varied alone from the headline (the
-"star"), and then universes chosen greedily until every pair of options of every two
-*influential* factors occurs together (a strength-2 covering array; the greedy
-construction of Cohen, Dalal, Fredman & Patton 1997, IEEE Trans. Software Eng.
-23(7):437).  Full factorial is the default.
+doi:10.1038/s41562-020-0912-z).  Every robustness statement is a share of that product, each
+universe weighted equally.  :meth:`ReadingSpace.design` runs the full factorial when it fits the
+paper's ``budget``; otherwise the *sampled* design: the headline, every option of every factor
+varied alone from the headline (the "star", reported apart), and a uniform random sample without
+replacement of ``budget`` universes of the full factorial, drawn with a recorded seed (by default
+:func:`sample_seed` of the paper's name), from which the shares are estimated.  The covering
+design ("fractional": the star, then universes chosen greedily until every pair of options of every
+two *influential* factors occurs together, a strength-2 covering array by the greedy construction
+of Cohen, Dalal, Fredman & Patton 1997, IEEE Trans. Software Eng. 23(7):437) and the star alone
+remain available on request, for exploring interactions; no share is computed from them, since they
+weight the readings by the design (the headline options in most universes), not equally.
 
 Only declared discrete options take part: no continuous parameter is ever fitted to a
 published number.
 """
 from __future__ import annotations
 
+import hashlib
 import itertools
 import math
 from dataclasses import asdict, dataclass, field
@@ -145,17 +150,41 @@ class Factor:
                 "option_details": [o.as_dict() for o in self.options]}
 
 
+#: the design kinds :meth:`ReadingSpace.design` builds
+DESIGN_KINDS = ("full", "sampled", "fractional", "star")
+
+#: the design kinds whose universes are a uniform sample of the full factorial (or the full factorial itself):
+#: the only ones shares of the reading space are computed from
+UNIFORM_KINDS = ("full", "sampled")
+
+
+def sample_seed(paper: str) -> int:
+    """The default seed of a paper's uniform sample of universes: the first four bytes of the SHA-256 of the
+    paper's name (UTF-8), read as a big-endian unsigned integer (0 <= seed < 2**32); stable across Python
+    versions and machines, unlike ``hash``."""
+    if not isinstance(paper, str) or not paper.strip():
+        raise ValueError(f"paper: expected a non-empty string, got {paper!r}")
+    return int.from_bytes(hashlib.sha256(paper.encode("utf-8")).digest()[:4], "big")
+
+
 @dataclass(frozen=True)
 class Design:
-    """The universes to run: ``kind`` is "full", "fractional" or "star"; ``description``
-    states how they were chosen; ``readings`` lists them, the headline first."""
+    """The universes to run: ``kind`` is "full", "sampled", "fractional" or "star"; ``description``
+    states how they were chosen; ``readings`` lists them, the headline first, each once.
+
+    ``sample`` holds the indices into ``readings`` of the universes counted in the shares of the reading
+    space: every index for "full"; for "sampled", the uniform random sample of the full factorial (which may
+    include the headline or a star reading: that universe is run once and counted); empty for "fractional"
+    and "star" (no share is computed from them).  ``seed`` is the sample's seed ("sampled" only, else None)."""
 
     kind: str
     description: str
     readings: tuple
+    sample: tuple = None
+    seed: int | None = None
 
     def __post_init__(self):
-        check_choice(self.kind, "kind", ("full", "fractional", "star"))
+        check_choice(self.kind, "kind", DESIGN_KINDS)
         _check_text(self, ("description",))
         if isinstance(self.readings, (str, bytes, Mapping)) or not hasattr(self.readings, "__iter__"):
             raise ValueError(f"readings: expected a sequence of readings (dicts factor id -> option), got "
@@ -165,17 +194,46 @@ class Design:
             raise ValueError("readings: expected a non-empty sequence of readings (dicts factor id -> option), "
                              "the headline first")
         object.__setattr__(self, "readings", readings)
+        sample = self.sample
+        if sample is None:
+            sample = range(len(readings)) if self.kind == "full" else ()
+        if isinstance(sample, (str, bytes, Mapping)) or not hasattr(sample, "__iter__"):
+            raise ValueError(f"sample: expected a sequence of indices into readings, got {sample!r}")
+        sample = tuple(check_positive_int(i, "sample", minimum=0) for i in sample)
+        if any(i >= len(readings) for i in sample) or len(set(sample)) != len(sample):
+            raise ValueError(f"sample: expected distinct indices below {len(readings)} (the readings), got "
+                             f"{list(sample)}")
+        if self.kind == "full" and sorted(sample) != list(range(len(readings))):
+            raise ValueError("sample: a full design counts every universe")
+        if self.kind == "sampled" and not sample:
+            raise ValueError("sample: a sampled design needs the indices of its sampled universes")
+        if self.kind in ("fractional", "star") and sample:
+            raise ValueError(f"sample: a {self.kind} design is not a uniform sample; it counts no universe")
+        if self.seed is not None:
+            object.__setattr__(self, "seed", check_positive_int(self.seed, "seed", minimum=0))
+        if (self.seed is None) != (self.kind != "sampled"):
+            raise ValueError(f"seed: a sampled design records its seed, no other design has one (kind "
+                             f"{self.kind!r}, seed {self.seed!r})")
+        object.__setattr__(self, "sample", sample)
 
     def __len__(self):
         return len(self.readings)
+
+    @property
+    def uniform(self) -> bool:
+        """True when the counted universes are the full factorial or a uniform sample of it (shares may be
+        computed), False for a covering or star design."""
+        return self.kind in UNIFORM_KINDS
 
 
 @dataclass(frozen=True)
 class ReadingSpace:
     """The full factorial product of a paper's factors, with a budget of universes.
 
-    ``budget`` is the most universes the paper's run may afford; ``None`` means no limit
-    (the full factorial is always run)."""
+    ``budget`` is the number of universes of the full factorial the paper's run affords: the full factorial is
+    run when it has at most ``budget`` universes, otherwise a uniform random sample of ``budget`` of them (the
+    "sampled" design; the headline and the star are run in addition and reported apart).  ``None`` means no
+    limit (the full factorial is always run)."""
 
     paper: str
     factors: tuple
@@ -329,25 +387,86 @@ class ReadingSpace:
         influential factors occurs in some reading (a strength-2 covering array)."""
         return self._greedy(self.star(), 2)
 
-    def design(self, kind: str = "auto") -> Design:
-        """``"auto"``: the full factorial when it fits the budget, else the fractional design;
-        ``"full"``, ``"fractional"`` or ``"star"`` force one.
+    def reading_at(self, index: int) -> dict:
+        """The reading of flat index ``index`` of the full factorial (0 <= index < :attr:`size`): the mixed-radix
+        number whose digits are the option positions, the first factor most significant (the order of
+        ``itertools.product`` over the factors' options)."""
+        index = check_positive_int(index, "index", minimum=0)
+        if index >= self.size:
+            raise ValueError(f"index: expected an integer below the {self.size} universes, got {index}")
+        digits = np.unravel_index(index, [len(f.options) for f in self.factors])
+        return {f.id: f.names[int(d)] for f, d in zip(self.factors, digits)}
 
-        The fractional design is the covering design (:meth:`covering`), then, while the budget
-        allows, readings adding the most uncovered combinations of three influential factors' options
-        (towards a strength-3 covering array), so that the budget is spent on interactions."""
-        if kind not in ("auto", "full", "fractional", "star"):
-            raise ValueError(f"kind: expected 'auto', 'full', 'fractional' or 'star', got {kind!r}")
+    def index_of(self, reading: Mapping) -> int:
+        """The flat index of ``reading`` in the full factorial (inverse of :meth:`reading_at`)."""
+        reading = self.validate(reading)
+        return int(np.ravel_multi_index([f.names.index(reading[f.id]) for f in self.factors],
+                                        [len(f.options) for f in self.factors]))
+
+    def sample(self, n: int, seed: int) -> list:
+        """A uniform random sample without replacement of ``n`` universes of the full factorial (every set of
+        ``n`` distinct universes equally likely), drawn by ``numpy.random.Generator(PCG64(seed)).choice`` over the
+        flat indices (:meth:`reading_at`) and returned in increasing index order.  Deterministic given ``seed``
+        (an integer >= 0); ``n`` from 1 to :attr:`size`."""
+        n = check_positive_int(n, "n")
+        seed = check_positive_int(seed, "seed", minimum=0)
+        if n > self.size:
+            raise ValueError(f"n: a sample of {n} from only {self.size} universes")
+        idx = np.random.Generator(np.random.PCG64(seed)).choice(self.size, size=n, replace=False)
+        return [self.reading_at(int(i)) for i in np.sort(idx)]
+
+    def design(self, kind: str = "auto", *, sample_size: int | None = None, seed: int | None = None) -> Design:
+        """``"auto"``: the full factorial when it has at most ``sample_size`` universes (default: the
+        ``budget``), else the sampled design; ``"full"``, ``"sampled"``, ``"fractional"`` or ``"star"`` force one.
+
+        The sampled design runs the star (:meth:`star`: the headline and every option varied alone, reported
+        apart) and a uniform random sample (:meth:`sample`) of ``sample_size`` universes (default: the budget)
+        of the full factorial with ``seed`` (default :func:`sample_seed` of the paper's name); a sampled
+        universe that is also a star reading is run once and counted.  ``Design.sample`` lists the counted
+        universes.  The fractional design is the covering design (:meth:`covering`), then, while the budget
+        allows, readings adding the most uncovered combinations of three influential factors' options (towards a
+        strength-3 covering array), so that the budget is spent on interactions; it counts no universe."""
+        if kind not in ("auto",) + DESIGN_KINDS:
+            raise ValueError(f"kind: expected 'auto', 'full', 'sampled', 'fractional' or 'star', got {kind!r}")
+        if sample_size is not None:
+            sample_size = check_positive_int(sample_size, "sample_size")
+        if seed is not None:
+            seed = check_positive_int(seed, "seed", minimum=0)
+        n = sample_size if sample_size is not None else self.budget
         if kind == "auto":
-            kind = "full" if self.budget is None or self.size <= self.budget else "fractional"
-        if kind in self._designs:
-            return self._designs[kind]
+            kind = "full" if n is None or self.size <= n else "sampled"
+        if kind == "sampled":
+            if n is None:
+                raise ValueError("sample_size: a sampled design needs a sample size (the space declares no budget)")
+            n, seed = min(n, self.size), sample_seed(self.paper) if seed is None else seed
+        key = (kind, n, seed) if kind == "sampled" else kind
+        if key in self._designs:
+            return self._designs[key]
         if kind == "full":
             d = Design("full", f"full factorial: {self.size} universes", tuple(self.full()))
         elif kind == "star":
             s = self.star()
             d = Design("star", f"headline and each of the {len(s) - 1} other options varied alone "
                                f"({len(s)} of {self.size} universes)", tuple(s))
+        elif kind == "sampled":
+            star = self.star()
+            drawn = self.sample(n, seed)
+            keys = [tuple(r.values()) for r in star]
+            readings, sample = list(star), []
+            for r in drawn:
+                k = tuple(r.values())
+                if k in keys:
+                    sample.append(keys.index(k))
+                else:
+                    sample.append(len(readings))
+                    readings.append(r)
+                    keys.append(k)
+            both = sum(i < len(star) for i in sample)
+            d = Design("sampled",
+                       f"uniform random sample of {n} of the {self.size} universes (without replacement, seed {seed}), "
+                       f"counted in the shares; and the headline with every option varied alone ({len(star)} "
+                       f"universes, reported apart{f'; {both} of them drawn in the sample too' if both else ''}): "
+                       f"{len(readings)} universes run", tuple(readings), tuple(sample), seed)
         else:
             c = self.covering()
             n2 = len(c)
@@ -362,7 +481,7 @@ class ReadingSpace:
                        f"added universes until every two-factor combination of options of the influential factors "
                        f"({', '.join(infl)}) occurs at least once (strength-2 covering array, {n2} universes){fill}",
                        tuple(c))
-        self._designs[kind] = d
+        self._designs[key] = d
         return d
 
     def as_dict(self) -> list:

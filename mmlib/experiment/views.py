@@ -12,7 +12,7 @@ import numpy as np
 
 from mmlib.core._validate import check_bool, check_positive_int
 from mmlib.experiment import verdicts
-from mmlib.experiment.multiverse import ROBUST_FRACTION, Multiverse
+from mmlib.experiment.multiverse import PRECISION, ROBUST_FRACTION, Multiverse
 from mmlib.experiment.readings import ReadingSpace
 
 if TYPE_CHECKING:
@@ -117,33 +117,145 @@ def options_table(space: ReadingSpace | list[dict]) -> str:
     return markdown_table(["factor", "option", "reading", "where the paper's text supports it"], rows)
 
 
-def claims_table(mv: Multiverse) -> str:
-    """Per claim: headline verdict, verdict counts across universes, robust or not."""
-    rows = []
+def percent(x: float) -> str:
+    """A fraction in [0, 1] as a whole percentage: ``0.483 -> "48"``."""
+    verdicts._real(x, "x", none=False)
+    return f"{100 * x:.0f}"
+
+
+def share_text(entry: dict, verdict: str | None = None) -> str:
+    """One verdict's share of the reading space with its interval, ``"holds 48 % [38, 58]"`` (``"holds 100 %"``
+    when exact), from an entry of :meth:`Multiverse.claims_summary`; ``verdict`` defaults to the most frequent
+    one.  For a design that is not a uniform sample, the entry's robustness text (no share)."""
+    if not isinstance(entry, dict) or "share" not in entry or "verdict_counts" not in entry:
+        raise ValueError(f"entry: expected an entry of Multiverse.claims_summary(), got {entry!r}")
+    if entry["share"] is None:
+        return entry["robustness"]
+    if verdict is None:
+        verdict = max(entry["share"], key=lambda k: (entry["share"][k], k == entry["headline_verdict"]))
+    if verdict not in entry["share"]:
+        raise ValueError(f"verdict: expected one of {list(entry['share'])}, got {verdict!r}")
+    lo, hi = entry["interval"][verdict]
+    f = entry["share"][verdict]
+    band = "" if lo == hi == f else f" [{percent(lo)}, {percent(hi)}]"
+    return f"{verdict} {percent(f)} %{band}"
+
+
+def robustness_text(entry: dict) -> str:
+    """A claim's robustness in one line from an entry of :meth:`Multiverse.claims_summary`: ``"robust — holds 96 %
+    [92, 98] (uniform sample of 400 of 10752, seed S)"`` or ``"depends on the reading — holds 48 % [38, 58];
+    contradicted 52 % [42, 62] (...)"``; for a design that is not a uniform sample, the counts over its universes
+    and the note that they are no share."""
+    if not isinstance(entry, dict) or "verdict_counts" not in entry or "robustness" not in entry:
+        raise ValueError(f"entry: expected an entry of Multiverse.claims_summary(), got {entry!r}")
+    if entry["share"] is None:
+        return (f"{entry['robustness']} (counts over the design's universes: "
+                + ", ".join(f"{k} {n}" for k, n in entry["verdict_counts"].items()) + ")")
+    return (f"{entry['robustness']} — " + "; ".join(share_text(entry, k) for k in entry["verdict_counts"])
+            + f" ({entry['weighting']})")
+
+
+def claim_cell(claim: dict, across: dict | None) -> str:
+    """A claim's verdict cell in a report: exactly one verdict word, the one decisive number and its share of the
+    reading space with its interval, ``"holds — IMM5CKF − IMMCKF: position MSE +2.4e+03 % — holds 48 % [38, 58] of
+    the space"``.  ``claim`` an entry of a results file's ``claims`` (``verdict``, ``decisive``); ``across`` the
+    matching entry of the multiverse's ``claims_summary`` (None: the paper has no reading space)."""
+    if not isinstance(claim, dict) or "verdict" not in claim:
+        raise ValueError(f"claim: expected an entry of a results file's claims, got {claim!r}")
+    word = str(verdicts.claim_category(claim["verdict"]))
+    if across is not None and (not isinstance(across, dict) or "share" not in across or "robustness" not in across):
+        raise ValueError(f"across: expected None or an entry of Multiverse.claims_summary(), got {across!r}")
+    decisive = claim.get("decisive") or "--"
+    if across is None:
+        share = "no reading space"
+    elif across["share"] is None:
+        share = across["robustness"]
+    else:
+        share = share_text(across, word) + " of the space"
+    return f"{word} — {decisive} — {share}"
+
+
+def _weighting_note(summary: list) -> str:
+    w = {c["weighting"] for c in summary}
+    return "; ".join(sorted(w)) if w else "--"
+
+
+def claims_table(mv: Multiverse | dict) -> str:
+    """Per claim (:meth:`Multiverse.claims_summary`, computed or stored): the headline verdict, each verdict's share
+    of the reading space with its 95 % interval (``"holds 48 % [38, 58]"``; exact, without interval, when the full
+    factorial is run), robust or not, and the star universes' verdicts (reported apart).  The header states the
+    weighting (e.g. "uniform sample of 200 of 10752, seed S")."""
     summary = _summary(mv, "claims_summary")
-    for c in summary:
-        counts = ", ".join(f"{k} {n}" for k, n in c["verdict_counts"].items())
-        rows.append([c["claim"], c["headline_verdict"], counts, "robust" if c["robust"] else "depends on the reading"])
-    n = max((c.get("n_simulations", c["n_universes"]) for c in summary), default=0)
-    n_u = max((c["n_universes"] for c in summary), default=0)
-    across = (f"verdicts across the {n} universes" if n == n_u else
-              f"verdicts across the {n} distinct simulations of the {n_u} universes")
-    return markdown_table(["claim", "headline verdict", across,
-                           f"robust (one verdict in ≥ {100 * ROBUST_FRACTION:.0f} %)"], rows)
-
-
-def numbers_table(mv: Multiverse) -> str:
-    """Per published number: headline verdict, universes reproducing it, the closest reading."""
     rows = []
-    for s in _summary(mv, "numbers_summary"):
+    for c in summary:
+        if c["share"] is None:
+            across = c["robustness"] + " (counts over the design: " + \
+                ", ".join(f"{k} {n}" for k, n in c["verdict_counts"].items()) + ")"
+        else:
+            across = "; ".join(share_text(c, k) for k in c["verdict_counts"])
+        star = ", ".join(f"{k} {n}" for k, n in c["star_counts"].items()) or "--"
+        rows.append([c["claim"], c["headline_verdict"], across, c["robustness"], star])
+    return markdown_table(["claim", "headline verdict", f"share of the reading space [95 % interval] "
+                                                        f"({_weighting_note(summary)})",
+                           f"robust (lower bound ≥ {100 * ROBUST_FRACTION:.0f} % for one verdict)",
+                           "star: each option alone (not counted)"], rows)
+
+
+def claim_option_table(mv: Multiverse | dict) -> str:
+    """The claim x option view: one row per option of every factor, one column per claim (numbered C1, C2, ...:
+    listed below the table), each cell the share of that claim's most frequent verdict among the counted universes
+    with that option (and their number), so an option that drives a claim stands out.  Empty text with a note when
+    the design is not a uniform sample."""
+    summary = _summary(mv, "claims_summary")
+    with_table = [c for c in summary if c.get("by_option")]
+    if not with_table:
+        return "No claim x option table: the design is not a uniform sample."
+    modal = [max(c["verdict_counts"], key=c["verdict_counts"].get) for c in with_table]
+    first = with_table[0]["by_option"]
+    rows = []
+    for fid, options in first.items():
+        for opt in options:
+            cells = [f"{fid}: {opt}", options[opt]["n"]]
+            for c, v in zip(with_table, modal):
+                cell = c["by_option"][fid][opt]
+                cells.append("--" if not cell["n"] else f"{percent(cell['share'].get(v, 0.0))} %")
+            rows.append(cells)
+    header = ["option", "universes"] + [f"C{k + 1}: {v}" for k, v in enumerate(modal)]
+    legend = "\n".join(f"- C{k + 1}: {c['claim']} (overall {share_text(c, v)})"
+                        for k, (c, v) in enumerate(zip(with_table, modal)))
+    return markdown_table(header, rows) + "\n\n" + legend
+
+
+def _joint(t: dict | None) -> str:
+    """A joint test as text: ``"Σz² 12.3 (2 cells, p 0.002): fails"``."""
+    if t is None:
+        return "--"
+    return (f"Σz² {t['statistic']:.3g} ({t['dof']} cell{'s' if t['dof'] != 1 else ''}, p {t['p_value']:.2g}): "
+            f"{'passes' if t['passes'] else 'fails'}")
+
+
+def numbers_table(mv: Multiverse | dict) -> str:
+    """Per published number: the headline verdict (a reproduced cell inside a row or table failing its joint test
+    is *isolated*) with its row's joint test, the counted universes reproducing it (isolated ones apart), and the
+    closest universe among those precise enough (s.e. ≤ ``PRECISION`` of the printed value), by relative
+    distance."""
+    rows = []
+    summary = _summary(mv, "numbers_summary")
+    for s in summary:
         c = s["closest"]
+        iso = f" (+{s['n_isolated']} isolated)" if s["n_isolated"] else ""
         rows.append([s["item"], s["algorithm"], s["quantity"], s["paper"], s["headline_verdict"],
-                     f"{s['n_reproduced']} / {s['n_universes']}",
-                     "--" if c is None else value_pm(c["replicated"], c["stderr"]),
+                     _joint(s["joint_test"]["row"]) if s["joint_test"] else "--",
+                     f"{s['n_reproduced']} / {s['n_counted']}{iso}",
+                     s["closest_status"] if c is None else value_pm(c["replicated"], c["stderr"]),
+                     "--" if c is None else f"{100 * c['relative_distance']:.1f} %",
                      "--" if c is None else c["verdict"],
                      "--" if c is None else c["describe"]])
-    return markdown_table(["item", "algorithm", "quantity", "paper", "headline verdict", "universes reproducing",
-                           "closest universe's value", "its verdict", "closest reading"], rows)
+    prec = f"{100 * PRECISION:.0f} %"
+    return markdown_table(["item", "algorithm", "quantity", "paper", "headline verdict", "headline row's joint test",
+                           f"universes reproducing ({_weighting_note(summary)})",
+                           f"closest precise universe (s.e. ≤ {prec} of the paper's)", "its relative distance",
+                           "its verdict", "closest reading"], rows)
 
 
 def most_reading(t: dict) -> str:
@@ -154,15 +266,25 @@ def most_reading(t: dict) -> str:
 
 
 def table_match_table(mv: Multiverse | dict) -> str:
-    """Per published table (:meth:`Multiverse.table_match`, computed or stored): its cells, the headline's cells
-    reproduced and sum of squared standardized distances, the best-matching reading with its sum and cells
-    reproduced, and the reading that reproduces the most cells."""
-    rows = [[t["table"], t["n_cells"], f"{t['headline_n_reproduced']} / {t['n_cells']}", t["headline_sum"],
-             t["best_sum"], t["best_describe"], f"{t['best_n_reproduced']} / {t['n_cells']}",
-             f"{t['most_n_reproduced']} / {t['n_cells']}", most_reading(t)] for t in _summary(mv, "table_match")]
-    return markdown_table(["table", "cells", "headline universe: cells reproduced", "headline Σz²", "best Σz²",
-                           "best-matching reading (Σz²)", "its cells reproduced", "most cells any reading reproduces",
-                           "that reading"], rows)
+    """Per published table (:meth:`Multiverse.table_match`, computed or stored): its cells; the headline's cells
+    reproduced (isolated ones apart), Σz² and joint test; the counted universes whose table passes its joint test;
+    the best-matching precise reading (smallest root-mean-square relative distance among the universes whose every
+    cell has s.e. ≤ ``PRECISION`` of the printed value) with its Σz² and joint test; and the reading that reproduces
+    the most cells."""
+    rows = []
+    for t in _summary(mv, "table_match"):
+        iso = f" (+{t['isolated']} isolated)" if t["isolated"] else ""
+        rows.append([t["table"], t["n_cells"], f"{t['headline_n_reproduced']} / {t['n_cells']}{iso}",
+                     _joint(t["joint_test"]), f"{t['n_passing']} / {t['n_counted']}",
+                     t["best_describe"],
+                     "--" if t["best_rms_relative"] is None else f"{100 * t['best_rms_relative']:.1f} %",
+                     _joint(t["best_joint_test"]), f"{t['best_n_reproduced']} / {t['n_cells']}",
+                     f"{t['most_n_reproduced']} / {t['n_cells']}", most_reading(t)])
+    return markdown_table(["table", "cells", "headline universe: cells reproduced", "headline joint test",
+                           "universes passing the joint test",
+                           f"best-matching precise reading (s.e. ≤ {100 * PRECISION:.0f} %)",
+                           "its RMS relative distance", "its joint test", "its cells reproduced",
+                           "most cells any reading reproduces", "that reading"], rows)
 
 
 def one_factor_table(mv: Multiverse, columns: Sequence[tuple[str, tuple]]) -> str:
@@ -285,7 +407,8 @@ def specification_curve(mv: Multiverse, effect: str, *, ylabel: str, title: str,
 
 def table_match_figure(mv: Multiverse, *, title: str) -> matplotlib.figure.Figure:
     """Per published table, the sum of squared standardized distances of each universe (sorted),
-    the headline and the best match marked; a smaller sum is a closer match to the whole table."""
+    the headline and the best match (:meth:`Multiverse.table_match`: among the precise universes, the smallest
+    root-mean-square relative distance) marked; the universes with a cell not precise enough are ringed."""
     import matplotlib.pyplot as plt
     _multiverse(mv)
     if not isinstance(title, str):
@@ -299,14 +422,15 @@ def table_match_figure(mv: Multiverse, *, title: str) -> matplotlib.figure.Figur
         hp = int(np.where(order == 0)[0][0])
         ax.plot([hp], [sums[0]], "D", color="C3", ms=7, label="headline")
         pubs = [p for p in mv.published if p.table == table]
-        vague = [k for k, i in enumerate(order) if not all(mv.conclusive(p, mv.universes[i]) for p in pubs)]
+        precise = mv.table_precise(table)
+        vague = [k for k, i in enumerate(order) if not precise[i]]
         if vague:
             ax.plot(vague, sums[order][vague], "o", mfc="none", mec="0.5", ms=6,
-                    label=f"a cell inconclusive ({len(vague)}; not eligible)")
+                    label=f"a cell's s.e. > {100 * PRECISION:.0f} % ({len(vague)}; not eligible)")
         best = {t["table"]: t for t in mv.table_match()}[table]["best_universe"]
         if best is not None:
             bp = int(np.where(order == best)[0][0])
-            ax.plot([bp], [sums[best]], "*", color="C2", ms=11, label="best match (judgeable)")
+            ax.plot([bp], [sums[best]], "*", color="C2", ms=11, label="best match (precise; RMS relative distance)")
         n_cells = len(pubs)
         ax.axhline(9.0 * n_cells, color="0.4", ls=":", lw=1, label="every cell at 3 s.e.")
         failed = np.where(np.isinf(sums[order]))[0]      # a cell whose algorithm failed (e.g. diverged)
@@ -327,8 +451,9 @@ def table_match_figure(mv: Multiverse, *, title: str) -> matplotlib.figure.Figur
 
 
 def summary_line(mv: Multiverse | dict) -> str:
-    """Per paper, in one line: the most cells of each published table that one reading reproduces, and
-    how many claim verdicts are robust across the universes (from a Multiverse or its stored form)."""
+    """Per paper, in one line: the most cells of each published table that one reading reproduces (isolated
+    coincidences not counted), and how many claim verdicts are robust across the reading space with its weighting
+    (from a Multiverse or its stored form)."""
     parts = []
     for t in _summary(mv, "table_match"):
         by = f", by {t['most_describe']}" if t["most_n_reproduced"] else ""
@@ -336,6 +461,8 @@ def summary_line(mv: Multiverse | dict) -> str:
                      f"all {t['n_cells']} cells (at most {t['most_n_reproduced']}{by}; headline universe "
                      f"{t['headline_n_reproduced']})")
     claims = _summary(mv, "claims_summary")
-    n = max((c.get("n_simulations", c["n_universes"]) for c in claims), default=0)
-    robust = sum(c["robust"] for c in claims)
-    return "; ".join(parts + [f"{robust} of {len(claims)} claim verdicts robust across {n} distinct simulations"])
+    if claims and all(c["share"] is None for c in claims):
+        return "; ".join(parts + [f"claim verdicts: {claims[0]['robustness']}"])
+    robust = sum(bool(c["robust"]) for c in claims)
+    return "; ".join(parts + [f"{robust} of {len(claims)} claim verdicts robust across the reading space "
+                              f"({_weighting_note(claims)})"])

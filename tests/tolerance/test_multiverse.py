@@ -11,11 +11,12 @@ import math
 import pytest
 
 from mmlib.experiment import report
+from mmlib.experiment.multiverse import PRECISION
 from mmlib.papers import REGISTRY
 from test_results import PAPERS, load
 
-KEYS = ("factors", "design", "design_description", "n_universes", "n_runs", "universes", "claims_summary",
-        "numbers_summary", "table_match")
+KEYS = ("factors", "design", "design_description", "design_sample", "design_seed", "n_counted", "weighting",
+        "n_universes", "n_runs", "universes", "claims_summary", "numbers_summary", "table_match")
 
 
 def _by_reading(mv):
@@ -30,10 +31,42 @@ def test_committed_multiverse_is_the_declared_design(paper):
     assert [f["id"] for f in mv["factors"]] == list(space.ids)
     for f, decl in zip(mv["factors"], space.factors):
         assert f["options"] == list(decl.names) and f["headline"] == decl.headline
-    design = space.design(mv["design"])
+    # a sampled design is redrawn from its recorded size and seed (the size may be a MULTIVERSE_UNIVERSES override)
+    design = (space.design("sampled", sample_size=mv["n_counted"], seed=mv["design_seed"])
+              if mv["design"] == "sampled" else space.design(mv["design"]))
     assert [u["reading"] for u in mv["universes"]] == list(design.readings)
     assert mv["n_universes"] == len(design) == len(mv["universes"])
+    assert mv["design_sample"] == list(design.sample) and mv["design_seed"] == design.seed
     assert mv["universes"][0]["reading"] == space.headline
+
+
+@pytest.mark.parametrize("paper", sorted(PAPERS))
+@pytest.mark.parametrize("profile", ["smoke", "full"])
+def test_shares_follow_from_the_universes(paper, profile):
+    """Every claim's share, interval and claim x option table recomputed from the stored universes of the counted
+    sample: shares only from a full or sampled design, the interval the Wilson interval (or no width when the full
+    factorial is run), robust exactly when a lower bound reaches 90 %."""
+    from mmlib.experiment.metrics import wilson_interval
+    mv = load(paper, profile)["multiverse"]
+    uniform = mv["design"] in ("full", "sampled")
+    exact = uniform and mv["n_counted"] == mv["full_factorial_size"]
+    counted = [mv["universes"][i] for i in mv["design_sample"]]
+    for c in mv["claims_summary"]:
+        if not uniform:
+            assert c["share"] is None and c["robust"] is None and c["by_option"] is None
+            continue
+        got = [report.claim_category(x["verdict"]) for u in counted for x in u["claims"] if x["claim"] == c["claim"]]
+        n = len(got)
+        assert n == c["n_counted"] == sum(c["verdict_counts"].values())
+        for k in report.CLAIM_VERDICTS:
+            assert c["share"][k] == got.count(k) / n
+            want = [got.count(k) / n] * 2 if exact else list(wilson_interval(got.count(k), n))
+            assert c["interval"][k] == pytest.approx(want, abs=1e-12)
+        assert c["robust"] is (max(lo for lo, _ in c["interval"].values()) >= 0.9)
+        for fid, options in c["by_option"].items():
+            assert sum(cell["n"] for cell in options.values()) == n
+            for cell in options.values():
+                assert not cell["n"] or sum(cell["share"].values()) == pytest.approx(1.0)
 
 
 @pytest.mark.parametrize("paper", sorted(PAPERS))
@@ -49,7 +82,11 @@ def test_every_verdict_in_the_vocabulary_and_every_number_summarised(paper, prof
         {p.key for p in published}
     for n in mv["numbers_summary"]:
         report.verdict_category(n["headline_verdict"])
-        assert 0 <= n["n_reproduced"] <= n["n_universes"] == mv["n_universes"]
+        assert 0 <= n["n_reproduced"] + n["n_isolated"] <= n["n_counted"] <= n["n_universes"] == mv["n_universes"]
+        c = n["closest"]
+        assert (c is None) == (n["closest_status"] != "found")
+        if c is not None:             # precise enough: s.e. within PRECISION of the printed value
+            assert c["stderr"] is not None and c["stderr"] <= PRECISION * abs(float(n["paper"])) * (1 + 1e-12)
     assert [c["claim"] for c in mv["claims_summary"]] == [c["claim"] for c in mv["universes"][0]["claims"]]
 
 

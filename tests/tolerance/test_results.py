@@ -159,6 +159,14 @@ def test_zhu2016_identity_in_every_universe(profile):
         ident = [e for e in u["effects"] if e["name"].startswith("max |IMM5CKF − IMM-KF|")][0]
         assert ident["value"] < 1e-6, u["reading"]              # positions ~1e4 m: round-off scale
         assert not any(u["diverged"].values()), u["reading"]
+        # the identity is a verdict: the claims resting on it are not supported, decided by the round-off identity
+        for other in ("IMMCKF", "IMMUKF"):
+            c = next(c for c in u["claims"] if c["claim"] == f"IMM5CKF is more accurate than {other}")
+            assert c["verdict"] == "not supported" and "identical to round-off" in c["decisive"], (u["reading"], c)
+    for other in ("IMMCKF", "IMMUKF"):
+        c = next(c for c in doc["claims"] if c["claim"] == f"IMM5CKF is more accurate than {other}")
+        assert c["verdict"] == "not supported" and c["parts"], c
+        assert {p["verdict"] for p in c["parts"]} == {"identical (to round-off)"}, c
 
 
 def test_liu2017_paper_values_and_near_equality():
@@ -196,3 +204,25 @@ def test_zhou2017_table1_reading_and_naukf_divergence():
     assert full["diverged_runs"]["case 2 (as printed)"]["IMM-NAUKF"] > 0
     assert not any(r["verdict"].startswith("not replicable") for r in full["rows"]
                    if r["item"] not in ("Table 4", "Table 5"))
+
+
+@pytest.mark.parametrize("paper", PAPERS)
+def test_every_claim_cell_is_one_word_one_number_one_share(paper):
+    """Issue 23's presentation: in reports/README.md every claim of the committed results reads as exactly one verdict
+    of the claim vocabulary, the one decisive number (or, for a claim that cannot be assessed, its reason), and its
+    share of the reading space with the interval (or "no reading space" for a claim judged outside it)."""
+    import re
+    from mmlib.experiment import views
+    doc = load(paper, "full")
+    across = {c["claim"]: c for c in doc["multiverse"]["claims_summary"]}
+    readme = (REPO / "reports" / "README.md").read_text(encoding="utf-8")
+    words = "|".join(report.CLAIM_VERDICTS)
+    for c in doc["claims"]:
+        cell = views.claim_cell(c, across.get(c["claim"]))
+        pieces = cell.split(" — ")
+        assert len(pieces) == 3, cell
+        word, decisive, share = pieces
+        assert word in report.CLAIM_VERDICTS and word == c["verdict"], cell
+        assert decisive != "--" and (re.search(r"\d", decisive) or word == report.NOT_ASSESSABLE), cell
+        assert re.fullmatch(rf"({words}) \d+ %( \[\d+, \d+\])? of the space|no reading space", share), cell
+        assert cell.replace("|", "\\|") in readme, cell
