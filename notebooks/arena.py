@@ -52,9 +52,8 @@ import time
 from IPython.display import Markdown, display
 
 from mmlib.arena import ladder, recipes, study, views as arena_views
-from mmlib.experiment import report
 from mmlib.papers import REGISTRY
-from mmlib.experiment.notebook import NotebookRun, markdown_table, plot_style
+from mmlib.experiment.notebook import NotebookRun, claims_table, markdown_table, plot_style
 
 # profiles (study.STUDY): full runs 1000 per cell; smoke the first 20 runs of the same streams, so its digest equals
 # the full study's.
@@ -156,34 +155,42 @@ for row in scenario_rows:
 # ## The papers' ideas, scenario by scenario
 #
 # Each idea is a paired comparison of the algorithm that adds it against the one without it, on every scenario where
-# both apply: *helps* (position MSE detectably smaller), *hurts*, *no detectable difference*, or *diverges* (more runs
+# both apply: *helps* (position MSE detectably smaller), *hurts*, *no detectable difference*, *identical (to
+# round-off)* (the difference and its standard error within the round-off floor of `report.identity_floor`: the two
+# are one computation in exact arithmetic on that scenario, and no z-score is computed), or *diverges* (more runs
 # diverged than without the idea).
 
 # %%
 idea_rows = study.ideas(result)
+identical = study.ArenaVerdict.IDENTICAL          # round-off: its size only, no relative effect and no z-score
 display(Markdown(markdown_table(
     ["idea", "A − B", "scenario", "Δ position MSE (m²) ± s.e.", "relative", "verdict", "diverged A / B"],
     [[i["idea"], f"{i['a']} − {i['b']}", c["scenario"],
-      "--" if c["difference_m2"] is None else f"{c['difference_m2']:.4g} ± {c['stderr_m2']:.2g}",
-      "--" if c["relative"] is None else f"{100 * c['relative']:+.2f} %", c["verdict"],
+      "--" if c["difference_m2"] is None else f"|Δ| {abs(c['difference_m2']):.0e} (round-off)"
+      if c["verdict"] == identical else f"{c['difference_m2']:.4g} ± {c['stderr_m2']:.2g}",
+      "--" if c["relative"] is None or c["verdict"] == identical else f"{100 * c['relative']:+.2f} %", c["verdict"],
       f"{c['diverged_a']} / {c['diverged_b']}"] for i in idea_rows for c in i["comparisons"]])))
+counts = {}
+for i in idea_rows:
+    for c in i["comparisons"]:
+        counts[c["verdict"]] = counts.get(c["verdict"], 0) + 1
+print("comparisons by verdict: " + ", ".join(f"{v} {n}" for v, n in sorted(counts.items())))
 
 # %% [markdown]
 # ## The papers' accuracy claims across the arena
 #
-# Each paper's claim "A is more accurate than B", judged on every scenario where both apply, in the claim vocabulary
-# of `mmlib/experiment/report.py`: *holds* (A detectably better), *contradicted* (detectably worse, or A diverges more),
-# *not supported* (no detectable difference, or one below 1 % of B's mean squared error).
+# Each paper's claim "A is more accurate than B", judged once on the parts of every pair and every scenario where both
+# apply, in the claim vocabulary of `mmlib/experiment/report.py`, with the one number that decided it: *holds* (every
+# part detectably better), *partly*, *contradicted* (detectably worse, or A diverges more), *not supported* (no
+# detectable difference, identical to round-off, or below 1 % of B's mean squared error). The matrix below it shows
+# each pair on each scenario (✓ holds, ✗ contradicted, (✓)/(✗) negligible, · no detectable difference, ≡ identical
+# to round-off) with the relative position-MSE difference.
 
 # %%
 claims_in_arena = study.paper_claims(result)
-display(Markdown(markdown_table(
-    ["paper", "claim", "pair", "holds", "contradicted", "not supported", "not assessable"],
-    [[pc["paper"], pc["claim"], f"{pair['a']} vs {pair['b']}",
-      *[", ".join(s + (" (negligible)" if "negligible" in v else "") for s, v in pair["verdicts"].items()
-                  if report.claim_category(v) == verdict) or "--"
-        for verdict in (report.HOLDS, report.CONTRADICTED, report.NOT_SUPPORTED, report.NOT_ASSESSABLE)]]
-     for pc in claims_in_arena for pair in pc["pairs"]])))
+arena_claims = study.arena_claims(result)
+display(Markdown(claims_table(arena_claims.as_list())))
+display(Markdown(arena_views.claim_scenario_matrix(claims_in_arena)))
 
 # %% [markdown]
 # ## Findings

@@ -27,8 +27,8 @@
 # relative improvements** (IMMUKF 62–64 % below UKF, FUZZY-IMMUKF 66–68 % below IMMUKF), each with its Monte Carlo
 # uncertainty. The headline reading is one universe of a **reading space** (factors: speed, pseudorange noise, receiver
 # clock, the IMM's levels and staying probability, the UKF's level, the FLAS's normalisation, breakpoints and DOD
-# window); the last section runs a fractional design of it and reports, for every claim and every published number,
-# which readings support it.
+# window); the last section runs a uniform random sample of it and reports, for every claim, its share of the space
+# with an interval, and for every published number which readings support it.
 #
 # **Library pieces** (all in `mmlib`): the constellation, frames (via `pymap3d`), pseudoranges and clock model in
 # `mmlib/core/gnss.py`; zero-order Takagi–Sugeno inference in `mmlib/core/fuzzy.py`; the IMM whose modes' noise
@@ -50,7 +50,8 @@ OUTPUT_ROOT = ""          # folder that receives figures/ and data/results/; emp
 N_TIMING_RUNS = None      # unused here (the paper reports no times); kept for a uniform interface
 WORKERS = None            # worker processes of the reading-space multiverse (None: one per core)
 MULTIVERSE_RUNS = None    # override the profile's Monte Carlo runs per universe
-MULTIVERSE_DESIGN = None  # override the profile's design: "auto", "full", "fractional" or "star"
+MULTIVERSE_DESIGN = None  # override the profile's design: "auto", "full", "sampled", "fractional" or "star"
+MULTIVERSE_UNIVERSES = None  # override the size of the uniform sample of universes (a "sampled" design)
 PROGRESS = True
 
 # %%
@@ -68,10 +69,10 @@ from mmlib.papers.tseng2011 import diagnostics, simulation, study, text
 
 paper = REGISTRY["tseng2011"]
 # the profiles (paper.profiles): full, the headline at 100 runs, the oracle reference at 50, the multiverse's
-# fractional design at 25 runs per universe; smoke, a prefix of the same runs and the star design
+# uniform sample of 100 universes at 25 runs each; smoke, a prefix of the same runs and the star design
 nb = NotebookRun(paper, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED, OUTPUT_ROOT=OUTPUT_ROOT,
                  N_TIMING_RUNS=N_TIMING_RUNS, WORKERS=WORKERS, MULTIVERSE_RUNS=MULTIVERSE_RUNS,
-                 MULTIVERSE_DESIGN=MULTIVERSE_DESIGN, PROGRESS=PROGRESS)
+                 MULTIVERSE_DESIGN=MULTIVERSE_DESIGN, MULTIVERSE_UNIVERSES=MULTIVERSE_UNIVERSES, PROGRESS=PROGRESS)
 mc = nb.mc()
 mc_oracle = MonteCarlo(nb.seed, min(nb.n_runs, nb.config["oracle_runs"]))
 plot_style()
@@ -311,26 +312,30 @@ print(f"best oracle ({best['schedule']}): reduction vs IMMUKF East {value_pm(red
 # %% [markdown]
 # ## Claims of the abstract and conclusions
 #
-# Verdicts in the claim vocabulary of `mmlib/experiment/verdicts.py`, combined from part verdicts: paired differences on
-# common random numbers (the direction, per axis) and the reduction rows (the claimed size, per axis: it holds where the
-# number rule finds the printed reduction reproduced or within 25 %, and is otherwise the paired test of
-# replicated − printed, so a reduction smaller than printed by 3 s.e. contradicts the claimed size). Whether a
-# verdict survives the other readings of the lost set-up is the subject of the next section.
+# One verdict per claim in the claim vocabulary of `mmlib/experiment/verdicts.py`, with the one number that decided it,
+# judged once on a flat list of parts: paired differences on common random numbers (the direction, per axis) and the
+# reduction rows (the claimed size, per axis: it holds where the number rule finds the printed reduction reproduced or
+# within 25 %, and is otherwise the paired test of replicated − printed, so a reduction smaller than printed by 3 s.e.
+# contradicts the claimed size). The claim × comparison matrix below shows every part. Whether a verdict survives the
+# other readings of the lost set-up is the subject of the next section.
 
 # %%
+from mmlib.experiment.notebook import claim_matrix, claims_table
+
 claims = study.judge_claims(res, rows, nb.n_runs)
 claims.add("The UKF avoids the EKF's linearisation errors (Sec. 2)", *ekf_verdict)
-display(Markdown(markdown_table(["claim", "verdict", "evidence"],
-                                [[c["claim"], c["verdict"], c["evidence"]] for c in claims])))
+display(Markdown(claims_table(claims.as_list())))
+display(Markdown(claim_matrix(claims.as_list())))
 
 # %% [markdown]
 # ## Reading space
 #
 # The lost Section 4 leaves every element below ambiguous. Each ambiguity is a numbered factor (the deviation that
 # discusses it) whose options are readings the surviving text supports; the headline option (bold) was chosen before
-# any run. The reading space is the product of the factors; it exceeds the budget, so the design is the stated
-# fractional one (the headline, every option varied alone, and universes added until every two-factor combination of
-# options occurs: a strength-2 covering array). Every universe is an independent Monte Carlo job on the paper's root
+# any run. The reading space is the product of the factors (11 664 universes); the design runs the headline, every
+# option varied alone (the star, reported apart) and a uniform random sample of the space drawn with a recorded seed,
+# from which each claim's share of the space is estimated with a 95 % Wilson interval. Every universe is an
+# independent Monte Carlo job on the paper's root
 # seed and per-run streams: none of the factors changes which standard normals a run draws, so all universes share
 # their truth-clock, pseudorange-noise and initial-error draws (common random numbers); the speed, the noise s.d. and
 # the clock's coefficients only scale or reshape them. Two further unknowns are held fixed because they were measured
@@ -385,6 +390,7 @@ nb.show(fig, "extra_table_match", "RMS table: UKF 7.95/6.32, IMMUKF 3.00/2.30, F
 
 # %%
 display(Markdown(views.claims_table(mv)))
+display(Markdown(views.claim_option_table(mv)))
 display(Markdown(views.numbers_table(mv)))
 display(Markdown(views.table_match_table(mv)))
 
@@ -420,9 +426,10 @@ for t in mv.table_match():
         text += (f" The closest in Σz² ({t['best_describe']}) reproduces {t['best_n_reproduced']} (Σz² "
                  f"{t['best_sum']:.3g} against the headline's {headline_sum}).")
     else:
-        text += " No universe's cells can all be judged (each has an inconclusive cell), so none is closest."
-    if t["n_excluded_inconclusive"]:
-        text += f" {t['n_excluded_inconclusive']} universe(s) with an inconclusive cell take no part in Σz²."
+        text += (" No universe has every cell precise enough to judge (s.e. ≤ 10 % of the printed value), so none "
+                 "is closest.")
+    if t["n_excluded_imprecise"]:
+        text += f" {t['n_excluded_imprecise']} universe(s) with a cell too imprecise to judge take no part."
     lines.append(text + " This is a forensic finding about which reading the table is consistent with, not the "
                         "headline.")
 n_any = sum(n_["n_reproduced"] > 0 for n_ in ns)
@@ -434,9 +441,8 @@ for n_ in ns:
         lines.append(f"  - {n_['algorithm']} {n_['quantity']} (paper {n_['paper']}): reproduced in "
                      f"{n_['n_reproduced']} of {n_['n_universes']} universes")
 for c in cs:
-    counts = ", ".join(f"{k} {v}" for k, v in c["verdict_counts"].items())
     lines.append(f"- *{c['claim']}*: headline **{report.claim_category(c['headline_verdict'])}**; "
-                 f"{'robust' if c['robust'] else 'depends on the reading'} ({counts}).")
+                 f"{views.robustness_text(c)}.")
 div_tot = sum(mv.diverged_total().values())
 lines.append(f"- Diverged runs over all universes: {div_tot}.")
 display(Markdown("\n".join(lines)))

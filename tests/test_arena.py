@@ -13,7 +13,7 @@ from mmlib.core import models
 from mmlib.core.estimation import SingleModel, normalised_square, run
 from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
 from mmlib.core.rules import Cubature
-from mmlib.experiment import evaluation, metrics
+from mmlib.experiment import evaluation, metrics, report
 from mmlib.papers import REGISTRY, hu2017
 
 EPS = np.finfo(float).eps
@@ -348,7 +348,8 @@ def test_rank_a_clearly_worse_algorithm_and_a_tie():
     assert best in ("A", "C")
     other = "C" if best == "A" else "A"
     assert ranks[best]["versus_best"]["verdict"] == "best"
-    assert ranks[other]["versus_best"]["verdict"] == "no detectable difference (identical)"
+    # C is A exactly: a difference of 0 with standard error 0 is an identity, not "no detectable difference"
+    assert ranks[other]["versus_best"]["verdict"] == "identical (to round-off)"
     # the paired difference on all 30 runs (float64 sums in another order: round-off, 1e-12)
     assert ranks["B"]["versus_best"]["difference_m2"] == pytest.approx(float(np.mean(worse - base)), rel=1e-12)
 
@@ -370,7 +371,9 @@ def test_rank_leaves_cells_with_diverged_runs_unranked():
 
 def test_rank_treats_round_off_differences_as_ties():
     """Algorithms that coincide (every rule on a linear model) differ by round-off, which can be many standard errors
-    of a paired difference that is itself round-off: the one rule's 1 % negligibility keeps them tied."""
+    of a paired difference that is itself round-off: within the round-off floor (report.identity_floor: 2^26 eps, 1.5e-8
+    of the best one's MSE) it is "identical (to round-off)", never an effect; a 1e-6 relative difference is far above
+    the floor (a genuine, detectable but negligible difference) and keeps the tie only by the 1 % negligibility."""
     rng = np.random.default_rng(5)
     base = 100.0 + rng.normal(0, 10, 50)
     nudged = base * (1 + 1e-12) + 1e-13 * rng.normal(0, 1, 50)        # ~1e-12 relative, ~1e3 standard errors
@@ -378,7 +381,13 @@ def test_rank_treats_round_off_differences_as_ties():
     assert ranks["A"]["rank"] == ranks["B"]["rank"] == 1
     assert ranks["C"]["rank"] == 3
     loser = "B" if ranks["A"]["versus_best"]["verdict"] == "best" else "A"
-    assert ranks[loser]["versus_best"]["verdict"].endswith("negligible (< 1 %)")
+    assert ranks[loser]["versus_best"]["verdict"] == "identical (to round-off)"
+    assert ranks["C"]["versus_best"]["verdict"] == "worse"
+    # 1e-6 relative (66 times the floor), ~1e3 standard errors: detected, negligible, not an identity
+    far = base * (1 + 1e-6) + 1e-7 * rng.normal(0, 1, 50)
+    ranks = study.rank_scenario(_cells(A=base, B=far))
+    assert ranks["A"]["rank"] == ranks["B"]["rank"] == 1
+    assert ranks["B"]["versus_best"]["verdict"] == "worse, but negligible (< 1 %)"
 
 
 def test_consistency_summary_of_chi_square_draws():
@@ -505,11 +514,98 @@ def test_compare_and_claims_follow_the_one_rule():
     res = _result(B=b, A=helps, T=tiny)
     c = study.compare(res, "A", "B", "s")
     assert c["verdict"] == "helps" and c["claim"] == "holds"
+    assert c["verdict"] is study.ArenaVerdict.HELPS and c["claim"] is report.HOLDS       # enums, not prefixes
+    # one decisive number: the part "A − B: position MSE, s" with its relative difference and z
+    assert c["part"]["comparison"] == "A − B" and c["part"]["quantity"] == "position MSE, s"
+    assert c["part"]["unit"] == "m²" and c["part"]["reference"] == pytest.approx(float(b.mean()), rel=1e-12)
+    assert c["decisive"] == c["part"]["number"] and c["decisive"].startswith("A − B: position MSE, s -10 % (z = -")
     t = study.compare(res, "T", "B", "s")
     assert t["verdict"] == "helps, but negligible (< 1 %)"
-    assert t["claim"].startswith("not supported")        # report.combine_claim_verdicts: negligible is not a claim
+    assert t["claim"] == "not supported"                  # report.judge: a negligible part is not a claim that holds
     assert study.compare(res, "B", "A", "s")["claim"] == "contradicted"
     assert study.compare(res, "A", "nope", "s") is None   # not applicable: no comparison
+
+
+def test_rules_equal_in_exact_arithmetic_are_identical_in_real_arena_cells():
+    """On the linear rung every third- and fifth-degree rule computes the Kalman filter's moments exactly, so 5CKF,
+    SSRCKF and CKF are one filter in exact arithmetic: their comparisons are "identical (to round-off)" (the cells'
+    paired differences are round-off, or exactly 0); on the most nonlinear rungs the rules differ, and the
+    comparison is never an identity there."""
+    res = study.run_arena(8, scenarios=["ladder-linear", "ladder-nl5"], algorithms=["CKF", "5CKF", "SSRCKF"],
+                          workers=1, use_cache=False, progress=False)
+    for a in ("5CKF", "SSRCKF"):
+        lin = study.compare(res, a, "CKF", "ladder-linear")
+        assert lin["verdict"] == "identical (to round-off)", lin
+        assert abs(lin["difference_m2"]) <= report.identity_floor(lin["part"]["reference"])
+        nl = study.compare(res, a, "CKF", "ladder-nl5")
+        assert nl["verdict"] != "identical (to round-off)", nl
+        assert abs(nl["difference_m2"]) > 1e3 * report.identity_floor(nl["part"]["reference"]), nl
+    vb = {c["algorithm"]: c["versus_best"]["verdict"] for c in res.cells if c["scenario"] == "ladder-linear"}
+    assert sorted(vb.values()) == ["best", "identical (to round-off)", "identical (to round-off)"], vb
+
+
+def test_compare_calls_algorithms_equal_in_exact_arithmetic_identical():
+    """Two algorithms equal in exact arithmetic (the same per-run errors summed in another order, as two sigma-point
+    rules on a linear model) are "identical (to round-off)", distinct from "no detectable difference", with no
+    z-score; a 1e-6 relative difference is not."""
+    rng = np.random.default_rng(9)
+    e = rng.normal(0, 10, (200, 30, 2))
+    a = (e ** 2).sum(-1).mean(1)
+    b = np.einsum("nki,nki->n", e[:, ::-1], e[:, ::-1]) / 30          # the same numbers, another order
+    assert not np.array_equal(a, b)                                    # round-off, not bit-equal ...
+    assert np.abs(a - b).max() < 1e-12 * a.max()                       # ... and only round-off
+    res = _result(A=a, B=b, N=b * (1 + 1e-6), Z=b + rng.normal(0, 1e-3, 200) * b.mean())
+    same = study.compare(res, "A", "B", "s")
+    assert same["verdict"] == "identical (to round-off)" and same["claim"] == "not supported"
+    assert same["part"]["verdict"] == "identical (to round-off)"
+    assert "identical to round-off" in same["decisive"] and "z =" not in same["decisive"]
+    assert abs(same["difference_m2"]) <= report.identity_floor(float(b.mean()))
+    near = study.compare(res, "N", "B", "s")                           # 1e-6 relative: 66 floors
+    assert near["verdict"] == "hurts, but negligible (< 1 %)" and "z =" in near["decisive"]
+    noisy = study.compare(res, "Z", "B", "s")                          # a zero-mean difference far above round-off
+    assert noisy["verdict"] == "no detectable difference" and noisy["verdict"] != same["verdict"]
+    # tallied apart
+    summary = study.idea_summary({"idea": "x", "paper": "p", "a": "A", "b": "B", "comparisons": [same, noisy]})
+    assert summary["by_verdict"] == {"identical (to round-off)": ["s"], "no detectable difference": ["s"]}
+
+
+def _two_scenarios(**per_scenario):
+    """An ArenaResult over scenarios s1, s2 from {scenario: {algorithm: per-run MSE}}."""
+    pr = {(sc, a): np.asarray(v, dtype=float) for sc, d in per_scenario.items() for a, v in d.items()}
+    cells = [{"scenario": sc, "algorithm": a, "diverged": 0} for sc, a in pr]
+    return study.ArenaResult(cells, pr, len(next(iter(pr.values()))), {})
+
+
+def test_paper_claims_are_one_judgement_over_every_pair_and_scenario():
+    """zhu2016's arena claim (IMM5CKF beats IMMCKF and IMMUKF) on s1, where the three coincide to round-off, and s2,
+    where IMM5CKF is 20 % better: one verdict (partly) from the flat list of four parts, the decisive part an
+    identity, the identity distinct from "no detectable difference" in the parts, the pairs and the findings."""
+    rng = np.random.default_rng(4)
+    e = rng.normal(0, 10, (60, 20, 2))
+    base = (e ** 2).sum(-1).mean(1)
+    reordered = np.einsum("nki,nki->n", e[:, ::-1], e[:, ::-1]) / 20
+    better = 0.8 * base + rng.normal(0, 0.5, 60)
+    res = _two_scenarios(s1={"IMM5CKF": base, "IMMCKF": reordered, "IMMUKF": base.copy()},
+                         s2={"IMM5CKF": better, "IMMCKF": base, "IMMUKF": reordered})
+    pcs = {pc["paper"]: pc for pc in study.paper_claims(res)}
+    zhu = pcs["zhu2016"]
+    assert zhu["verdict"] == "partly" and len(zhu["parts"]) == 4
+    assert zhu["decisive"].startswith("2 of 4 hold; ") and "identical to round-off" in zhu["decisive"]
+    assert [p["verdict"] for p in zhu["parts"]] == ["identical (to round-off)", "holds"] * 2
+    assert [p["quantity"] for p in zhu["parts"]] == ["position MSE, s1", "position MSE, s2"] * 2
+    for pair in zhu["pairs"]:
+        assert pair["part_verdicts"] == {"s1": "identical (to round-off)", "s2": "holds"}
+        assert pair["verdicts"] == {"s1": "not supported", "s2": "holds"}
+    # a paper none of whose pairs applies: not assessable, with the reason
+    assert pcs["hu2017"]["verdict"] == "not assessable" and pcs["hu2017"]["parts"] == []
+    # the same judgements as a Claims collection (claims_table / claim_matrix)
+    cl = {c["claim"]: c for c in study.arena_claims(res).as_list()}
+    mine = cl[f"{REGISTRY['zhu2016'].arena.claim} (zhu2016, across the arena)"]
+    assert (mine["verdict"], mine["decisive"], mine["parts"]) == (zhu["verdict"], zhu["decisive"], zhu["parts"])
+    rows = [{"scenario": sc, "nonlinearity_index": {"median": 0.0}, "properties": {}} for sc in ("s1", "s2")]
+    text = "\n".join(study.findings(res, rows))
+    assert "**zhu2016's claim**" in text and "**partly**" in text
+    assert "identical (to round-off) in 1 (s1)" in text and "no detectable difference" not in text
 
 
 def test_compare_divergence_needs_detectably_more_diverged_runs():
@@ -521,7 +617,10 @@ def test_compare_divergence_needs_detectably_more_diverged_runs():
     res = _result(B=b, F=few, M=many)
     assert study.compare(res, "F", "B", "s")["verdict"] != "diverges"
     m = study.compare(res, "M", "B", "s")
-    assert m["verdict"] == "diverges" and m["claim"].startswith("contradicted")
+    assert m["verdict"] == "diverges" and m["claim"] == "contradicted"
+    # the decisive part is the divergence (20 ± sqrt(20) runs: z = 4.5), not the position MSE
+    assert m["part"]["quantity"] == "diverged runs, s" and m["part"]["verdict"] == "contradicted"
+    assert m["part"]["difference"] == 20 and m["part"]["stderr"] == pytest.approx(math.sqrt(20))
 
 
 def test_digest_is_a_prefix_property_and_covers_every_per_run_number():

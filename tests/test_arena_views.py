@@ -237,3 +237,45 @@ def test_an_arena_result_stands_for_its_cells():
     data = _image(views.rmse_heatmap(Result(cells(), {}, N)))
     assert data.shape == (len(SCENARIOS), len(ALGORITHMS))
     assert len(views.cell_table(Result(cells(), {}, N), "paper")) == len(ALGORITHMS)
+
+
+def test_cell_table_reads_round_off_as_an_identity_without_a_z_score():
+    """A cell identical to the best to round-off says so and gives only the size of the round-off; a cell with no
+    detectable difference gives its difference with the standard error (two distinct readings)."""
+    good = cells()
+    ukf = next(c for c in good if (c["scenario"], c["algorithm"]) == ("paper", "UKF"))
+    ukf["versus_best"] = {"algorithm": "EKF", "difference_m2": -1.5e-13, "stderr_m2": 1.4e-13,
+                          "verdict": "identical (to round-off)"}
+    got = views.cell_table(good, "paper")[1]["versus best, or why it does not apply"]
+    assert got == "identical (to round-off) (vs EKF: |Δ MSE| 1e-13 m²)"
+    ukf["versus_best"] = {"algorithm": "EKF", "difference_m2": 0.3, "stderr_m2": 0.2,
+                          "verdict": "no detectable difference"}
+    got = views.cell_table(good, "paper")[1]["versus best, or why it does not apply"]
+    assert got == "no detectable difference (vs EKF: Δ MSE +0.3 ± 0.2 m²)"
+
+
+def _part(a, b, scenario, verdict, difference, reference, quantity="position MSE"):
+    return {"comparison": f"{a} − {b}", "quantity": f"{quantity}, {scenario}", "verdict": verdict,
+            "difference": difference, "stderr": 0.1, "reference": reference, "unit": "m²", "kind": "difference",
+            "margin": None, "number": "..."}
+
+
+def test_claim_scenario_matrix_one_row_per_pair_one_column_per_scenario():
+    pcs = [{"paper": "p1", "claim": "A beats B and C", "verdict": "partly", "decisive": "1 of 3 hold; ...",
+            "parts": [_part("A", "B", "s1", "identical (to round-off)", 1e-13, 10.0),
+                      _part("A", "B", "s2", "holds", -2.0, 10.0),
+                      _part("A", "C", "s2", "contradicted", 20.0, 10.0, quantity="diverged runs")],
+            "pairs": [{"a": "A", "b": "B", "verdicts": {"s1": "not supported", "s2": "holds"},
+                       "part_verdicts": {"s1": "identical (to round-off)", "s2": "holds"}},
+                      {"a": "A", "b": "C", "verdicts": {"s2": "contradicted"},
+                       "part_verdicts": {"s2": "contradicted"}}]}]
+    text = views.claim_scenario_matrix(pcs)
+    lines = text.splitlines()
+    assert lines[0] == "| paper | verdict | A − B | s1 | s2 |"
+    assert lines[2] == "| p1 | partly | A − B | ≡ | ✓ -20 % |"           # the identity carries no effect size
+    assert lines[3] == "| p1 | partly | A − C |  | ✗ div. |"              # not applicable on s1; a divergence
+    assert "≡ identical to round-off" in text and "· no detectable difference" in text
+    with pytest.raises(ValueError, match=r"^paper_claims: "):
+        views.claim_scenario_matrix([{"paper": "p1", "pairs": []}])
+    with pytest.raises(ValueError, match=r"^paper_claims: "):
+        views.claim_scenario_matrix("p1")

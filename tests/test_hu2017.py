@@ -201,29 +201,103 @@ def test_printed_eq20_covariance_is_larger_than_the_kalman_form():
         ObservationBootstrap(base, covariance="exact")
 
 
-def test_timing_rows_and_claims_use_standard_errors():
+def test_timing_rows_and_claims_follow_the_cost_model_not_the_clock():
+    """Measured times with IMMEKF the slowest do not move the verdicts: they are the cost model's flop ratios
+    (deterministic, stderr None), the times only context."""
+    from mmlib.core.cost import step_flops
     from mmlib.experiment.report import Claims
     per_run = {a: np.array([1.0, 1.02, 0.98]) * f for a, f in
-               zip(PAPER.algorithms, (1.0, 0.3, 1.4, 1.0, 3.0))}
+               zip(PAPER.algorithms, (1.0, 3.0, 1.4, 1.0, 0.3))}      # IMMEKF timed slowest, OBS fastest
+    estimators = setup.build(PAPER.headline_setup())[2]
+    flops = {a: step_flops(estimators[a])["total"] for a in PAPER.algorithms}
     claims = Claims()
-    rows, _ = timing.judge_timing(per_run, per_run, claims)
+    rows, table = timing.judge_timing(estimators, per_run, per_run, claims)
     by_alg = {r.algorithm: r for r in rows}
     assert by_alg["IMMUKF"].paper == "1.0" and by_alg["IMMEKF"].paper == "0.26" and by_alg["IMMCDKF-OBS"].paper == "3.7"
-    assert by_alg["IMMUKF"].verdict == "reproduced"                    # ratio 1 +- 0, paper 1.0 +- 0.05
-    verdicts = {c["claim"]: c["verdict"] for c in claims}
-    assert verdicts["IMMEKF has the shortest run time (Table 1)"] == "holds"
-    assert verdicts["IMMCDKF-OBS costs only slightly more time than IMMCDKF (Sec. 3)"] == "holds"
+    for a, r in by_alg.items():
+        assert r.replicated == pytest.approx(flops[a] / flops["IMMCDKF"], rel=1e-15) and r.stderr == 0.0
+    # the weighted CDKF is the UKF: ratio 1, paper 1.0 -- equal to the printed precision, an exact row
+    assert by_alg["IMMUKF"].verdict == "reproduced (exact)" and by_alg["IMMEKF"].verdict == "not reproduced (exact)"
+    got = {c["claim"]: c for c in claims}
+    shortest, obs = got[timing.SHORTEST_CLAIM], got[timing.OBS_CLAIM]
+    assert shortest["verdict"] == "holds" and len(shortest["parts"]) == 4
+    assert all(p["kind"] == "ratio" and p["difference"] < -0.1 for p in shortest["parts"])
+    assert "paper at most 0.26×" in shortest["decisive"]
+    assert obs["verdict"] == "holds" and "the paper's own 3.67×" in obs["decisive"]
+    assert "0.30× [" in [c for c in claims][1]["evidence"]               # the measured ratio, as context
+    assert [t[0] for t in table] == list(PAPER.algorithms)
+
+
+# ------------------------------------------------------------------- claims: one verdict, its decisive part
+@pytest.fixture(scope="module")
+def headline_claims():
+    return study.judge_claims(study.evaluate_reading(PAPER.headline, MonteCarlo(PAPER.root_seed, 10)))
+
+
+def _claim(claims, start):
+    return next(c for c in claims.as_list() if c["claim"].startswith(start))
+
+
+def _parts(c):
+    """The claim's parts back as :class:`~mmlib.experiment.verdicts.Part` s (from their JSON form)."""
+    from mmlib.experiment import report
+    return [report.Part(**{k: v for k, v in p.items() if k != "number"}) for p in c["parts"]]
+
+
+def test_immcdkf_against_immukf_is_identical_to_round_off(headline_claims):
+    """Under the printed CDKF form (H-1) and beta = 0 (H-10) IMMUKF is IMMCDKF (test above: |Δ| <= 1e-10 km on
+    ~10 km): both MSE parts and the true-mode part are *identical (to round-off)* (floor 1.5e-8 of the MSE), so
+    "IMMCDKF is more accurate than IMMUKF" is *not supported* with the identity as its decisive number."""
+    from mmlib.experiment import report
+    c = _claim(headline_claims, "IMMCDKF is more accurate than IMMUKF")
+    assert c["verdict"] == report.NOT_SUPPORTED
+    assert [(p["comparison"], p["quantity"], p["unit"]) for p in c["parts"]] == \
+        [("IMMCDKF − IMMUKF", "horizontal MSE", "km²"), ("IMMCDKF − IMMUKF", "vertical MSE", "km²")]
+    assert {p["verdict"] for p in c["parts"]} == {report.PartVerdict.IDENTICAL}
+    assert c["decisive"].startswith("IMMCDKF − IMMUKF: horizontal MSE identical to round-off")
+    mode = _claim(headline_claims, "The model matching probability of IMMCDKF is superior")
+    by_cmp = {p["comparison"]: p["verdict"] for p in mode["parts"]}
+    assert by_cmp["IMMCDKF − IMMUKF"] == report.PartVerdict.IDENTICAL
+    assert by_cmp["IMMCDKF − IMMEKF"] != report.PartVerdict.IDENTICAL
+
+
+def test_the_ukf_with_beta_2_is_no_longer_identical_to_the_cdkf():
+    """With beta = 2 (H-10) the UKF's centre covariance weight changes: IMMUKF is a different algorithm, and the
+    parts are no longer identical (the verdict follows the numbers, not the names)."""
+    from mmlib.experiment import report
+    res = study.evaluate_reading(PAPER.space.with_headline(**{"H-10": "beta2"}), MonteCarlo(PAPER.root_seed, 10))
+    c = _claim(study.judge_claims(res), "IMMCDKF is more accurate than IMMUKF")
+    assert not any(p["verdict"] == report.PartVerdict.IDENTICAL for p in c["parts"])
+
+
+def test_lowest_precision_is_one_flat_judgement_of_eight_parts(headline_claims):
+    """"IMMEKF has the lowest precision" is one judgement of 8 parts (4 comparators x 2 axes), judged once: its
+    verdict and decisive number are :func:`judge` of its parts; no nested verdict text."""
+    from mmlib.experiment import report
+    c = _claim(headline_claims, "IMMEKF has the lowest precision")
+    assert [(p["comparison"], p["quantity"]) for p in c["parts"]] == \
+        [(f"{o} − IMMEKF", f"{ax} MSE") for o in study.EKF_COMPARATORS for ax in ("horizontal", "vertical")]
+    j = report.judge(_parts(c))
+    assert (c["verdict"], c["decisive"]) == (j.verdict, j.decisive)
+    assert c["verdict"] in report.CLAIM_VERDICTS and not any(v in c["decisive"] for v in ("holds (", "contradicted ("))
+    for other in headline_claims.as_list():
+        assert other["verdict"] in report.CLAIM_VERDICTS and other["decisive"] and other["parts"]
+        j = report.judge(_parts(other))
+        assert (other["verdict"], other["decisive"]) == (j.verdict, j.decisive)
 
 
 # ------------------------------------------------------------------- influence declarations and the design
 def test_every_factor_is_influential_and_the_design_pairs_them_all():
     """No factor is declared non-influential (review: H-13's truth noise is not negligible, and the one-factor
-    check cannot license it), so the covering design pairs every option of every two factors -- in particular
-    the noise-free truth with the km reading and with every level of the filters' Q -- within the budget."""
+    check cannot license it); the design is a uniform sample of the budget's size (beside the headline and the star)
+    and, at 400 universes, it pairs every option of every two factors -- in particular the noise-free truth with the
+    km reading and with every level of the filters' Q (the rarest pair, 1/21 of the space, is missed with probability
+    (20/21)^400 < 1e-8; the sample is fixed by its recorded seed)."""
     import itertools
     assert all(f.influential for f in PAPER.space.factors)
     design = PAPER.space.design()
-    assert design.kind == "fractional" and len(design) <= PAPER.space.budget
+    assert design.kind == "sampled" and len(design.sample) == PAPER.space.budget == 400
+    assert design.readings[0] == PAPER.space.headline
     for a, b in itertools.combinations(PAPER.space.factors, 2):
         for x in a.names:
             for y in b.names:
@@ -265,17 +339,18 @@ def _fake_multiverse(verdicts_by_reading, key_values):
 
 
 def test_claims_are_counted_once_per_distinct_simulation():
-    """H-11 is metric-only, so universes that differ only in it are one simulation: counted once.  Hand-computed:
-    5 universes, 3 simulations (headline x3 metrics, H-6, H-7): per simulation 'holds' 1 of 3 and 'contradicted'
-    2 of 3 (per universe it would be 3 of 5 and 2 of 5); not robust either way."""
+    """H-11 is metric-only, so universes that differ only in it are one simulation (simulations() groups them, and
+    the bootstrapping finding counts the headline once); the claim counts weigh every universe of the full factorial
+    equally, metric-only readings included (each simulation has the same number of them in the full factorial), so
+    hand-computed: 5 universes, 3 simulations (headline x3 metrics, H-6, H-7): 'holds' 3 of 5, 'contradicted' 2."""
     assert [f.id for f in PAPER.space.factors if f.metric_only] == ["H-11"]
     mv = _fake_multiverse([({}, "holds"), ({"H-11": "mean_over_runs"}, "holds"), ({"H-11": "rms_runs_steps"}, "holds"),
                            ({"H-6": "(2sigma)2"}, "contradicted"), ({"H-7": "product"}, "contradicted")],
                           [-0.01, -0.01, -0.01, 0.01, 0.02])
     assert mv.simulations() == [[0, 1, 2], [3], [4]]
     summary = mv.claims_summary()[0]
-    assert summary["verdict_counts"] == {"holds": 1, "contradicted": 2}
-    assert summary["n_simulations"] == 3 and summary["n_universes"] == 5 and not summary["robust"]
+    assert summary["verdict_counts"] == {"holds": 3, "contradicted": 2}
+    assert summary["n_universes"] == 5 and not summary["robust"]
     helps = diagnostics.bootstrapping_helps(mv)
     assert [(i, d) for i, d, _, _ in helps] == [(0, "headline")]            # once, not three times
 

@@ -183,17 +183,26 @@ def test_rows_with_values_are_judged_by_the_rule_and_claims_use_the_vocabulary()
         assert r.verdict == report.verdict(r.paper, r.replicated, r.stderr, 4)
         assert not r.verdict.startswith(report.NOT_REPLICABLE)
     for c in claims:
-        report.claim_category(c["verdict"])
+        # one word of the vocabulary, one decisive number, and the parts it was judged from (judged once)
+        assert c["verdict"] in report.CLAIM_VERDICTS and c["decisive"]
+        if c["parts"]:
+            j = report.judge([report.Part(**{k: v for k, v in p.items() if k != "number"}) for p in c["parts"]])
+            assert (j.verdict, j.decisive) == (c["verdict"], c["decisive"])
+            assert any(p["number"] in c["decisive"] for p in c["parts"])
+            assert all(" − " in p["comparison"] and p["reference"] for p in c["parts"])
+        else:
+            assert c["verdict"] == report.NOT_ASSESSABLE
     u = study.summarise(results, 4)
-    assert [(c.claim, c.verdict) for c in u.claims] == [(c["claim"], c["verdict"]) for c in claims]
+    assert [(c.claim, c.verdict, c.decisive) for c in u.claims] == \
+        [(c["claim"], c["verdict"], c["decisive"]) for c in claims]
     assert [e.name for e in u.effects] == [PAPER.key_effect, text.IMM_EFFECT]
     key = u.effect(PAPER.key_effect)
     d = evaluation.paired_mse_difference(results["FUZZY-IMMUKF"], results["IMMUKF"], (text.EAST, text.NORTH))
     assert key.value == float(d.value) and key.stderr == float(d.stderr)
     # published counterpart: (1.0184^2 + 0.7286^2) - (2.9967^2 + 2.3021^2), to the printed digits
     assert key.published == pytest.approx(-12.71187878, abs=1e-8)
-    verdict, _ = diagnostics.ekf_claim(short_joint(SHORT, ("UKF", "EKF"), 2))[0]
-    assert report.claim_category(verdict) == report.NOT_ASSESSABLE
+    judgement, _ = diagnostics.ekf_claim(short_joint(SHORT, ("UKF", "EKF"), 2))[0]
+    assert judgement.verdict == report.NOT_ASSESSABLE and "linear" in judgement.decisive
 
 
 # --------------------------------------------------------------------------- claimed sizes
@@ -203,39 +212,64 @@ def _reduction_row(replicated, stderr, printed="62.32"):
 
 
 def test_a_claimed_size_excluded_by_many_standard_errors_is_contradicted_not_unsupported():
-    kind = (lambda part: part.split(" (")[0])
+    def kind(row):
+        (part,) = study.size_parts([row])
+        return part.verdict
     # the headline's case: 8.0 +- 0.1 % against a printed 62.32 %: hundreds of s.e. below
-    assert [kind(p) for p in study.size_parts([_reduction_row(8.0, 0.1)])] == ["contradicted"]
-    assert report.combine_claim_verdicts(study.size_parts([_reduction_row(8.0, 0.1), _reduction_row(1.0, 0.1,
-                                                                                                    "66.02")])) \
-        == report.CONTRADICTED
+    (part,) = study.size_parts([_reduction_row(8.0, 0.1)])
+    assert part.verdict == report.PartVerdict.CONTRADICTED
+    assert (part.comparison, part.quantity) == ("IMMUKF − UKF", "East RMS reduction (ours vs printed 62.32 %)")
+    assert part.difference == pytest.approx(8.0 - 62.32) and part.reference == 62.32 and part.unit == "%"
+    both = report.judge(study.size_parts([_reduction_row(8.0, 0.1), _reduction_row(1.0, 0.1, "66.02")]))
+    assert both.verdict == report.CONTRADICTED and len(both.parts) == 2
     # reproduced, or within the 25 % band of the number rule: the claimed size is preserved
-    assert kind(study.size_parts([_reduction_row(62.1, 0.1)])[0]) == "holds"
-    assert kind(study.size_parts([_reduction_row(50.0, 0.1)])[0]) == "holds"
+    assert kind(_reduction_row(62.1, 0.1)) == report.PartVerdict.HOLDS
+    assert kind(_reduction_row(50.0, 0.1)) == report.PartVerdict.HOLDS
     # larger than claimed by far: the improvement is at least the claimed one
-    assert kind(study.size_parts([_reduction_row(95.0, 0.1)])[0]) == "holds"
+    assert kind(_reduction_row(95.0, 0.1)) == report.PartVerdict.HOLDS
     # too noisy to tell (inconclusive under the number rule): no detectable difference, 'not supported'
     noisy = _reduction_row(55.0, 8.0)
     assert report.verdict_category(noisy.verdict) == report.INCONCLUSIVE
-    assert kind(study.size_parts([noisy])[0]) == "no detectable difference"
-    assert report.claim_category(report.combine_claim_verdicts(study.size_parts([noisy]))) == report.NOT_SUPPORTED
-    mixed = report.combine_claim_verdicts(study.size_parts([_reduction_row(62.1, 0.1), _reduction_row(8.0, 0.1)]))
-    assert report.claim_category(mixed) == report.PARTLY
+    assert kind(noisy) == report.PartVerdict.NO_DIFFERENCE
+    assert report.judge(study.size_parts([noisy])).verdict == report.NOT_SUPPORTED
+    mixed = report.judge(study.size_parts([_reduction_row(62.1, 0.1), _reduction_row(8.0, 0.1)]))
+    assert mixed.verdict == report.PARTLY and mixed.decisive.startswith("1 of 2 hold; IMMUKF − UKF: East RMS")
 
 
-def test_remarkable_improvement_combines_direction_and_size_parts():
+def test_remarkable_improvement_is_one_judgement_of_direction_and_size_parts():
     results = short_joint(SHORT, PAPER.algorithms, 4)
     rows, claims = judged(results, 4)
-    by = {c["claim"]: c["verdict"] for c in claims}
+    by = {c["claim"]: c for c in claims}
     red = {(r.algorithm, r.quantity.split()[0]): r for r in rows if "reduction" in r.quantity}
     direction, _ = study.direction_parts(results, "FUZZY-IMMUKF", "IMMUKF")
     size = study.size_parts([red[("FUZZY-IMMUKF vs IMMUKF", lab)] for lab, _, _ in text.AXES])
-    assert by["FUZZY-IMMUKF shows remarkable improvement over IMMUKF (abstract)"] == \
-        report.combine_claim_verdicts(direction + size)
-    assert by["FUZZY-IMMUKF's errors are about 66-68 % below IMMUKF's (table)"] == report.combine_claim_verdicts(size)
-    # the direction parts agree with the library's paired comparison
-    assert report.combine_claim_verdicts(direction).split(":")[0] == \
-        evaluation.better_claim(results, "FUZZY-IMMUKF", "IMMUKF", [(l, c) for l, _, c in text.AXES])[0].split(":")[0]
+    whole = report.judge(direction + size)          # one flat list of four parts, judged once
+    got = by["FUZZY-IMMUKF shows remarkable improvement over IMMUKF (abstract)"]
+    assert (got["verdict"], got["decisive"]) == (whole.verdict, whole.decisive)
+    assert got["parts"] == [p.as_json() for p in direction + size] and len(got["parts"]) == 4
+    table = by["FUZZY-IMMUKF's errors are about 66-68 % below IMMUKF's (table)"]
+    assert (table["verdict"], table["parts"]) == (report.judge(size).verdict, [p.as_json() for p in size])
+    # the direction parts are the library's paired comparison (same differences), with per-axis labels and units
+    lib, _ = evaluation.better_claim(results, "FUZZY-IMMUKF", "IMMUKF", [(lab, c) for lab, _, c in text.AXES])
+    assert [(p.difference, p.stderr, p.verdict) for p in direction] == \
+        [(p.difference, p.stderr, p.verdict) for p in lib.parts]
+    assert [(p.comparison, p.quantity, p.unit) for p in direction] == \
+        [("FUZZY-IMMUKF − IMMUKF", "East position MSE", "m²"), ("FUZZY-IMMUKF − IMMUKF", "North position MSE", "m²")]
+
+
+def test_direction_parts_call_estimators_equal_in_exact_arithmetic_identical():
+    """An estimator against a copy of itself whose errors differ by one ulp is "identical (to round-off)", never an
+    effect; a 1e-6 relative change of the errors is not."""
+    results = short_joint(SHORT, ("UKF",), 3)
+    ukf = results["UKF"]
+    copies = {"UKF": ukf, "ULP": ukf._replace(errors=ukf.errors * (1 + 2.0 ** -52)),
+              "FAR": ukf._replace(errors=ukf.errors * (1 + 1e-6))}
+    same, _ = study.direction_parts(copies, "ULP", "UKF")
+    assert [p.verdict for p in same] == [report.PartVerdict.IDENTICAL] * 2
+    j = report.judge(same)
+    assert j.verdict == report.NOT_SUPPORTED and "identical to round-off" in j.decisive
+    far, _ = study.direction_parts(copies, "FAR", "UKF")
+    assert all(p.verdict == report.PartVerdict.CONTRADICTED_NEGLIGIBLE for p in far), far
 
 
 # --------------------------------------------------------------------------- T-5, T-9, T-12
@@ -243,9 +277,10 @@ def test_clock_and_markov_chain_are_influential_factors_and_the_held_fixed_chang
     ids = {f.id: f for f in SPACE.factors}
     assert ids["T-5"].influential and ids["T-9"].influential
     assert {o.name for o in ids["T-9"].options} == {"0.99", "0.95", "0.996"}
-    # the full profile runs the strength-2 covering array and nothing more (the wall-time budget)
+    # the full profile runs the headline, the star and a uniform sample of the budget's size (100 of 11664)
     design = SPACE.design("auto")
-    assert design.kind == "fractional" and len(design) == len(SPACE.covering()) <= SPACE.budget
+    assert design.kind == "sampled" and len(design.sample) == SPACE.budget == 100
+    assert len(design) <= len(SPACE.star()) + SPACE.budget
     assert PAPER.setup(SPACE.with_headline(**{"T-5": "OCXO"})).clock_h_minus2 == text.CLOCKS["OCXO"][1]
     factor_fields = {k for f in SPACE.factors for o in f.options for k in o.changes}
     for changes in space.NON_INFLUENTIAL.values():

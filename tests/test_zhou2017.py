@@ -189,19 +189,107 @@ def test_an_algorithm_diverged_in_every_run_is_not_reproduced_and_matches_no_tab
 
 
 def test_section23_claim_verdicts_are_computed_from_the_moments(monkeypatch):
-    """The Sec. 2.3 claims are judged against the mixture's moments by quadrature: MSE is exact (no
-    overestimation), CP's variance is far off, so both claims are contradicted; were CP's variance the
-    mixture's, the 'CP is accurate' part would no longer be contradicted."""
+    """The Sec. 2.3 claims are judged against the mixture's moments by quadrature: MSE is exact (its part is
+    identical to round-off: |Δ| within the floor 1.5e-8 x the mixture's variance 15.5), CP's variance is far off
+    (its part contradicted), so both claims are contradicted with the CP part decisive; were CP's variance the
+    mixture's, every part would be identical and the claims not supported."""
     from mmlib.experiment import report
     m = section23.section23_moments()
     assert m["mixture_var"] == pytest.approx(m["mse_sd"] ** 2, abs=1e-9)
     assert m["cp_sd"] ** 2 == pytest.approx(sum(u * u * s * s for u, s in zip(text.EXAMPLE_U, text.EXAMPLE_SD)))
     claims = section23.section23_claims()
     for key in ("overestimates", "second order"):
-        assert report.claim_category(claims[key][0]) == report.CONTRADICTED
+        j, evidence = claims[key]
+        assert j.verdict == report.CONTRADICTED and evidence
+        assert j.decisive.startswith("CP − MSE: absolute variance error +88 %")
+    over = claims["overestimates"][0].parts
+    assert [(p.comparison, p.quantity, p.verdict) for p in over] == [
+        ("MSE − mixture", "variance", report.PartVerdict.IDENTICAL),
+        ("CP − MSE", "absolute variance error", report.PartVerdict.CONTRADICTED)]
+    assert claims["second order"][0].parts[0].verdict == report.PartVerdict.IDENTICAL      # both means are 0.6
     fake = dict(m, cp_sd=m["mse_sd"])
     monkeypatch.setattr(section23, "section23_moments", lambda: fake)
-    assert report.claim_category(section23.section23_claims()["second order"][0]) == report.NOT_SUPPORTED
+    for key in ("overestimates", "second order"):
+        j = section23.section23_claims()[key][0]
+        assert j.verdict == report.NOT_SUPPORTED and {p.verdict for p in j.parts} == {report.PartVerdict.IDENTICAL}
+    # an MSE variance 1e-6 above the mixture's is beyond round-off: detected (and negligible), not identical
+    monkeypatch.setattr(section23, "section23_moments", lambda: dict(m, mse_sd=(m["mixture_var"] * (1 + 1e-6)) ** 0.5))
+    assert section23.section23_parts()["overestimates"][0].verdict == report.PartVerdict.HOLDS_NEGLIGIBLE
+
+
+def test_table1_analytic_rows_are_exact_and_the_sample_row_is_monte_carlo(monkeypatch):
+    """Table 1's MSE and CP rows are analytic: *reproduced (exact)* when equal to the printed precision (CP's mean
+    0.6 printed 0.6, formerly 'inconclusive' with a zero standard error), with no z-score; MC is a sample, judged
+    by the verdict rule.  A printed value one unit of its last digit off is *not reproduced (exact)*."""
+    from mmlib.experiment import report
+    rows, _ = section23.section23_rows(PAPER.root_seed)
+    by = {(r.algorithm, r.quantity.split()[0]): r for r in rows}
+    for method in ("MSE", "CP"):
+        for q in ("mean", "'covariance'"):
+            r = by[method, q]
+            assert r.verdict == report.REPRODUCED_EXACT and r.stderr == 0.0 and r.distance is None
+    assert by["CP", "mean"].paper == "0.6"
+    mc_row = by["MC", "mean"]
+    assert report.verdict_category(mc_row.verdict) not in (report.REPRODUCED_EXACT, report.NOT_REPRODUCED_EXACT)
+    assert mc_row.stderr > 0 and mc_row.distance is not None
+    monkeypatch.setattr(section23, "TABLE1", dict(text.TABLE1, CP=("0.6", "1.3827")))
+    rows, _ = section23.section23_rows(PAPER.root_seed)
+    cp_sd = next(r for r in rows if r.algorithm == "CP" and r.quantity != "mean")
+    assert cp_sd.verdict == report.NOT_REPRODUCED_EXACT
+
+
+def test_headline_claims_have_one_verdict_a_decisive_number_and_flat_parts():
+    """Every claim of a universe is one term of the claim vocabulary with its decisive number (or reason); the Monte
+    Carlo claims' parts are "A − B" comparisons with units, and their verdict is :func:`judge` of them."""
+    from mmlib.experiment import report
+    _, claims, _, _ = study.judge_claims(study.evaluate_reading(SPACE.headline, MonteCarlo(PAPER.root_seed, 6)))
+    for c in claims.as_list():
+        assert c["verdict"] in report.CLAIM_VERDICTS and c["decisive"]
+        if c["parts"]:
+            parts = [report.Part(**{k: v for k, v in p.items() if k != "number"}) for p in c["parts"]]
+            j = report.judge(parts)
+            assert (c["verdict"], c["decisive"]) == (j.verdict, j.decisive)
+    by = {c["claim"]: c for c in claims.as_list()}
+    cpimm = by["CPIMM is more accurate than IMM (Case 1, Table 2)"]
+    assert [(p["comparison"], p["quantity"], p["unit"]) for p in cpimm["parts"]] == \
+        [("CPIMM-UKF − IMM-UKF", "position MSE", "m²"), ("CPIMM-UKF − IMM-UKF", "velocity MSE", "m²/s²")]
+    # NAUKF as printed diverges in every run (Z-12): the divergence part decides, against the claim
+    naukf = by["IMM-NAUKF is more accurate than IMM-UKF under sensor faults (Table 3)"]
+    assert naukf["verdict"] == report.CONTRADICTED and naukf["decisive"].startswith("IMM-NAUKF − IMM-UKF: divergence")
+    analysis = by["NAUKF (Eqs. 27-31) satisfies the third-order precision conditions under faults"]
+    assert (analysis["verdict"], analysis["decisive"], analysis["parts"]) == \
+        (report.CONTRADICTED, study.NAUKF_ANALYSIS, [])
+    field = by["CPIMM-NAUKF performs best in the vehicle and UAV experiments (Tables 4-5)"]
+    assert (field["verdict"], field["decisive"]) == (report.NOT_ASSESSABLE, "data not published (Z-11)")
+
+
+class _FakeMV:
+    """The three things :func:`diagnostics.key_effect_across` reads of a Multiverse."""
+
+    def __init__(self, effects, published):
+        from mmlib.experiment.universe import Effect
+        self.universes = [Effect(text.KEY_EFFECT, v, s, published) for v, s in effects]
+        self.readings = [{"i": i} for i in range(len(effects))]
+        self.headline = self.universes[0]
+
+    def effect(self, u, name):
+        assert name == text.KEY_EFFECT
+        return u
+
+
+def test_key_effect_across_universes_uses_the_verdict_rule_and_the_part_sign():
+    """Hand-computed against an implied -100 m²: -100 ± 5 reproduces it (3 s.e. = 15 <= 25); -90 ± 20 is within
+    3 s.e. only because 3 s.e. = 60 > 25 (inconclusive); -300 ± 10 neither; these three lie below zero by >= 3 s.e.
+    (20, 4.5 and 30 s.e.); +50 ± 10 is above zero by 5 s.e.; -5 ± 10 is neither; a value without a standard error
+    and a missing value are counted apart."""
+    mv = _FakeMV([(-100.0, 5.0), (-90.0, 20.0), (-300.0, 10.0), (50.0, 10.0), (-5.0, 10.0), (7.0, None),
+                  (None, None)], -100.0)
+    k = diagnostics.key_effect_across(mv)
+    assert (k["published"], k["n_universes"], k["valued"], k["no_stderr"]) == (-100.0, 7, 6, 1)
+    assert [e.value for e, _ in k["reproduced"]] == [-100.0]
+    assert [e.value for e, _ in k["inconclusive"]] == [-90.0]
+    assert [e.value for e, _ in k["below"]] == [-100.0, -90.0, -300.0]
+    assert [e.value for e, _ in k["above"]] == [50.0]
 
 
 def test_gamma_factor_changes_truth_and_filter_noise_and_ukf_factor_leaves_ekf_ckf_shared():
@@ -220,7 +308,8 @@ def test_gamma_factor_changes_truth_and_filter_noise_and_ukf_factor_leaves_ekf_c
 
 
 def test_design_is_the_stated_fractional_one_within_budget():
+    """The auto design: the headline, the star and a uniform sample of the budget's size (200 of 1152)."""
     d = SPACE.design()
-    assert SPACE.size == 1152 and d.kind == "fractional" and len(d) <= SPACE.budget
+    assert SPACE.size == 1152 and d.kind == "sampled" and len(d.sample) == SPACE.budget == 200
     for f in SPACE.factors:
         assert {r[f.id] for r in d.readings} == set(f.names)

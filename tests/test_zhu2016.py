@@ -172,6 +172,63 @@ def test_sigma_point_imms_coincide_with_imm_kf_in_every_star_universe(reading):
         np.testing.assert_allclose(res[name].mode_probabilities, res["IMM-KF"].mode_probabilities, rtol=0, atol=1e-9)
 
 
+def _claim(claims, text_):
+    return next(c for c in claims.as_list() if c["claim"] == text_)
+
+
+def test_coinciding_algorithms_give_identical_parts_and_unsupported_claims(results):
+    """IMM5CKF, IMMCKF and IMMUKF are IMM-KF here (package docstring): every part of their accuracy and switching
+    comparisons is *identical (to round-off)*, so those claims are *not supported* with the identity as the decisive
+    number, while the single-model 5CKF differs by a detected amount (its parts are not identical).  The round-off
+    of the estimates (~1e-11 relative, test above) is far below the floor ROUNDOFF_OPS x eps ~ 1.5e-8 of the MSE."""
+    claims = study.judge_claims(results, Setup(n_steps=60))
+    for other in ("IMMCKF", "IMMUKF"):
+        c = _claim(claims, f"IMM5CKF is more accurate than {other}")
+        assert c["verdict"] == report.NOT_SUPPORTED
+        assert [(p["comparison"], p["quantity"], p["unit"]) for p in c["parts"]] == \
+            [(f"IMM5CKF − {other}", "position MSE", "m²"), (f"IMM5CKF − {other}", "velocity MSE", "m²/s²")]
+        assert all(p["verdict"] == report.PartVerdict.IDENTICAL for p in c["parts"])
+        assert c["decisive"].startswith(f"IMM5CKF − {other}: position MSE identical to round-off")
+    switch = _claim(claims, "IMM5CKF switches modes more quickly than IMMCKF/IMMUKF")
+    assert switch["verdict"] == report.NOT_SUPPORTED
+    assert {p["verdict"] for p in switch["parts"]} == {report.PartVerdict.IDENTICAL}
+    single = _claim(claims, "IMM5CKF is more accurate than 5CKF")
+    assert not any(p["verdict"] == report.PartVerdict.IDENTICAL for p in single["parts"])
+    assert single["decisive"] and single["decisive"].startswith("IMM5CKF − 5CKF: ")
+    # one verdict word each, one decisive text, no nested verdict strings
+    for c in claims.as_list():
+        assert c["verdict"] in report.CLAIM_VERDICTS and c["decisive"]
+        assert report.CLAIM_VERDICTS.count(c["verdict"]) == 1 and " — " not in c["decisive"]
+    assert _claim(claims, "IMM5CKF is more accurate than OMTM-IMM")["parts"] == []
+
+
+def test_a_difference_beyond_round_off_is_no_longer_identical(results):
+    """Scaling IMMCKF's errors by 1 + 1e-6 makes its MSE larger by 2e-6 of itself, above the round-off floor
+    (1.5e-8 of it), on every run: the parts are then detected (IMM5CKF better, but negligibly, < 1 %), no longer
+    identical -- the identity verdict comes from the numbers, not from the names."""
+    perturbed = dict(results, IMMCKF=results["IMMCKF"]._replace(errors=results["IMMCKF"].errors * (1 + 1e-6)))
+    c = _claim(study.judge_claims(perturbed, Setup(n_steps=60)), "IMM5CKF is more accurate than IMMCKF")
+    assert [p["verdict"] for p in c["parts"]] == [report.PartVerdict.HOLDS_NEGLIGIBLE] * 2
+    assert c["verdict"] == report.NOT_SUPPORTED and "identical" not in c["decisive"]
+
+
+def test_floor_claim_parts_follow_the_floor_check(results):
+    """The floor claim's parts are the margins printed - floor with the verdict rule's sigma: part z = -floor z."""
+    fl = study.floor_check(results)
+    parts = study.floor_parts(fl)
+    assert [p.comparison for p in parts] == ["Table 1 smallest IMM − clairvoyant KF"] * 4
+    assert [p.unit for p in parts] == ["m", "m/s", "m", "m/s"]
+    for f, p in zip(fl, parts):
+        assert p.z() == pytest.approx(-f["z"], rel=1e-12)
+        assert p.reference == f["floor"] and p.difference == f["margin"]
+        # "above the floor" is the claimed sign: a printed value below the floor contradicts it
+        if p.verdict in (report.PartVerdict.HOLDS, report.PartVerdict.HOLDS_NEGLIGIBLE):
+            assert f["margin"] > 0 and -f["z"] >= report.SIGMA_FACTOR
+        if p.verdict in (report.PartVerdict.CONTRADICTED, report.PartVerdict.CONTRADICTED_NEGLIGIBLE):
+            assert f["margin"] < 0 and f["z"] >= report.SIGMA_FACTOR
+    assert any(p.verdict == report.PartVerdict.CONTRADICTED for p in parts)   # the printed velocities lie below it
+
+
 def test_published_numbers_are_table1_rmse_cells_and_universe_values():
     assert len(PAPER.published) == 16
     for p in PAPER.published:
@@ -190,6 +247,7 @@ def test_floor_claim_is_not_assessable_where_the_floor_is_no_bound():
     for fid, opt in (("Z-7", "clean"), ("Z-9", "true")):
         u = PAPER.universe(PAPER.space.with_headline(**{fid: opt}), 3, PAPER.root_seed)
         assert report.claim_category(u.claim(study.FLOOR_CLAIM)) == "not assessable"
+        assert next(c for c in u.claims if c.claim == study.FLOOR_CLAIM).decisive == study.FLOOR_NOT_BOUND
     u = PAPER.universe(PAPER.headline, 3, PAPER.root_seed)
     assert report.claim_category(u.claim(study.FLOOR_CLAIM)) != "not assessable"
 
@@ -280,25 +338,44 @@ def _fake_times(ratio5, spread, n=30):
     return per_run, {k: v / 7 for k, v in per_run.items()}
 
 
-@pytest.mark.parametrize("ratio5,spread,expected", [(1.05, 0.01, "holds"), (1.0, 0.01, "not supported"),
-                                                    (0.9, 0.01, "contradicted"), (1.05, 0.5, "not supported")])
-def test_timing_claim_and_rows_follow_the_verdict_rule(ratio5, spread, expected):
+@pytest.mark.parametrize("ratio5,spread", [(1.05, 0.01), (1.0, 0.01), (0.9, 0.01), (1.05, 0.5)])
+def test_timing_claim_and_rows_follow_the_cost_model_not_the_clock(ratio5, spread):
+    """Whatever the measured times (faster, equal, slower, noisy), the claim and the rows are the cost model's:
+    IMM5CKF/IMMCKF flops per step, deterministic, so the verdict cannot flip between identical runs; the measured
+    ratios are context (their median and range over the repeats in the note)."""
+    from mmlib.core.cost import step_flops
     per_run, batched = _fake_times(ratio5, spread)
+    estimators = build(Setup())[2]
     claims = report.Claims()
-    rows, table = timing.judge_timing(per_run, batched, claims)
+    rows, table = timing.judge_timing(estimators, per_run, batched, claims)
     c = claims.as_list()[0]
-    assert c["claim"] == timing.TIMING_CLAIM and report.claim_category(c["verdict"]) == expected
+    model = step_flops(estimators["IMM5CKF"])["total"] / step_flops(estimators["IMMCKF"])["total"]
+    assert model > 1.1                                   # 33 points against 8: far beyond the +-10 % margin
+    assert c["claim"] == timing.TIMING_CLAIM and report.claim_category(c["verdict"]) == "holds"
+    assert c["decisive"].startswith(f"IMM5CKF/IMMCKF: {timing.QUANTITY} {model:.3g}×")
+    assert "paper 2.06×" in c["decisive"] and c["parts"][0]["kind"] == "ratio" and c["parts"][0]["stderr"] is None
     r = per_run["IMM5CKF"] / per_run["IMMCKF"]
+    assert f"{np.median(r):.2f}× [{r.min():.2f}, {r.max():.2f}]" in c["evidence"]
     row = [x for x in rows if x.algorithm == "IMM5CKF"][0]
-    # the median of the per-repeat ratios with the median's standard error from the MAD (metrics.timing_ratio)
-    mad_sigma = 1.4826 * np.median(np.abs(r - np.median(r)))
-    assert row.replicated == pytest.approx(np.median(r))
-    assert row.stderr == pytest.approx(np.sqrt(np.pi / 2) * mad_sigma / np.sqrt(len(r)))
-    assert row.verdict == report.verdict(row.paper, row.replicated, row.stderr)
+    assert row.replicated == pytest.approx(model, rel=1e-15) and row.stderr == 0.0 and row.distance is None
+    # a deterministic value: an exact row, equal or not to the printed precision (never a z-score)
+    assert row.verdict == report.exact_row("Table 1", "IMM5CKF", "q", row.paper, row.replicated).verdict
     assert row.paper == f"{14.9726 / 7.2549:.3f}"
     assert [x.algorithm for x in rows] == ["IMM5CKF", "IMMCKF", "IMMUKF", "5CKF", "OMTM-IMM"]
     assert [x.verdict.split(":")[0] for x in rows if x.algorithm in ("IMMCKF", "OMTM-IMM")] == ["not replicable"] * 2
     assert [t[0] for t in table] == ["IMM5CKF", "IMMCKF", "IMMUKF", "5CKF"]
+
+
+def test_timing_claim_is_contradicted_or_equivalent_by_the_model():
+    """The claim can fail: with the CKF timed under both names the model ratio is 1 (no detectable difference),
+    with the roles swapped it is contradicted."""
+    per_run, batched = _fake_times(1.05, 0.01)
+    est = build(Setup())[2]
+    for swap, expected in (({"IMM5CKF": est["IMMCKF"]}, "not supported"),
+                           ({"IMM5CKF": est["IMMCKF"], "IMMCKF": est["IMM5CKF"]}, "contradicted")):
+        claims = report.Claims()
+        timing.judge_timing({**est, **swap}, per_run, batched, claims)
+        assert report.claim_category(claims.as_list()[0]["verdict"]) == expected
 
 
 def test_paper_contract_fields():

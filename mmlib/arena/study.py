@@ -36,7 +36,14 @@ Metrics per cell (units: m, m/s; Bar-Shalom, Li & Kirubarajan 2001, Sec. 5.4.2 f
   excluded) -- a measurement, reported, never tested, never part of a rank or digest;
 * ``rank``: for the cells none of whose runs diverged, 1 + the number of them whose position error is detectably and
   not negligibly smaller (:func:`rank_scenario`); ``versus_best``: the paired difference to the scenario's best
-  algorithm with its standard error and verdict ("no detectable difference" where the interval covers zero).
+  algorithm with its standard error and verdict ("no detectable difference" where the interval covers zero,
+  "identical (to round-off)" where the difference and its standard error lie within the round-off floor
+  :func:`mmlib.experiment.report.identity_floor` of the best one's mean squared error: two algorithms that are one in
+  exact arithmetic on the scenario, e.g. every sigma-point rule on a linear model).
+
+Comparisons (:func:`compare`) read the part verdict of the one rule (:func:`mmlib.experiment.report.claim_verdict`)
+in the arena's vocabulary :class:`ArenaVerdict`: helps, hurts, no detectable difference, identical (to round-off),
+diverges, not comparable.
 """
 from __future__ import annotations
 
@@ -45,6 +52,7 @@ import math
 import os
 import re
 import concurrent.futures as cf
+import enum
 from pathlib import Path
 from typing import Callable, Iterable, Mapping, NamedTuple, Sequence
 
@@ -71,6 +79,41 @@ ALGORITHMS = recipes.ALGORITHMS
 CHUNK_SIZE = 250
 COST_RUNS = 100           #: runs of the batched run that measures a cell's cost (the same batch for every algorithm)
 RESULT_KEYS = ("metrics", "reason", "n_runs", "diverged", "per_run")
+
+
+class ArenaVerdict(enum.StrEnum):
+    """The verdict of an arena comparison "A against B" (:func:`compare`): the part verdict of the one rule
+    (:class:`mmlib.experiment.report.PartVerdict`) read for an idea A adds to B, and *diverges*.  A member equals,
+    formats and serialises to JSON as its string."""
+
+    HELPS = "helps"
+    HELPS_NEGLIGIBLE = "helps, but negligible (< 1 %)"
+    HURTS = "hurts"
+    HURTS_NEGLIGIBLE = "hurts, but negligible (< 1 %)"
+    NO_DIFFERENCE = "no detectable difference"
+    IDENTICAL = "identical (to round-off)"
+    DIVERGES = "diverges"
+    NOT_COMPARABLE = "not comparable"
+
+    def __repr__(self) -> str:
+        return str.__repr__(self)
+
+
+#: the arena's reading of each part verdict of "A is more accurate than B"
+ARENA_READING = {report.PartVerdict.HOLDS: ArenaVerdict.HELPS,
+                 report.PartVerdict.HOLDS_NEGLIGIBLE: ArenaVerdict.HELPS_NEGLIGIBLE,
+                 report.PartVerdict.CONTRADICTED: ArenaVerdict.HURTS,
+                 report.PartVerdict.CONTRADICTED_NEGLIGIBLE: ArenaVerdict.HURTS_NEGLIGIBLE,
+                 report.PartVerdict.NO_DIFFERENCE: ArenaVerdict.NO_DIFFERENCE,
+                 report.PartVerdict.IDENTICAL: ArenaVerdict.IDENTICAL,
+                 report.PartVerdict.NOT_COMPARABLE: ArenaVerdict.NOT_COMPARABLE}
+#: the reading of each part verdict of "A is worse than the best" in a cell's ``versus_best`` (:func:`rank_scenario`)
+VERSUS_BEST = {report.PartVerdict.HOLDS: "worse", report.PartVerdict.HOLDS_NEGLIGIBLE: "worse, but negligible (< 1 %)",
+               report.PartVerdict.CONTRADICTED: "better",
+               report.PartVerdict.CONTRADICTED_NEGLIGIBLE: "better, but negligible (< 1 %)",
+               report.PartVerdict.NO_DIFFERENCE: "no detectable difference",
+               report.PartVerdict.IDENTICAL: "identical (to round-off)",
+               report.PartVerdict.NOT_COMPARABLE: "not comparable"}
 
 
 def scenario(name: str) -> Scenario:
@@ -211,7 +254,7 @@ def cell_metrics(rs: evaluation.RunSet, s: Scenario, cost_seconds: float) -> dic
     check_scalar(cost_seconds, "cost_seconds", nonnegative=True)
     ok = rs.valid
     out = {"diverged": int((~ok).sum()), "divergence": rs.divergence_summary(),
-           "cost_us_per_run_step": 1e6 * cost_seconds}
+           "cost_us_per_run_step": 1e6 * cost_seconds, "operations_per_run": rs.ops}
     if ok.sum() >= 2:
         out["rmse_position"] = _mc_value(metrics.rms_with_se(np.nan_to_num(_per_run_squared(rs, s.position)), ok))
         out["rmse_velocity"] = _mc_value(metrics.rms_with_se(np.nan_to_num(_per_run_squared(rs, s.velocity)), ok))
@@ -290,24 +333,30 @@ def rank_scenario(cells: dict) -> dict:
     if not ranked:
         return out
 
-    def worse(a, b) -> str:
-        """The part verdict of "a is worse than b" (paired; the reference of the 1 % negligibility is b's mean squared
-        error, as in :func:`compare` and :func:`mmlib.experiment.evaluation.better_claim`)."""
+    def operations(a) -> int | None:
+        m = cells[a].get("metrics") or {}
+        return m.get("operations_per_run")
+
+    def worse(a, b) -> tuple:
+        """The part verdict of "a is worse than b" (paired; the reference of the 1 % negligibility and of the
+        round-off floor is b's mean squared error, and its operation count the larger of the two runs', as in
+        :func:`compare`) and the paired difference."""
         d = metrics.mean_with_se(ranked[a] - ranked[b])
-        return report.claim_verdict(float(d.value), float(d.stderr), +1, reference=float(ranked[b].mean())), d
+        oa, ob = operations(a), operations(b)
+        ops = report.ROUNDOFF_OPS if oa is None or ob is None else max(oa, ob)
+        return report.claim_verdict(float(d.value), float(d.stderr), +1, reference=float(ranked[b].mean()),
+                                    ops=ops), d
 
     best = min(ranked, key=lambda a: float(ranked[a].mean()))
     for a in ranked:
-        rank = 1 + sum(worse(a, b)[0] == "holds" for b in ranked if b != a)
+        rank = 1 + sum(worse(a, b)[0] == report.PartVerdict.HOLDS for b in ranked if b != a)
         if a == best:
             out[a] = {"rank": rank, "versus_best": {"algorithm": best, "difference_m2": 0.0, "stderr_m2": 0.0,
                                                     "verdict": "best"}}
             continue
         verdict, d = worse(a, best)
-        head, _, qualifier = verdict.partition(", ")
-        verdict = {"holds": "worse", "contradicted": "better"}.get(head, head) + (f", {qualifier}" if qualifier else "")
         out[a] = {"rank": rank, "versus_best": {"algorithm": best, "difference_m2": float(d.value),
-                                                "stderr_m2": float(d.stderr), "verdict": verdict}}
+                                                "stderr_m2": float(d.stderr), "verdict": VERSUS_BEST[verdict]}}
     return out
 
 
@@ -321,6 +370,14 @@ class ArenaResult(NamedTuple):
     per_run: dict
     n_runs: int
     details: dict = {}        #: {(scenario, algorithm): per_run_values(...)}: every per-run number (for the digest)
+    ops: dict = {}            #: {(scenario, algorithm): floating-point operations of one run, or None if unknown}
+
+    def operations(self, scenario_name: str, a: str, b: str) -> int:
+        """The operation count of the round-off floor of a paired comparison of ``a`` and ``b`` on one scenario:
+        the larger of their runs' (:func:`mmlib.experiment.evaluation.run_operations`), ``ROUNDOFF_OPS`` when
+        either is unknown."""
+        oa, ob = self.ops.get((scenario_name, a)), self.ops.get((scenario_name, b))
+        return report.ROUNDOFF_OPS if oa is None or ob is None else max(oa, ob)
 
 
 def _check_result(result) -> ArenaResult:
@@ -362,7 +419,7 @@ def run_arena(n_runs: int, *, scenarios: Iterable[str] | None = None, algorithms
                        seed=ladder.ROOT_SEED if seed is None else int(seed), workers=workers, executor=executor,
                        progress=_every(len(readings), progress), use_cache=use_cache, cache_dir=cache_dir,
                        label="arena", result_keys=RESULT_KEYS, unit="cell", result_type=None)
-    cells, per_run, details = [], {}, {}
+    cells, per_run, details, ops = [], {}, {}, {}
     for s in scenarios:
         here = {r["algorithm"]: res for r, res in zip(readings, results) if r["scenario"] == s}
         ranks = rank_scenario({a: c for a, c in here.items() if c["metrics"] is not None})
@@ -376,8 +433,9 @@ def run_arena(n_runs: int, *, scenarios: Iterable[str] | None = None, algorithms
                 doc.update(ranks.get(a, {"rank": None, "versus_best": None}))
                 per_run[(s, a)] = np.array([np.nan if v is None else v for v in c["per_run"]["position_mse"]])
                 details[(s, a)] = c["per_run"]
+                ops[(s, a)] = c["metrics"].get("operations_per_run")
             cells.append(doc)
-    return ArenaResult(cells, per_run, int(n_runs), details)
+    return ArenaResult(cells, per_run, int(n_runs), details, ops)
 
 
 def _every(total: int, progress, lines: int = 20):
@@ -415,15 +473,8 @@ def all_ideas() -> tuple:
     return tuple(out) + tuple((idea, a, b, "all") for idea, a, b in ARENA_IDEAS)
 
 
-def compare(result: ArenaResult, a: str, b: str, scenario_name: str) -> dict | None:
-    """The paired comparison of ``a`` against ``b`` on one scenario: mean over the runs valid in both of the
-    difference of their time-averaged squared position errors (m^2) with its standard error and relative to b's MSE;
-    ``verdict``, the part verdict of :func:`mmlib.experiment.report.claim_verdict` read as "helps" (a smaller),
-    "hurts" (a larger) or "no detectable difference" (with ", but negligible (< 1 %)" where it says so), or
-    "diverges" when a diverged in detectably more runs than b (the difference of the counts at least 3 standard
-    errors, sqrt(d_a + d_b) for Poisson counts); and ``claim``, the verdict of the claim "a is more accurate than b" by
-    the one rule (:func:`mmlib.experiment.report.paired_claim`; contradicted when a diverges detectably more).
-    None where either does not apply."""
+def _compare(result: ArenaResult, a: str, b: str, scenario_name: str) -> tuple | None:
+    """``(compare(...) document, its Part)``, or None where either does not apply."""
     _check_result(result)
     for value, arg in ((a, "a"), (b, "b"), (scenario_name, "scenario_name")):
         if not isinstance(value, str):
@@ -435,23 +486,45 @@ def compare(result: ArenaResult, a: str, b: str, scenario_name: str) -> dict | N
     ok = np.isfinite(va) & np.isfinite(vb)
     out = {"scenario": scenario_name, "a": a, "b": b, "diverged_a": da, "diverged_b": db, "n_runs": int(ok.sum()),
            "difference_m2": None, "stderr_m2": None, "relative": None}
-    diverges = f"{report.CONTRADICTED}: {a} diverged in {da} runs, {b} in {db}"
+    comparison = f"{a} − {b}"
+    # a diverges detectably more often than b: the difference of the counts, sqrt(d_a + d_b) its standard error
+    # (Poisson counts), at least 3 standard errors -- the one rule on the divergence part
     more = da - db >= report.SIGMA_FACTOR * math.sqrt(da + db) and da > db
+    diverges = report.part(comparison, f"diverged runs, {scenario_name}", float(da - db), math.sqrt(da + db), -1,
+                           unit="runs")
     if ok.sum() < 2:
-        out.update(verdict="diverges" if more else "not comparable",
-                   claim=diverges if more else f"{report.NOT_ASSESSABLE}: fewer than two runs valid in both")
-        return out
-    d = metrics.mean_with_se(np.where(ok, va - vb, 0.0), ok)
-    ref = float(vb[ok].mean())
-    part = report.claim_verdict(float(d.value), float(d.stderr), -1, reference=ref)
-    head, _, qualifier = part.partition(", ")
-    verdict = {"holds": "helps", "contradicted": "hurts"}.get(head, head) + (f", {qualifier}" if qualifier else "")
-    claim = report.paired_claim(float(d.value), float(d.stderr), -1, reference=ref)
-    if more:
-        verdict, claim = "diverges", diverges
-    out.update(difference_m2=float(d.value), stderr_m2=float(d.stderr), relative=float(d.value) / ref if ref else None,
-               verdict=verdict, claim=claim)
-    return out
+        p = diverges if more else report.Part(comparison, f"position MSE, {scenario_name}",
+                                              report.PartVerdict.NOT_COMPARABLE, math.nan, math.nan, None, "m²")
+        verdict = ArenaVerdict.DIVERGES if more else ArenaVerdict.NOT_COMPARABLE
+    else:
+        d = metrics.mean_with_se(np.where(ok, va - vb, 0.0), ok)
+        ref = float(vb[ok].mean())
+        p = report.part(comparison, f"position MSE, {scenario_name}", float(d.value), float(d.stderr), -1,
+                        reference=ref, unit="m²", ops=result.operations(scenario_name, a, b))
+        verdict = ARENA_READING[p.verdict]
+        out.update(difference_m2=float(d.value), stderr_m2=float(d.stderr),
+                   relative=float(d.value) / ref if ref else None)
+        if more:
+            p, verdict = diverges, ArenaVerdict.DIVERGES
+    j = report.judge([p])
+    out.update(verdict=verdict, claim=j.verdict, decisive=j.decisive, part=p.as_json())
+    return out, p
+
+
+def compare(result: ArenaResult, a: str, b: str, scenario_name: str) -> dict | None:
+    """The paired comparison of ``a`` against ``b`` on one scenario: mean over the runs valid in both of the
+    difference of their time-averaged squared position errors (m^2) with its standard error and relative to b's MSE
+    (``reference``); ``part``, the :class:`mmlib.experiment.report.Part` "``a − b``: position MSE, <scenario>" of the
+    one rule (:func:`mmlib.experiment.report.part`, with b's MSE as the reference of the 1 % negligibility and of
+    the round-off floor); ``verdict``, its reading :class:`ArenaVerdict` ("helps" (a smaller), "hurts" (a larger),
+    "no detectable difference", "identical (to round-off)", with ", but negligible (< 1 %)" where it says so), or
+    "diverges" when a diverged in detectably more runs than b (the part is then "diverged runs": the difference of
+    the counts at least 3 standard errors, sqrt(d_a + d_b) for Poisson counts); ``claim`` and ``decisive``, the
+    verdict of the claim "a is more accurate than b" (:func:`mmlib.experiment.report.judge` of the one part:
+    contradicted when a diverges detectably more, not supported when identical to round-off).  None where either
+    does not apply."""
+    got = _compare(result, a, b, scenario_name)
+    return None if got is None else got[0]
 
 
 def ideas(result: ArenaResult, scenarios: Iterable[str] | None = None) -> list:
@@ -520,22 +593,61 @@ def paper_claim_list() -> tuple:
                  if REGISTRY[name].arena is not None and REGISTRY[name].arena.claim)
 
 
-def paper_claims(result: ArenaResult) -> list:
-    """Each paper's accuracy claims (:func:`paper_claim_list`) across the arena: per pair, the verdict of "A is more
-    accurate than B" on every scenario where both algorithms apply (``compare(...)["claim"]``, the one rule)."""
+def _paper_judgements(result: ArenaResult) -> list:
+    """``(paper, claim, Judgement, pairs)`` per paper claim of :func:`paper_claim_list` (:func:`paper_claims`)."""
     _check_result(result)
     names = list(dict.fromkeys(c["scenario"] for c in result.cells))
     out = []
     for paper, claim, pairs in paper_claim_list():
-        parts = []
+        parts, docs = [], []
         for a, b in pairs:
-            verdicts = {}
+            verdicts, part_verdicts = {}, {}
             for s in names:
-                c = compare(result, a, b, s)
-                if c is not None:
-                    verdicts[s] = c["claim"]
-            parts.append({"a": a, "b": b, "verdicts": verdicts})
-        out.append({"paper": paper, "claim": claim, "pairs": parts})
+                got = _compare(result, a, b, s)
+                if got is None:
+                    continue
+                c, p = got
+                verdicts[s], part_verdicts[s] = c["claim"], p.verdict
+                if p.verdict != report.PartVerdict.NOT_COMPARABLE:
+                    parts.append(p)
+            docs.append({"a": a, "b": b, "verdicts": verdicts, "part_verdicts": part_verdicts})
+        if parts:
+            j = report.judge(parts)
+        else:
+            j = report.Judgement.of(report.NOT_ASSESSABLE, "no scenario where both algorithms of a pair apply and "
+                                                           "two runs are valid in both")
+        out.append((paper, claim, j, docs))
+    return out
+
+
+def paper_claims(result: ArenaResult) -> list:
+    """Each paper's accuracy claim (:func:`paper_claim_list`) across the arena: one ``verdict`` of the claim
+    vocabulary with its ``decisive`` number, judged once (:func:`mmlib.experiment.report.judge`) on the flat list of
+    its ``parts`` -- one per pair "A is more accurate than B" and scenario where both apply (:func:`compare`'s
+    part; a scenario where they are not comparable is left out) -- and per pair the ``verdicts`` (scenario -> the
+    one-part claim verdict) and ``part_verdicts`` (scenario -> the part verdict, e.g. "identical (to round-off)")."""
+    return [{"paper": paper, "claim": claim, "verdict": j.verdict, "decisive": j.decisive,
+             "parts": [p.as_json() for p in j.parts], "pairs": pairs}
+            for paper, claim, j, pairs in _paper_judgements(result)]
+
+
+def arena_claims(result: ArenaResult) -> report.Claims:
+    """The papers' accuracy claims across the arena (:func:`paper_claims`) as a :class:`mmlib.experiment.report.Claims`
+    (claim ``"<claim> (<paper>, across the arena)"``, its judgement and, as evidence, the part verdicts counted per
+    pair), for :func:`mmlib.experiment.notebook.claims_table`."""
+    claims = report.Claims()
+    for paper, claim, j, pairs in _paper_judgements(result):
+        evidence = " | ".join(f"{pair['a']} − {pair['b']}: " + (", ".join(
+            f"{v} {n}" for v, n in _count(pair["part_verdicts"].values()).items()) or "no scenario")
+            for pair in pairs)
+        claims.add(f"{claim} ({paper}, across the arena)", j, evidence)
+    return claims
+
+
+def _count(values) -> dict:
+    out: dict = {}
+    for v in values:
+        out[str(v)] = out.get(str(v), 0) + 1
     return out
 
 
@@ -597,20 +709,25 @@ def findings(result: ArenaResult, scenario_rows: list) -> list:
         c = compare(result, "IMMUKF", "IMMEKF", name)
         d = compare(result, "IMM5CKF", "IMMCKF", name)
         if c and d:
-            sep.append(f"{name} (index {index.get(name, float('nan')):.3g}): IMMUKF vs IMMEKF {c['verdict']}"
-                       + (f" ({100 * c['relative']:+.1f} %)" if c.get("relative") is not None else "")
-                       + f", IMM5CKF vs IMMCKF {d['verdict']}"
-                       + (f" ({100 * d['relative']:+.1f} %)" if d.get("relative") is not None else ""))
+            sep.append(f"{name} (index {index.get(name, float('nan')):.3g}): IMMUKF vs IMMEKF {_with_relative(c)}, "
+                       f"IMM5CKF vs IMMCKF {_with_relative(d)}")
     if sep:
         out.append("- **Where the rules separate** (position MSE, paired): " + "; ".join(sep) + ".")
     for pc in paper_claims(result):
         parts = []
         for pair in pc["pairs"]:
             groups: dict = {}
-            for s, v in pair["verdicts"].items():
-                key = report.claim_category(v) + (" (negligible, < 1 %)" if "negligible" in v else "")
-                groups.setdefault(key, []).append(s)
+            for sc, v in pair["part_verdicts"].items():
+                groups.setdefault(str(v), []).append(sc)
             counts = "; ".join(f"{v} in {len(ss)} ({_scenario_list(ss)})" for v, ss in sorted(groups.items()))
             parts.append(f"{pair['a']} against {pair['b']}: " + (counts or "no scenario where both apply"))
-        out.append(f"- **{pc['paper']}'s claim** *{pc['claim']}*, across the arena: " + " | ".join(parts) + ".")
+        out.append(f"- **{pc['paper']}'s claim** *{pc['claim']}*, across the arena: **{pc['verdict']}** "
+                   f"({pc['decisive']}); " + " | ".join(parts) + ".")
     return out
+
+
+def _with_relative(c: dict) -> str:
+    """A comparison's verdict with its relative difference (none on round-off: no effect to size)."""
+    if c.get("relative") is None or c["verdict"] == ArenaVerdict.IDENTICAL:
+        return str(c["verdict"])
+    return f"{c['verdict']} ({100 * c['relative']:+.1f} %)"

@@ -9,7 +9,9 @@ algorithms (columns) and scenarios (rows) are taken in the order in which they f
 * :func:`rmse_heatmap`: position RMSE of each cell relative to the best algorithm of its scenario;
 * :func:`consistency_heatmap`: ANEES or ANIS divided by its degrees of freedom (1 = consistent);
 * :func:`ladder_curves`: position RMSE along the nonlinearity and manoeuvre axes of the ladder;
-* :func:`cell_table`: one scenario's cells as table rows (for :func:`mmlib.experiment.views.markdown_table`).
+* :func:`cell_table`: one scenario's cells as table rows (for :func:`mmlib.experiment.views.markdown_table`);
+* :func:`claim_scenario_matrix`: the papers' claims across the arena (:func:`mmlib.arena.study.paper_claims`) as a
+  pair x scenario matrix of part-verdict symbols.
 
 Figures are returned (the caller saves them, e.g. with :func:`mmlib.experiment.report.save_figure`); matplotlib is
 imported only inside the functions, so importing this module is cheap and needs no display.  Bad input is a
@@ -572,7 +574,12 @@ def _versus_text(vb) -> str:
     if vb.get("verdict") == "best":
         return "best"
     d, se = vb.get("difference_m2"), vb.get("stderr_m2")
-    diff = "" if d is None else f" (vs {vb.get('algorithm')}: Δ MSE {d:+.3g} ± {(se or 0):.2g} m²)"
+    if d is None:
+        diff = ""
+    elif vb.get("verdict") == "identical (to round-off)":        # round-off: its size only, never a z-score
+        diff = f" (vs {vb.get('algorithm')}: |Δ MSE| {abs(d):.0e} m²)"
+    else:
+        diff = f" (vs {vb.get('algorithm')}: Δ MSE {d:+.3g} ± {(se or 0):.2g} m²)"
     return f"{vb.get('verdict')}{diff}"
 
 
@@ -611,3 +618,57 @@ def cell_table(cells: Iterable[dict] | ArenaResult, scenario: str) -> list[dict]
             "--" if c.get("rank") is None else str(c["rank"]),
             _versus_text(c.get("versus_best"))])))
     return out
+
+
+# ----------------------------------------------------------------------------------------------------- claims
+
+def claim_scenario_matrix(paper_claims: Iterable[dict]) -> str:
+    """The papers' claims across the arena as a Markdown matrix: one row per claimed pair "A − B" (with the paper and
+    the claim's one verdict), one column per scenario (the pairs' scenario orders merged), and in each cell the symbol
+    of the part verdict (:data:`mmlib.experiment.notebook.PART_SYMBOLS`: ✓ holds, ✗ contradicted, (✓)/(✗) negligible,
+    · no detectable difference, ≡ identical to round-off, ? not comparable) with the relative position-MSE difference
+    (none for an identity, "div." for a divergence part); empty where the pair does not apply.
+
+    ``paper_claims``: the list of :func:`mmlib.arena.study.paper_claims` (``paper``, ``verdict``, ``parts``,
+    ``pairs`` with ``part_verdicts``)."""
+    from mmlib.experiment.notebook import PART_SYMBOLS
+    from mmlib.experiment.report import PartVerdict
+    from mmlib.experiment.views import markdown_table
+    if isinstance(paper_claims, (str, bytes, dict)) or not hasattr(paper_claims, "__iter__"):
+        raise ValueError(f"paper_claims: expected the list of study.paper_claims(...), got "
+                         f"{type(paper_claims).__name__}")
+    paper_claims = list(paper_claims)
+    for i, pc in enumerate(paper_claims):
+        if not isinstance(pc, dict) or any(k not in pc for k in ("paper", "verdict", "parts", "pairs")) or any(
+                not isinstance(pair, dict) or "part_verdicts" not in pair for pair in pc["pairs"]):
+            raise ValueError(f"paper_claims: item {i} is not an item of study.paper_claims(...) (paper, verdict, "
+                             f"parts, pairs with part_verdicts)")
+    scenarios: list = []          # every pair's scenarios merged in their order (each new one after its predecessor)
+    for pc in paper_claims:
+        for pair in pc["pairs"]:
+            prev = None
+            for s in pair["part_verdicts"]:
+                if s not in scenarios:
+                    scenarios.insert(0 if prev is None else scenarios.index(prev) + 1, s)
+                prev = s
+    rows = []
+    for pc in paper_claims:
+        numbers = {(p["comparison"], p["quantity"].rsplit(", ", 1)[-1]): p for p in pc["parts"]}
+        for pair in pc["pairs"]:
+            row = [pc["paper"], pc["verdict"], f"{pair['a']} − {pair['b']}"]
+            for s in scenarios:
+                v = pair["part_verdicts"].get(s)
+                if v is None:
+                    row.append("")
+                    continue
+                p = numbers.get((f"{pair['a']} − {pair['b']}", s))
+                cell = PART_SYMBOLS[PartVerdict(v)]
+                if p is not None and p["quantity"].startswith("diverged"):
+                    cell += " div."
+                elif p is not None and v != PartVerdict.IDENTICAL and p["reference"] and p["difference"] is not None:
+                    cell += f" {100 * p['difference'] / abs(p['reference']):+.2g} %"
+                row.append(cell)
+            rows.append(row)
+    legend = ("✓ holds · ✗ contradicted · (✓)/(✗) detected but negligible (< 1 %) · · no detectable difference · "
+              "≡ identical to round-off · ? not comparable · div.: A diverged detectably more often")
+    return markdown_table(["paper", "verdict", "A − B", *scenarios], rows) + "\n\n" + legend

@@ -26,7 +26,7 @@ PAPER = Paper(
     algorithms=text.ALGORITHMS, key_effect=study.KEY_EFFECT, setup=setup.setup, scenario=setup.scenario,
     universe=study.universe, batch=setup.batch, headline_digest=study.headline_digest,
     notebook="hu2017_immcdkf_obs",
-    # full: the paper's 100 runs, also in each of the multiverse's universes (the covering design of all factors);
+    # full: the paper's 100 runs, also in each of the multiverse's universes (a uniform sample of 400, text.SPACE);
     # smoke: 20 runs, the star design (headline + each option alone) at the same 20 runs, so that the smoke headline
     # universe equals the smoke headline rows bit for bit.
     profiles={"full": dict(n_runs=text.N_RUNS, timing_runs=20, timing_repeats=8, mv_runs=text.N_RUNS,

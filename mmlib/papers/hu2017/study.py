@@ -105,36 +105,48 @@ def mode_matching_difference(res: ReadingResult, a: str, b: str) -> tuple:
 
 
 def _mode_claim(res: ReadingResult, a: str, others: Iterable[str]) -> tuple:
+    """Judgement and evidence of "``a`` matches the true mode better than each of ``others``": one part per other
+    algorithm on the paired difference of the time-averaged true-mode probability (:func:`mode_matching_difference`,
+    relative to the other's mean), judged once (:func:`mmlib.experiment.verdicts.judge`)."""
     parts, ev = [], []
     for b in others:
         d, se, ref = mode_matching_difference(res, a, b)
-        parts.append(f"{report.claim_verdict(d, se, +1, reference=ref)} (vs {b})")
+        parts.append(report.part(f"{a} − {b}", "true-mode probability", d, se, +1, reference=ref, unit="probability",
+                                 ops=evaluation.pair_operations(res.runs[a], res.runs[b])))
         ev.append(f"vs {b}: Δ(true-mode probability) = {d:+.3g} ± {se:.2g} ({b}: {ref:.3f})")
-    return report.combine_claim_verdicts(parts), "; ".join(ev)
+    return report.judge(parts), "; ".join(ev)
+
+
+def _better(r: dict, a: str, b: str) -> tuple:
+    """Judgement and evidence of "``a`` is more accurate than ``b``" on Table 1's axes (:data:`AXES`): paired
+    horizontal and vertical mean squared errors in km² (:func:`mmlib.experiment.evaluation.better_claim`)."""
+    return evaluation.better_claim(r, a, b, AXES, unit="km²")
+
+
+#: the comparators of "IMMEKF has the lowest precision": each must have a lower MSE than IMMEKF on both axes
+EKF_COMPARATORS = ("IMMUKF", "IMMCKF", "IMMCDKF", "IMMCDKF-OBS")
 
 
 def judge_claims(res: ReadingResult) -> report.Claims:
     """The accuracy and mode-identification claims of Sec. 3 and the conclusions, judged on paired
-    differences over common random numbers (:mod:`mmlib.experiment.report`, claim vocabulary)."""
+    differences over common random numbers, each a :class:`~mmlib.experiment.verdicts.Judgement` (one term of the
+    claim vocabulary, its decisive number and its parts).  Under the printed CDKF form (H-1) and Julier's UKF
+    parameters (H-10) IMMUKF is IMMCDKF exactly, so their comparisons are parts *identical (to round-off)*."""
     r = res.runs
     cl = report.Claims()
     cl.add("IMMCDKF-OBS is more accurate than IMMCDKF: bootstrapped observations improve precision without new "
-           "sensors (abstract, Sec. 3, conclusions)", *evaluation.better_claim(r, "IMMCDKF-OBS", "IMMCDKF", AXES))
+           "sensors (abstract, Sec. 3, conclusions)", *_better(r, "IMMCDKF-OBS", "IMMCDKF"))
     for other in ("IMMUKF", "IMMEKF", "IMMCKF"):
-        cl.add(f"IMMCDKF-OBS is more accurate than {other} (Table 1, Figs. 6-7)",
-               *evaluation.better_claim(r, "IMMCDKF-OBS", other, AXES))
+        cl.add(f"IMMCDKF-OBS is more accurate than {other} (Table 1, Figs. 6-7)", *_better(r, "IMMCDKF-OBS", other))
     for other in ("IMMUKF", "IMMEKF", "IMMCKF"):
-        cl.add(f"IMMCDKF is more accurate than {other} (Table 1)", *evaluation.better_claim(r, "IMMCDKF", other, AXES))
+        cl.add(f"IMMCDKF is more accurate than {other} (Table 1)", *_better(r, "IMMCDKF", other))
+    # one flat list of parts (each comparator on each axis), judged once
     parts, ev = [], []
-    for other in ("IMMUKF", "IMMCKF", "IMMCDKF", "IMMCDKF-OBS"):
-        for lab, comp in AXES:
-            d = evaluation.paired_mse_difference(r[other], r["IMMEKF"], comp)
-            ok = r["IMMEKF"].valid
-            ref = float((r["IMMEKF"].errors[ok][..., comp] ** 2).mean())
-            parts.append(f"{report.claim_verdict(float(d.value), float(d.stderr), -1, reference=ref)} "
-                         f"({other}, {lab})")
-        ev.append(f"{other} - IMMEKF: {evaluation.better_claim(r, other, 'IMMEKF', AXES)[1]}")
-    cl.add("IMMEKF has the lowest precision (Sec. 3)", report.combine_claim_verdicts(parts), " | ".join(ev))
+    for other in EKF_COMPARATORS:
+        j, e = _better(r, other, "IMMEKF")
+        parts += j.parts
+        ev.append(f"{other} − IMMEKF: {e}")
+    cl.add("IMMEKF has the lowest precision (Sec. 3)", report.judge(parts), " | ".join(ev))
     cl.add("The model matching probability of IMMCDKF is superior to IMMUKF, IMMEKF and IMMCKF (Figs. 1-5)",
            *_mode_claim(res, "IMMCDKF", ("IMMUKF", "IMMEKF", "IMMCKF")))
     cl.add("The model matching probability of IMMCDKF-OBS is superior to IMMUKF, IMMEKF and IMMCKF (Figs. 1-5)",

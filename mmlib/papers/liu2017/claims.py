@@ -1,6 +1,10 @@
 """The claims of Liu & Wu 2017's abstract, introduction, Section 4.2 and conclusions, judged on one reading's Monte
 Carlo runs (:func:`judge_claims`), every verdict from paired differences over common random numbers in the claim
-vocabulary of :mod:`mmlib.experiment.report` (holds / partly / contradicted / not supported / not assessable).
+vocabulary of :mod:`mmlib.experiment.report` (holds / partly / contradicted / not supported / not assessable): each
+claim is one :class:`~mmlib.experiment.report.Judgement` -- one verdict, the one decisive number that produced it and
+the flat list of its parts (:class:`~mmlib.experiment.report.Part`, comparison ``"A − B"``, quantity e.g.
+``"Case 1 velocity MSE"``), judged once; a difference within the round-off floor is "identical (to round-off)", never
+an effect.
 
 Accuracy is the paired difference of per-run mean squared errors (m^2, (m/s)^2, (m/s^2)^2) of the x-y position,
 velocity or acceleration (Eq. 42's ARMSE squared); robustness, which the paper does not define, is judged as
@@ -8,7 +12,6 @@ velocity or acceleration (Eq. 42's ARMSE squared); robustness, which the paper d
 """
 from __future__ import annotations
 
-from collections import Counter
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
@@ -35,73 +38,90 @@ def _mse(rs: evaluation.RunSet, idx) -> float:
     return float((rs.errors[rs.valid][..., list(idx)] ** 2).sum(axis=-1).mean())
 
 
-def _paired_part(a, b, idx, sign=-1):
-    d = evaluation.paired_mse_difference(a, b, idx)
-    return report.claim_verdict(float(d.value), float(d.stderr), sign, reference=_mse(b, idx)), d
+#: the squared unit of each quantity's mean squared error, by its short label (:data:`QUANTITIES`)
+UNITS = {"Position": "m²", "Velocity": "(m/s)²", "Acceleration": "(m/s²)²"}
 
 
-def _divergence_part(a, b):
-    """Part verdict for 'a diverges less often than b', or None when neither diverges."""
+def accuracy_part(results: dict, a: str, b: str, case: str, label: str, idx: int | Sequence[int]) -> report.Part:
+    """The part "``a`` is more accurate than ``b``" in ``case`` on one quantity (``label`` one of :data:`UNITS`,
+    ``idx`` its state components): the paired difference of per-run mean squared errors ``a − b`` on common random
+    numbers, relative to b's mean squared error (:func:`mmlib.experiment.report.part`, the round-off floor on it)."""
+    d = evaluation.paired_mse_difference(results[a], results[b], idx)
+    return report.part(f"{a} − {b}", f"{case} {label.lower()} MSE", float(d.value), float(d.stderr), -1,
+                       reference=_mse(results[b], idx), unit=UNITS[label],
+                       ops=evaluation.pair_operations(results[a], results[b]))
+
+
+def after_onset_part(results: ReadingResults, a: str, b: str, case: str) -> report.Part:
+    """The part "``a``'s position error after the onset is smaller than ``b``'s" in ``case`` (robustness (i) of
+    :data:`ROBUSTNESS_DEFINITION`): the paired position-MSE difference over the steps from the onset on (m²),
+    relative to b's."""
+    k0 = results.setups[case].onset_index
+    ra, rb = after_onset(results.runs[case][a], k0), after_onset(results.runs[case][b], k0)
+    d = evaluation.paired_mse_difference(ra, rb, POSITION)
+    return report.part(f"{a} − {b}", f"{case} position MSE after the onset", float(d.value), float(d.stderr), -1,
+                       reference=_mse(rb, POSITION), unit="m²", ops=evaluation.pair_operations(ra, rb))
+
+
+def divergence_part(a: evaluation.RunSet, b: evaluation.RunSet, comparison: str, case: str) -> report.Part | None:
+    """The part "``a`` diverges less often than ``b``" (robustness (ii)): the paired difference of the divergence
+    indicators (share of runs), or None when neither diverges."""
     da, db = (~a.valid).astype(float), (~b.valid).astype(float)
     if not (da.any() or db.any()):
         return None
     m = metrics.mean_with_se(da - db)
-    return report.claim_verdict(float(m.value), float(m.stderr), -1)
+    return report.part(comparison, f"{case} share of runs diverged", float(m.value), float(m.stderr), -1)
 
 
-def combine_parts(parts: Sequence[tuple[str, str]]) -> str:
-    """One claim verdict from labelled part verdicts ``[(label, part verdict)]``; for many parts the
-    detail is condensed to counts and the labels of the parts that do not hold."""
-    full = report.combine_claim_verdicts(f"{v} ({lab})" for lab, v in parts)
-    if len(parts) <= 4:
-        return full
-    head = report.claim_category(full)
-    if head == report.HOLDS:
-        return head
-    counts = Counter(v.split(" (")[0] for _, v in parts)
-    not_holding = [lab for lab, v in parts if v != "holds"]
-    shown = ", ".join(not_holding[:8]) + (f" and {len(not_holding) - 8} more" if len(not_holding) > 8 else "")
-    return (f"{head}: of {len(parts)} parts, " + ", ".join(f"{n} {k}" for k, n in counts.items())
-            + f"; not holding: {shown}")
+def _evidence(parts) -> str:
+    return "; ".join(p.number() for p in parts)
 
 
 def judge_claims(results: ReadingResults) -> report.Claims:
-    """The verdicts on the abstract's and conclusions' claims for one reading (claim vocabulary of
-    :mod:`mmlib.experiment.report`), with their evidence."""
+    """The verdicts on the abstract's and conclusions' claims for one reading: one
+    :class:`~mmlib.experiment.report.Judgement` per claim (one term of the claim vocabulary, its decisive number and
+    its parts: :func:`mmlib.experiment.report.judge`), with their evidence."""
     R = results.runs
     ex1 = R["Example 1"]
-    onset = {case: results.setups[case].onset_index for case in CASES}
     claims = report.Claims()
     qty = [(q.split()[0], idx) for q, idx in QUANTITIES]
 
+    def accuracy(case, a, b):
+        return [accuracy_part(R[case], a, b, case, label, idx) for label, idx in qty]
+
     # 1. SSRCKF declines and may diverge after the abrupt maneuver (Example 1)
     ssr = ex1["SSRCKF"]
-    k0 = onset["Example 1"]
+    k0 = results.setups["Example 1"].onset_index
     sq = (ssr.errors[ssr.valid][..., list(POSITION)] ** 2).sum(axis=-1)
     decline = metrics.mean_with_se(sq[:, k0:].mean(axis=1) - sq[:, :k0].mean(axis=1))
     n_div = int((~ssr.valid).sum())
-    div_rate = metrics.mean_with_se((~ssr.valid).astype(float))
     peak = float(metrics.rmse_over_time(np.sqrt((ssr.errors[..., list(POSITION)] ** 2).sum(-1)), ssr.valid).value.max())
+    parts = [report.part("SSRCKF after − before the onset", "Example 1 position MSE", float(decline.value),
+                         float(decline.stderr), +1, reference=float(sq[:, :k0].mean()), unit="m²")]
+    if n_div:
+        rate = metrics.mean_with_se((~ssr.valid).astype(float))
+        parts.append(report.part("SSRCKF", "Example 1 share of runs diverged", float(rate.value),
+                                 float(rate.stderr), +1))
+    else:   # no run diverged: nothing observed (not a round-off identity, which a 0 ± 0 difference would read as)
+        parts.append(report.Part("SSRCKF", "Example 1 share of runs diverged", report.PartVerdict.NO_DIFFERENCE,
+                                 0.0, 0.0))
     claims.add("SSRCKF may decline in accuracy and even diverge after an abrupt maneuver (abstract; Example 1)",
-               report.combine_claim_verdicts([
-                   f"{report.claim_verdict(float(decline.value), float(decline.stderr), +1)} (decline: position MSE "
-                   f"after minus before the onset)",
-                   f"{report.claim_verdict(float(div_rate.value), float(div_rate.stderr), +1)} (divergence)"]),
+               report.judge(parts),
                f"position MSE after minus before the onset {decline.value:.4g} ± {decline.stderr:.2g} m²; RMSE peaks "
                f"at {peak:.0f} m; diverged runs {n_div} of {len(ssr.valid)}")
 
-    # 2. the SSR rule against the CKF's, without strong tracking
-    claims.add("The SSR rule is more accurate than the CKF's (abstract; Example 1, no strong tracking)",
-               *evaluation.better_claim(ex1, "SSRCKF", "CKF", qty))
-    # 3. Table 1 ranking, 4. Table 3
-    for other in ("SSRCKF", "STF", "STUKF", "STCKF"):
-        claims.add(f"STSSRCKF is more accurate than {other} (Example 1, Table 1)",
-                   *evaluation.better_claim(ex1, "STSSRCKF", other, qty))
-    for case in ("Case 1", "Case 2"):
-        claims.add(f"STSSRCKF is more accurate than SSRCKF ({case}, Table 3)",
-                   *evaluation.better_claim(R[case], "STSSRCKF", "SSRCKF", qty))
-    claims.add("STSSRCKF is more accurate than STF (weak maneuver, Table 3 Case 2)",
-               *evaluation.better_claim(R["Case 2"], "STSSRCKF", "STF", qty))
+    # 2. the SSR rule against the CKF's, without strong tracking; 3. Table 1 ranking; 4. Table 3
+    comparisons = [("The SSR rule is more accurate than the CKF's (abstract; Example 1, no strong tracking)",
+                    "Example 1", "SSRCKF", "CKF")]
+    comparisons += [(f"STSSRCKF is more accurate than {other} (Example 1, Table 1)", "Example 1", "STSSRCKF", other)
+                    for other in ("SSRCKF", "STF", "STUKF", "STCKF")]
+    comparisons += [(f"STSSRCKF is more accurate than SSRCKF ({case}, Table 3)", case, "STSSRCKF", "SSRCKF")
+                    for case in ("Case 1", "Case 2")]
+    comparisons.append(("STSSRCKF is more accurate than STF (weak maneuver, Table 3 Case 2)", "Case 2", "STSSRCKF",
+                        "STF"))
+    for text, case, a, b in comparisons:
+        parts = accuracy(case, a, b)
+        claims.add(text, report.judge(parts), _evidence(parts))
 
     # 5. normal accuracy for weak maneuvers: ARMSE_ST < (1 + band) ARMSE_SSR  <=>  MSE_ST - (1 + band)^2 MSE_SSR < 0
     c2 = R["Case 2"]
@@ -110,46 +130,41 @@ def judge_claims(results: ReadingResults) -> report.Claims:
     mse_run = {a: (c2[a].errors[ok][..., list(POSITION)] ** 2).sum(-1).mean(1) for a in ("STSSRCKF", "SSRCKF")}
     d = metrics.mean_with_se(mse_run["STSSRCKF"] - f2 * mse_run["SSRCKF"])
     arm = {a: metrics.armse(c2[a].errors[..., list(POSITION)], c2[a].valid) for a in ("STSSRCKF", "SSRCKF")}
+    band = report.part(f"STSSRCKF − {f2:.4g}·SSRCKF", "Case 2 position MSE", float(d.value), float(d.stderr), -1,
+                       reference=f2 * float(mse_run["SSRCKF"].mean()), unit="m²")
     claims.add(f"STSSRCKF keeps normal accuracy for weak maneuvers (introduction; Case 2 position ARMSE within "
-               f"{100 * report.RELATIVE_BAND:.0f} % of SSRCKF's)",
-               report.paired_claim(float(d.value), float(d.stderr), -1),
+               f"{100 * report.RELATIVE_BAND:.0f} % of SSRCKF's)", report.judge([band]),
                f"MSE_STSSRCKF − {f2:.4g} MSE_SSRCKF = {d.value:.4g} ± {d.stderr:.2g} m²; position ARMSE STSSRCKF "
                f"{arm['STSSRCKF'].value:.1f} ± {arm['STSSRCKF'].stderr:.1f} m, SSRCKF {arm['SSRCKF'].value:.1f} ± "
                f"{arm['SSRCKF'].stderr:.1f} m")
 
     # 6. robustness (operational definition ROBUSTNESS_DEFINITION)
     def robustness_parts(other):
-        parts, ev = [], []
+        parts = []
         for case in CASES:
-            v, dd = _paired_part(after_onset(R[case]["STSSRCKF"], onset[case]),
-                                 after_onset(R[case][other], onset[case]), POSITION)
-            parts.append((f"{case} after the onset vs {other}", v))
-            ev.append(f"{case}: Δ = {dd.value:.4g} ± {dd.stderr:.2g} m²")
-            dv = _divergence_part(R[case]["STSSRCKF"], R[case][other])
+            parts.append(after_onset_part(results, "STSSRCKF", other, case))
+            dv = divergence_part(R[case]["STSSRCKF"], R[case][other], f"STSSRCKF − {other}", case)
             if dv is not None:
-                parts.append((f"{case} divergence vs {other}", dv))
-        return parts, ev
+                parts.append(dv)
+        return parts
 
-    parts, ev = robustness_parts("SSRCKF")
-    claims.add("STSSRCKF has greater robustness than SSRCKF (abstract)", combine_parts(parts),
-               "position MSE after the onset, STSSRCKF − SSRCKF: " + "; ".join(ev) + ". " + ROBUSTNESS_DEFINITION)
+    parts = robustness_parts("SSRCKF")
+    claims.add("STSSRCKF has greater robustness than SSRCKF (abstract)", report.judge(parts),
+               _evidence(parts) + ". " + ROBUSTNESS_DEFINITION)
 
-    # 7. conclusions: higher accuracy and robustness than each of the other four, in every maneuver
-    parts, ev = [], []
+    # 7. conclusions: higher accuracy and robustness than each of the other four, in every maneuver: one flat list of
+    # parts judged once
+    parts = []
     for other in ("STF", "STUKF", "STCKF", "SSRCKF"):
         for case in CASES:
-            for label, idx in qty:
-                v, _ = _paired_part(R[case]["STSSRCKF"], R[case][other], idx)
-                parts.append((f"{case} {label.lower()} vs {other}", v))
-        rp, rev = robustness_parts(other)
-        parts += rp
-        ev.append(f"after the onset vs {other}: " + "; ".join(rev))
+            parts += accuracy(case, "STSSRCKF", other)
+        parts += robustness_parts(other)
     claims.add("STSSRCKF achieves higher accuracy and robustness than STF, STUKF, STCKF and SSRCKF (conclusions)",
-               combine_parts(parts),
-               "accuracy: paired MSE of position, velocity and acceleration in Example 1 and both cases of "
-               "Example 2; " + " | ".join(ev) + ". " + ROBUSTNESS_DEFINITION)
+               report.judge(parts),
+               "accuracy: paired MSE of position, velocity and acceleration in Example 1 and both cases of Example 2; "
+               "robustness: position MSE after the onset in each (parts in the claim matrix). " + ROBUSTNESS_DEFINITION)
 
     claims.add("STSSRCKF has the best balance between computational complexity and estimation accuracy (Sec. 4.2)",
-               f"{report.NOT_ASSESSABLE}: the paper defines no measure of the balance",
+               report.Judgement.of(report.NOT_ASSESSABLE, "the paper defines no measure of the balance"),
                "accuracy and time are each judged above (Table 1, Table 2 claims)")
     return claims

@@ -14,20 +14,23 @@ from mmlib.experiment import evaluation, report
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.papers.tseng2011.setup import Setup, noise_model
 from mmlib.papers.tseng2011.simulation import Experiment, make_batch_fn, motion_schedule
-from mmlib.papers.tseng2011.study import rms, rms_reduction
+from mmlib.papers.tseng2011.study import direction_parts, rms, rms_reduction
 from mmlib.papers.tseng2011.text import AXES, EAST, NAME, NORTH
 
 
 def ekf_claim(results: dict) -> tuple:
-    """Verdict and evidence on "the UKF avoids the EKF's linearisation errors" (needs the EKF in
-    ``results``): not assessable when the two coincide to far below the noise (1 mm), since there are
-    then no linearisation errors to avoid; else the paired comparison.  Returns ``((verdict, evidence),
-    largest |UKF - EKF| position difference (m))``."""
+    """Judgement and evidence on "the UKF avoids the EKF's linearisation errors" (needs the EKF in ``results``):
+    not assessable when the two coincide to far below the noise (1 mm), since there are then no linearisation
+    errors to avoid; else the paired comparison per axis (:func:`mmlib.papers.tseng2011.study.direction_parts`).
+    Returns ``((Judgement, evidence), largest |UKF - EKF| position difference (m))``."""
     diff = float(np.abs(results["UKF"].errors[..., [0, 2, 4]] - results["EKF"].errors[..., [0, 2, 4]]).max())
     if diff < 1e-3:
-        return (f"{report.NOT_ASSESSABLE}: the pseudoranges are linear over the filter's spread, so there are no "
-                f"linearisation errors to avoid", f"|UKF - EKF| <= {diff:.1e} m over all runs and epochs"), diff
-    return evaluation.better_claim(results, "UKF", "EKF", [("East", EAST), ("North", NORTH)]), diff
+        return (report.Judgement.of(report.NOT_ASSESSABLE,
+                                    f"|UKF − EKF| ≤ {diff:.1e} m: the pseudoranges are linear over the filter's "
+                                    f"spread, so there are no linearisation errors to avoid"),
+                f"|UKF - EKF| <= {diff:.1e} m over all runs and epochs"), diff
+    parts, evidence = direction_parts(results, "UKF", "EKF")
+    return (report.judge(parts), evidence), diff
 
 
 def maneuver_flags(setup: Setup) -> np.ndarray:

@@ -124,33 +124,42 @@ def table_rows(vals: list, n_runs: int) -> list:
 
 # ---------------------------------------------------------------- claims
 def size_parts(rows: Iterable[Row]) -> list:
-    """Part verdicts (:func:`mmlib.experiment.report.claim_verdict`, labelled by axis) on a claimed *size* of
-    improvement, one per reduction row: the claim is that the reduction is (at least about) the printed
-    one.  A row the number rule finds reproduced or qualitatively reproduced (within 25 %) preserves the
-    claimed size: the part holds.  Otherwise the part is the paired test of ``replicated - printed``
-    against 0 with the row's standard error and expected sign +1: a reduction smaller than printed by
-    3 s.e. contradicts the claimed size, a larger one holds, an undetectable difference (e.g. an
-    inconclusive row) is no detectable difference."""
+    """Parts (:class:`mmlib.experiment.report.Part`, one per reduction row ``"A vs B"``, comparison ``"A − B"``,
+    quantity ``"<axis> RMS reduction (ours vs printed <p> %)"``) on a claimed *size* of improvement: the claim is
+    that the reduction is (at least about) the printed one.  A row the number rule finds reproduced or qualitatively
+    reproduced (within 25 %) preserves the claimed size: the part holds.  Otherwise the part is the paired test of
+    ``replicated - printed`` (percentage points) against 0 with the row's standard error, expected sign +1 and the
+    printed value as reference (:func:`mmlib.experiment.report.part`): a reduction smaller than printed by 3 s.e.
+    contradicts the claimed size, a larger one holds, an undetectable difference (e.g. an inconclusive row) is no
+    detectable difference."""
     parts = []
     for r in rows:
-        label = f"{r.quantity.split()[0]}: {r.replicated:.1f} ± {r.stderr:.1f} % vs {r.paper} %"
+        a, _, b = r.algorithm.partition(" vs ")
+        comparison = f"{a} − {b}" if b else r.algorithm
+        quantity = f"{r.quantity.split()[0]} RMS reduction (ours vs printed {r.paper} %)"
+        diff, ref = r.replicated - float(r.paper), float(r.paper)
         if report.verdict_category(r.verdict) in (report.REPRODUCED, report.QUALITATIVE):
-            part = report.HOLDS
+            parts.append(report.Part(comparison, quantity, report.PartVerdict.HOLDS, diff, r.stderr, ref, "%"))
         else:
-            part = report.claim_verdict(r.replicated - float(r.paper), r.stderr, +1)
-        parts.append(f"{part} ({label})")
+            parts.append(report.part(comparison, quantity, diff, r.stderr, +1, reference=ref, unit="%"))
     return parts
 
 
 def direction_parts(results: dict, a: str, b: str) -> tuple[list, str]:
-    """Part verdicts on "``a`` is more accurate than ``b``", one per axis (paired MSE differences on common
-    random numbers, as :func:`mmlib.experiment.evaluation.better_claim`), and the evidence text."""
+    """Parts on "``a`` is more accurate than ``b``", one per axis: the paired difference of per-run mean squared
+    errors ``a − b`` on common random numbers (m², :func:`mmlib.experiment.evaluation.paired_mse_difference`),
+    relative to b's mean squared error; and the evidence text."""
     parts = []
     for lab, _, comp in AXES:
         d = evaluation.paired_mse_difference(results[a], results[b], comp)
         ref = float((results[b].errors[results[b].valid][..., comp] ** 2).mean())
-        parts.append(f"{report.claim_verdict(float(d.value), float(d.stderr), -1, reference=ref)} ({lab} accuracy)")
-    return parts, evaluation.better_claim(results, a, b, [(lab, comp) for lab, _, comp in AXES])[1]
+        parts.append(report.part(f"{a} − {b}", f"{lab} position MSE", float(d.value), float(d.stderr), -1,
+                                 reference=ref, unit="m²", ops=evaluation.pair_operations(results[a], results[b])))
+    return parts, _evidence(parts)
+
+
+def _evidence(parts) -> str:
+    return "; ".join(p.number() for p in parts)
 
 
 def diverged(results: dict) -> dict:
@@ -158,44 +167,54 @@ def diverged(results: dict) -> dict:
     return {a: int((~results[a].valid).sum()) for a in ALGORITHMS}
 
 
+def divergence_judgement(div: Mapping[str, int], n_runs: int) -> report.Judgement:
+    """The claim "the approach prevents the divergence problem" from the diverged runs per algorithm ``div``
+    (:func:`diverged`): *not assessable* when no filter diverged (no divergence to prevent), *holds* when
+    FUZZY-IMMUKF never diverged and another did, *contradicted* when it diverged at least as often as both others,
+    *partly* otherwise; the decisive text is the counts."""
+    counts = f"diverged runs FUZZY-IMMUKF {div['FUZZY-IMMUKF']}, IMMUKF {div['IMMUKF']}, UKF {div['UKF']} of {n_runs}"
+    if not any(div.values()):
+        return report.Judgement.of(report.NOT_ASSESSABLE, f"no filter diverged ({n_runs} runs): no divergence to "
+                                                          f"prevent")
+    if div["FUZZY-IMMUKF"] == 0:
+        return report.Judgement.of(report.HOLDS, counts)
+    if div["FUZZY-IMMUKF"] >= max(div["UKF"], div["IMMUKF"]):
+        return report.Judgement.of(report.CONTRADICTED, counts)
+    return report.Judgement.of(report.PARTLY, counts)
+
+
 def judge_claims(results: dict, rows: list, n_runs: int) -> report.Claims:
     """The claims of the abstract and conclusions (:class:`mmlib.experiment.report.Claims`, with evidence), from
-    the evaluations and the universe's :func:`table_rows`: direction parts on paired differences, size parts on
-    the reduction rows (:func:`size_parts`), combined into one verdict per claim."""
+    the evaluations and the universe's :func:`table_rows`: direction parts on paired differences
+    (:func:`direction_parts`), size parts on the reduction rows (:func:`size_parts`), one flat list of parts judged
+    once per claim (:func:`mmlib.experiment.report.judge`)."""
     red = {(r.algorithm, r.quantity.split()[0]): r for r in rows if "reduction" in r.quantity}
     claims = report.Claims()
-    qEN = [("East", EAST), ("North", NORTH)]
+    direction, evidence = direction_parts(results, "IMMUKF", "UKF")
     claims.add("IMMUKF is more accurate than the UKF (conclusions: 'superior navigation accuracy')",
-               *evaluation.better_claim(results, "IMMUKF", "UKF", qEN))
+               report.judge(direction), evidence)
     for other in ("IMMUKF", "UKF"):
         # "remarkable improvement": more accurate (paired MSE differences) AND by the table's margin (the
         # RMS reductions); one claim verdict from all four parts
         direction, evidence = direction_parts(results, "FUZZY-IMMUKF", other)
         size = size_parts([red[(f"FUZZY-IMMUKF vs {other}", lab)] for lab, _, _ in AXES])
         claims.add(f"FUZZY-IMMUKF shows remarkable improvement over {other} (abstract)",
-                   report.combine_claim_verdicts(direction + size),
-                   evidence + "; RMS reductions against the table's: " + "; ".join(size))
+                   report.judge(direction + size),
+                   evidence + "; RMS reductions against the table's: " + _evidence(size))
     for a, b, text in (("IMMUKF", "UKF", "IMMUKF's errors are about 62-64 % below the UKF's (table)"),
                        ("FUZZY-IMMUKF", "IMMUKF", "FUZZY-IMMUKF's errors are about 66-68 % below IMMUKF's (table)")):
         size = size_parts([red[(f"{a} vs {b}", lab)] for lab, _, _ in AXES])
-        claims.add(text, report.combine_claim_verdicts(size), "relative RMS reductions: " + "; ".join(size))
-    fz_dir, fz_ev = evaluation.better_claim(results, "FUZZY-IMMUKF", "IMMUKF", qEN)
+        claims.add(text, report.judge(size), "relative RMS reductions: " + _evidence(size))
+    direction, evidence = direction_parts(results, "FUZZY-IMMUKF", "IMMUKF")
     claims.add("The FLAS determines better lower and upper process-noise bounds online than fixed bounds "
-               "(Sec. 3, conclusions)", fz_dir, "FUZZY-IMMUKF against IMMUKF with the fixed bounds: " + fz_ev)
+               "(Sec. 3, conclusions)", report.judge(direction),
+               "FUZZY-IMMUKF against IMMUKF with the fixed bounds: " + evidence)
     div = diverged(results)
-    div_txt = ", ".join(f"{a} {d}/{n_runs}" for a, d in div.items())
-    if not any(div.values()):
-        dv = f"{report.NOT_ASSESSABLE}: no filter diverged, so there was no divergence to prevent"
-    elif div["FUZZY-IMMUKF"] == 0:
-        dv = report.HOLDS
-    elif div["FUZZY-IMMUKF"] >= max(div["UKF"], div["IMMUKF"]):
-        dv = f"{report.CONTRADICTED}: FUZZY-IMMUKF diverged at least as often as the others"
-    else:
-        dv = f"{report.PARTLY}: FUZZY-IMMUKF diverged less often, but did diverge"
-    claims.add("The approach prevents the divergence problem in high dynamic environments (conclusions)", dv,
-               f"diverged runs: {div_txt}")
+    claims.add("The approach prevents the divergence problem in high dynamic environments (conclusions)",
+               divergence_judgement(div, n_runs), "diverged runs: " + ", ".join(f"{a} {d}/{n_runs}"
+                                                                                 for a, d in div.items()))
     claims.add("A lower-order filter model suffices with less computation (conclusions)",
-               f"{report.NOT_ASSESSABLE}: no filter-order comparison survives in the text", "")
+               report.Judgement.of(report.NOT_ASSESSABLE, "no filter-order comparison survives in the text"), "")
     return claims
 
 

@@ -21,9 +21,9 @@ The package, behind :data:`PAPER` (:class:`mmlib.experiment.paper.Paper`):
 Reading space (issue 10): the ambiguities are the factors ``text.FACTORS`` (ids = deviation numbers:
 the noise gain Gamma Z-2, R's units Z-3, the truth's process noise Z-4, P0 Z-5, the fault model Z-6,
 the UKF's parameters Z-7, NAUKF's window Z-8, NAUKF as printed or inflate-only Z-12, the filters'
-process-noise intensity Z-13); ``text.SPACE`` is their product (1152 universes), run as its stated
-fractional design (:meth:`~mmlib.experiment.readings.ReadingSpace.design`: a strength-2 covering array, extended
-within the budget of 64 universes).  A universe is :func:`.study.universe` = :func:`.study.summarise` of
+process-noise intensity Z-13); ``text.SPACE`` is their product (1152 universes), run as a uniform random
+sample of 200 universes beside the headline and the star (:meth:`~mmlib.experiment.readings.ReadingSpace.design`).
+A universe is :func:`.study.universe` = :func:`.study.summarise` of
 :func:`.study.evaluate_reading`; the notebook's headline rows and claims are :func:`.study.judge_claims` of the same
 evaluation of the headline reading, so the headline universe is the notebook's numbers bit for bit.
 The key effect (``text.KEY_EFFECT``) is the paired time-averaged position MSE difference CPIMM-NAUKF
@@ -44,8 +44,8 @@ PAPER = Paper(name=_text.NAME, title=_text.TITLE, citation=_text.CITATION, doi=_
               published=_text.PUBLISHED, algorithms=_text.ALGORITHMS, key_effect=_text.KEY_EFFECT,
               setup=_setup.setup, scenario=_setup.scenario, universe=_study.universe, batch=_setup.batch,
               headline_digest=_study.headline_digest, notebook="zhou2017_cpimm_naukf",
-              # full: the paper's 100 runs for the headline and for every universe of the design (the full product
-              # of the nine factors exceeds the budget: the stated fractional design of the space); smoke: 20 runs
+              # full: the paper's 100 runs for the headline and for every universe of the design (a uniform sample
+              # of 200 of the 1152, text.SPACE); smoke: 20 runs
               # and the star design at the same 20 runs, so that its headline universe is the notebook's headline
               # rows bit for bit
               profiles={"full": dict(n_runs=_text.N_RUNS, mv_runs=_text.N_RUNS,

@@ -1,6 +1,7 @@
-"""What only the notebook of Zhou et al. 2017 shows: Case 1's consistency (NEES), and Section 4.2, whose field
+"""What only the notebook of Zhou et al. 2017 shows: Case 1's consistency (NEES), Section 4.2, whose field
 experiments (Tables 4-5) rest on unpublished data (Z-11), with a clearly labelled synthetic analogue of the
-vehicle INS/GPS test (NOT a replication).
+vehicle INS/GPS test (NOT a replication), and the key effect across the reading space against the value Table 3
+implies (:func:`key_effect_across`).
 """
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from mmlib.core.layers.adaptive import InnovationAdaptive
 from mmlib.core.rules import Cubature, Unscented
 from mmlib.experiment import evaluation, metrics, report
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
+from mmlib.experiment.multiverse import Multiverse
 from mmlib.papers.zhou2017.setup import Setup, build, make_batch_fn, setup
 from mmlib.papers.zhou2017.text import MAE_QUANTITIES, TABLE4, TABLE5
 
@@ -115,3 +117,43 @@ def gps_analogue_table(mc: MonteCarlo) -> tuple[list, dict]:
     return rows, diverged
 
 
+
+
+def key_effect_across(mv: Multiverse) -> dict:
+    """The key effect (:data:`~mmlib.papers.zhou2017.text.KEY_EFFECT`, CPIMM-NAUKF − IMM-UKF, Case 2 position MSE,
+    m²) in every universe of a :class:`~mmlib.experiment.multiverse.Multiverse`, against the value Table 3 implies
+    (``published``: an implied, not a printed, number).  Per universe with a value and a standard error:
+
+    * its sign, as the part "CPIMM-NAUKF < IMM-UKF" (:func:`mmlib.experiment.verdicts.part`, expected sign -1):
+      ``below`` if it *holds* (at least 3 s.e. below zero), ``above`` if *contradicted*;
+    * the verdict rule on the implied number (:func:`mmlib.experiment.verdicts.verdict`, no printed digit and no
+      paper run count: the implied value has no Monte Carlo error of its own): ``reproduced`` (within 3 s.e. and
+      precise enough to tell, 3 s.e. <= 25 % of it) or ``inconclusive`` (within 3 s.e. only because 3 s.e. is wider).
+
+    Returns ``{"published", "n_universes", "valued"`` (universes with a value: in the others CPIMM-NAUKF diverged in
+    every run), ``"no_stderr"`` (values resting on a single surviving run), ``"below"``, ``"above"``,
+    ``"reproduced"``, ``"inconclusive"}``, the last four lists of ``(Effect, reading)``."""
+    from mmlib.papers.zhou2017.text import KEY_EFFECT
+    published = mv.effect(mv.headline, KEY_EFFECT).published
+    out = {"published": published, "n_universes": len(mv.universes), "valued": 0, "no_stderr": 0,
+           "below": [], "above": [], "reproduced": [], "inconclusive": []}
+    for u, reading in zip(mv.universes, mv.readings):
+        e = mv.effect(u, KEY_EFFECT)
+        if e.value is None:
+            continue
+        out["valued"] += 1
+        if e.stderr is None:
+            out["no_stderr"] += 1
+            continue
+        sign = report.part("CPIMM-NAUKF − IMM-UKF", "Case 2 position MSE", e.value, e.stderr, -1, unit="m²").verdict
+        if sign == report.PartVerdict.HOLDS:
+            out["below"].append((e, reading))
+        elif sign == report.PartVerdict.CONTRADICTED:
+            out["above"].append((e, reading))
+        if published is not None:
+            cat = report.verdict_category(report.verdict(float(published), e.value, e.stderr))
+            if cat == report.REPRODUCED:
+                out["reproduced"].append((e, reading))
+            elif cat == report.INCONCLUSIVE:
+                out["inconclusive"].append((e, reading))
+    return out

@@ -9,7 +9,8 @@ sigma-point rule that integrates degree-2 polynomials exactly (UKF, CKF,
 5th-degree CKF) then returns the exact Kalman moments, so IMM5CKF, IMMCKF and
 IMMUKF are the same algorithm as IMM-KF, up to round-off.  Every declared reading
 of the paper (``text.FACTORS``) keeps the models linear, so the identity holds in every
-universe of the reading space ``text.SPACE`` (tested on the star design).
+universe of the reading space ``text.SPACE`` (tested on the star design), and the claims comparing them
+have parts *identical (to round-off)* and the verdict *not supported* (:func:`.study.judge_claims`).
 
 Reading space (issue 10): ``text.FACTORS`` are the ambiguities that can move a result
 (deviations Z-5, Z-6, Z-7, Z-8, Z-9, Z-10, Z-12; the others say in ``text.DEVIATIONS`` why
@@ -36,11 +37,12 @@ PAPER = Paper(
     published=text.PUBLISHED, algorithms=text.MV_ALGORITHMS, key_effect=study.KEY_EFFECT,
     setup=setup.setup, scenario=setup.scenario, universe=study.universe, batch=setup.batch,
     headline_digest=study.headline_digest, notebook="zhu2016_imm5ckf",
-    # full: the headline at the paper's 100 runs and the full factorial (192 universes) at 40 runs per universe,
-    # its share of the time budget of all five papers, with 30 interleaved repeats of the run-time measurement;
+    # full: the headline and the full factorial (192 universes) at the paper's 100 runs, so that the headline
+    # universe is the headline rows bit for bit, with 30 interleaved repeats of the run-time measurement (context);
     # smoke: a prefix of the same runs, and the star design (headline + each option alone) at the smoke run count,
     # so that the smoke headline universe equals the smoke headline rows bit for bit, with 3 timing repeats
-    profiles={"full": dict(n_runs=text.N_RUNS, timing_runs=10, timing_repeats=30, mv_runs=40, mv_design="auto"),
+    profiles={"full": dict(n_runs=text.N_RUNS, timing_runs=10, timing_repeats=30, mv_runs=text.N_RUNS,
+                           mv_design="auto"),
               "smoke": dict(n_runs=20, timing_runs=2, timing_repeats=3, mv_runs=20, mv_design="star")},
     # what the arena runs on this paper's scenario, the ideas it contributes and its central claim there
     arena=ArenaEntry(

@@ -72,6 +72,14 @@ def coincidence(results: dict) -> dict:
 
 
 FLOOR_CLAIM = "Table 1's IMM errors lie above the minimum-MSE floor of the set-up (implicit)"
+#: the floor claim's reason where the floor is no bound (:func:`floor_is_bound`)
+FLOOR_NOT_BOUND = ("the clairvoyant KF is the minimum-MSE bound only when the simulated truth follows the filters' "
+                   "model (Z-7 noisy truth, Z-9 initial error drawn from N(0, P0))")
+#: the accuracy claims' quantities: (label, state components, unit of the mean squared error)
+CLAIM_QUANTITIES = (("position", (0, 2), "m²"), ("velocity", (1, 3), "m²/s²"))
+#: short labels and units of Table 1's quantities, for the parts of the floor claim
+_SHORT = {"RMSE_X (m)": ("x position RMSE", "m"), "RMSE_X_V (m/s)": ("x velocity RMSE", "m/s"),
+          "RMSE_Y (m)": ("y position RMSE", "m"), "RMSE_Y_V (m/s)": ("y velocity RMSE", "m/s")}
 
 
 def floor_is_bound(setup: Setup) -> bool:
@@ -104,6 +112,15 @@ def floor_check(results: dict) -> list:
     return out
 
 
+def floor_parts(floor: list) -> list:
+    """The parts of :data:`FLOOR_CLAIM` from :func:`floor_check`: per quantity, "the smallest printed IMM value
+    lies above the floor" (:func:`mmlib.experiment.verdicts.part`, expected sign +1) on the margin printed - floor
+    (m or m/s) with the combined sigma of the verdict rule as its standard error, relative to the floor: *holds*
+    at z = -``f['z']`` >= 3, *contradicted* (printed below the floor) at z <= -3."""
+    return [report.part("Table 1 smallest IMM − clairvoyant KF", _SHORT[f["quantity"]][0], f["margin"], f["sigma"],
+                        +1, reference=f["floor"], unit=_SHORT[f["quantity"]][1]) for f in floor]
+
+
 def _switch_window_probability(rs, true_modes, window: int = 10):
     """Per run: mean probability of the true mode over the ``window`` steps after each mode switch."""
     switch = [k for k in range(1, len(true_modes)) if true_modes[k] != true_modes[k - 1]]
@@ -112,42 +129,56 @@ def _switch_window_probability(rs, true_modes, window: int = 10):
     return np.take_along_axis(mu, np.asarray(true_modes)[steps][None, :, None], axis=2)[..., 0].mean(axis=1)
 
 
+def accuracy_claim(results: dict, a: str, b: str) -> tuple:
+    """Judgement and evidence of "``a`` is more accurate than ``b``": one part per quantity of
+    :data:`CLAIM_QUANTITIES` (position and velocity mean squared error, m² and m²/s², paired on common random
+    numbers, relative to ``b``'s; :func:`mmlib.experiment.evaluation.better_claim`), judged once
+    (:func:`mmlib.experiment.verdicts.judge`)."""
+    parts, evidence = [], []
+    for label, comps, unit in CLAIM_QUANTITIES:
+        j, ev = evaluation.better_claim(results, a, b, [(label, comps)], unit=unit)
+        parts += j.parts
+        evidence.append(ev)
+    return report.judge(parts), "; ".join(evidence)
+
+
 def judge_claims(results: dict, setup: Setup) -> report.Claims:
     """The paper's accuracy, switching and divergence claims and the implicit attainability of Table 1,
-    each in the claim vocabulary of :mod:`mmlib.experiment.report` (the timing claim is judged by
-    :func:`mmlib.papers.zhu2016.timing.judge_timing`)."""
+    each a :class:`~mmlib.experiment.verdicts.Judgement` (one term of the claim vocabulary, its decisive number
+    and its parts; the timing claim is judged by :func:`mmlib.papers.zhu2016.timing.judge_timing`).  On this
+    paper's linear models IMM5CKF, IMMCKF and IMMUKF are one algorithm (package docstring), so their comparisons
+    are parts *identical (to round-off)* and the claims resting on them *not supported*."""
     claims = report.Claims()
     for other in ("IMMCKF", "IMMUKF", "5CKF"):
-        claims.add(f"IMM5CKF is more accurate than {other}",
-                   *evaluation.better_claim(results, "IMM5CKF", other, QUANTITIES))
-    claims.add("IMM5CKF is more accurate than OMTM-IMM", "not assessable: OMTM-IMM is not specified (Z-14)",
+        claims.add(f"IMM5CKF is more accurate than {other}", *accuracy_claim(results, "IMM5CKF", other))
+    claims.add("IMM5CKF is more accurate than OMTM-IMM",
+               report.Judgement.of(report.NOT_ASSESSABLE, "OMTM-IMM is not specified (Z-14)"),
                "Zhou et al. 2014 give no equations, initial values or mode filter")
     fl = floor_check(results)
     evidence = "; ".join(f"{f['quantity']}: smallest printed IMM value {f['paper_min_imm']} vs floor "
                          f"{f['floor']:.3f} ± {f['floor_stderr']:.3f} (z = {f['z']:+.1f})" for f in fl)
-    if floor_is_bound(setup):
-        # the part verdict of claim_verdict on the z-score (unit standard error): 'holds' if printed >= floor + 3 sigma
-        verdict = report.combine_claim_verdicts(f"{report.claim_verdict(-f['z'], 1.0, +1)} ({f['quantity']})"
-                                                for f in fl)
-    else:
-        verdict = ("not assessable: the clairvoyant KF is the minimum-MSE bound only when the simulated truth "
-                   "follows the filters' model (Z-7 noisy truth, Z-9 initial error drawn from N(0, P0))")
-    claims.add(FLOOR_CLAIM, verdict, evidence)
+    floor = (report.judge(floor_parts(fl)) if floor_is_bound(setup) else
+             report.Judgement.of(report.NOT_ASSESSABLE, FLOOR_NOT_BOUND))
+    claims.add(FLOOR_CLAIM, floor, evidence)
     true_modes = build(setup)[0].modes()
     parts, ev = [], []
     p5 = _switch_window_probability(results["IMM5CKF"], true_modes)
     for other in ("IMMCKF", "IMMUKF"):
         po = _switch_window_probability(results[other], true_modes)
         d = metrics.mean_with_se(p5 - po)
-        parts.append(f"{report.claim_verdict(float(d.value), float(d.stderr), +1, reference=float(po.mean()))} "
-                     f"({other})")
+        parts.append(report.part(f"IMM5CKF − {other}", "true-mode probability after switches", float(d.value),
+                                 float(d.stderr), +1, reference=float(po.mean()), unit="probability",
+                                 ops=evaluation.pair_operations(results["IMM5CKF"], results[other])))
         ev.append(f"vs {other}: Δ(probability of the true mode, 10 steps after each switch) = "
                   f"{float(d.value):.2g} ± {float(d.stderr):.2g}")
-    claims.add("IMM5CKF switches modes more quickly than IMMCKF/IMMUKF", report.combine_claim_verdicts(parts),
-               "; ".join(ev))
+    claims.add("IMM5CKF switches modes more quickly than IMMCKF/IMMUKF", report.judge(parts), "; ".join(ev))
     diverged = {a: int((~results[a].valid).sum()) for a in RMSE_ALGORITHMS}
-    claims.add("No algorithm diverges", "holds" if not any(diverged.values()) else
-               f"contradicted: {sum(diverged.values())} diverged runs", f"diverged runs: {diverged}")
+    n_total = sum(results[a].valid.size for a in RMSE_ALGORITHMS)
+    claims.add("No algorithm diverges",
+               report.Judgement.of(report.HOLDS, f"0 diverged runs of {n_total}") if not any(diverged.values()) else
+               report.Judgement.of(report.CONTRADICTED, f"{sum(diverged.values())} diverged runs of {n_total} ("
+                                   + ", ".join(f"{a} {n}" for a, n in diverged.items() if n) + ")"),
+               f"diverged runs: {diverged}")
     return claims
 
 

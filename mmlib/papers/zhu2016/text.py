@@ -177,7 +177,7 @@ FACTORS = (
                {"mode_order": "left-right"})),
         "right-left", "Eq. 63, Figs. 5-7"),
 )
-#: budget of universes: 2^6 x 3 = 192 is the full factorial (see the notebook for its cost)
+#: budget of universes: 2^6 x 3 = 192 is the full factorial: every share is exact
 SPACE = ReadingSpace(NAME, FACTORS, budget=192)
 
 #: the RMSE columns every universe replicates (OMTM-IMM is not published, Z-14)
