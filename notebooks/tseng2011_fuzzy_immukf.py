@@ -69,7 +69,7 @@ from mmlib.papers.tseng2011 import diagnostics, simulation, study, text
 
 paper = REGISTRY["tseng2011"]
 # the profiles (paper.profiles): full, the headline at 100 runs, the oracle reference at 50, the multiverse's
-# uniform sample of 100 universes at 25 runs each; smoke, a prefix of the same runs and the star design
+# uniform sample of 60 universes at 25 runs each; smoke, a prefix of the same runs and the star design
 nb = NotebookRun(paper, PROFILE=PROFILE, N_RUNS=N_RUNS, SEED=SEED, OUTPUT_ROOT=OUTPUT_ROOT,
                  N_TIMING_RUNS=N_TIMING_RUNS, WORKERS=WORKERS, MULTIVERSE_RUNS=MULTIVERSE_RUNS,
                  MULTIVERSE_DESIGN=MULTIVERSE_DESIGN, MULTIVERSE_UNIVERSES=MULTIVERSE_UNIVERSES, PROGRESS=PROGRESS)

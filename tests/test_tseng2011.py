@@ -277,9 +277,9 @@ def test_clock_and_markov_chain_are_influential_factors_and_the_held_fixed_chang
     ids = {f.id: f for f in SPACE.factors}
     assert ids["T-5"].influential and ids["T-9"].influential
     assert {o.name for o in ids["T-9"].options} == {"0.99", "0.95", "0.996"}
-    # the full profile runs the headline, the star and a uniform sample of the budget's size (100 of 11664)
+    # the full profile runs the headline, the star and a uniform sample of the budget's size (60 of 11664)
     design = SPACE.design("auto")
-    assert design.kind == "sampled" and len(design.sample) == SPACE.budget == 100
+    assert design.kind == "sampled" and len(design.sample) == SPACE.budget == 60
     assert len(design) <= len(SPACE.star()) + SPACE.budget
     assert PAPER.setup(SPACE.with_headline(**{"T-5": "OCXO"})).clock_h_minus2 == text.CLOCKS["OCXO"][1]
     factor_fields = {k for f in SPACE.factors for o in f.options for k in o.changes}

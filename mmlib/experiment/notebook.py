@@ -240,8 +240,9 @@ class NotebookRun:
                         **{k: sections[k] for k in keys[at:]}}
         rows = list(rows)
         doc = report.write_results(self.results_path, paper=self.paper, provenance=prov, rows=rows, **sections)
-        # by category (verdict_category), so "reproduced (isolated)" is not also counted as "reproduced"
-        cats = [report.verdict_category(str(r["verdict"] if isinstance(r, Mapping) else r.verdict)) for r in rows]
+        # by category (verdict_category), so "reproduced (isolated)" is not also counted as "reproduced"; the rows as
+        # written, joint-tested (write_results re-judges a coincidence in a failing table or row as isolated)
+        cats = [report.verdict_category(str(r["verdict"])) for r in doc["rows"]]
         counts = {str(v): cats.count(v) for v in report.VERDICTS}
         print(f"wrote {self.results_path.name}" + (f" ({len(rows)} rows): {counts}" if rows else ""))
         return doc

@@ -29,7 +29,7 @@ PAPER = Paper(
     published=text.PUBLISHED, algorithms=text.ALGORITHMS, key_effect=text.KEY_EFFECT,
     setup=setup.for_reading, scenario=setup.scenario, universe=study.universe, batch=setup.batch,
     headline_digest=study.headline_digest, notebook="liu2017_stssrckf",
-    # full: the paper's 200 runs, and the multiverse's uniform sample of 100 universes at 200 runs each;
+    # full: the paper's 200 runs, and the multiverse's uniform sample of 60 universes at 200 runs each;
     # smoke: the headline and each option alone at the smoke run count
     profiles={"full": dict(n_runs=text.N_RUNS, timing_runs=5, timing_repeats=5, mv_runs=text.N_RUNS,
                            mv_design="auto"),

@@ -37,7 +37,7 @@ PAPER = Paper(
     scenario=simulation.scenario, universe=study.universe, batch=simulation.batch,
     headline_digest=study.headline_digest, notebook="tseng2011_fuzzy_immukf",
     # full: the headline at 100 runs (the paper's count is not known, T-13), the oracle reference at 50, the
-    # multiverse's uniform sample of 100 universes at 25 runs each (standard errors are shown throughout);
+    # multiverse's uniform sample of 60 universes at 25 runs each (standard errors are shown throughout);
     # smoke: a prefix of the same runs and the star design at the smoke run count, so its headline universe is
     # the notebook's headline bit for bit
     profiles={"full": dict(n_runs=text.HEADLINE_RUNS, oracle_runs=50, mv_runs=25,

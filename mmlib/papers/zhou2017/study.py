@@ -137,7 +137,7 @@ def compare(results: dict, pairs: Iterable[tuple[str, str]],
         if (da.any() or db.any()) and not (da.all() and db.all()):   # both diverging in every run: no comparison
             d = metrics.mean_with_se(da - db)
             parts.append(report.part(f"{a} − {b}", "divergence rate", float(d.value), float(d.stderr), -1,
-                                     reference=float(db.mean())))
+                                     reference=float(db.mean()), unit="of the runs"))
             evidence.append(f"{a} vs {b}: diverged runs {int(da.sum())} vs {int(db.sum())} of {len(da)}")
         ok = ra.valid & rb.valid
         if not ok.any():
