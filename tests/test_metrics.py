@@ -189,3 +189,13 @@ def test_rms_standard_error_is_nan_without_two_valid_runs_and_zero_for_exact_zer
     assert np.all(zeros.value == 0) and np.all(zeros.stderr == 0)
     one = metrics.rms_with_se(np.zeros((1, 3)))
     assert np.all(one.value == 0) and np.all(np.isnan(one.stderr))
+
+
+def test_ratio_spread_text_is_median_and_range_of_the_per_repeat_ratios():
+    from mmlib.experiment import metrics
+    times = {"a": np.array([2.0, 3.0, 4.4]), "b": np.array([1.0, 2.0, 2.0])}
+    assert metrics.ratio_spread_text(times, "a", "b") == "2.00× [1.50, 2.20]"
+    with pytest.raises(ValueError, match="times"):
+        metrics.ratio_spread_text(times, "a", "c")
+    with pytest.raises(ValueError, match="times"):
+        metrics.ratio_spread_text({"a": np.array(1.0), "b": np.array(2.0)}, "a", "b")

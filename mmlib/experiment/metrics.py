@@ -7,7 +7,7 @@ delta method, :math:`\mathrm{se}(\sqrt{m}) \approx \mathrm{se}(m)/(2\sqrt m)`.
 """
 from __future__ import annotations
 
-from typing import Callable, NamedTuple
+from typing import Mapping, Callable, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -66,6 +66,18 @@ def _mean_se(samples: np.ndarray, ok: np.ndarray) -> MCValue:
         return MCValue(nan, nan, 0, int((~ok).sum()))
     se = s.std(axis=0, ddof=1) / np.sqrt(n) if n > 1 else np.full(s.shape[1:], np.nan)
     return MCValue(s.mean(axis=0), se, n, int((~ok).sum()))
+
+
+def ratio_spread_text(times: Mapping, alg: str, ref: str) -> str:
+    """The spread across separate repeated timings of the per-repeat ratio ``times[alg] / times[ref]`` (``times``:
+    algorithm -> seconds per run in each repeat), as ``"1.05× [1.01, 1.12]"``: median [min, max].  Context beside a
+    cost-model verdict, never a verdict itself."""
+    if not isinstance(times, Mapping) or alg not in times or ref not in times:
+        raise ValueError(f"times: expected a mapping holding {alg!r} and {ref!r}, got {type(times).__name__}")
+    r = np.asarray(times[alg], float) / np.asarray(times[ref], float)
+    if r.ndim != 1 or r.size == 0:
+        raise ValueError(f"times: expected one time per repeat for {alg!r} and {ref!r}, got shape {r.shape}")
+    return f"{float(np.median(r)):.2f}× [{float(r.min()):.2f}, {float(r.max()):.2f}]"
 
 
 def timing_ratio(times: ArrayLike, reference: ArrayLike) -> MCValue:

@@ -18,24 +18,13 @@ import numpy as np
 
 from mmlib.core.cost import step_flops
 from mmlib.experiment import report
+from mmlib.experiment.metrics import ratio_spread_text as _spread
 from mmlib.papers.hu2017.text import ALGORITHMS, TABLE1, paper_ratio_text
 
 #: what the rows and the claims compare
 QUANTITY = "model flops per step"
 SHORTEST_CLAIM = "IMMEKF has the shortest run time (Table 1)"
 OBS_CLAIM = "IMMCDKF-OBS costs only slightly more time than IMMCDKF (Sec. 3)"
-
-
-def measured_ratio(times: Mapping[str, np.ndarray], alg: str, ref: str) -> tuple:
-    """``(median, min, max)`` over the repeats of the per-repeat time ratio ``alg / ref`` (``times``: algorithm ->
-    seconds per run in each repeat): the spread across separate repeated timings."""
-    r = np.asarray(times[alg], float) / np.asarray(times[ref], float)
-    return float(np.median(r)), float(r.min()), float(r.max())
-
-
-def _measured_text(times, alg, ref) -> str:
-    med, lo, hi = measured_ratio(times, alg, ref)
-    return f"{med:.2f}× [{lo:.2f}, {hi:.2f}]"
 
 
 def judge_timing(estimators: Mapping, per_run: Mapping[str, np.ndarray], batched: Mapping[str, np.ndarray],
@@ -60,11 +49,11 @@ def judge_timing(estimators: Mapping, per_run: Mapping[str, np.ndarray], batched
             rows.append(report.exact_row("Table 1", alg, f"time ratio to IMMCDKF ({QUANTITY})", paper_ratio_text(alg),
                                          model, deviations=["H-12"],
                                         note=f"cost model {flops[alg]} / {flops['IMMCDKF']} flops per step; measured "
-                                             f"CPU ratio {_measured_text(per_run, alg, 'IMMCDKF')} one run at a time, "
-                                             f"{_measured_text(batched, alg, 'IMMCDKF')} batched (median [range] over "
+                                             f"CPU ratio {_spread(per_run, alg, 'IMMCDKF')} one run at a time, "
+                                             f"{_spread(batched, alg, 'IMMCDKF')} batched (median [range] over "
                                              f"{repeats} repeated timings); {TABLE1[alg][2]} s in MATLAB"))
         table.append([alg, TABLE1[alg][2], paper_ratio_text(alg) if alg != "IMMCDKF" else "1", f"{model:.2f}",
-                      _measured_text(per_run, alg, "IMMCDKF"), _measured_text(batched, alg, "IMMCDKF"),
+                      _spread(per_run, alg, "IMMCDKF"), _spread(batched, alg, "IMMCDKF"),
                       f"{1e3 * np.median(per_run[alg]):.2f}"])
     others = [a for a in ALGORITHMS if a != "IMMEKF"]
     j = report.judge([report.ratio_part(f"IMMEKF/{o}", QUANTITY, flops["IMMEKF"] / flops[o], -1) for o in others])
@@ -72,7 +61,7 @@ def judge_timing(estimators: Mapping, per_run: Mapping[str, np.ndarray], batched
     claims.add(SHORTEST_CLAIM, report.Judgement(j.verdict, f"{j.decisive}; paper at most {paper_ekf:.2f}×", j.parts),
                "cost model (mmlib.core.cost): " + ", ".join(f"{o} {flops[o]}" for o in others)
                + f", IMMEKF {flops['IMMEKF']} flops per step; measured CPU time ratios, context only, one run at a "
-               "time: " + "; ".join(f"IMMEKF/{o} {_measured_text(per_run, 'IMMEKF', o)}" for o in others)
+               "time: " + "; ".join(f"IMMEKF/{o} {_spread(per_run, 'IMMEKF', o)}" for o in others)
                + f" (median [range] over {repeats} repeated timings)")
     paper_obs = float(TABLE1["IMMCDKF-OBS"][2]) / float(TABLE1["IMMCDKF"][2])
     r = flops["IMMCDKF-OBS"] / flops["IMMCDKF"]
@@ -87,7 +76,7 @@ def judge_timing(estimators: Mapping, per_run: Mapping[str, np.ndarray], batched
     claims.add(OBS_CLAIM, report.Judgement(j.verdict, decisive, j.parts),
                f"cost model: {flops['IMMCDKF-OBS']} vs {flops['IMMCDKF']} flops per step ({r:.2f}×, paper "
                f"{paper_obs:.2f}×); measured CPU time ratio, context only: "
-               f"{_measured_text(per_run, 'IMMCDKF-OBS', 'IMMCDKF')} one run at a time, "
-               f"{_measured_text(batched, 'IMMCDKF-OBS', 'IMMCDKF')} batched (median [range] over {repeats} "
+               f"{_spread(per_run, 'IMMCDKF-OBS', 'IMMCDKF')} one run at a time, "
+               f"{_spread(batched, 'IMMCDKF-OBS', 'IMMCDKF')} batched (median [range] over {repeats} "
                "repeated timings)")
     return rows, table

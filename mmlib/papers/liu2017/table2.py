@@ -15,6 +15,7 @@ import numpy as np
 
 from mmlib.core.cost import step_flops
 from mmlib.experiment import report
+from mmlib.experiment.metrics import ratio_spread_text as _spread
 from mmlib.papers.liu2017.text import FILTERS, TABLE2_COMPLEXITY, TABLE2_COUNTS, TABLE2_N, TABLE2_TIME
 
 
@@ -92,18 +93,6 @@ def complexity_rows(printed: Mapping[str, str] | None = None,
     return rows
 
 
-def _measured(times: Mapping[str, np.ndarray], alg: str, ref: str) -> tuple:
-    """``(median, min, max)`` over the repeats of the per-repeat time ratio ``alg / ref``: the spread across separate
-    repeated timings."""
-    r = np.asarray(times[alg], float) / np.asarray(times[ref], float)
-    return float(np.median(r)), float(r.min()), float(r.max())
-
-
-def _measured_text(times, alg, ref) -> str:
-    med, lo, hi = _measured(times, alg, ref)
-    return f"{med:.2f}× [{lo:.2f}, {hi:.2f}]"
-
-
 def table2(estimators: Mapping, per_run: Mapping[str, np.ndarray], batched: Mapping[str, np.ndarray]) -> tuple:
     """Rows, the timing claim and a display table for Table 2.
 
@@ -128,12 +117,12 @@ def table2(estimators: Mapping, per_run: Mapping[str, np.ndarray], batched: Mapp
         actual = f"O(n^{c_n})" if not pts else ("O(points · n² + n³)" if c_pts == 1 else f"O(points^{c_pts} + n^{c_n})")
         display.append([alg, TABLE2_COMPLEXITY[alg], pts, chol, nf, nh, nnn, actual, TABLE2_TIME[alg],
                         f"{ratio_paper:.2f}", f"{model:.2f} ({flops[alg]} flops)",
-                        _measured_text(per_run, alg, "SSRCKF"), _measured_text(batched, alg, "SSRCKF")])
+                        _spread(per_run, alg, "SSRCKF"), _spread(batched, alg, "SSRCKF")])
         rows.append(complexity[alg])
         if alg != "SSRCKF":
             note = (f"cost model {flops[alg]} / {flops['SSRCKF']} flops per step; measured CPU ratio "
-                    f"{_measured_text(per_run, alg, 'SSRCKF')} one run at a time, "
-                    f"{_measured_text(batched, alg, 'SSRCKF')} batched (median [range] over {repeats} repeated "
+                    f"{_spread(per_run, alg, 'SSRCKF')} one run at a time, "
+                    f"{_spread(batched, alg, 'SSRCKF')} batched (median [range] over {repeats} repeated "
                     f"timings); {TABLE2_TIME[alg]} s in MATLAB")
             rows.append(report.exact_row("Table 2", alg, "time ratio to SSRCKF (model flops per step)",
                                          f"{ratio_paper:.3f}", model, deviations=[], note=note))
@@ -144,7 +133,7 @@ def table2(estimators: Mapping, per_run: Mapping[str, np.ndarray], batched: Mapp
              report.Judgement(j.verdict, f"{j.decisive}; paper {paper_st:.2f}×", j.parts),
              f"cost model (mmlib.core.cost): {flops['STSSRCKF']} vs {flops['SSRCKF']} flops per step, the second "
              f"measurement prediction counted in every step (its upper bound); measured CPU time ratio, context only: "
-             f"{_measured_text(per_run, 'STSSRCKF', 'SSRCKF')} one run at a time, "
-             f"{_measured_text(batched, 'STSSRCKF', 'SSRCKF')} batched (median [range] over {repeats} repeated "
+             f"{_spread(per_run, 'STSSRCKF', 'SSRCKF')} one run at a time, "
+             f"{_spread(batched, 'STSSRCKF', 'SSRCKF')} batched (median [range] over {repeats} repeated "
              f"timings); 'acceptable' is a judgement, not tested")
     return rows, claim, display

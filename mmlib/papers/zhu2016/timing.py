@@ -17,6 +17,7 @@ import numpy as np
 
 from mmlib.core.cost import step_flops
 from mmlib.experiment import report
+from mmlib.experiment.metrics import ratio_spread_text as _spread
 from mmlib.papers.zhu2016.text import ALGORITHMS, TABLE1
 
 #: runs timed one at a time per repeat (the fastest of them is the repeat's value)
@@ -25,18 +26,6 @@ TIMING_PER_REPEAT = 3
 TIMING_CLAIM = "IMM5CKF costs more computation than IMMCKF"
 #: what the rows and the claim compare
 QUANTITY = "model flops per step"
-
-
-def measured_ratio(times: Mapping[str, np.ndarray], alg: str, ref: str) -> tuple:
-    """``(median, min, max)`` over the repeats of the per-repeat time ratio ``alg / ref`` (``times``: algorithm ->
-    seconds per run in each repeat): the spread across separate repeated timings."""
-    r = np.asarray(times[alg], float) / np.asarray(times[ref], float)
-    return float(np.median(r)), float(r.min()), float(r.max())
-
-
-def _measured_text(times, alg, ref) -> str:
-    med, lo, hi = measured_ratio(times, alg, ref)
-    return f"{med:.2f}× [{lo:.2f}, {hi:.2f}]"
 
 
 def judge_timing(estimators: Mapping, per_run: Mapping[str, np.ndarray], batched: Mapping[str, np.ndarray],
@@ -71,17 +60,17 @@ def judge_timing(estimators: Mapping, per_run: Mapping[str, np.ndarray], batched
         rows.append(report.exact_row("Table 1", alg, f"Time ratio to IMMCKF ({QUANTITY})", f"{paper_ratio:.3f}",
                                      model, deviations=["Z-15"],
                                     note=f"cost model {flops[alg]} / {flops['IMMCKF']} flops per step; measured CPU "
-                                         f"ratio {_measured_text(per_run, alg, 'IMMCKF')} one run at a time, "
-                                         f"{_measured_text(batched, alg, 'IMMCKF')} batched (median [range] over "
+                                         f"ratio {_spread(per_run, alg, 'IMMCKF')} one run at a time, "
+                                         f"{_spread(batched, alg, 'IMMCKF')} batched (median [range] over "
                                          f"{repeats} repeated timings); {TABLE1[alg][4]} s in MATLAB"))
-        table.append([alg, TABLE1[alg][4], f"{paper_ratio:.2f}", f"{model:.2f}", _measured_text(per_run, alg, "IMMCKF"),
+        table.append([alg, TABLE1[alg][4], f"{paper_ratio:.2f}", f"{model:.2f}", _spread(per_run, alg, "IMMCKF"),
                       f"{1e3 * np.median(per_run[alg]):.2f}", f"{1e3 * np.median(batched[alg]):.3f}",
-                      _measured_text(batched, alg, "IMMCKF")])
+                      _spread(batched, alg, "IMMCKF")])
     paper5 = float(TABLE1["IMM5CKF"][4]) / ref_paper
     j = report.judge([report.ratio_part("IMM5CKF/IMMCKF", QUANTITY, flops["IMM5CKF"] / flops["IMMCKF"], +1)])
     claims.add(TIMING_CLAIM, report.Judgement(j.verdict, f"{j.decisive}; paper {paper5:.2f}× (MATLAB time)", j.parts),
                f"cost model (mmlib.core.cost): {flops['IMM5CKF']} vs {flops['IMMCKF']} flops per step; measured CPU "
-               f"time ratio, context only: {_measured_text(per_run, 'IMM5CKF', 'IMMCKF')} one run at a time, "
-               f"{_measured_text(batched, 'IMM5CKF', 'IMMCKF')} batched (median [range] over {repeats} repeated "
+               f"time ratio, context only: {_spread(per_run, 'IMM5CKF', 'IMMCKF')} one run at a time, "
+               f"{_spread(batched, 'IMM5CKF', 'IMMCKF')} batched (median [range] over {repeats} repeated "
                f"timings)")
     return rows, table
