@@ -14,7 +14,7 @@ from numpy.typing import ArrayLike
 
 from mmlib.experiment import metrics
 from mmlib.core._validate import (as_float_array, check_bool, check_finite, check_finite_runs, check_has,
-                                  check_index, check_positive_int)
+                                  check_index, check_mask, check_positive_int)
 from mmlib.core.estimation import run, select_runs, summarise_divergence
 from mmlib.experiment.montecarlo import MonteCarlo, Progress
 from mmlib.core.protocols import Estimator, MeasurementModel
@@ -355,6 +355,109 @@ def nees_profile(estimator: Estimator, init: Any, measurements: ArrayLike, truth
     ok = ~tr.diverged
     nees = metrics.nees(tr.mean - truth[:, 1:], tr.cov, valid=ok)[ok]
     return NEESProfile(nees.mean(axis=0), metrics.mean_with_se(nees.mean(axis=1)), int((~ok).sum()))
+
+
+def consistency(stat: np.ndarray, dof: int | np.ndarray, ok: np.ndarray, *, white: bool) -> dict:
+    """ANEES/ANIS summary of per-run, per-step chi-square statistics ``stat`` (N, K) with ``dof`` degrees of freedom
+    (an int, or (K,) per step), over the valid runs ``ok`` (:func:`consistency_entries`).  ``dof`` in the result is
+    the mean degrees of freedom over the steps (what a consistent filter's average has as its mean); ``white`` says the
+    statistics of one run are independent in time (the NIS of a consistent filter), which makes the band of the run-
+    and-time average exact; otherwise (the NEES) the band is that of a run-average at one step
+    (:func:`consistency_entries`)."""
+    stat = as_float_array(stat, "stat")
+    if stat.ndim != 2:
+        raise ValueError(f"stat: expected per-run, per-step statistics of shape (N, K), got {stat.shape}")
+    ok = check_mask(ok, "ok", stat.shape[0])
+    d = as_float_array(dof, "dof")
+    if d.shape not in ((), (stat.shape[1],)) or not np.all(np.isfinite(d)) or np.any(d < 1) \
+            or np.any(d != np.round(d)):
+        raise ValueError(f"dof: expected a count of components >= 1, or one per step ({stat.shape[1]},), got {dof!r}")
+    check_bool(white, "white")
+    s = stat[ok]
+    N, K = s.shape
+    dof_k = np.broadcast_to(np.asarray(dof, dtype=float), (K,))
+    dof_mean = float(dof_k.mean())
+    out = {"value": None, "stderr": None, "dof": dof_mean, "band": None, "band_kind": None, "inside": None,
+           "steps_inside": None, "runs_inside": None, "n_runs": int(N)}
+    if N < 2 or not np.isfinite(s).all():
+        return out
+    per_run = s.mean(axis=1)
+    value = float(per_run.mean())
+    dof_int = np.asarray(dof_k, dtype=int)                       # degrees of freedom are counts of components
+    bands = {d: metrics.chi2_band(int(d), N) for d in np.unique(dof_int)}   # a run-average at one step
+    step_lo = np.array([bands[d][0] for d in dof_int])
+    step_hi = np.array([bands[d][1] for d in dof_int])
+    step_mean = s.mean(axis=0)
+    total = int(dof_int.sum())
+    run_lo, run_hi = (b / K for b in metrics.chi2_band(total, 1))        # one run's time average
+    if white:
+        band = [b / K for b in metrics.chi2_band(total, N)]
+        kind = "run-and-time average, white statistics: chi2(N sum_k m_k) / (N K)"
+    else:
+        band = list(metrics.chi2_band(int(round(dof_mean)), N))
+        kind = "run-average at one step: chi2(n N) / N (the time average of a consistent filter lies inside it " \
+               "with at least 95 % probability)"
+    band = [float(b) for b in band]
+    out.update(value=value, stderr=float(per_run.std(ddof=1) / math.sqrt(N)), band=band, band_kind=kind,
+               inside=band[0] <= value <= band[1],
+               steps_inside=float(np.mean((step_mean >= step_lo) & (step_mean <= step_hi))),
+               runs_inside=float(np.mean((per_run >= run_lo) & (per_run <= run_hi))))
+    return out
+
+
+
+def consistency_entries(runsets: Mapping[str, RunSet], state_dim: int, *, case: str = "") -> list:
+    r"""The ``consistency`` section of a results file: per estimator of ``runsets`` (name -> :class:`RunSet` from
+    :func:`evaluate` with ``consistency=True``), ``{"algorithm", "case", "anees", "anis"}`` with ``anees`` and
+    ``anis`` the summaries of :func:`consistency` (value, standard error, degrees of freedom, 95 % band and whether
+    the value lies inside it) over the runs that did not diverge; ``state_dim`` the NEES's degrees of freedom
+    (the state dimension n); ``case`` names the paper's case ("" when it has one).
+
+    The NIS's band is exact for a consistent filter (white innovations):
+    :math:`[\chi^2_{N\sum_k m_k}(0.025), \chi^2_{N\sum_k m_k}(0.975)]/(NK)`; the NEES's is the band of a run-average
+    at one step, :math:`[\chi^2_{nN}(0.025), \chi^2_{nN}(0.975)]/N`, which the time average of a consistent filter
+    lies inside with at least 95 % probability (Bar-Shalom, Li & Kirubarajan 2001, Sec. 5.4.2).  An estimator run
+    without ``consistency=True`` (no NEES or NIS) is a ValueError naming it."""
+    _check_mapping(runsets, "runsets", "estimator name -> RunSet")
+    state_dim = check_positive_int(state_dim, "state_dim")
+    if not isinstance(case, str):
+        raise ValueError(f"case: expected a string (the paper's case, or ''), got {case!r}")
+    out = []
+    for name, rs in runsets.items():
+        if not isinstance(rs, RunSet):
+            raise ValueError(f"runsets[{name!r}]: expected a RunSet (evaluate's), got {type(rs).__name__}")
+        if rs.nees is None or rs.nis is None:
+            raise ValueError(f"runsets[{name!r}]: no NEES/NIS recorded; run evaluate(..., consistency=True)")
+        out.append({"algorithm": str(name), "case": case,
+                    "anees": consistency(rs.nees, state_dim, rs.valid, white=False),
+                    "anis": consistency(rs.nis, rs.nis_dof, rs.valid, white=True)})
+    return out
+
+
+def degenerate_reason(errors: Mapping[str, float], baseline: float, *, what: str) -> str:
+    """Why a universe is *degenerate*, or "" when it is not: it is when every estimator's error (``errors``:
+    estimator -> error, e.g. its position RMSE, in the unit of ``baseline``) is at least the no-information
+    ``baseline`` described by ``what`` (e.g. "the measurement-only estimate's position RMSE"): no estimator then
+    does better than ignoring the dynamics, so comparing them measures only how they fail, and the universe's
+    comparisons are kept out of the shares of the reading space (:mod:`mmlib.experiment.multiverse`).  A
+    non-finite error (a diverged estimator) counts as at least the baseline."""
+    _check_mapping(errors, "errors", "estimator name -> error")
+    baseline = float(check_finite(baseline, "baseline"))
+    if not baseline > 0:
+        raise ValueError(f"baseline: expected a positive error, got {baseline!r}")
+    if not isinstance(what, str) or not what.strip():
+        raise ValueError(f"what: expected a description of the baseline, got {what!r}")
+    vals = {}
+    for name, e in errors.items():
+        try:
+            vals[str(name)] = float(e)
+        except (TypeError, ValueError):
+            raise ValueError(f"errors[{name!r}]: expected a number, got {e!r}") from None
+    if not all(not math.isfinite(v) or v >= baseline for v in vals.values()):
+        return ""
+    best = min(vals, key=lambda k: (vals[k] if math.isfinite(vals[k]) else math.inf, k))
+    return (f"every estimator's error is at least {what} ({baseline:.4g}; the smallest, {best}'s, is "
+            f"{vals[best]:.4g})")
 
 
 def time_algorithms(estimators: dict, init: dict, measurements: ArrayLike, *, repeats: int = 3,

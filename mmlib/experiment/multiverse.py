@@ -48,12 +48,15 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Mapping
 
+import numpy as np
+
 
 from mmlib.core._validate import check_names, check_positive_int
 from mmlib.experiment import report
 from mmlib.experiment.grid import run_grid
 from mmlib.experiment.metrics import wilson_interval
-from mmlib.experiment.readings import Design, ReadingSpace
+from mmlib.experiment import forensics
+from mmlib.experiment.readings import Design, ReadingSpace, sample_seed
 from mmlib.experiment.universe import Effect, PublishedNumber, UniverseResult, Value, finite_or_none, items
 
 
@@ -96,6 +99,8 @@ class Multiverse:
     published: tuple
     n_runs: int
     n_runs_paper: int | None = None
+    #: the run-count stability check (:func:`mmlib.experiment.stability.run_count_stability`), when run
+    stability: dict | None = None
 
     def __post_init__(self):
         if not isinstance(self.space, ReadingSpace):
@@ -120,6 +125,7 @@ class Multiverse:
         check_positive_int(self.n_runs, "n_runs")
         if self.n_runs_paper is not None:
             check_positive_int(self.n_runs_paper, "n_runs_paper")
+        self._memo: dict = {}          # derived lookups, computed once per set of universes
 
     # -- lookups ----------------------------------------------------------------------------------------------
     @property
@@ -205,17 +211,51 @@ class Multiverse:
         """Indices of the universes counted in the summaries' counts and shares: the design's sample (every
         universe of a full design, the uniform sample of a sampled one, the headline and star universes only if
         drawn); for a covering or star design, which counts none for shares, every universe (descriptive counts
-        only)."""
+        only).  Universes with an option motivated by the results or by another paper (:meth:`motivated_indices`)
+        and degenerate universes (:meth:`degenerate_indices`) are reported apart, never counted: what is left is a
+        uniform sample (or the whole) of the declared readings without motivated options."""
+        drawn = sorted(self.design.sample) if self.uniform else list(range(len(self.universes)))
+        apart = set(self.motivated_indices()) | set(self.degenerate_indices())
+        return [i for i in drawn if i not in apart]
+
+    def drawn(self) -> list:
+        """The universes of the design's sample (every universe for a covering or star design), before the
+        motivated and degenerate ones are set apart."""
         return sorted(self.design.sample) if self.uniform else list(range(len(self.universes)))
+
+    def motivated_indices(self) -> list:
+        """Indices of the universes whose reading has an option motivated by the results or by another paper
+        (:attr:`mmlib.experiment.readings.Option.motivated_by`)."""
+        if "motivated" not in self._memo:
+            self._memo["motivated"] = [i for i, r in enumerate(self.readings) if self.space.motivated(r)]
+        return list(self._memo["motivated"])
+
+    def degenerate_indices(self) -> list:
+        """Indices of the universes flagged degenerate (every estimator no better than a no-information baseline,
+        :func:`mmlib.experiment.evaluation.degenerate_reason`)."""
+        return [i for i, u in enumerate(self.universes) if u.degenerate]
+
+    def reading_indices(self) -> list:
+        """Indices of the run universes that are readings of the text alone
+        (:meth:`mmlib.experiment.readings.ReadingSpace.is_reading`: sensitivity factors at the headline, no
+        motivated option): the only ones the table match and "the readings that reproduce" search."""
+        if "readings" not in self._memo:
+            self._memo["readings"] = [i for i, r in enumerate(self.readings) if self.space.is_reading(r)]
+        return list(self._memo["readings"])
 
     def weighting(self) -> str:
         """How the counted universes weight the reading space: ``"full factorial of M"``, ``"uniform sample of N
         of M, seed S"``, or, for a covering or star design, that it is not a uniform sample."""
         m = self.space.size
+        drawn = set(self.drawn())
+        n_mot = len(drawn & set(self.motivated_indices()))
+        n_deg = len((drawn - set(self.motivated_indices())) & set(self.degenerate_indices()))
+        apart = "".join([f"; {n_mot} with a motivated option reported apart" if n_mot else "",
+                         f"; {n_deg} degenerate set apart" if n_deg else ""])
         if self.exact:
-            return f"full factorial of {m}"
+            return f"full factorial of {m}{apart}"
         if self.uniform:
-            return f"uniform sample of {len(self.design.sample)} of {m}, seed {self.design.seed}"
+            return f"uniform sample of {len(self.design.sample)} of {m}, seed {self.design.seed}{apart}"
         return f"none: a {self.design.kind} design of {len(self.universes)} of {m} universes is not a uniform sample"
 
     def star_indices(self) -> list:
@@ -293,10 +333,14 @@ class Multiverse:
         (:meth:`counted`; every universe of the full factorial weighted equally, so a metric-only factor's readings
         count as the universes they are) ``verdict_counts``, ``share``, ``interval``, ``weighting``, ``robust``,
         ``robustness`` (:meth:`shares`) and ``by_option`` (:meth:`by_option`).  A universe without the claim takes
-        no part."""
+        no part.  ``motivated`` counts the verdicts of the drawn universes with a motivated option (reported apart,
+        ``n_motivated``); ``n_degenerate`` the drawn universes set apart as degenerate."""
         sims = self.simulations()              # checks that metric-only factors change no claim
         counted = self.counted()
         star = self.star_indices()
+        mot_all, deg_all = set(self.motivated_indices()), set(self.degenerate_indices())
+        motivated = [i for i in self.drawn() if i in mot_all]
+        degenerate = [i for i in self.drawn() if i in deg_all and i not in mot_all]
         sim_of = {i: k for k, idx in enumerate(sims) for i in idx}
         out = []
         for c in self.headline.claims:
@@ -312,7 +356,10 @@ class Multiverse:
             sh = self.shares(labels, report.CLAIM_VERDICTS)
             table = self.by_option(labels, report.CLAIM_VERDICTS, [i for i, _ in mine])
             star_v = [v for _, v in verdicts_of(star)]
-            out.append({"claim": c.claim, "headline_verdict": c.verdict, "headline_decisive": c.decisive,
+            mot_v = [v for _, v in verdicts_of(motivated)]
+            out.append({"motivated": {k: mot_v.count(k) for k in report.CLAIM_VERDICTS if k in mot_v},
+                        "n_motivated": len(mot_v), "n_degenerate": len(degenerate),
+                        "claim": c.claim, "headline_verdict": c.verdict, "headline_decisive": c.decisive,
                         "verdict_counts": sh["counts"], "n_counted": len(labels),
                         "n_simulations": len({sim_of[i] for i, _ in mine}), "n_universes": len(self.universes),
                         "weighting": self.weighting(), "share": sh["share"], "interval": sh["interval"],
@@ -325,7 +372,13 @@ class Multiverse:
         """Every universe's cells judged with the joint tests: ``verdict[i][j]`` (universe i, published number j;
         a reproduced cell inside a failing row or table re-judged *reproduced (isolated)*), ``distance[i][j]``,
         ``tests[i]`` ({("table", table) or ("row", table, item, algorithm): joint-test dict}) and
-        ``groups[j]`` (the table and row keys of number j)."""
+        ``groups[j]`` (the table and row keys of number j).  Computed once (the universes do not change)."""
+        key = tuple(map(id, self.universes))           # a universe replaced (a test, a re-run) invalidates it
+        if self._memo.get("cells_key") != key:
+            self._memo["cells"], self._memo["cells_key"] = self._judge_cells(), key
+        return self._memo["cells"]
+
+    def _judge_cells(self) -> dict:
         pubs = self.published
         groups = [(("table", p.table), ("row", p.table, p.item, p.algorithm)) for p in pubs]
         verdicts, distances, tests = [], [], []
@@ -356,21 +409,24 @@ class Multiverse:
     def numbers_summary(self) -> list:
         """Per published number: its headline verdict (after the joint tests) and distance, whether the headline's
         cell is ``isolated`` and the headline's ``joint_test`` of the cell's ``table`` and ``row`` (None where the
-        cell has no finite distance); over the counted universes (:meth:`counted`, ``n_counted``, ``weighting``)
+        cell has no finite distance); over the counted universes that are readings of the text (:meth:`counted` and
+        :meth:`reading_indices`: the readings that reproduce, never a tuning sweep; ``n_counted``, ``weighting``)
         the counts of universes that reproduce it (``n_reproduced``, isolated cells excluded), whose cell is
         reproduced but isolated (``n_isolated``), reproduce it qualitatively and are inconclusive; and, among every
         run universe whose value is precise enough (:meth:`precise`; ``n_precise``), the ``closest`` by relative
-        distance (its universe, reading, value, standardized and relative distance and verdict), with
+        distance among the readings of the text (its universe, reading, value, standardized and relative distance and
+        verdict), with
         ``closest_status`` "found", "none precise enough" or "not computed"."""
         cells = self._cells()
-        counted = self.counted()
+        readings = set(self.reading_indices())
+        counted = [i for i in self.counted() if i in readings]
         out = []
         for j, pub in enumerate(self.published):
             verdicts = [cells["verdict"][i][j] for i in range(len(self.universes))]
             dists = [cells["distance"][i][j] for i in range(len(self.universes))]
             mine = [verdicts[i] for i in counted]
             rel = [self.relative_distance(pub, u) for u in self.universes]
-            precise = [i for i, u in enumerate(self.universes) if self.precise(pub, u)]
+            precise = [i for i, u in enumerate(self.universes) if i in readings and self.precise(pub, u)]
             closest, status = None, "not computed"
             if any(r is not None for r in rel):
                 status = "none precise enough"
@@ -452,9 +508,13 @@ class Multiverse:
         (``headline_sum``, ``headline_rms_relative``, its ``joint_test`` of the table and the number of its cells
         ``isolated``), ``n_passing`` (counted universes whose table passes its joint test, of ``n_counted``), and
         the most cells any universe reproduces (isolated cells excluded).  Cells reproduced only as isolated
-        coincidences never count as reproduced."""
+        coincidences never count as reproduced.  Only readings of the text are searched (:meth:`reading_indices`:
+        no tuning sweep, no motivated option; ``n_candidates``), and every entry carries ``recovery``, how often
+        this match names a planted reading (:meth:`recovery`), with the factors the table cannot identify."""
         cells = self._cells()
-        counted = self.counted()
+        readings = set(self.reading_indices())
+        counted = [i for i in self.counted() if i in readings]
+        recovery = {r["table"]: r for r in self.recovery()["tables"]}
         out = []
         for table in self.tables:
             idx = [j for j, p in enumerate(self.published) if p.table == table]
@@ -468,7 +528,7 @@ class Multiverse:
             n_rep = [sum(cells["verdict"][i][j] == report.REPRODUCED for j in idx) for i in range(len(self.universes))]
             n_iso = [sum(cells["verdict"][i][j] == report.ISOLATED for j in idx) for i in range(len(self.universes))]
             test = [cells["tests"][i].get(("table", table)) for i in range(len(self.universes))]
-            most = max(range(len(n_rep)), key=lambda i: (n_rep[i], -i))
+            most = max(sorted(readings), key=lambda i: (n_rep[i], -i))
             entry = {"table": table, "n_cells": sum(1 for p in pubs if self.distance(p, self.headline) is not None),
                      "precision": PRECISION, "headline_sum": finite_or_none(sums[0]),
                      "headline_rms_relative": finite_or_none(rms[0]), "headline_n_reproduced": n_rep[0],
@@ -483,8 +543,9 @@ class Multiverse:
                      "best_universe": None, "best_reading": None,
                      "best_describe": "none precise enough (no universe has every cell's s.e. within "
                                       f"{100 * PRECISION:.0f} % of the printed value)",
-                     "best_sum": None, "best_rms_relative": None, "best_joint_test": None, "best_n_reproduced": 0}
-            finite = [(rms[i], i) for i in range(len(self.universes))
+                     "best_sum": None, "best_rms_relative": None, "best_joint_test": None, "best_n_reproduced": 0,
+                     "n_candidates": len(readings), "recovery": recovery.get(table)}
+            finite = [(rms[i], i) for i in sorted(readings)
                       if eligible[i] and rms[i] is not None and math.isfinite(rms[i])]
             if finite:
                 best, i = min(finite)
@@ -494,6 +555,115 @@ class Multiverse:
                               "best_joint_test": test[i], "best_n_reproduced": n_rep[i]})
             out.append(entry)
         return out
+
+    def _cell_arrays(self, indices: list, cells: list) -> tuple:
+        """(values, stderrs) of shape (len(indices), len(cells)) of the published numbers ``cells`` (indices into
+        :attr:`published`) in the universes ``indices``; NaN where a value is missing."""
+        vals = np.full((len(indices), len(cells)), np.nan)
+        ses = np.full_like(vals, np.nan)
+        for a, i in enumerate(indices):
+            for b, j in enumerate(cells):
+                v = self.value(self.universes[i], self.published[j].key)
+                if v is not None and v.replicated is not None and v.stderr is not None:
+                    vals[a, b], ses[a, b] = v.replicated, v.stderr
+        return vals, ses
+
+    def _star_of(self, factor_id: str, option: str) -> int | None:
+        """The run universe that differs from the headline in ``factor_id`` alone, set to ``option`` (None if not
+        run); the headline itself for the headline option."""
+        want = {**self.space.headline, factor_id: option}
+        return next((i for i, r in enumerate(self.readings) if dict(r) == want), None)
+
+    def recovery(self, trials: int = forensics.RECOVERY_TRIALS) -> dict:
+        """Planted-reading recovery of every table (:func:`mmlib.experiment.forensics.planted_recovery`): among the
+        readings of the text whose table cells (those the headline computes) are all precise enough, ``trials``
+        universes are planted, each gives a synthetic printed table at the paper's run count and printed precision,
+        and the table match is run on it.  Per table: ``planted``, ``top1``, ``top3`` (with Wilson intervals),
+        ``by_factor`` (how often the best match has the planted option of each reading factor), ``indistinguishable``
+        (factor -> the option pairs of the headline and a star universe whose tables a printed table cannot tell
+        apart, :func:`mmlib.experiment.forensics.indistinguishable`) and ``unidentifiable`` (those factors: a match
+        is no evidence for one of their options).  The summary (``planted``, ``top1``, ``top3``,
+        ``unidentifiable``) is the mean of the tables' rates and the factors unidentifiable from every table.
+        The draws use their own generator, seeded from the paper's name (:func:`~mmlib.experiment.readings.
+        sample_seed` + 1), never a run's streams."""
+        readings = self.reading_indices()
+        factors = [f.id for f in self.space.factors if f.kind == "reading"]
+        tables = []
+        for t_index, table in enumerate(self.tables):
+            cells = [j for j, p in enumerate(self.published) if p.table == table
+                     and self.distance(p, self.headline) is not None and math.isfinite(self.distance(p, self.headline))]
+            if not cells:
+                continue
+            pubs = [self.published[j] for j in cells]
+            ok = [i for i in readings if all(self.precise(p, self.universes[i]) for p in pubs)]
+            entry = {"table": table, "n_cells": len(cells), "n_candidates": len(ok), "planted": 0, "top1": None,
+                     "top3": None, "top1_interval": None, "top3_interval": None, "by_factor": {},
+                     "indistinguishable": {}, "unidentifiable": []}
+            if ok:
+                vals, ses = self._cell_arrays(ok, cells)
+                entry.update(forensics.planted_recovery(
+                    vals, ses, [p.printed for p in pubs], [self.readings[i] for i in ok], factors,
+                    n_runs=self.n_runs, n_runs_paper=self.n_runs_paper,
+                    seed=sample_seed(self.space.paper) + 1 + t_index, trials=trials))
+            head = self._cell_arrays([0], cells)
+            for f in factors:
+                pairs = []
+                for o in self.space.factor(f).names:
+                    i = self._star_of(f, o)
+                    if o == self.space.factor(f).headline or i is None or i not in readings:
+                        continue
+                    other = self._cell_arrays([i], cells)
+                    if not (np.isfinite(other[0]).all() and np.isfinite(head[0]).all()):
+                        continue
+                    test = forensics.indistinguishable(head[0][0], head[1][0], other[0][0], other[1][0],
+                                                       [p.printed for p in pubs], self.n_runs, self.n_runs_paper)
+                    if test["passes"]:
+                        pairs.append([self.space.factor(f).headline, o])
+                if pairs:
+                    entry["indistinguishable"][f] = pairs
+            entry["unidentifiable"] = sorted(entry["indistinguishable"], key=factors.index)
+            tables.append(entry)
+        run = [t for t in tables if t["planted"]]
+        common = [f for f in factors if run and all(f in t["unidentifiable"] for t in run)]
+        return {"planted": sum(t["planted"] for t in run),
+                "top1": float(np.mean([t["top1"] for t in run])) if run else None,
+                "top3": float(np.mean([t["top3"] for t in run])) if run else None,
+                "unidentifiable": common, "trials_per_table": trials, "tables": tables}
+
+    def sensitivity(self) -> list:
+        """The curve of every sensitivity factor (:attr:`mmlib.experiment.readings.Factor.kind`): per option, the
+        universe that differs from the headline in that factor alone (None when not run), its claims' verdicts and,
+        per table, its root-mean-square relative distance, its cells reproduced (isolated ones excluded) and
+        whether the table passes its joint test: the verdict against the swept value, never a reading that
+        reproduces."""
+        cells = self._cells()
+        out = []
+        for f in self.space.factors:
+            if f.kind != "sensitivity":
+                continue
+            opts = []
+            for o in f.options:
+                i = self._star_of(f.id, o.name)
+                entry = {"option": o.name, "label": o.label, "universe": i, "claims": {}, "tables": {}}
+                if i is not None:
+                    u = self.universes[i]
+                    entry["claims"] = {c.claim: c.verdict for c in u.claims}
+                    for table in self.tables:
+                        idx = [j for j, p in enumerate(self.published) if p.table == table]
+                        rms = self.table_relative_distances(table)[i]
+                        t = cells["tests"][i].get(("table", table))
+                        entry["tables"][table] = {
+                            "rms_relative": finite_or_none(rms) if rms is not None else None,
+                            "n_reproduced": sum(cells["verdict"][i][j] == report.REPRODUCED for j in idx),
+                            "joint_passes": None if t is None else bool(t["passes"])}
+                opts.append(entry)
+            out.append({"factor": f.id, "label": f.label, "headline": f.headline, "options": opts})
+        return out
+
+    def degenerate(self) -> list:
+        """The degenerate universes, named: ``universe``, ``reading``, ``describe`` and ``reason``."""
+        return [{"universe": i, "reading": dict(self.readings[i]), "describe": self.space.describe(self.readings[i]),
+                 "reason": self.universes[i].degenerate} for i in self.degenerate_indices()]
 
     def one_factor_view(self) -> list:
         """The universes that differ from the headline in at most one factor, headline first:
@@ -524,7 +694,11 @@ class Multiverse:
                 "full_factorial_size": self.space.size, "n_runs": self.n_runs,
                 "universes": [{"reading": dict(r), **u.as_json()} for r, u in zip(self.readings, self.universes)],
                 "claims_summary": self.claims_summary(), "numbers_summary": self.numbers_summary(),
-                "table_match": self.table_match(), "diverged_total": self.diverged_total()}
+                "table_match": self.table_match(), "diverged_total": self.diverged_total(),
+                "recovery": self.recovery(), "sensitivity": self.sensitivity(),
+                "n_degenerate": len(self.degenerate_indices()), "degenerate": self.degenerate(),
+                "n_motivated": len(self.motivated_indices()),
+                **({"stability": self.stability} if self.stability is not None else {})}
 
 
 def run_multiverse(space: ReadingSpace, job: Callable, *, published: Iterable[PublishedNumber], n_runs: int,

@@ -36,6 +36,7 @@ from typing import Any, Callable, Mapping, NamedTuple
 
 from mmlib.core._validate import check_positive_int
 from mmlib.experiment.readings import Deviation, ReadingSpace
+from mmlib.experiment.verdicts import RECONSTRUCTION
 from mmlib.experiment.universe import PublishedNumber, UniverseResult
 
 __all__ = ["Paper", "Study", "ArenaEntry", "UniverseResult", "PublishedNumber", "PROFILE_KEYS"]
@@ -45,6 +46,10 @@ __all__ = ["Paper", "Study", "ArenaEntry", "UniverseResult", "PublishedNumber", 
 PROFILE_KEYS = ("n_runs", "timing_runs", "timing_repeats", "mv_runs", "mv_design")
 #: the designs of a reading space (:meth:`mmlib.experiment.readings.ReadingSpace.design`)
 DESIGNS = ("auto", "full", "fractional", "star")
+#: the kinds of study a Paper declares (:attr:`Paper.kind`)
+KINDS = ("paper", "control")
+#: the qualifiers of a paper's verdicts (:attr:`Paper.qualifier`): none, or a reconstructed set-up
+QUALIFIERS = ("", RECONSTRUCTION)
 #: a paper's name: a results file's (mmlib/experiment/results.schema.json)
 NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9-]*")
 
@@ -82,7 +87,15 @@ class Paper:
     does not state it); ``profiles`` the notebook's profiles (``"full"`` and ``"smoke"``, each a mapping of
     :data:`PROFILE_KEYS`; a paper may add its own keys); ``algorithms`` the estimators every universe runs;
     ``key_effect`` the name of the effect its specification curve sorts by; ``notebook`` the notebook's stem in
-    ``notebooks/``; ``title`` a short title for pages and tables."""
+    ``notebooks/``; ``title`` a short title for pages and tables.
+
+    ``kind`` is ``"paper"`` for a replicated paper or ``"control"`` for a control of the pipeline (a "published"
+    table known in closed form, which the whole pipeline must reproduce, or the same table perturbed, which it must
+    reject); controls are listed first in the reports and on the site, and take no part in the arena or in pooled
+    tallies of papers.  ``qualifier`` is "" when the paper gives its set-up, or
+    :data:`mmlib.experiment.verdicts.RECONSTRUCTION` when the set-up had to be reconstructed (a section lost,
+    parameters invented): its claims' verdicts then say so ("contradicted by the reconstruction") and are kept out
+    of pooled tallies."""
 
     name: str
     title: str
@@ -104,6 +117,8 @@ class Paper:
     notebook: str
     profiles: Mapping[str, Mapping[str, Any]]
     arena: ArenaEntry | None = None
+    kind: str = "paper"
+    qualifier: str = ""
 
     def __post_init__(self):
         for name in ("name", "title", "citation", "doi", "key_effect", "notebook"):
@@ -149,6 +164,12 @@ class Paper:
             raise ValueError("profiles: the smoke profile's runs are a prefix of the full profile's: no more of them")
         if self.arena is not None:
             _check_arena(self.arena)
+        if self.kind not in KINDS:
+            raise ValueError(f"kind: expected one of {KINDS}, got {self.kind!r}")
+        if self.qualifier not in QUALIFIERS:
+            raise ValueError(f"qualifier: expected one of {QUALIFIERS}, got {self.qualifier!r}")
+        if self.kind == "control" and self.arena is not None:
+            raise ValueError("arena: a control takes no part in the arena (arena=None)")
         object.__setattr__(self, "profiles", MappingProxyType({k: MappingProxyType(dict(v))
                                                                for k, v in self.profiles.items()}))
 

@@ -74,15 +74,22 @@ class Option:
     ``name`` is a short identifier used in readings (``"150s"``), ``label`` a phrase for
     tables and figures, ``source`` where the paper's text supports it (section, equation,
     quotation), and ``changes`` the set-up parameters this reading sets (field name ->
-    value), merged over all factors by :meth:`ReadingSpace.changes`."""
+    value), merged over all factors by :meth:`ReadingSpace.changes`.
+
+    ``motivated_by`` is empty for an option the text supports on its own; otherwise it says what else motivated it
+    (``"results: Table 1 prints IMMCKF != IMMUKF"``, ``"another paper: Hu et al. 2017"``).  A universe with such an
+    option is run and reported apart (:meth:`ReadingSpace.motivated`), never counted in the shares of the reading
+    space nor searched by the table match: a reading chosen because of the results it gives cannot then be evidence
+    that those results are reproduced."""
 
     name: str
     label: str
     source: str
     changes: Mapping = field(default_factory=dict)
+    motivated_by: str = ""
 
     def __post_init__(self):
-        _check_text(self, ("name", "label", "source"))
+        _check_text(self, ("name", "label", "source", "motivated_by"), optional=("motivated_by",))
         if not isinstance(self.changes, Mapping):
             raise ValueError(f"changes: expected a mapping of set-up fields to values, got {self.changes!r}")
         object.__setattr__(self, "changes", as_plain_json(dict(self.changes), "changes"))
@@ -90,7 +97,12 @@ class Option:
     def as_dict(self) -> dict:
         """``name``, ``label``, ``source`` and ``changes`` as a JSON-able dict (tuple values as lists)."""
         return {"name": self.name, "label": self.label, "source": self.source,
-                "changes": {k: list(v) if isinstance(v, tuple) else v for k, v in self.changes.items()}}
+                "changes": {k: list(v) if isinstance(v, tuple) else v for k, v in self.changes.items()},
+                "motivated_by": self.motivated_by}
+
+
+#: the kinds of factor (:attr:`Factor.kind`): alternatives the text supports, or an unstated tuning value swept
+FACTOR_KINDS = ("reading", "sensitivity")
 
 
 @dataclass(frozen=True)
@@ -102,7 +114,14 @@ class Factor:
     appears with every option).  ``metric_only`` marks a factor whose options change only how a
     published number is computed from the same simulated runs (e.g. which average of the errors a
     table prints), never the simulation or a claim: universes that differ only in such factors
-    are one *simulation*, and claims are counted once per simulation."""
+    are one *simulation*, and claims are counted once per simulation.
+
+    ``kind`` is ``"reading"`` when the options are alternatives the text supports (each quoting it), or
+    ``"sensitivity"`` when the factor sweeps an unstated tuning value over a range (e.g. the filters' process noise
+    over decades): a sensitivity factor's options are not readings of the paper, so the table match and "the
+    readings that reproduce" search only universes whose sensitivity factors are at the headline
+    (:meth:`ReadingSpace.is_reading`), and its options are reported as their own curve (verdict against the swept
+    value, :meth:`mmlib.experiment.multiverse.Multiverse.sensitivity`)."""
 
     id: str
     label: str
@@ -111,9 +130,11 @@ class Factor:
     source: str
     influential: bool = True
     metric_only: bool = False
+    kind: str = "reading"
 
     def __post_init__(self):
         _check_text(self, ("id", "label", "source"))
+        check_choice(self.kind, "kind", FACTOR_KINDS)
         check_bool(self.influential, "influential")
         check_bool(self.metric_only, "metric_only")
         if isinstance(self.options, (str, bytes)) or not hasattr(self.options, "__iter__"):
@@ -128,6 +149,10 @@ class Factor:
             raise ValueError(f"options: factor {self.id!r} repeats an option name: {names}")
         if self.headline not in names:
             raise ValueError(f"headline: factor {self.id!r} has no option {self.headline!r} (options: {names})")
+        if options[names.index(self.headline)].motivated_by:
+            raise ValueError(f"headline: factor {self.id!r}'s headline {self.headline!r} is motivated by "
+                             f"{options[names.index(self.headline)].motivated_by!r}; the headline is chosen on the "
+                             f"text alone")
         object.__setattr__(self, "options", options)
 
     @property
@@ -147,6 +172,7 @@ class Factor:
         (:meth:`Option.as_dict` of each)."""
         return {"id": self.id, "label": self.label, "options": list(self.names), "headline": self.headline,
                 "source": self.source, "influential": self.influential, "metric_only": self.metric_only,
+                "kind": self.kind,
                 "option_details": [o.as_dict() for o in self.options]}
 
 
@@ -314,6 +340,25 @@ class ReadingSpace:
         """Factor ids in which ``reading`` differs from the headline."""
         reading = self.validate(reading)
         return [fid for fid, opt in reading.items() if opt != self.headline[fid]]
+
+    def motivated(self, reading: Mapping) -> list:
+        """Factor ids whose option in ``reading`` is motivated by the results or by another paper
+        (:attr:`Option.motivated_by`)."""
+        reading = self.validate(reading)
+        return [f.id for f in self.factors if f.option(reading[f.id]).motivated_by]
+
+    def is_reading(self, reading: Mapping) -> bool:
+        """Whether ``reading`` is a reading of the text alone: every sensitivity factor (:attr:`Factor.kind`) at its
+        headline and no option motivated by the results or another paper.  Only such universes are searched by
+        the table match and counted among "the readings that reproduce"."""
+        reading = self.validate(reading)
+        return not self.motivated(reading) and all(reading[f.id] == f.headline for f in self.factors
+                                                   if f.kind == "sensitivity")
+
+    @property
+    def sensitivity_ids(self) -> tuple:
+        """The ids of the sensitivity factors (:attr:`Factor.kind`), in declaration order."""
+        return tuple(f.id for f in self.factors if f.kind == "sensitivity")
 
     def simulation_key(self, reading: Mapping) -> tuple:
         """The reading without its metric-only factors: universes with equal keys run the same simulation."""

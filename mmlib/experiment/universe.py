@@ -129,18 +129,24 @@ class UniverseResult:
     effects: tuple[Effect, ...]
     diverged: Mapping[str, int]
     n_runs: int
+    #: why the universe is degenerate (:func:`mmlib.experiment.evaluation.degenerate_reason`), "" when it is not
+    degenerate: str = ""
     #: the fingerprint of the machine that computed it, when not this process's (:mod:`mmlib.experiment.machine`)
     machine: Mapping[str, Any] | None = field(default=None, compare=False)
 
     @classmethod
     def build(cls, *, values: Iterable[tuple], claims: Iterable[Any], diverged: Mapping[str, int],
-              effects: Iterable[tuple] = (), n_runs: int) -> UniverseResult:
+              effects: Iterable[tuple] = (), n_runs: int, degenerate: str = "") -> UniverseResult:
         """Validated result: ``values`` of ``(item, algorithm, quantity, replicated, stderr[, failed])`` (a
         ``failed`` reason marks a value the method was run for but could not produce: verdict "not reproduced:
         <reason>", infinite distance); ``claims`` a :class:`mmlib.experiment.verdicts.Claims`, :class:`JudgedClaim`
         s or dicts with ``claim`` and ``verdict``; ``diverged`` algorithm -> diverged runs (at most ``n_runs``);
-        ``effects`` of ``(name, value, stderr[, published])``.  Numbers become floats; NaN and infinities None."""
+        ``effects`` of ``(name, value, stderr[, published])``; ``degenerate`` the reason the universe is degenerate
+        (every estimator no better than a no-information baseline: its comparisons are kept out of the shares), ""
+        when it is not.  Numbers become floats; NaN and infinities None."""
         n_runs = check_positive_int(n_runs, "n_runs")
+        if not isinstance(degenerate, str):
+            raise ValueError(f"degenerate: expected the reason (a string, '' when not degenerate), got {degenerate!r}")
         what = "(item, algorithm, quantity, replicated, stderr[, failed])"
         vals = []
         for i, v in enumerate(items(values, "values", what)):
@@ -172,7 +178,7 @@ class UniverseResult:
             raise ValueError(f"diverged: expected a dict algorithm -> number of diverged runs, got {diverged!r}") \
                 from None
         div = {str(k): check_count(v, f"diverged[{k!r}]", n_runs) for k, v in diverged.items()}
-        return cls(tuple(vals), tuple(cls_), tuple(effs), types.MappingProxyType(div), n_runs)
+        return cls(tuple(vals), tuple(cls_), tuple(effs), types.MappingProxyType(div), n_runs, degenerate)
 
     # -- lookups ----------------------------------------------------------------------------------------------
     def value(self, key: tuple) -> Value | None:
@@ -198,7 +204,7 @@ class UniverseResult:
     def __reduce__(self):
         # field by field (a read-only mapping cannot be pickled, and results travel between worker processes)
         return (_rebuild, (self.values, self.claims, self.effects, dict(self.diverged), self.n_runs,
-                           None if self.machine is None else dict(self.machine)))
+                           None if self.machine is None else dict(self.machine), self.degenerate))
 
     # -- the cache boundary -----------------------------------------------------------------------------------
     def as_json(self) -> dict:
@@ -209,6 +215,8 @@ class UniverseResult:
                "claims": [c._asdict() for c in self.claims],
                "effects": [e._asdict() for e in self.effects],
                "diverged": dict(self.diverged), "n_runs": self.n_runs}
+        if self.degenerate:
+            doc["degenerate"] = self.degenerate
         if self.machine is not None:
             doc["machine"] = dict(self.machine)
         return doc
@@ -229,21 +237,21 @@ class UniverseResult:
         except (KeyError, TypeError) as err:
             raise ValueError(f"doc: a value or an effect lacks {err}") from None
         out = cls.build(values=vals, claims=doc["claims"], effects=effs, diverged=doc["diverged"],
-                        n_runs=doc["n_runs"])
+                        n_runs=doc["n_runs"], degenerate=doc.get("degenerate", ""))
         machine = doc.get("machine")
         return out if machine is None else _with_machine(out, machine)
 
 
-def _rebuild(values, claims, effects, diverged, n_runs, machine) -> UniverseResult:
+def _rebuild(values, claims, effects, diverged, n_runs, machine, degenerate="") -> UniverseResult:
     """A pickled :class:`UniverseResult`, unchanged (no validation: what was built is what arrives)."""
-    return UniverseResult(values, claims, effects, types.MappingProxyType(diverged), n_runs,
+    return UniverseResult(values, claims, effects, types.MappingProxyType(diverged), n_runs, degenerate,
                           None if machine is None else types.MappingProxyType(machine))
 
 
 def _with_machine(result: UniverseResult, machine: Mapping) -> UniverseResult:
     """``result`` marked as computed on the machine of fingerprint ``machine``."""
     return UniverseResult(result.values, result.claims, result.effects, result.diverged, result.n_runs,
-                          types.MappingProxyType(dict(machine)))
+                          result.degenerate, types.MappingProxyType(dict(machine)))
 
 
 #: the keys of a universe result's JSON object

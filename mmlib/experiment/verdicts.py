@@ -136,6 +136,27 @@ NOT_ASSESSABLE = ClaimVerdict.NOT_ASSESSABLE
 #: the claim vocabulary, in the order of the module docstring
 CLAIM_VERDICTS = tuple(ClaimVerdict)
 
+#: the qualifier of a verdict on a set-up the paper does not give but we had to reconstruct
+#: (:attr:`mmlib.experiment.paper.Paper.qualifier`)
+RECONSTRUCTION = "reconstruction"
+_QUALIFIED = {HOLDS: "holds in the reconstruction", PARTLY: "partly holds in the reconstruction",
+              CONTRADICTED: "contradicted by the reconstruction",
+              NOT_SUPPORTED: "not supported by the reconstruction",
+              NOT_ASSESSABLE: "not assessable in the reconstruction"}
+
+
+def qualified(verdict: str, qualifier: str) -> str:
+    """The words of a claim verdict (its category, :func:`claim_category`) under ``qualifier``: the verdict itself
+    when ``qualifier`` is "", and for :data:`RECONSTRUCTION` the verdict on the reconstruction ("contradicted by
+    the reconstruction", "holds in the reconstruction"): a verdict on a set-up the paper does not give is a verdict
+    on our reconstruction of it, never on the paper, and is kept out of pooled tallies."""
+    cat = claim_category(verdict)
+    if qualifier == "":
+        return str(cat)
+    if qualifier != RECONSTRUCTION:
+        raise ValueError(f"qualifier: expected '' or {RECONSTRUCTION!r}, got {qualifier!r}")
+    return _QUALIFIED[cat]
+
 #: the assumption every report states about the paper's own Monte Carlo error (the rule's ``s_p``)
 PAPER_ERROR_ASSUMPTION = ("The papers print no standard errors. The rule assumes the paper's Monte Carlo error is "
                           "that of the same estimator over the paper's own run count: s_p = s·√(N/N_p) from our "
