@@ -107,6 +107,10 @@ CORE_PROVENANCE = frozenset({"git_commit", "root_seed", "n_runs", "profile", "py
 PARAMETER_MINIMUM = {"N_RUNS": 2, "SEED": 0, "N_TIMING_RUNS": 1, "WORKERS": 1, "MULTIVERSE_RUNS": 2,
                      "MULTIVERSE_UNIVERSES": 1}
 
+#: the default number of universes, besides the headline, of the run-count stability check
+#: (:meth:`NotebookRun.multiverse`) by profile, when the profile sets no ``stability_universes``
+STABILITY_UNIVERSES = {"full": 8, "smoke": 2}
+
 #: the values of the MULTIVERSE_DESIGN parameter (None: the profile's)
 DESIGNS = (None, "auto", "full", "sampled", "fractional", "star")
 
@@ -116,7 +120,8 @@ class NotebookRun:
     :class:`Study`): ``NotebookRun(paper, PROFILE=..., N_RUNS=..., ...)`` with the papermill parameters.
 
     The profile (``paper.profiles[PROFILE]``) gives the defaults (``n_runs``, ``timing_runs``, ``timing_repeats``,
-    ``mv_runs``, ``mv_design`` and optionally ``mv_universes``); the parameters override them.
+    ``mv_runs``, ``mv_design`` and optionally ``mv_universes`` and ``stability_universes``, the universes besides the
+    headline of the run-count stability check, default :data:`STABILITY_UNIVERSES`); the parameters override them.
     ``MULTIVERSE_UNIVERSES`` is the size of the uniform sample of the reading space (default: the profile's
     ``mv_universes``, else the space's budget): more universes narrow the intervals of the shares, and a size at
     least the full factorial's runs the full factorial under the "auto" design.  Bad parameters raise
@@ -159,6 +164,15 @@ class NotebookRun:
         self.mv_design = MULTIVERSE_DESIGN or cfg.get("mv_design", "auto")
         #: the uniform sample's size (None: the reading space's budget)
         self.mv_universes = MULTIVERSE_UNIVERSES or cfg.get("mv_universes")
+        #: the universes besides the headline whose claim verdicts are compared at the universe and headline run
+        #: counts (:func:`mmlib.experiment.stability.run_count_stability`; 0: no check): the profile's
+        #: ``stability_universes``, else STABILITY_UNIVERSES[profile] (the full default for another profile)
+        self.stability_universes = cfg.get("stability_universes",
+                                           STABILITY_UNIVERSES.get(PROFILE, STABILITY_UNIVERSES["full"]))
+        if isinstance(self.stability_universes, bool) or not isinstance(self.stability_universes, int) \
+                or self.stability_universes < 0:
+            raise ValueError(f"PROFILE: the profile's stability_universes must be an integer >= 0, got "
+                             f"{self.stability_universes!r}")
         #: the runs of the digest: the smoke profile's headline runs, the same first runs in every profile
         self.digest_runs = min(self.n_runs, int(profiles.get("smoke", cfg)["n_runs"]))
         from mmlib.experiment.executors import default_workers
@@ -182,14 +196,32 @@ class NotebookRun:
     def multiverse(self, **options: Any) -> Multiverse:
         """The paper's reading space run at this notebook's runs per universe, design, sample size, seed and workers
         (:func:`mmlib.experiment.multiverse.run_multiverse` with the paper's job, published numbers and algorithms;
-        ``options`` go to it, e.g. ``executor``)."""
+        ``options`` go to it, e.g. ``executor``), then its run-count stability: unless :attr:`stability_universes`
+        is 0, the headline and that many sampled universes rerun at the headline's ``n_runs`` (at half the
+        universes' runs when the two counts coincide) and their claim verdicts compared with the multiverse's
+        (:func:`mmlib.experiment.stability.run_count_stability`), set as ``mv.stability`` (None when not checked)
+        and its statement printed with the progress lines."""
         from mmlib.experiment.multiverse import run_multiverse
+        from mmlib.experiment.stability import GRID_OPTIONS, run_count_stability
         p = self.study
         if not isinstance(p, Paper):
             raise ValueError(f"multiverse: {p.name} is a study, not a paper: it has no reading space")
-        return run_multiverse(p.space, p.universe, published=p.published, n_runs=self.mv_runs, seed=self.seed,
-                              algorithms=p.algorithms, design=self.mv_design, n_runs_paper=p.n_runs,
-                              sample_size=self.mv_universes, workers=self.workers, progress=self.progress, **options)
+        mv = run_multiverse(p.space, p.universe, published=p.published, n_runs=self.mv_runs, seed=self.seed,
+                            algorithms=p.algorithms, design=self.mv_design, n_runs_paper=p.n_runs,
+                            sample_size=self.mv_universes, workers=self.workers, progress=self.progress, **options)
+        mv.stability = None
+        if self.stability_universes:
+            # the headline's count; where it is the universes' own, half of it (the runs are a prefix: common
+            # random numbers), so every paper shows whether its verdicts move with the run count
+            other = self.n_runs if self.n_runs != self.mv_runs else max(2, self.mv_runs // 2)
+            mv.stability = run_count_stability(mv, p.universe, n_runs=other, seed=self.seed,
+                                               size=self.stability_universes, algorithms=p.algorithms,
+                                               workers=self.workers, progress=self.progress,
+                                               **{k: v for k, v in options.items() if k in GRID_OPTIONS})
+            if self.progress:
+                from mmlib.experiment.montecarlo import say_progress
+                say_progress(f"  [{p.name} stability] {mv.stability['statement']}")
+        return mv
 
     def show(self, fig: matplotlib.figure.Figure, stem: str, claim: str, ours: str) -> None:
         """Save ``fig`` as figures/<paper>/<stem>.{png,svg}, display it with the paper's claim and ours."""
@@ -233,6 +265,10 @@ class NotebookRun:
                 sections[key] = value.as_dict()
             elif isinstance(value, report.Claims):
                 sections[key] = value.as_list()
+        qualifier = getattr(self.study, "qualifier", "")
+        if qualifier and isinstance(sections.get("claims"), list):      # a verdict on a reconstruction says so
+            sections["claims"] = [{**c, "qualifier": qualifier, "stated": report.qualified(c["verdict"], qualifier)}
+                                  for c in sections["claims"]]
         if self.figures and "figures" not in sections:       # before the multiverse, where the notebooks put it
             keys = list(sections)
             at = keys.index("multiverse") if "multiverse" in keys else len(keys)
