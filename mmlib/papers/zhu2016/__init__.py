@@ -7,14 +7,16 @@ are all linear -- constant velocity and coordinated turns with *known* turn
 rate (Eq. 61) observed through a linear position sensor (Eq. 62).  Every
 sigma-point rule that integrates degree-2 polynomials exactly (UKF, CKF,
 5th-degree CKF) then returns the exact Kalman moments, so IMM5CKF, IMMCKF and
-IMMUKF are the same algorithm as IMM-KF, up to round-off.  Every declared reading
-of the paper (``text.FACTORS``) keeps the models linear, so the identity holds in every
-universe of the reading space ``text.SPACE`` (tested on the star design), and the claims comparing them
-have parts *identical (to round-off)* and the verdict *not supported* (:func:`.study.judge_claims`).
+IMMUKF are the same algorithm as IMM-KF, up to round-off.  Every reading with the position sensor keeps the
+models linear, so the identity holds in each of those universes (tested on the star design), and the claims
+comparing them have parts *identical (to round-off)* and the verdict *not supported* (:func:`.study.judge_claims`).
+Only Z-5's range-bearing readings (r = diag(20, 0.1) read as a radar's range and bearing variances, the bearing in
+rad² or deg²) make the measurement nonlinear: the only readings under which the abstract's claim that IMM5CKF is
+more accurate than IMMCKF and IMMUKF can be judged on a difference.
 
 Reading space (issue 10): ``text.FACTORS`` are the ambiguities that can move a result
 (deviations Z-5, Z-6, Z-7, Z-8, Z-9, Z-10, Z-12; the others say in ``text.DEVIATIONS`` why
-they cannot), ``text.SPACE`` their full factorial product (2^6 x 3 = 192 universes),
+they cannot), ``text.SPACE`` their full factorial product (2^5 x 3 x 4 = 384 universes),
 ``text.PUBLISHED`` the 16 Monte Carlo cells of Table 1 a universe replicates, and
 ``study.universe(reading, n_runs, seed)`` the job run for every universe by
 :func:`mmlib.experiment.run_multiverse`; the notebook's headline rows and claims come
@@ -22,8 +24,9 @@ from the same ``evaluate_reading`` / ``table1_rows`` / ``judge_claims`` / ``summ
 
 The package: ``text`` (Table 1 as printed, deviations, factors, reading space), ``setup`` (the set-up of a
 reading, its models, simulator, batch and arena scenario), ``study`` (one universe: evaluation, rows, claims,
-effects, summary, digest), ``timing`` (Table 1's run-time column, Z-15) and ``diagnostics`` (the notebook's
-closed-form floor check and the floor across the reading space); ``PAPER`` is its
+effects, summary, degenerate flag, digest), ``timing`` (Table 1's run-time column, Z-15) and ``diagnostics`` (the
+notebook's closed-form floor check, the floor across the reading space, the filters' consistency and the claims
+under each sensor of Z-5); ``PAPER`` is its
 :class:`~mmlib.experiment.paper.Paper`.
 """
 from __future__ import annotations
@@ -37,7 +40,7 @@ PAPER = Paper(
     published=text.PUBLISHED, algorithms=text.MV_ALGORITHMS, key_effect=study.KEY_EFFECT,
     setup=setup.setup, scenario=setup.scenario, universe=study.universe, batch=setup.batch,
     headline_digest=study.headline_digest, notebook="zhu2016_imm5ckf",
-    # full: the headline and the full factorial (192 universes) at the paper's 100 runs, so that the headline
+    # full: the headline and the full factorial (384 universes) at the paper's 100 runs, so that the headline
     # universe is the headline rows bit for bit, with 30 interleaved repeats of the run-time measurement (context);
     # smoke: a prefix of the same runs, and the star design (headline + each option alone) at the smoke run count,
     # so that the smoke headline universe equals the smoke headline rows bit for bit, with 3 timing repeats

@@ -11,6 +11,7 @@ told the true mode sequence ("clairvoyant KF"), the minimum-MSE estimator when t
 """
 from __future__ import annotations
 
+import math
 from typing import Mapping
 
 import numpy as np
@@ -19,17 +20,57 @@ from mmlib.experiment import digests, evaluation, metrics, report
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment.universe import UniverseResult
 from mmlib.papers.zhu2016 import text
-from mmlib.papers.zhu2016.setup import Setup, batch, build, setup
+from mmlib.papers.zhu2016.setup import Setup, batch, build, setup, simulator
 from mmlib.papers.zhu2016.text import MV_ALGORITHMS, QUANTITIES, RMSE_ALGORITHMS, TABLE1
 
 
-def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False) -> dict:
+def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False, consistency: bool = False) -> dict:
     """``{estimator: RunSet}`` for :data:`MV_ALGORITHMS` under ``reading``, on the runs of ``mc``
     (common random numbers: the per-run truth, measurement and initial-estimate streams do not
-    depend on the reading)."""
+    depend on the reading); ``consistency=True`` also records every run's NEES and NIS per step
+    (:func:`mmlib.experiment.evaluation.evaluate`; the estimates are the same bits either way)."""
     make_batch, estimators = batch(setup(reading), mc)
     return evaluation.evaluate(evaluation.select(estimators, MV_ALGORITHMS), make_batch, mc,
-                               label=f"{text.NAME} {text.SPACE.describe(reading)}"[:60], progress=progress)
+                               label=f"{text.NAME} {text.SPACE.describe(reading)}"[:60], progress=progress,
+                               consistency=consistency)
+
+
+#: the no-information baseline of the degenerate flag (:func:`degenerate`)
+BASELINE = "the measurement-only estimate's position RMSE"
+
+
+def position_rmse(errors: np.ndarray, valid: np.ndarray | None = None) -> float:
+    r"""Position RMSE :math:`\sqrt{\mathrm{mean}_{m,k}(e_x^2 + e_y^2)}` (m) of errors (M, K, 4) (state
+    ``[x, vx, y, vy]``) over the runs ``valid`` (M,) bool (default all); NaN when no run is valid."""
+    e = np.asarray(errors, dtype=float)
+    if valid is not None:
+        e = e[np.asarray(valid, dtype=bool)]
+    if e.shape[0] == 0:
+        return math.nan
+    return float(np.sqrt(np.mean(e[..., 0] ** 2 + e[..., 2] ** 2)))
+
+
+def measurement_only_rmse(setup: Setup, mc: MonteCarlo) -> float:
+    r"""Position RMSE (m, :func:`position_rmse`) of the measurement-only estimate over the runs of ``mc``: the
+    measured position itself under the position sensor, the measured range and bearing turned into Cartesian
+    coordinates, :math:`p = p_{\rm sensor} + \rho\,[\cos\theta, \sin\theta]`, under the range-bearing sensor
+    (Z-5); the estimate that ignores the dynamics, the no-information baseline of :func:`degenerate`.  The same
+    simulated runs as the filters' (common random numbers), vectorised over runs and steps."""
+    schedule, meas, _ = build(setup)
+    truth, z, _ = simulator(setup, schedule, meas)(mc)(range(mc.n_runs))
+    if setup.sensor == "position":
+        pos = z
+    else:
+        pos = np.asarray(setup.sensor_xy) + z[..., :1] * np.stack([np.cos(z[..., 1]), np.sin(z[..., 1])], axis=-1)
+    return float(np.sqrt(np.mean(np.sum((pos - truth[:, 1:, [0, 2]]) ** 2, axis=-1))))
+
+
+def degenerate(results: dict, baseline: float) -> str:
+    """Why the universe is degenerate (:func:`mmlib.experiment.evaluation.degenerate_reason`), "" when it is not:
+    every algorithm of Table 1 (:data:`RMSE_ALGORITHMS`) has a position RMSE (:func:`position_rmse`, m, valid runs)
+    at least the measurement-only estimate's ``baseline`` (m, :func:`measurement_only_rmse`)."""
+    return evaluation.degenerate_reason({a: position_rmse(results[a].errors, results[a].valid)
+                                         for a in RMSE_ALGORITHMS}, baseline, what=BASELINE)
 
 
 def rmse_values(results: dict) -> dict:
@@ -62,7 +103,8 @@ def table1_rows(results: dict) -> list:
 
 def coincidence(results: dict) -> dict:
     """Largest absolute difference over runs and steps between each sigma-point IMM and the IMM-KF: estimates
-    (m, m/s) and mode probabilities.  Zero up to round-off under every reading (the package docstring)."""
+    (m, m/s) and mode probabilities.  Zero up to round-off under the position sensor (the package docstring);
+    under the range-bearing sensor (Z-5) the IMM-KF is an IMM-EKF and the rules differ."""
     ref = results["IMM-KF"]
     return {"max_abs_estimate_difference_vs_IMM_KF":
             {a: float(np.nanmax(np.abs(results[a].errors - ref.errors))) for a in ("IMM5CKF", "IMMCKF", "IMMUKF")},
@@ -74,7 +116,8 @@ def coincidence(results: dict) -> dict:
 FLOOR_CLAIM = "Table 1's IMM errors lie above the minimum-MSE floor of the set-up (implicit)"
 #: the floor claim's reason where the floor is no bound (:func:`floor_is_bound`)
 FLOOR_NOT_BOUND = ("the clairvoyant KF is the minimum-MSE bound only when the simulated truth follows the filters' "
-                   "model (Z-7 noisy truth, Z-9 initial error drawn from N(0, P0))")
+                   "model (Z-7 noisy truth, Z-9 initial error drawn from N(0, P0)) and every model is linear (Z-5 "
+                   "position sensor)")
 #: the accuracy claims' quantities: (label, state components, unit of the mean squared error)
 CLAIM_QUANTITIES = (("position", (0, 2), "m²"), ("velocity", (1, 3), "m²/s²"))
 #: short labels and units of Table 1's quantities, for the parts of the floor claim
@@ -85,9 +128,10 @@ _SHORT = {"RMSE_X (m)": ("x position RMSE", "m"), "RMSE_X_V (m/s)": ("x velocity
 def floor_is_bound(setup: Setup) -> bool:
     """Whether the clairvoyant KF is the minimum-MSE estimator of this set-up: the truth must follow the
     filters' own model, i.e. be driven by Q (Z-7) and start from an initial error drawn from N(0, P0)
-    (Z-9).  Under a noise-free truth or a filter started at the true X0 with P0 = diag(1000, ...) it is
-    a reference, not a bound (a filter knowing the truth has no noise could do better)."""
-    return bool(setup.truth_process_noise) and setup.initial_estimate == "sampled"
+    (Z-9), and the models must be linear (the position sensor of Z-5).  Under a noise-free truth or a filter
+    started at the true X0 with P0 = diag(1000, ...) it is a reference, not a bound (a filter knowing the truth
+    has no noise could do better); under the range-bearing sensor it is an extended Kalman filter, no bound."""
+    return bool(setup.truth_process_noise) and setup.initial_estimate == "sampled" and setup.sensor == "position"
 
 
 def floor_check(results: dict) -> list:
@@ -145,9 +189,10 @@ def accuracy_claim(results: dict, a: str, b: str) -> tuple:
 def judge_claims(results: dict, setup: Setup) -> report.Claims:
     """The paper's accuracy, switching and divergence claims and the implicit attainability of Table 1,
     each a :class:`~mmlib.experiment.verdicts.Judgement` (one term of the claim vocabulary, its decisive number
-    and its parts; the timing claim is judged by :func:`mmlib.papers.zhu2016.timing.judge_timing`).  On this
-    paper's linear models IMM5CKF, IMMCKF and IMMUKF are one algorithm (package docstring), so their comparisons
-    are parts *identical (to round-off)* and the claims resting on them *not supported*."""
+    and its parts; the timing claim is judged by :func:`mmlib.papers.zhu2016.timing.judge_timing`).  Under the
+    position sensor (linear models) IMM5CKF, IMMCKF and IMMUKF are one algorithm (package docstring), so their
+    comparisons are parts *identical (to round-off)* and the claims resting on them *not supported*; under the
+    range-bearing sensor (Z-5) they differ and the claims are judged on the differences."""
     claims = report.Claims()
     for other in ("IMMCKF", "IMMUKF", "5CKF"):
         claims.add(f"IMM5CKF is more accurate than {other}", *accuracy_claim(results, "IMM5CKF", other))
@@ -208,21 +253,25 @@ def effects(results: dict) -> list:
     return out
 
 
-def summarise(results: dict, n_runs: int, setup: Setup) -> UniverseResult:
+def summarise(results: dict, n_runs: int, setup: Setup, degenerate: str = "") -> UniverseResult:
     """The universe's result (:meth:`UniverseResult.build`): Table 1's RMSE cells and the floor (values),
-    :func:`judge_claims`, :func:`effects` and the diverged runs per estimator."""
+    :func:`judge_claims`, :func:`effects`, the diverged runs per estimator and ``degenerate``, the reason the
+    universe is degenerate (:func:`degenerate`; "" when it is not)."""
     values = [("Table 1", alg, q, float(v.value), float(v.stderr)) for (alg, q), v in rmse_values(results).items()]
     for f in floor_check(results):
         values.append(("floor", "clairvoyant KF", f["quantity"], f["floor"], f["floor_stderr"]))
     return UniverseResult.build(values=values, claims=judge_claims(results, setup), effects=effects(results),
-                                diverged={a: int((~rs.valid).sum()) for a, rs in results.items()}, n_runs=n_runs)
+                                diverged={a: int((~rs.valid).sum()) for a, rs in results.items()}, n_runs=n_runs,
+                                degenerate=degenerate)
 
 
 def universe(reading: Mapping, n_runs: int, seed: int) -> UniverseResult:
-    """The multiverse job: one reading, ``n_runs`` Monte Carlo runs on root seed ``seed``."""
+    """The multiverse job: one reading, ``n_runs`` Monte Carlo runs on root seed ``seed``; flagged degenerate
+    (:func:`degenerate`) when no algorithm of Table 1 beats the measurement-only estimate."""
     mc = MonteCarlo(seed, n_runs)
-    return summarise(evaluate_reading(reading, mc), n_runs, setup(reading))
-
+    s = setup(reading)
+    results = evaluate_reading(reading, mc)
+    return summarise(results, n_runs, s, degenerate(results, measurement_only_rmse(s, mc)))
 
 
 def headline_digest(n_runs: int) -> dict:
