@@ -1,21 +1,23 @@
-"""What only the notebook of Tseng et al. 2011 uses: the UKF/EKF coincidence claim and the clairvoyant reference
-("oracle") schedules of the process noise.
+"""What only the notebook of Tseng et al. 2011 uses: the UKF/EKF coincidence claim, the clairvoyant reference
+("oracle") schedules of the process noise, the filters' consistency (NEES/NIS) and the claims' verdicts in the words
+of a reconstruction.
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
 from mmlib.core.estimation import KnownModeSequence
 from mmlib.core.filters import SigmaPointFilter
 from mmlib.core.rules import Unscented
-from mmlib.experiment import evaluation, report
+from mmlib.core import gnss
+from mmlib.experiment import evaluation, report, verdicts
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.papers.tseng2011.setup import Setup, noise_model
 from mmlib.papers.tseng2011.simulation import Experiment, make_batch_fn, motion_schedule
 from mmlib.papers.tseng2011.study import direction_parts, rms, rms_reduction
-from mmlib.papers.tseng2011.text import AXES, EAST, NAME, NORTH
+from mmlib.papers.tseng2011.text import ALGORITHMS, AXES, EAST, NAME, NORTH
 
 
 def ekf_claim(results: dict) -> tuple:
@@ -74,4 +76,36 @@ def oracle_summary(oracles: dict, imm: evaluation.RunSet) -> list:
                     "north": [float(n_.value), float(n_.stderr)],
                     "reduction_vs_immukf_percent": [[float(red_e.value), float(red_e.stderr)],
                                                     [float(red_n.value), float(red_n.stderr)]]})
+    return out
+
+
+def consistency(results: Mapping, names: Sequence[str] = ALGORITHMS) -> list:
+    r"""The results file's ``consistency`` section: per filter of ``names`` (default every algorithm of the paper),
+    the ANEES over the 8-state position-velocity-clock vector (:math:`\chi^2_8` per step for a consistent filter)
+    and the ANIS over the pseudoranges of the satellites in view (:math:`\chi^2_{m_k}`, m_k = 6 or 7 changing with
+    this sky, so the band is built from the per-step degrees of freedom), with their 95 % bands
+    (:func:`mmlib.experiment.evaluation.consistency_entries`).  ``results`` ``{name: RunSet}`` from
+    :func:`~mmlib.papers.tseng2011.study.evaluate_reading` with ``consistency=True``; a name missing from it, or
+    evaluated without NEES/NIS, is a ValueError naming it."""
+    names = list(names)
+    missing = [n for n in names if n not in results]
+    if missing:
+        raise ValueError(f"names: {missing} not in results (have {sorted(results)})")
+    for n in names:
+        if getattr(results[n], "nees", None) is None or getattr(results[n], "nis", None) is None:
+            raise ValueError(f"results[{n!r}]: no NEES/NIS recorded; evaluate the reading with consistency=True")
+    return evaluation.consistency_entries({n: results[n] for n in names}, gnss.STATE_DIM)
+
+
+def qualified_claims(claims: Iterable[Mapping], qualifier: str) -> list:
+    """Copies of judged claims (:meth:`mmlib.experiment.verdicts.Claims.as_list` entries) for display, each
+    ``verdict`` in the words of ``qualifier`` (:func:`mmlib.experiment.verdicts.qualified`: for a reconstruction,
+    "contradicted by the reconstruction", "holds in the reconstruction"): the paper's set-up is lost (Section 4), so
+    a verdict is on our reconstruction of it, never on the paper.  The results file keeps the plain verdict (the
+    qualifier is written beside it)."""
+    out = []
+    for c in claims:
+        if not isinstance(c, Mapping) or "verdict" not in c:
+            raise ValueError(f"claims: expected judged claims (Claims.as_list() entries), got {c!r}")
+        out.append({**c, "verdict": verdicts.qualified(c["verdict"], qualifier)})
     return out

@@ -5,7 +5,9 @@
 The values (:func:`values`) are the table's East/North position RMS errors over runs and all 1800 epochs (m) and
 the relative reductions 100 (1 - RMS_a / RMS_b) they imply (%, with jackknife standard errors); every row is judged
 by the one verdict rule (the paper's run count is unknown, T-13: its Monte Carlo error is not added).  The effects
-(:func:`effects`) are paired MSE differences over East + North (m²) on common random numbers.
+(:func:`effects`) are paired MSE differences over East + North (m²) on common random numbers.  A universe is flagged
+*degenerate* (:func:`degenerate_reason`) when no filter's horizontal position RMSE beats the no-information
+baseline, the single-epoch least-squares fix from the same pseudoranges (:mod:`mmlib.papers.tseng2011.baseline`).
 """
 from __future__ import annotations
 
@@ -21,8 +23,9 @@ from mmlib.experiment.metrics import MCValue
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment.report import Row
 from mmlib.experiment.universe import UniverseResult
+from mmlib.papers.tseng2011 import baseline
 from mmlib.papers.tseng2011.setup import Setup, setup
-from mmlib.papers.tseng2011.simulation import experiment, make_batch_fn
+from mmlib.papers.tseng2011.simulation import GEOMETRY_FIELDS, experiment, make_batch_fn
 from mmlib.papers.tseng2011.space import SPACE
 from mmlib.papers.tseng2011.text import (ALGORITHMS, AXES, EAST, IMM_EFFECT, ITEM, KEY_EFFECT, NAME, NORTH, PAIRS,
                                          PUBLISHED, ROOT_SEED, published_mse_difference)
@@ -45,11 +48,11 @@ def _canonical(setup: Setup, name: str) -> Setup:
 
 
 @functools.lru_cache(maxsize=48)
-def _evaluate_one(setup: Setup, name: str, root_seed: int, n_runs: int, progress: bool):
+def _evaluate_one(setup: Setup, name: str, root_seed: int, n_runs: int, progress: bool, consistency: bool = False):
     ex = experiment(setup, names=(name,))
     mc = MonteCarlo(root_seed, n_runs)
     rs = evaluation.evaluate(ex.estimators, make_batch_fn(ex, mc), mc, label=f"{NAME} {name}", progress=progress,
-                             measurement_models=ex.measurement_models)[name]
+                             measurement_models=ex.measurement_models, consistency=consistency)[name]
     for arr in rs:
         if isinstance(arr, np.ndarray):
             arr.setflags(write=False)            # shared between readings: never modified in place
@@ -57,15 +60,18 @@ def _evaluate_one(setup: Setup, name: str, root_seed: int, n_runs: int, progress
 
 
 def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False,
-                     names: Iterable[str] = ALGORITHMS) -> dict:
+                     names: Iterable[str] = ALGORITHMS, consistency: bool = False) -> dict:
     """The Monte Carlo evaluations ``{name: RunSet}`` of a reading, on the paper's per-run streams.
 
     Each estimator is evaluated alone on its canonical set-up (:func:`_canonical`): its numbers are
     those of a joint evaluation bit for bit (every estimator sees the same truth, measurements and
     initial draws, which depend only on the run), and readings that differ only in fields an
-    estimator does not use reuse its evaluation within this process (exact, not approximate)."""
+    estimator does not use reuse its evaluation within this process (exact, not approximate).
+    ``consistency=True`` also records every run's NEES and NIS per step (``RunSet.nees``, ``nis``, ``nis_dof``:
+    :func:`mmlib.experiment.evaluation.evaluate`); the errors are the same bits either way."""
     s = setup(reading)
-    return {name: _evaluate_one(_canonical(s, name), name, mc.root_seed, mc.n_runs, bool(progress))
+    return {name: _evaluate_one(_canonical(s, name), name, mc.root_seed, mc.n_runs, bool(progress),
+                                bool(consistency))
             for name in names}
 
 
@@ -73,6 +79,14 @@ def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False,
 def rms(rs: evaluation.RunSet, component: int) -> MCValue:
     """RMS over runs and all epochs of one state component (the paper's East/North RMS error, m)."""
     return metrics.rmse_time_averaged(rs.errors[..., component], rs.valid)
+
+
+def horizontal_rms(rs: evaluation.RunSet) -> MCValue:
+    r"""Horizontal position RMSE :math:`\sqrt{\frac{1}{NK}\sum_{r,k}(e_{r,k}^2 + n_{r,k}^2)}` (m) over the valid
+    runs and all epochs, with its standard error over runs: what :func:`degenerate_reason` compares with the
+    single-epoch fix (:func:`mmlib.papers.tseng2011.baseline.ls_rms`); its square is the sum of the squared East and
+    North :func:`rms`."""
+    return metrics.rmse_time_averaged(np.hypot(rs.errors[..., EAST], rs.errors[..., NORTH]), rs.valid)
 
 
 def rms_reduction(a: evaluation.RunSet, b: evaluation.RunSet, component: int) -> MCValue:
@@ -230,18 +244,54 @@ def effects(results: dict) -> list:
 
 
 # ---------------------------------------------------------------- the universe
-def summarise(results: dict, n_runs: int) -> UniverseResult:
+@functools.lru_cache(maxsize=16)
+def _baseline(fields: tuple, root_seed: int, n_runs: int) -> MCValue:
+    """The single-epoch fix's horizontal RMSE of a geometry and clock (``fields``: (name, value) pairs of
+    :data:`BASELINE_FIELDS`) on the runs ``0 .. n_runs - 1``: readings that differ only in filter settings see the same
+    truth and pseudoranges, so they share it (deterministic: sharing changes no number)."""
+    ex = experiment(Setup(**dict(fields)), names=("UKF",))
+    return baseline.ls_rms(ex, MonteCarlo(root_seed, n_runs))
+
+
+#: the Setup fields the fix's truth and pseudoranges depend on: the geometry's and the clock's
+BASELINE_FIELDS = GEOMETRY_FIELDS + ("clock_h0", "clock_h_minus2")
+
+
+def baseline_rms(reading: Mapping, mc: MonteCarlo) -> MCValue:
+    """The no-information baseline of ``reading`` on the runs of ``mc``: the horizontal position RMSE (m) of the
+    single-epoch least-squares fix from the same pseudoranges the filters see
+    (:func:`mmlib.papers.tseng2011.baseline.ls_rms`)."""
+    s = setup(reading)
+    return _baseline(tuple((f, getattr(s, f)) for f in BASELINE_FIELDS), mc.root_seed, mc.n_runs)
+
+
+def degenerate_reason(results: Mapping, baseline_value: float) -> str:
+    """Why the universe of ``results`` (``{name: RunSet}`` of :data:`~mmlib.papers.tseng2011.text.ALGORITHMS`) is
+    degenerate, or "" (:func:`mmlib.experiment.evaluation.degenerate_reason`): every filter's horizontal position
+    RMSE (:func:`horizontal_rms`, m) is at least ``baseline_value``, the single-epoch fix's (:func:`baseline_rms`,
+    m): no filter then learns anything from the dynamics.  The comparison is of the two Monte Carlo estimates on
+    the same runs, without a margin (a universe near the boundary is flagged or not by Monte Carlo noise; the
+    notebook prints both numbers)."""
+    return evaluation.degenerate_reason({a: float(horizontal_rms(results[a]).value) for a in ALGORITHMS},
+                                        baseline_value, what=baseline.WHAT)
+
+
+def summarise(results: dict, n_runs: int, degenerate: str = "") -> UniverseResult:
     """A universe's result from its evaluations: :func:`values`, the claims of :func:`judge_claims` (on the
-    :func:`table_rows`), :func:`effects` and the :func:`diverged` runs."""
+    :func:`table_rows`), :func:`effects` and the :func:`diverged` runs; ``degenerate`` the reason the universe is
+    degenerate (:func:`degenerate_reason`), "" when it is not."""
     vals = values(results)
     claims = judge_claims(results, table_rows(vals, n_runs), n_runs)
     return UniverseResult.build(values=vals, claims=claims, diverged=diverged(results), effects=effects(results),
-                                n_runs=n_runs)
+                                n_runs=n_runs, degenerate=degenerate)
 
 
 def universe(reading: Mapping, n_runs: int, seed: int) -> UniverseResult:
-    """The multiverse job: one reading's universe on the paper's root seed and per-run streams."""
-    return summarise(evaluate_reading(reading, MonteCarlo(seed, n_runs)), n_runs)
+    """The multiverse job: one reading's universe on the paper's root seed and per-run streams, flagged degenerate
+    when no filter beats the single-epoch fix (:func:`degenerate_reason`)."""
+    mc = MonteCarlo(seed, n_runs)
+    results = evaluate_reading(reading, mc)
+    return summarise(results, n_runs, degenerate_reason(results, float(baseline_rms(reading, mc).value)))
 
 
 def headline_digest(n_runs: int) -> dict:
