@@ -180,7 +180,7 @@ def check_page(browser, base: str, out: Path, rel: str) -> list[str]:
         if nb["unfolded"]:
             problems.append(f"{rel}: {nb['unfolded']} of {nb['cells']} code cells not folded")
         problems += [f"{rel}: stderr output published: {t!r}" for t in nb["stderr"][:3]]
-    if rel.startswith("papers/"):
+    if rel.startswith(("papers/", "controls/")):
         if page.evaluate(VERDICT_TABLES) == 0:
             problems.append(f"{rel}: no comparison table with a verdict column")
         CHECK_DIR.mkdir(parents=True, exist_ok=True)
@@ -219,11 +219,32 @@ def test_every_page_in_a_real_browser(site, browser):
     out, base = site
     rels = pages(out)
     assert {"index.html", "getting-started.html", "reading-spaces.html", "arena.html", "api/index.html"} <= set(rels)
-    assert len([r for r in rels if r.startswith("papers/")]) == 5
+    builder = load_builder()
+    docs, notebooks = builder.load_inputs("full")
+    controls = builder.controls_of(docs)
+    # one page per notebook: the controls under controls/, the papers under papers/, the arena at the top
+    assert sorted(r for r in rels if r.startswith("controls/")) == sorted(
+        f"controls/{notebooks[c].stem}.html" for c in controls)
+    assert sorted(r for r in rels if r.startswith("papers/")) == sorted(
+        f"papers/{nb.stem}.html" for p, nb in notebooks.items() if p != "arena" and p not in controls)
     problems = [p for rel in rels for p in check_page(browser, base, out, rel)]
     assert not problems, f"{len(problems)} problem(s):\n" + "\n".join(problems[:60])
     assert sorted(p.name for p in CHECK_DIR.glob("*.png")) == sorted(
-        f"{Path(r).stem}.png" for r in rels if r.startswith("papers/"))
+        f"{Path(r).stem}.png" for r in rels if r.startswith(("papers/", "controls/")))
+    # the controls come first: in the navigation and in the home page's text
+    home = (out / "index.html").read_text()
+    if controls:
+        first = min(home.find(f"controls/{notebooks[c].stem}.html") for c in controls)
+        assert 0 <= first < min(home.find(f"papers/{nb.stem}.html") for p, nb in notebooks.items()
+                                if p != "arena" and p not in controls)
+    # a paper whose verdicts judge a reconstruction wears its chip on the home page and on its page
+    import make_report
+    for d in docs:
+        q = make_report.qualifier_of(d) if d.get("kind") != "arena" else ""
+        if q:
+            assert f'class="verdict-chip chip-{q}"' in home, d["paper"]
+            page = out / builder.page_path(d["paper"], notebooks, controls).replace(".ipynb", ".html")
+            assert f'class="verdict-chip chip-{q}"' in page.read_text(), d["paper"]
 
 
 def test_the_checks_catch_what_they_look_for(site, browser):

@@ -7,8 +7,11 @@ notebooks/executed/; ``smoke``: build/smoke/), this repository's docs/ folder (t
 pages) and mmlib's docstrings.  The builder assembles the page sources in a work folder (build/.site-work/src/):
 
 * ``index.md``: the cross-paper verdict summary, rendered from the results by the same code as reports/README.md;
-* ``papers/<notebook>.ipynb`` and ``arena.ipynb``: the executed notebooks, each code cell folded (its outputs and the
-  narrative first), the papermill parameter cells removed;
+* ``controls/<notebook>.ipynb`` (the controls of the pipeline, first in the navigation), ``papers/<notebook>.ipynb``
+  and ``arena.ipynb``: the executed notebooks, each code cell folded (its outputs and the narrative first), the
+  papermill parameter cells removed, a paper's qualifier shown as a chip under its title and the forensic sections of
+  its results (consistency, sensitivity curves, planted-reading recovery, run-count stability, degenerate universes)
+  appended;
 * ``reading-spaces.md``: every paper's reading-space section, rendered from its results like its report;
 * ``new-paper.md`` (from docs/): replicating a new paper, a walk through the contract with a worked example;
 * ``results-contract.md`` (from docs/): the results contract, showing and linking its JSON Schema,
@@ -102,16 +105,49 @@ def load_inputs(profile: str) -> tuple[list[dict], dict[str, Path]]:
     return sorted(docs, key=lambda d: d["paper"]), notebooks
 
 
-def page_link(paper: str, notebooks: dict[str, Path]) -> str:
-    """The Markdown link from the home page to a paper's (or the arena's) page."""
-    target = "arena.ipynb" if paper == "arena" else f"papers/{notebooks[paper].name}"
-    return f"[{paper}]({target})"
+def page_path(paper: str, notebooks: dict[str, Path], controls: frozenset = frozenset()) -> str:
+    """A paper's page in the site: ``arena.ipynb``, ``controls/<notebook>.ipynb`` for a control of the pipeline,
+    else ``papers/<notebook>.ipynb``."""
+    if paper == "arena":
+        return "arena.ipynb"
+    return f"{'controls' if paper in controls else 'papers'}/{notebooks[paper].name}"
 
 
-def fold_notebook(src: Path, dst: Path) -> None:
+def page_link(paper: str, notebooks: dict[str, Path], controls: frozenset = frozenset()) -> str:
+    """The Markdown link from the home page to a paper's (or the arena's, or a control's) page."""
+    return f"[{paper}]({page_path(paper, notebooks, controls)})"
+
+
+def chip(qualifier: str) -> str:
+    """A qualifier of a paper's verdicts as a chip on the site (styled by docs/_static/site.css)."""
+    return f'<span class="verdict-chip chip-{qualifier}">{qualifier}</span>'
+
+
+def controls_of(docs: list[dict]) -> frozenset:
+    """The names of the controls of the pipeline among the results documents."""
+    import make_report
+    return frozenset(d["paper"] for d in docs if d.get("kind") != "arena" and make_report.is_control(d))
+
+
+def fold_notebook(src: Path, dst: Path, doc: dict | None = None) -> None:
     """Copy an executed notebook as a page: papermill's parameter cells removed, every other code cell folded
-    (``hide-input``: the source behind a toggle, the outputs shown)."""
+    (``hide-input``: the source behind a toggle, the outputs shown).  With the paper's results ``doc``: a chip after
+    the title when its verdicts carry a qualifier (a reconstructed set-up), and at the end the forensic sections the
+    results carry (controls, consistency, sensitivity curves, planted-reading recovery, run-count stability,
+    degenerate universes; :func:`make_report.render_forensic_sections`)."""
     nb = json.loads(src.read_text())
+    if doc is not None and doc.get("kind") != "arena":
+        import make_report
+        q = make_report.qualifier_of(doc)
+        if q:
+            at = next((i + 1 for i, c in enumerate(nb["cells"]) if c["cell_type"] == "markdown"), 0)
+            nb["cells"].insert(at, _markdown_cell(
+                f"{chip(q)} The set-up of this paper is a {q} (the paper does not give it): every claim verdict here "
+                "judges the reconstruction, not the paper, and is kept out of the pooled tallies."))
+        extra = make_report.render_forensic_sections(doc, level=3, suffix=" (results file)")
+        if extra:
+            nb["cells"].append(_markdown_cell("\n".join(
+                [f"## Forensic checks (from `data/results/{doc['paper']}.json`)"] + extra)))
     for cell in nb["cells"]:
         if cell["cell_type"] != "code":
             continue
@@ -124,11 +160,21 @@ def fold_notebook(src: Path, dst: Path) -> None:
     dst.write_text(json.dumps(nb))
 
 
+def _markdown_cell(text: str) -> dict:
+    return {"cell_type": "markdown", "metadata": {}, "source": text}
+
+
 def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
+    """The home page: the controls first (in the text and in the navigation), then the papers, the cross-paper
+    pages and the library; the summary is :func:`make_report.render_index` with the site's links and chips."""
     import make_report
-    summary = make_report.render_index(docs, link=lambda p: page_link(p, notebooks), title="## What holds")
-    papers = [d for d in docs if d.get("kind") != "arena"]
+    controls = controls_of(docs)
+    summary = make_report.render_index(docs, link=lambda p: page_link(p, notebooks, controls), title="## What holds",
+                                       chip=chip)
+    papers = [d for d in docs if d.get("kind") != "arena" and d["paper"] not in controls]
     commits = sorted({d["provenance"]["git_commit"][:10] for d in docs})
+    nav_controls = ["```{toctree}", ":maxdepth: 1", ":caption: Controls", "",
+                    *[f"controls/{notebooks[c].stem}" for c in sorted(controls)], "```", ""] if controls else []
     return "\n".join([
         "# Tracking papers, replicated", "",
         f"{len(papers)} papers on maneuvering-target tracking with interacting multiple model (IMM) and sigma-point "
@@ -137,7 +183,9 @@ def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
         "(`mmlib/experiment/verdicts.py`), every ambiguity of the text is run as a declared reading, and every "
         "algorithm is run on every scenario in the arena.", "",
         f"Generated from the results of commit{'s' if len(commits) > 1 else ''} {', '.join(f'`{c}`' for c in commits)} "
-        f"({len(papers)} papers and the arena).", "",
+        f"({len(papers)} papers{f', {len(controls)} control' + ('s' if len(controls) > 1 else '') if controls else ''}"
+        " and the arena).", "",
+        *nav_controls,
         "```{toctree}", ":maxdepth: 1", ":caption: Papers", "",
         *[f"papers/{notebooks[d['paper']].stem}" for d in sorted(papers, key=lambda d: d["paper"])], "```", "",
         "```{toctree}", ":maxdepth: 1", ":caption: Across the papers", "", "reading-spaces", "arena", "```", "",
@@ -153,9 +201,13 @@ def reading_spaces_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
              "numbered, and all of them run (a multiverse, as in specification curves): each verdict is reported "
              "across every reading, and the readings that reproduce the published tables are named. Each section "
              "below is rendered from the paper's results; the paper's page shows the figures.", ""]
-    for doc in sorted((d for d in docs if d.get("multiverse")), key=lambda d: d["paper"]):
-        section = "\n".join(make_report.render_multiverse(doc["multiverse"])).replace(
-            "## Reading space (multiverse)", f"## {doc['paper']} ({page_link(doc['paper'], notebooks)})")
+    controls = controls_of(docs)
+    for doc in sorted((d for d in docs if d.get("multiverse")), key=lambda d: (d["paper"] not in controls, d["paper"])):
+        q = make_report.qualifier_of(doc)
+        section = "\n".join(make_report.render_multiverse(doc["multiverse"], q)).replace(
+            "## Reading space (multiverse)", f"## {doc['paper']} ({page_link(doc['paper'], notebooks, controls)})"
+            + (" — control of the pipeline" if doc["paper"] in controls else "")
+            + (f"\n\n{chip(q)} verdicts on a {q} of the set-up" if q else ""))
         lines += [section, ""]
     return "\n".join(lines)
 
@@ -203,8 +255,10 @@ def assemble(stage: Path, docs: list[dict], notebooks: dict[str, Path]) -> None:
     shutil.copy2(REPO / "mmlib" / "experiment" / "results.schema.json", stage / "_includes" / "results.schema.json")
     (stage / "index.md").write_text(index_page(docs, notebooks))
     (stage / "reading-spaces.md").write_text(reading_spaces_page(docs, notebooks))
+    controls = controls_of(docs)
+    by_name = {d["paper"]: d for d in docs}
     for paper, nb in notebooks.items():
-        fold_notebook(nb, stage / ("arena.ipynb" if paper == "arena" else f"papers/{nb.name}"))
+        fold_notebook(nb, stage / page_path(paper, notebooks, controls), by_name.get(paper))
     api_pages(stage)
     # the bundled MathJax (jupyter-server-mathjax's copy of MathJax 2.7), served from _static/mathjax/
     import jupyter_server_mathjax

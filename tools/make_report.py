@@ -24,10 +24,73 @@ from mmlib.experiment import views  # noqa: E402
 from mmlib.experiment.views import markdown_table, value_pm  # noqa: E402
 
 
-def render_multiverse(mv: dict) -> list:
+def sentence(text: str) -> str:
+    """``text`` as a sentence: its first letter upper-case, a full stop at the end."""
+    return text[:1].upper() + text[1:] + ("" if text.endswith(".") else ".")
+
+
+def is_control(doc: dict) -> bool:
+    """Whether a results document is a control of the pipeline (a Paper of kind "control", e.g.
+    data/results/controls.json): its top-level ``kind`` says so, or it carries a ``controls`` section."""
+    return doc.get("kind") == "control" or "controls" in doc
+
+
+def qualifier_of(doc: dict) -> str:
+    """The qualifier of a paper's verdicts ("" or "reconstruction"): the document's own ``qualifier`` (top level or
+    provenance) or, failing that, the first one its claims carry."""
+    q = doc.get("qualifier") or doc.get("provenance", {}).get("qualifier")
+    if q:
+        return str(q)
+    return next((str(c["qualifier"]) for c in doc.get("claims", []) if c.get("qualifier")), "")
+
+
+def render_forensics(mv: dict) -> list:
+    """The forensic subsections of a stored multiverse that the results carry (a file written before them renders
+    none of them): sensitivity curves, planted-reading recovery, run-count stability and degenerate universes."""
+    lines = []
+    if mv.get("sensitivity") is not None:
+        lines += ["", "### Sensitivity curves (tuning swept, not readings)", "",
+                  "A sensitivity factor sweeps an unstated tuning value over a range; its options are not readings of "
+                  "the paper, so they are never searched by the table match nor counted among the readings that "
+                  "reproduce. Each row holds the other factors at their headline.", "", views.sensitivity_table(mv)]
+    if mv.get("recovery") is not None:
+        lines += ["", "### Can the table match find a reading? Planted-reading recovery", "",
+                  "Readings drawn at random from the declared space are planted: a synthetic printed table is made "
+                  "from each at the paper's run count, seed stream and printed precision, and the table match ranks "
+                  "the universes against it. Paper-wide: " + views.recovery_text(mv["recovery"]) + ".", "",
+                  views.recovery_table(mv)]
+    if mv.get("stability") is not None:
+        lines += ["", "### Run-count stability", "", views.stability_text(mv)]
+    found = views.degenerate_list(mv)
+    if found is not None:
+        lines += ["", "### Degenerate universes", "", views.degenerate_text(mv)]
+    return lines
+
+
+def render_forensic_sections(doc: dict, level: int = 2, suffix: str = "") -> list:
+    """The forensic sections of a paper's results that a page may lack (the site appends them to the paper's
+    notebook page): the controls (for a control), the consistency table and the multiverse's forensic subsections
+    (:func:`render_forensics`), each only when the results carry it; ``level`` the heading level of the sections,
+    ``suffix`` appended to each heading (so that it cannot collide with a heading of the notebook)."""
+    h = "#" * level
+    lines = []
+    if isinstance(doc.get("controls"), dict):
+        lines += ["", f"{h} The controls of the pipeline{suffix}", "", sentence(views.controls_text(doc["controls"]))]
+    if doc.get("consistency") is not None:
+        lines += ["", f"{h} Consistency: NEES and NIS against their chi-square bands{suffix}", "",
+                  views.consistency_table(doc["consistency"])]
+    if doc.get("multiverse"):
+        sub = render_forensics(doc["multiverse"])
+        lines += [x.replace("### ", f"{h} ", 1).rstrip() + suffix if x.startswith("### ") else x for x in sub]
+    return lines
+
+
+def render_multiverse(mv: dict, qualifier: str = "") -> list:
     """The reading-space section of a paper's report, from the stored ``multiverse`` object: the design and its
-    weighting, the factors and options, the claims' shares of the reading space with their intervals, the claim x
-    option table, the published numbers (joint tests, precision-aware closest universe) and the table match."""
+    weighting, the factors and options, the claims' shares of the reading space with their intervals (the headline
+    verdicts qualified by ``qualifier`` for a reconstructed set-up), the claim x option table, the published numbers
+    (joint tests, precision-aware closest universe), the table match with its forensic sentences, and the forensic
+    subsections the results carry (:func:`render_forensics`)."""
     from mmlib.experiment.multiverse import PRECISION, ROBUST_FRACTION
     shares = ("Every universe of the full factorial weighs the same: a share is exact when the full factorial is "
               "run, else estimated from the uniform random sample with a 95 % Wilson score interval; the headline "
@@ -42,7 +105,7 @@ def render_multiverse(mv: dict) -> list:
             "### Factors", "",
             views.factors_table(mv["factors"]), "", "Each option, and where the paper's text supports it:", "",
             views.options_table(mv["factors"]), "", "### Claims across the reading space", "", shares, "",
-            views.claims_table(mv), "", "### Claim × option", "",
+            views.claims_table(mv, qualifier), "", "### Claim × option", "",
             "Share of each claim's most frequent verdict among the counted universes with each option: what drives "
             "the verdict.", "", views.claim_option_table(mv), "",
             "### Published numbers across the universes", "",
@@ -52,7 +115,11 @@ def render_multiverse(mv: dict) -> list:
             "distance.", "", views.numbers_table(mv), "",
             "### Which reading matches each published table", "", views.table_match_table(mv),
             "", "The best-matching reading is a forensic finding (which declared reading the printed table is "
-            "consistent with), not the headline; no continuous parameter is fitted."]
+            "consistent with), not the headline; no continuous parameter is fitted. Only readings of the text are "
+            "searched (sensitivity sweeps and options motivated by the results or another paper are not), and a "
+            "factor the table cannot identify (planted-reading recovery) is never named as what it is consistent "
+            "with.", "", *[f"- {views.table_match_sentence(t)}." for t in mv["table_match"]],
+            *render_forensics(mv)]
 
 
 def render_figures(doc: dict, root: Path, out_dir: Path) -> list:
@@ -107,6 +174,15 @@ def render(doc: dict, root: Path, out_dir: Path) -> str:
              "Verdict rule: `mmlib/experiment/verdicts.py`.", ""]
     if doc.get("rule"):
         lines += [f"*Assumption of the rule:* {doc['rule']['paper_error_assumption']}", ""]
+    if isinstance(doc.get("controls"), dict):
+        lines += ["## The controls of the pipeline", "",
+                  "A control is a \"published\" table known in closed form: the pipeline (simulation, filter, Monte "
+                  "Carlo metrics, the verdict rule, the reading space) must reproduce every cell of it (positive "
+                  "control) and reject every cell of the same table perturbed (negative control).", "",
+                  sentence(views.controls_text(doc["controls"])), ""]
+    if qualifier_of(doc):
+        lines += [f"*Qualifier:* the set-up is a {qualifier_of(doc)} (the paper does not give it); every claim "
+                  "verdict below is a verdict on it, not on the paper, and is kept out of pooled tallies.", ""]
     lines += ["## Comparison", ""]
     lines.append(markdown_table(
         ["item", "algorithm", "quantity", "paper", "replicated ± s.e.", "z", "verdict", "deviations", "note"],
@@ -133,8 +209,14 @@ def render(doc: dict, root: Path, out_dir: Path) -> str:
         if any(c.get("parts") for c in doc["claims"]):
             from mmlib.experiment.notebook import claim_matrix
             lines += ["", "### Claim × comparison", "", claim_matrix(doc["claims"])]
+    if doc.get("consistency") is not None:
+        lines += ["", "## Consistency: NEES and NIS against their chi-square bands", "",
+                  "A consistent filter's ANEES has the state dimension as its mean and its ANIS the measurement "
+                  "dimension; the 95 % band of the NIS's run-and-time average is exact for white innovations, the "
+                  "NEES's is that of a run-average at one step (Bar-Shalom, Li & Kirubarajan 2001, Sec. 5.4.2).", "",
+                  views.consistency_table(doc["consistency"])]
     if doc.get("multiverse"):
-        lines += render_multiverse(doc["multiverse"])
+        lines += render_multiverse(doc["multiverse"], qualifier_of(doc))
     if doc.get("figures"):
         lines += ["", "## Figures", ""] + render_figures(doc, root, out_dir)
     if doc.get("deviations"):
@@ -145,25 +227,95 @@ def render(doc: dict, root: Path, out_dir: Path) -> str:
     return "\n".join(lines) + "\n"
 
 
-def render_index(docs, link=None, title: str = "# All papers: what holds") -> str:
-    """Cross-paper summary: verdict counts per paper and every claim verdict, one line each; the arena's findings.
+def markdown_chip(qualifier: str) -> str:
+    """A qualifier as a chip in plain Markdown (reports/README.md): ``*[reconstruction]*``."""
+    return f"*[{qualifier}]*"
+
+
+def pooled_tallies(docs: list[dict]) -> dict:
+    """Verdict tallies pooled over the papers, with what pooling would mix kept apart: the controls (they test the
+    pipeline, not a paper) and every verdict carrying a qualifier (a paper whose set-up is reconstructed: its rows
+    and claims judge the reconstruction, not the paper).  Returns ``{"papers": [names pooled], "rows": {number verdict:
+    count}, "claims": {claim verdict: count}, "apart": {"controls": [names], "qualified_papers": [names],
+    "qualified_rows": {verdict: count}, "qualified_claims": {stated words: count}}}``; the arena is not a paper and
+    takes no part."""
+    from mmlib.experiment.verdicts import CLAIM_VERDICTS, VERDICTS, claim_category, verdict_category
+    papers = [d for d in docs if d.get("kind") != "arena"]
+    out = {"papers": [], "rows": {str(v): 0 for v in VERDICTS}, "claims": {str(v): 0 for v in CLAIM_VERDICTS},
+           "apart": {"controls": [], "qualified_papers": [], "qualified_rows": {str(v): 0 for v in VERDICTS},
+                     "qualified_claims": {}}}
+    for d in papers:
+        if is_control(d):
+            out["apart"]["controls"].append(d["paper"])
+            continue
+        q = qualifier_of(d)
+        if q:
+            out["apart"]["qualified_papers"].append(d["paper"])
+        else:
+            out["papers"].append(d["paper"])
+        rows = out["apart"]["qualified_rows"] if q else out["rows"]
+        for r in d["rows"]:
+            rows[str(verdict_category(r["verdict"]))] += 1
+        for c in d.get("claims", []):
+            if c.get("qualifier") or q:
+                words = views.claim_words(c if c.get("qualifier") or c.get("stated") else {**c, "qualifier": q})
+                out["apart"]["qualified_claims"][words] = out["apart"]["qualified_claims"].get(words, 0) + 1
+            else:
+                out["claims"][str(claim_category(c["verdict"]))] += 1
+    return out
+
+
+def _counts(counts: dict) -> str:
+    return ", ".join(f"{k} {n}" for k, n in counts.items() if n) or "none"
+
+
+def render_index(docs, link=None, title: str = "# All papers: what holds", chip=None) -> str:
+    """Cross-paper summary: first the controls of the pipeline (does the machinery reproduce a paper that is right?),
+    then verdict counts per paper with the tallies pooled over the papers (controls and verdicts on a reconstructed
+    set-up kept apart, :func:`pooled_tallies`) and every claim verdict, one line each; the arena's findings.
 
     ``link(paper)`` is the Markdown link to a paper's page (default: its report, ``[<paper>.md](<paper>.md)``; the
-    site links its notebook pages instead); ``title`` the first line."""
+    site links its notebook pages instead); ``title`` the first line; ``chip(qualifier)`` the mark set beside a
+    paper whose verdicts carry a qualifier (default :func:`markdown_chip`; the site draws a styled chip)."""
     from mmlib.experiment.multiverse import PRECISION
     from mmlib.experiment.verdicts import PAPER_ERROR_ASSUMPTION, VERDICTS, verdict_category
     link = link or (lambda paper: f"[{paper}.md]({paper}.md)")
+    chip = chip or markdown_chip
     arena = [d for d in docs if d.get("kind") == "arena"]
-    docs = [d for d in docs if d.get("kind") != "arena"]
-    lines = [title, "",
-             "Generated from `data/results/*.json`. Verdict rule: `mmlib/experiment/verdicts.py`. Counts are over the "
-             "comparison rows of each paper (tables; timing rows included); a *reproduced (isolated)* cell matched "
-             "inside a table or row that fails its joint test and does not count as reproduced.", "",
-             f"*Assumption of the rule:* {PAPER_ERROR_ASSUMPTION}", "",
-             markdown_table(["paper", "runs", *VERDICTS, "report"],
-                            [[d["paper"], d["provenance"]["n_runs"],
-                              *[sum(verdict_category(r["verdict"]) == v for r in d["rows"]) for v in VERDICTS],
-                              link(d["paper"])] for d in docs]), ""]
+    controls = [d for d in docs if d.get("kind") != "arena" and is_control(d)]
+    docs = [d for d in docs if d.get("kind") != "arena" and not is_control(d)]
+    pooled = pooled_tallies([*controls, *docs])
+    lines = [title, ""]
+    if controls:
+        lines += ["## Controls: the machinery reproduces when the paper is right", "",
+                  "Before any paper, the pipeline (simulation, filter, Monte Carlo metrics, the verdict rule, the "
+                  "reading space) is run on \"published\" tables known in closed form: it must reproduce every cell "
+                  "of the true table (positive control) and reject every cell of the same table perturbed (negative "
+                  "control). The controls are not papers and take no part in the tallies below.", ""]
+        lines += [f"- {link(d['paper'])}: " + (views.controls_text(d["controls"]) if isinstance(d.get("controls"), dict)
+                                                else "no controls section in its results") + "." for d in controls]
+        lines += [""]
+
+    def name(d):
+        q = qualifier_of(d)
+        return d["paper"] + (f" {chip(q)}" if q else "")
+
+    count_rows = [[name(d), d["provenance"]["n_runs"],
+                   *[sum(verdict_category(r["verdict"]) == v for r in d["rows"]) for v in VERDICTS],
+                   link(d["paper"])] for d in docs]
+    if docs:
+        count_rows.append([f"pooled over the {len(pooled['papers'])} papers whose set-up is given", "--",
+                           *[pooled["rows"][str(v)] for v in VERDICTS], "--"])
+    if pooled["apart"]["qualified_papers"]:
+        count_rows.append([f"apart: verdicts on a reconstruction ({', '.join(pooled['apart']['qualified_papers'])})",
+                           "--", *[pooled["apart"]["qualified_rows"][str(v)] for v in VERDICTS], "--"])
+    lines += ["Generated from `data/results/*.json`. Verdict rule: `mmlib/experiment/verdicts.py`. Counts are over the "
+              "comparison rows of each paper (tables; timing rows included); a *reproduced (isolated)* cell matched "
+              "inside a table or row that fails its joint test and does not count as reproduced. The pooled row "
+              "leaves out the controls and the papers whose set-up had to be reconstructed (their verdicts judge the "
+              "reconstruction, not the paper: shown apart).", "",
+              f"*Assumption of the rule:* {PAPER_ERROR_ASSUMPTION}", "",
+              markdown_table(["paper", "runs", *VERDICTS, "report"], count_rows), ""]
     with_mv = [d for d in docs if d.get("multiverse")]
     if with_mv:
         lines += ["## Reading spaces: does some reading reproduce the tables, and are the verdicts robust?", "",
@@ -171,29 +323,45 @@ def render_index(docs, link=None, title: str = "# All papers: what holds") -> st
                   "(common random numbers). *Headline* is the reading chosen on the text before any run; "
                   "*best reading* is the declared reading whose numbers are closest to the whole printed table "
                   "(root-mean-square relative distance, among universes whose every value has a standard error "
-                  f"within {100 * PRECISION:.0f} % of the printed one) -- a forensic finding, never the headline. A "
-                  "cell reproduced inside a row or table failing its joint test is isolated and not counted.", "",
+                  f"within {100 * PRECISION:.0f} % of the printed one) -- a forensic finding, never the headline; "
+                  "only readings of the text are searched (no tuning sweep, no option motivated by the results), and "
+                  "*recovered first* is how often the table match ranks first a reading planted at random in the "
+                  "space. A cell reproduced inside a row or table failing its joint test is isolated and not "
+                  "counted.", "",
                   markdown_table(["paper", "universes", "runs each", "weighting", "table", "cells",
                                   "reproduced: headline universe", "headline joint test",
                                   "reproduced: best-matching reading", "best-matching reading",
-                                  "most cells any reading reproduces", "that reading"],
-                                 [[d["paper"], d["multiverse"]["n_universes"], d["multiverse"]["n_runs"],
+                                  "most cells any reading reproduces", "that reading",
+                                  "planted reading recovered first"],
+                                 [[name(d), d["multiverse"]["n_universes"], d["multiverse"]["n_runs"],
                                    d["multiverse"]["weighting"], t["table"], t["n_cells"], t["headline_n_reproduced"],
                                    "--" if t["joint_test"] is None else
                                    ("passes" if t["joint_test"]["passes"] else "fails"),
-                                   t["best_n_reproduced"], t["best_describe"],
-                                   t["most_n_reproduced"], views.most_reading(t)]
+                                   t["best_n_reproduced"], views.reading_text(t, "best"),
+                                   t["most_n_reproduced"], views.most_reading(t),
+                                   "--" if not isinstance(t.get("recovery"), dict) or t["recovery"].get("top1") is None
+                                   else f"{views.percent(t['recovery']['top1'])} % of {t['recovery']['planted']}"]
                                   for d in with_mv for t in d["multiverse"]["table_match"]]), ""]
+    apart = pooled["apart"]["qualified_claims"]
     lines += ["## Claims", "", "Each claim: the headline reading's verdict, the one number that decided it, and the "
               "share of the paper's reading space (every universe of the full factorial weighted equally) with that "
               "verdict, with its 95 % interval when estimated from a uniform sample of universes; *robust* when one "
-              "verdict's interval lies at or above 90 %.", ""]
+              "verdict's interval lies at or above 90 %. A verdict on a reconstructed set-up says so (\"contradicted "
+              "by the reconstruction\").", "",
+              f"Pooled over the {len(pooled['papers'])} papers whose set-up is given "
+              f"({sum(pooled['claims'].values())} claims, headline verdicts): {_counts(pooled['claims'])}"
+              + (f"; apart, {sum(apart.values())} claims on a reconstruction "
+                 f"({', '.join(pooled['apart']['qualified_papers'])}): {_counts(apart)}" if apart else "") + ".", ""]
     for d in docs:
         mv = d.get("multiverse", {})
         across = {c["claim"]: c for c in mv.get("claims_summary", [])}
         note = f" ({mv['weighting']})" if mv.get("weighting") else ""
-        lines += [f"### {d['paper']}", "",
-                  markdown_table(["claim", "verdict — decisive number — share of the reading space" + note,
+        q = qualifier_of(d)
+        lines += [f"### {d['paper']}", ""]
+        if q:
+            lines += [f"{chip(q)} The set-up is a {q}: these verdicts judge it, not the paper, and are kept out of "
+                      "the pooled tallies.", ""]
+        lines += [markdown_table(["claim", "verdict — decisive number — share of the reading space" + note,
                                   "across the reading space"],
                                  [[c["claim"], views.claim_cell(c, across.get(c["claim"])),
                                    across[c["claim"]]["robustness"] if c["claim"] in across else "--"]

@@ -1,11 +1,17 @@
 """Tables and figures of a multiverse: factors, claim robustness, readings that reproduce the
-published numbers, the one-factor-at-a-time view, the specification curve and the table match.
+published numbers, the one-factor-at-a-time view, the specification curve and the table match; and the forensic
+sections of a results file: filter consistency (NEES/NIS against their chi-square bands), sensitivity curves
+(verdict against a swept tuning value), planted-reading recovery of the table match, run-count stability,
+degenerate universes and the controls of the pipeline.
 
-Markdown tables are returned as text; figures as matplotlib figures (the caller saves them).
+Markdown tables are returned as text; figures as matplotlib figures (the caller saves them).  Every function reading
+a stored section tolerates a results file written before the section existed: it says the section is absent instead
+of failing.
 """
 from __future__ import annotations
 
 import math
+import re
 from typing import TYPE_CHECKING, Any, Iterable, Sequence
 
 import numpy as np
@@ -150,18 +156,48 @@ def robustness_text(entry: dict) -> str:
         raise ValueError(f"entry: expected an entry of Multiverse.claims_summary(), got {entry!r}")
     if entry["share"] is None:
         return (f"{entry['robustness']} (counts over the design's universes: "
-                + ", ".join(f"{k} {n}" for k, n in entry["verdict_counts"].items()) + ")")
+                + ", ".join(f"{k} {n}" for k, n in entry["verdict_counts"].items()) + ")" + _motivated_note(entry))
     return (f"{entry['robustness']} — " + "; ".join(share_text(entry, k) for k in entry["verdict_counts"])
-            + f" ({entry['weighting']})")
+            + f" ({entry['weighting']})" + _motivated_note(entry))
+
+
+def _motivated_counts(entry: dict) -> str:
+    """The verdict counts among the universes with a motivated option (``entry["motivated"]``), "--" when none."""
+    counts = entry.get("motivated") or {}
+    if not isinstance(counts, dict):
+        raise ValueError(f"entry: 'motivated' must map verdicts to counts, got {counts!r}")
+    return ", ".join(f"{k} {n}" for k, n in counts.items() if n) or "--"
+
+
+def _motivated_note(entry: dict) -> str:
+    """``"; apart, universes with an option motivated by the results or another paper: holds 3"`` or ""."""
+    counts = _motivated_counts(entry)
+    return "" if counts == "--" else f"; apart, universes with an option motivated by the results or another " \
+                                     f"paper (not counted): {counts}"
+
+
+def claim_words(claim: dict) -> str:
+    """The words a claim's verdict is stated in: its ``stated`` text when the results file gives one (a qualified
+    verdict, "contradicted by the reconstruction"), else the verdict under its ``qualifier``
+    (:func:`mmlib.experiment.verdicts.qualified`), else the bare verdict word of the claim vocabulary."""
+    if not isinstance(claim, dict) or "verdict" not in claim:
+        raise ValueError(f"claim: expected an entry of a results file's claims, got {claim!r}")
+    stated = claim.get("stated")
+    if stated:
+        if not isinstance(stated, str):
+            raise ValueError(f"claim: 'stated' must be the verdict's words (a string), got {stated!r}")
+        return stated
+    return verdicts.qualified(claim["verdict"], claim.get("qualifier") or "")
 
 
 def claim_cell(claim: dict, across: dict | None) -> str:
-    """A claim's verdict cell in a report: exactly one verdict word, the one decisive number and its share of the
-    reading space with its interval, ``"holds — IMM5CKF − IMMCKF: position MSE +2.4e+03 % — holds 48 % [38, 58] of
-    the space"``.  ``claim`` an entry of a results file's ``claims`` (``verdict``, ``decisive``); ``across`` the
-    matching entry of the multiverse's ``claims_summary`` (None: the paper has no reading space)."""
-    if not isinstance(claim, dict) or "verdict" not in claim:
-        raise ValueError(f"claim: expected an entry of a results file's claims, got {claim!r}")
+    """A claim's verdict cell in a report: exactly one verdict (its words, :func:`claim_words`: qualified, e.g.
+    "contradicted by the reconstruction", when the set-up is a reconstruction), the one decisive number and its
+    share of the reading space with its interval, ``"holds — IMM5CKF − IMMCKF: position MSE +2.4e+03 % — holds 48 %
+    [38, 58] of the space"``.  ``claim`` an entry of a results file's ``claims`` (``verdict``, ``decisive``,
+    optionally ``qualifier`` and ``stated``); ``across`` the matching entry of the multiverse's ``claims_summary``
+    (None: the paper has no reading space)."""
+    words = claim_words(claim)
     word = str(verdicts.claim_category(claim["verdict"]))
     if across is not None and (not isinstance(across, dict) or "share" not in across or "robustness" not in across):
         raise ValueError(f"across: expected None or an entry of Multiverse.claims_summary(), got {across!r}")
@@ -172,7 +208,7 @@ def claim_cell(claim: dict, across: dict | None) -> str:
         share = across["robustness"]
     else:
         share = share_text(across, word) + " of the space"
-    return f"{word} — {decisive} — {share}"
+    return f"{words} — {decisive} — {share}"
 
 
 def _weighting_note(summary: list) -> str:
@@ -180,11 +216,15 @@ def _weighting_note(summary: list) -> str:
     return "; ".join(sorted(w)) if w else "--"
 
 
-def claims_table(mv: Multiverse | dict) -> str:
-    """Per claim (:meth:`Multiverse.claims_summary`, computed or stored): the headline verdict, each verdict's share
+def claims_table(mv: Multiverse | dict, qualifier: str = "") -> str:
+    """Per claim (:meth:`Multiverse.claims_summary`, computed or stored): the headline verdict (qualified by
+    ``qualifier``, :func:`mmlib.experiment.verdicts.qualified`, for a reconstructed set-up), each verdict's share
     of the reading space with its 95 % interval (``"holds 48 % [38, 58]"``; exact, without interval, when the full
-    factorial is run), robust or not, and the star universes' verdicts (reported apart).  The header states the
+    factorial is run), robust or not, the star universes' verdicts and those of the universes with an option
+    motivated by the results or by another paper (both reported apart, never counted).  The header states the
     weighting (e.g. "uniform sample of 200 of 10752, seed S")."""
+    if qualifier not in ("", verdicts.RECONSTRUCTION):
+        raise ValueError(f"qualifier: expected '' or {verdicts.RECONSTRUCTION!r}, got {qualifier!r}")
     summary = _summary(mv, "claims_summary")
     rows = []
     for c in summary:
@@ -194,11 +234,13 @@ def claims_table(mv: Multiverse | dict) -> str:
         else:
             across = "; ".join(share_text(c, k) for k in c["verdict_counts"])
         star = ", ".join(f"{k} {n}" for k, n in c["star_counts"].items()) or "--"
-        rows.append([c["claim"], c["headline_verdict"], across, c["robustness"], star])
+        head = c["headline_verdict"] if not qualifier else verdicts.qualified(c["headline_verdict"], qualifier)
+        rows.append([c["claim"], head, across, c["robustness"], star, _motivated_counts(c)])
     return markdown_table(["claim", "headline verdict", f"share of the reading space [95 % interval] "
                                                         f"({_weighting_note(summary)})",
                            f"robust (lower bound ≥ {100 * ROBUST_FRACTION:.0f} % for one verdict)",
-                           "star: each option alone (not counted)"], rows)
+                           "star: each option alone (not counted)",
+                           "an option motivated by the results or another paper (not counted)"], rows)
 
 
 def claim_option_table(mv: Multiverse | dict) -> str:
@@ -258,11 +300,119 @@ def numbers_table(mv: Multiverse | dict) -> str:
                            "its verdict", "closest reading"], rows)
 
 
-def most_reading(t: dict) -> str:
-    """The reading that reproduces the most cells of a table, or 'none' when no reading reproduces any."""
+def _table_entry(t, name: str = "t") -> dict:
     if not isinstance(t, dict) or "most_describe" not in t or "most_n_reproduced" not in t:
-        raise ValueError(f"t: expected an entry of Multiverse.table_match(), got {t!r}")
-    return t["most_describe"] if t["most_n_reproduced"] else "none (no reading reproduces a cell)"
+        raise ValueError(f"{name}: expected an entry of Multiverse.table_match(), got {t!r}")
+    return t
+
+
+def _recovery_of(t: dict) -> dict | None:
+    """The table's planted-reading recovery entry (``t["recovery"]``), None when the results hold none."""
+    rec = t.get("recovery")
+    if rec is not None and (not isinstance(rec, dict) or "top1" not in rec):
+        raise ValueError(f"t: 'recovery' must be a table's recovery entry (planted, top1, top3, ...), got {rec!r}")
+    return rec
+
+
+def reading_text(t: dict, which: str = "best") -> str:
+    """The ``which`` reading (``"best"``: the best-matching precise one; ``"most"``: the one reproducing the most
+    cells) of a table-match entry, as the forensic sentence may name it: the options differing from the headline,
+    except those of a factor the table cannot identify (its planted-reading recovery entry's ``unidentifiable``),
+    which are never named as what the table is consistent with; such factors are listed as unidentifiable, and an
+    option the table cannot tell from another (``indistinguishable``) says so.  Without a recovery entry (results
+    written before it existed), the reading's description unchanged."""
+    t = _table_entry(t)
+    if which not in ("best", "most"):
+        raise ValueError(f"which: expected 'best' or 'most', got {which!r}")
+    describe = t.get(f"{which}_describe") or "--"
+    reading = t.get(f"{which}_reading")
+    rec = _recovery_of(t)
+    if rec is None or not isinstance(reading, dict):
+        return describe
+    unident = [str(f) for f in rec.get("unidentifiable") or []]
+    twins = rec.get("indistinguishable") or {}
+    parts = [describe]
+    if describe != "headline" and reading:
+        ids = "|".join(re.escape(str(f)) for f in sorted(reading, key=lambda f: -len(str(f))))
+        parts = re.split(rf"; (?=(?:{ids}): )", describe)
+    kept = []
+    for part in parts:
+        fid = part.split(": ", 1)[0]
+        if fid in unident:
+            continue
+        others = [o for pair in twins.get(fid, []) if reading.get(fid) in pair for o in pair if o != reading.get(fid)]
+        kept.append(part + (f" (not told apart from {', '.join(dict.fromkeys(others))})" if others else ""))
+    text = "; ".join(kept) if kept else "headline in every identifiable factor"
+    if unident:
+        text += f" ({', '.join(unident)} unidentifiable from the table)"
+    return text
+
+
+def most_reading(t: dict) -> str:
+    """The reading that reproduces the most cells of a table (:func:`reading_text`: a factor the table cannot
+    identify is named unidentifiable, never as part of the reading), or 'none' when no reading reproduces any."""
+    t = _table_entry(t)
+    return reading_text(t, "most") if t["most_n_reproduced"] else "none (no reading reproduces a cell)"
+
+
+def _rate(x, interval=None) -> str:
+    """``"34 % [25, 44]"`` from a fraction and its interval (fractions), ``"34 %"`` without one, "--" for None."""
+    if x is None:
+        return "--"
+    verdicts._real(x, "rate", none=False)
+    if interval is None:
+        return f"{percent(x)} %"
+    lo, hi = interval
+    return f"{percent(x)} % [{percent(lo)}, {percent(hi)}]"
+
+
+def recovery_text(entry: dict) -> str:
+    """How well the table match recovers a reading planted at random in the declared space (issue 24), from a
+    table's entry of ``multiverse.recovery["tables"]`` (or the paper-wide ``multiverse.recovery``): ``"planted
+    readings recovered first in 34 % [25, 44] of 50 trials, in the top three 61 % [51, 70]; unidentifiable from the
+    table: H-9, H-10"`` (95 % Wilson intervals when the entry gives them).  Each trial draws a universe of the space,
+    makes a synthetic printed table from it at the paper's run count, seed stream and printed precision, and ranks
+    the universes by the table match; a factor is unidentifiable when its options give the same table within
+    noise."""
+    if not isinstance(entry, dict) or "top1" not in entry or "planted" not in entry:
+        raise ValueError(f"entry: expected a recovery entry (planted, top1, top3, ...), got {entry!r}")
+    k = entry["planted"]
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 0:
+        raise ValueError(f"entry: 'planted' must be the number of trials (an integer >= 0), got {k!r}")
+    if not k or entry["top1"] is None:
+        text = "no planted reading was tried"
+    else:
+        text = (f"planted readings recovered first in {_rate(entry['top1'], entry.get('top1_interval'))} of {k} "
+                f"trials, in the top three {_rate(entry.get('top3'), entry.get('top3_interval'))}")
+    unident = [str(f) for f in entry.get("unidentifiable") or []]
+    return text + ("; unidentifiable from the table: " + ", ".join(unident) if unident
+                   else "; every factor identifiable from the table")
+
+
+def table_match_sentence(t: dict) -> str:
+    """The forensic sentence of one published table, with the evidence it needs: ``"Table 1 is consistent with
+    reading Z-7: noise-free truth (RMS relative distance 4.1 %, joint test passes; 3 readings searched); planted
+    readings recovered first in 34 % [25, 44] of 50 trials, ...; unidentifiable from the table: Z-6"``.  The
+    table is called *consistent* with its best-matching precise reading only when that reading's joint test passes;
+    otherwise the sentence says the reading is the closest and that the table fails its joint test under every
+    reading.  A factor the table cannot identify is never named (:func:`reading_text`)."""
+    t = _table_entry(t)
+    if t.get("best_reading") is None:
+        head = f"{t['table']}: {t.get('best_describe') or 'no reading precise enough'}"
+    else:
+        rms = t.get("best_rms_relative")
+        test = t.get("best_joint_test")
+        evidence = ("--" if rms is None else f"RMS relative distance {100 * rms:.1f} %") + \
+            ("" if test is None else f", {_joint(test)}")
+        searched = t.get("n_candidates")
+        evidence += "" if searched is None else f"; {searched} readings searched"
+        verb = "is consistent with" if test is not None and test["passes"] else \
+            "fails its joint test under every reading searched; the closest is"
+        head = f"{t['table']} {verb} reading {reading_text(t, 'best')} ({evidence})"
+    rec = _recovery_of(t)
+    if rec is None:
+        return head + "; the table match's recovery of planted readings is not in these results"
+    return head + "; " + recovery_text(rec)
 
 
 def table_match_table(mv: Multiverse | dict) -> str:
@@ -274,17 +424,22 @@ def table_match_table(mv: Multiverse | dict) -> str:
     rows = []
     for t in _summary(mv, "table_match"):
         iso = f" (+{t['isolated']} isolated)" if t["isolated"] else ""
+        rec = _recovery_of(t)
         rows.append([t["table"], t["n_cells"], f"{t['headline_n_reproduced']} / {t['n_cells']}{iso}",
                      _joint(t["joint_test"]), f"{t['n_passing']} / {t['n_counted']}",
-                     t["best_describe"],
+                     "--" if t.get("n_candidates") is None else t["n_candidates"],
+                     reading_text(t, "best"),
                      "--" if t["best_rms_relative"] is None else f"{100 * t['best_rms_relative']:.1f} %",
                      _joint(t["best_joint_test"]), f"{t['best_n_reproduced']} / {t['n_cells']}",
-                     f"{t['most_n_reproduced']} / {t['n_cells']}", most_reading(t)])
+                     f"{t['most_n_reproduced']} / {t['n_cells']}", most_reading(t),
+                     "not in these results" if rec is None else recovery_text(rec)])
     return markdown_table(["table", "cells", "headline universe: cells reproduced", "headline joint test",
-                           "universes passing the joint test",
+                           "universes passing the joint test", "readings searched (sensitivity sweeps and "
+                                                               "motivated options excluded)",
                            f"best-matching precise reading (s.e. ≤ {100 * PRECISION:.0f} %)",
                            "its RMS relative distance", "its joint test", "its cells reproduced",
-                           "most cells any reading reproduces", "that reading"], rows)
+                           "most cells any reading reproduces", "that reading",
+                           "planted-reading recovery of the table match"], rows)
 
 
 def one_factor_table(mv: Multiverse, columns: Sequence[tuple[str, tuple]]) -> str:
@@ -452,17 +607,312 @@ def table_match_figure(mv: Multiverse, *, title: str) -> matplotlib.figure.Figur
 
 def summary_line(mv: Multiverse | dict) -> str:
     """Per paper, in one line: the most cells of each published table that one reading reproduces (isolated
-    coincidences not counted), and how many claim verdicts are robust across the reading space with its weighting
-    (from a Multiverse or its stored form)."""
+    coincidences not counted; of the readings searched, and with the table match's planted-reading recovery when
+    the results give them; a factor the table cannot identify is never named as part of the reading), how many claim
+    verdicts are robust across the reading space with its weighting, and the universes not counted (degenerate, or
+    with an option motivated by the results or another paper) (from a Multiverse or its stored form)."""
     parts = []
     for t in _summary(mv, "table_match"):
-        by = f", by {t['most_describe']}" if t["most_n_reproduced"] else ""
-        parts.append(f"{t['table']}: {'a' if t['most_n_reproduced'] == t['n_cells'] else 'no'} reading reproduces "
-                     f"all {t['n_cells']} cells (at most {t['most_n_reproduced']}{by}; headline universe "
-                     f"{t['headline_n_reproduced']})")
+        by = f", by {most_reading(t)}" if t["most_n_reproduced"] else ""
+        searched = "" if t.get("n_candidates") is None else f" of {t['n_candidates']} searched"
+        rec = _recovery_of(t)
+        recovered = "" if rec is None or rec.get("top1") is None else \
+            f"; the table match ranks a planted reading first in {_rate(rec['top1'], rec.get('top1_interval'))}"
+        parts.append(f"{t['table']}: {'a' if t['most_n_reproduced'] == t['n_cells'] else 'no'} reading{searched} "
+                     f"reproduces all {t['n_cells']} cells (at most {t['most_n_reproduced']}{by}; headline universe "
+                     f"{t['headline_n_reproduced']}{recovered})")
     claims = _summary(mv, "claims_summary")
+    apart = []
+    n_degenerate, n_motivated = _section(mv, "n_degenerate"), _section(mv, "n_motivated")
+    if n_degenerate:
+        apart.append(f"{n_degenerate} degenerate")
+    if n_motivated:
+        apart.append(f"{n_motivated} with an option motivated by the results or another paper")
+    apart_text = f"; universes not counted: {', '.join(apart)}" if apart else ""
     if claims and all(c["share"] is None for c in claims):
-        return "; ".join(parts + [f"claim verdicts: {claims[0]['robustness']}"])
+        return "; ".join(parts + [f"claim verdicts: {claims[0]['robustness']}"]) + apart_text
     robust = sum(bool(c["robust"]) for c in claims)
     return "; ".join(parts + [f"{robust} of {len(claims)} claim verdicts robust across the reading space "
-                              f"({_weighting_note(claims)})"])
+                              f"({_weighting_note(claims)})"]) + apart_text
+
+
+# -- the forensic sections (issue 24) ---------------------------------------------------------------------------
+
+def _section(mv, key: str):
+    """A section of a multiverse: ``mv[key]`` of its stored form (None when the results predate it), or the
+    attribute (called when a method) of a computed :class:`Multiverse` (None when it has none)."""
+    if isinstance(mv, dict):
+        return mv.get(key)
+    value = getattr(_multiverse(mv), key, None)
+    return value() if callable(value) else value
+
+
+def _pm_sig(value, stderr) -> str:
+    """``"4.02 ± 0.05"``: the value to the decimals of two significant digits of its standard error (4 significant
+    digits without one), "--" for None."""
+    if value is None:
+        return "--"
+    verdicts._real(value, "value", none=False)
+    verdicts._real(stderr, "stderr")
+    if not math.isfinite(value):
+        return "nan" if math.isnan(value) else str(value)
+    if stderr is None or not math.isfinite(stderr) or stderr <= 0:
+        return f"{value:.4g}"
+    if abs(value) >= 1e6:
+        return f"{value:.3e} ± {stderr:.2g}"
+    d = min(8, max(0, 1 - math.floor(math.log10(stderr))))
+    return f"{value:.{d}f} ± {stderr:.{d}f}"
+
+
+def _consistency_cells(stat, where: str) -> list:
+    """``[value ± s.e. [band], inside?]`` of one :func:`mmlib.experiment.evaluation.consistency` summary."""
+    if stat is None:
+        return ["--", "--"]
+    if not isinstance(stat, dict) or "value" not in stat:
+        raise ValueError(f"{where}: expected a consistency summary (value, stderr, dof, band, inside, ...), got "
+                         f"{stat!r}")
+    if stat["value"] is None:
+        return [f"-- (fewer than 2 valid runs: {stat.get('n_runs', '--')})", "--"]
+    band = stat.get("band")
+    text = _pm_sig(stat["value"], stat.get("stderr"))
+    if band:
+        text += f" [{band[0]:.3g}, {band[1]:.3g}]"
+    if stat.get("dof") is not None:
+        text += f" (dof {stat['dof']:.3g})"
+    inside = stat.get("inside")
+    cell = "--" if inside is None else ("yes" if inside else "no")
+    detail = [f"{percent(stat[k])} % of {what}" for k, what in (("steps_inside", "steps"), ("runs_inside", "runs"))
+              if stat.get(k) is not None]
+    if detail:
+        cell += f" ({', '.join(detail)})"
+    return [text, cell]
+
+
+def consistency_table(entries: Sequence[dict]) -> str:
+    r"""The filters' consistency, one row per algorithm and case, from a results file's ``consistency`` section
+    (:func:`mmlib.experiment.evaluation.consistency_entries`): the runs used, the ANEES and the ANIS each as value ±
+    standard error with its 95 % chi-square band and degrees of freedom, and whether the value lies inside the band
+    (with the share of time steps whose run-average, and of runs whose time average, lie inside their own bands).
+
+    A consistent filter's NEES :math:`\tilde x^\top P^{-1}\tilde x` is :math:`\chi^2_n` (n the state dimension) and
+    its NIS :math:`\nu^\top S^{-1}\nu` is :math:`\chi^2_m` (m the measurement dimension); ANEES and ANIS are their
+    averages over runs and steps, whose mean is the degrees of freedom (Bar-Shalom, Li & Kirubarajan 2001, Sec.
+    5.4.2).  ``entries``: a sequence of dicts with ``algorithm`` and optionally ``case``, ``anees``, ``anis`` (a
+    missing statistic is shown as "--")."""
+    if isinstance(entries, (str, bytes, dict)) or not hasattr(entries, "__iter__"):
+        raise ValueError(f"entries: expected the list of a results file's 'consistency' section, got {entries!r}")
+    entries = list(entries)
+    if not entries:
+        return "No NEES or NIS was recorded."
+    rows = []
+    for i, e in enumerate(entries):
+        if not isinstance(e, dict) or "algorithm" not in e:
+            raise ValueError(f"entries[{i}]: expected {{algorithm, case, anees, anis}}, got {e!r}")
+        n = next((s.get("n_runs") for s in (e.get("anees"), e.get("anis")) if isinstance(s, dict)), None)
+        rows.append([e["algorithm"], e.get("case") or "--", "--" if n is None else n,
+                     *_consistency_cells(e.get("anees"), f"entries[{i}]['anees']"),
+                     *_consistency_cells(e.get("anis"), f"entries[{i}]['anis']")])
+    return markdown_table(["algorithm", "case", "valid runs", "ANEES ± s.e. [95 % band]", "ANEES inside its band",
+                           "ANIS ± s.e. [95 % band]", "ANIS inside its band"], rows)
+
+
+def sensitivity_table(mv: Multiverse | dict) -> str:
+    """The sensitivity curves of a multiverse (``multiverse.sensitivity``; :meth:`Multiverse.sensitivity`): per
+    sensitivity factor (an unstated tuning value swept over a range, never a reading of the paper), one row per
+    swept value, the other factors at their headline: each claim's verdict (columns C1, C2, ... listed below the
+    table) and, per published table, the cells reproduced, the root-mean-square relative distance and the joint
+    test.  The headline value is marked.  A results file without the section is said to have none."""
+    curves = _section(mv, "sensitivity")
+    if curves is None:
+        return "No sensitivity curves in these results."
+    if isinstance(curves, (str, bytes, dict)) or not hasattr(curves, "__iter__"):
+        raise ValueError(f"mv: 'sensitivity' must be a list of curves, one per sensitivity factor, got {curves!r}")
+    curves = list(curves)
+    if not curves:
+        return "No sensitivity factor: every factor of the space is a reading of the text."
+    claims, tables = [], []
+    for i, c in enumerate(curves):
+        if not isinstance(c, dict) or "factor" not in c or not isinstance(c.get("options"), list):
+            raise ValueError(f"mv: sensitivity[{i}] must be {{factor, label, headline, options: [...]}}, got {c!r}")
+        for o in c["options"]:
+            if not isinstance(o, dict) or "option" not in o:
+                raise ValueError(f"mv: sensitivity[{i}] has an option without its name: {o!r}")
+            claims += [k for k in (o.get("claims") or {}) if k not in claims]
+            tables += [k for k in (o.get("tables") or {}) if k not in tables]
+    n_cells = {}
+    if isinstance(mv, dict):
+        n_cells = {t["table"]: t.get("n_cells") for t in mv.get("table_match") or [] if isinstance(t, dict)}
+    rows = []
+    for c in curves:
+        for o in c["options"]:
+            label = o.get("label") or o["option"]
+            if o["option"] == c.get("headline"):
+                label += " (headline)"
+            cells = [f"{c['factor']}: {c.get('label', '')}".rstrip(": "), label]
+            cells += [(o.get("claims") or {}).get(k, "--") for k in claims]
+            for t in tables:
+                m = (o.get("tables") or {}).get(t)
+                if not m:
+                    cells.append("--")
+                    continue
+                of = f" / {n_cells[t]}" if n_cells.get(t) is not None else ""
+                rms = m.get("rms_relative")
+                joint = m.get("joint_passes")
+                cells.append(f"{m.get('n_reproduced', '--')}{of} reproduced; RMS "
+                             + ("--" if rms is None else f"{100 * rms:.1f} %")
+                             + ("" if joint is None else f"; joint test {'passes' if joint else 'fails'}"))
+            rows.append(cells)
+    header = ["sensitivity factor", "swept value"] + [f"C{k + 1}" for k in range(len(claims))] + \
+        [f"{t}: cells reproduced, RMS relative distance" for t in tables]
+    legend = "\n".join(f"- C{k + 1}: {claim}" for k, claim in enumerate(claims))
+    return markdown_table(header, rows) + ("\n\n" + legend if legend else "")
+
+
+def recovery_table(mv: Multiverse | dict) -> str:
+    """Planted-reading recovery per published table (``multiverse.recovery["tables"]``): the recovery sentence
+    (:func:`recovery_text`), and per factor the share of trials whose planted option the best match recovered, with
+    the options the table cannot tell apart.  A results file without the section is said to have none."""
+    rec = _section(mv, "recovery")
+    if rec is None:
+        return "No planted-reading recovery in these results."
+    if not isinstance(rec, dict) or "planted" not in rec:
+        raise ValueError(f"mv: 'recovery' must be {{planted, top1, top3, unidentifiable, tables}}, got {rec!r}")
+    tables = rec.get("tables") or []
+    if not tables:
+        return recovery_text(rec) + "."
+    rows = []
+    for i, t in enumerate(tables):
+        if not isinstance(t, dict) or "table" not in t:
+            raise ValueError(f"mv: recovery['tables'][{i}] must be a table's recovery entry, got {t!r}")
+        twins = t.get("indistinguishable") or {}
+        by = t.get("by_factor") or {}
+        unident = set(map(str, t.get("unidentifiable") or []))
+        factors = "; ".join(
+            f"{f} {_rate(r)}" + (" (unidentifiable)" if str(f) in unident else "")
+            + ("" if not twins.get(f) else " — not told apart: "
+               + ", ".join(" = ".join(map(str, pair)) for pair in twins[f]))
+            for f, r in by.items()) or "--"
+        rows.append([t["table"], recovery_text(t), factors])
+    return markdown_table(["table", "planted readings recovered by the table match",
+                           "planted option recovered, per factor"], rows)
+
+
+def stability_text(mv: Multiverse | dict) -> str:
+    """Whether the claims' verdicts are stable in the run count (``multiverse.stability``, written by the lead's
+    :attr:`Multiverse.stability`): the statement the check wrote when it gives one, else ``"Run-count check: the
+    verdicts of 6 universes at 40 runs (the universes' count) and at 200 (the headline's): 1 changes (claim C)"``.
+    A results file without the section is said to have none."""
+    st = _section(mv, "stability")
+    if st is None:
+        return "No run-count check in these results."
+    if not isinstance(st, dict) or "n_changed" not in st:
+        raise ValueError(f"mv: 'stability' must be {{n_runs_universe, n_runs_headline, universes, n_changed, "
+                         f"claims_changed, statement}}, got {st!r}")
+    if st.get("statement"):
+        return str(st["statement"])
+    n_u = len(st.get("universes") or [])
+    changed = [str(c) for c in st.get("claims_changed") or []]
+    n = st["n_changed"]
+    which = f" ({'; '.join(changed)})" if changed else ""
+    return (f"Run-count check: the verdicts of {n_u} universe{'s' if n_u != 1 else ''} at "
+            f"{st.get('n_runs_universe', '--')} runs (the universes' count) and at {st.get('n_runs_headline', '--')} "
+            f"(the headline's): " + ("no verdict changes." if not n else
+                                     f"{n} verdict{'s' if n != 1 else ''} change{'s' if n == 1 else ''}{which}."))
+
+
+def _describe_stored(reading: dict, factors: list) -> str:
+    """:meth:`ReadingSpace.describe` of a stored reading with the stored factors: 'headline' or the options that
+    differ from the headline."""
+    parts = []
+    for f in factors:
+        opt = reading.get(f["id"])
+        if opt is not None and opt != f["headline"]:
+            label = next((o["label"] for o in f.get("option_details", []) if o["name"] == opt), opt)
+            parts.append(f"{f['id']}: {label}")
+    return "; ".join(parts) or "headline"
+
+
+def degenerate_list(mv: Multiverse | dict) -> list[dict] | None:
+    """The degenerate universes of a multiverse, ``[{"universe", "describe", "reason"}]`` (every estimator no better
+    than the no-information baseline; :func:`mmlib.experiment.evaluation.degenerate_reason`): the stored
+    ``multiverse.degenerate`` list, else read off the universes' ``degenerate`` flags; None when the results predate
+    the flag (no universe carries the key and there is no list)."""
+    if isinstance(mv, dict):
+        if isinstance(mv.get("degenerate"), list):
+            return mv["degenerate"]
+        universes = mv.get("universes")
+        if not isinstance(universes, list):
+            raise ValueError("mv: expected a Multiverse or its as_dict() form, got a dict without 'universes'")
+        if "n_degenerate" not in mv and not any(isinstance(u, dict) and "degenerate" in u for u in universes):
+            return None
+        factors = mv.get("factors") or []
+        return [{"universe": i, "describe": _describe_stored(u.get("reading") or {}, factors),
+                 "reason": u["degenerate"]} for i, u in enumerate(universes) if u.get("degenerate")]
+    m = _multiverse(mv)
+    return [{"universe": i, "describe": m.space.describe(r), "reason": u.degenerate}
+            for i, (r, u) in enumerate(zip(m.readings, m.universes)) if getattr(u, "degenerate", "")]
+
+
+def degenerate_text(mv: Multiverse | dict, limit: int | None = None) -> str:
+    """The degenerate universes named: ``"2 of 192 universes are degenerate (...): their comparisons are not counted
+    in the shares of the reading space.\\n\\n- universe 5 (Z-2: drift): every estimator's error is at least ..."``;
+    ``limit`` (an integer >= 1, or None for all) caps the list, saying how many more there are.  "No universe is
+    degenerate." when none is; a results file written before the flag existed is said to carry none."""
+    if limit is not None:
+        check_positive_int(limit, "limit")
+    found = degenerate_list(mv)
+    if found is None:
+        return "No degenerate-universe flag in these results."
+    n_all = len(mv["universes"]) if isinstance(mv, dict) else len(_multiverse(mv).universes)
+    if not found:
+        return "No universe is degenerate (in every universe some estimator does better than the no-information " \
+               "baseline)."
+    for i, d in enumerate(found):
+        if not isinstance(d, dict) or "reason" not in d:
+            raise ValueError(f"mv: degenerate[{i}] must be {{universe, describe, reason}}, got {d!r}")
+    shown = found if limit is None else found[:limit]
+    lines = [f"{len(found)} of {n_all} universes {'is' if len(found) == 1 else 'are'} degenerate (every estimator "
+             "no better than the no-information baseline: a comparison there measures only how the estimators "
+             "fail); their comparisons are not counted in the shares of the reading space.", ""]
+    lines += [f"- universe {d.get('universe', '--')} ({d.get('describe', '--')}): {d['reason']}" for d in shown]
+    if len(found) > len(shown):
+        lines.append(f"- and {len(found) - len(shown)} more")
+    return "\n".join(lines)
+
+
+def _count_pair(section: dict, key: str, where: str) -> str:
+    n, total = section.get(key), section.get("n_cells")
+    if n is None or total is None:
+        raise ValueError(f"controls: '{where}' must give n_cells and {key}, got {section!r}")
+    return f"{n}/{total}"
+
+
+def controls_text(controls: dict) -> str:
+    """The controls of the pipeline in one sentence, from the ``controls`` section of data/results/controls.json:
+    ``"the machinery reproduces when the paper is right: positive control 12/12 cells reproduced, negative control
+    12/12 rejected (each cell perturbed by +10 %), power 98 % [95, 99]"`` (the power of the rule at the paper's
+    run count, with its interval when given), then what was searched for
+    a published third control.  The positive control is a table known in closed form (the steady-state Kalman filter
+    of the DWNA model: Kalata 1984; Bar-Shalom, Li & Kirubarajan 2001, Sec. 6.5) that the whole pipeline must
+    reproduce; the negative control the same table perturbed, which it must reject."""
+    if not isinstance(controls, dict) or not isinstance(controls.get("positive"), dict) \
+            or not isinstance(controls.get("negative"), dict):
+        raise ValueError(f"controls: expected {{positive: {{n_cells, n_reproduced}}, negative: {{n_cells, "
+                         f"n_not_reproduced, perturbation, power}}, searched}}, got {controls!r}")
+    pos, neg = controls["positive"], controls["negative"]
+    text = (f"the machinery reproduces when the paper is right: positive control "
+            f"{_count_pair(pos, 'n_reproduced', 'positive')} cells reproduced, negative control "
+            f"{_count_pair(neg, 'n_not_reproduced', 'negative')} rejected")
+    pert = neg.get("perturbation")
+    if isinstance(pert, (int, float)) and not isinstance(pert, bool):
+        text += f" (each cell perturbed by {100 * pert:+.3g} %)"
+    elif pert:
+        text += f" ({pert})"
+    power = neg.get("power")
+    if isinstance(power, dict):
+        value, interval = power.get("value"), power.get("interval")
+        text += f", power {_rate(value, interval)}" if value is not None else ""
+    elif power is not None:
+        text += f", power {_rate(power)}"
+    searched = controls.get("searched")
+    return text + (f". A published third control: {searched}" if searched else "")
