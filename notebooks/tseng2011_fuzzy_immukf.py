@@ -214,7 +214,7 @@ print(evaluation.divergence_report(res))           # the step at which each dive
 print(f"largest |UKF - EKF| position difference over all runs and epochs: {ukf_ekf:.2e} m")
 ls_rms = study.baseline_rms(paper.headline, mc)
 horizontal = {a: study.horizontal_rms(res[a]) for a in paper.algorithms}
-head_degenerate = study.degenerate_reason(res, float(ls_rms.value))
+head_degenerate = study.degenerate_reason(res, ls_rms)
 display(Markdown(
     f"Horizontal position RMSE over all runs and epochs: single-epoch least-squares fix "
     f"{value_pm(float(ls_rms.value), float(ls_rms.stderr), 3)} m; "

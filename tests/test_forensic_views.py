@@ -119,7 +119,7 @@ def stored_mv(new_keys: bool = True) -> dict:
                     "tables": {"Table 1": {"rms_relative": 0.3, "n_reproduced": 1, "joint_passes": False}}},
                    {"option": "q10", "label": "Q = 10 q", "universe": 4, "claims": {"A beats B": "holds"},
                     "tables": {"Table 1": {"rms_relative": 0.052, "n_reproduced": 4, "joint_passes": True}}}]}],
-               "stability": {"n_runs_universe": 40, "n_runs_headline": 200, "universes": [0, 2, 5], "n_changed": 1,
+               "stability": {"n_runs_universe": 40, "n_runs_check": 200, "universes": [0, 2, 5], "n_changed": 1,
                              "claims_changed": ["A beats B"], "statement": ""}})
     return mv
 
@@ -264,7 +264,7 @@ def test_summary_line_carries_searched_readings_recovery_and_the_universes_apart
 def test_stability_text():
     mv = stored_mv()
     assert views.stability_text(mv) == ("Run-count check: the verdicts of 3 universes at 40 runs (the universes' "
-                                        "count) and at 200 (the headline's): 1 verdict changes (A beats B).")
+                                        "count) and at 200: 1 verdict changes (A beats B).")
     mv["stability"].update(n_changed=0, claims_changed=[])
     assert views.stability_text(mv).endswith("no verdict changes.")
     mv["stability"]["statement"] = "No verdict changes between 40 and 200 runs."

@@ -116,9 +116,11 @@ def test_recovery_identifies_the_identifiable_factor_and_names_the_unidentifiabl
     assert t["n_candidates"] == 6 and t["planted"] == 6                # every candidate planted once
     assert t["by_factor"]["A"] == 1.0                                   # 20 s.e. apart: never confused
     assert t["unidentifiable"] == ["B"] and t["indistinguishable"] == {"B": [["b0", "b1"]]}
+    assert "C" not in t["by_factor"]                    # a sensitivity factor is not a reading: never recovered
     assert "A" not in t["unidentifiable"] and rec["unidentifiable"] == ["B"]
-    # ties with the B-twin count as first (nothing strictly closer): a tie is what "unidentifiable" names
-    assert t["top1"] == 1.0 and t["top3"] == 1.0
+    # the B-twin ties exactly: broken at random, the planted reading is first half the time, always in the top three
+    assert t["top1"] == 0.5 and t["top3"] == 1.0
+    assert t["by_factor_chance"]["A"] == pytest.approx(1 / 3) and t["by_factor_chance"]["B"] == 0.5
     assert mv.as_dict()["table_match"][0]["recovery"]["unidentifiable"] == ["B"]
 
 
@@ -138,10 +140,17 @@ def test_recovery_fails_when_the_table_cannot_tell_the_levels_apart():
     assert t["by_factor"]["A"] < 1.0 and t["top1"] < 1.0
 
 
-def test_recovery_is_deterministic_and_its_draws_are_independent_of_the_runs():
+def test_recovery_is_deterministic_and_its_draws_have_their_own_seed():
     a = _multiverse().recovery()
     b = _multiverse().recovery()
     assert a == b
+    # another purpose in the spawn key: the planted draws are not the sample's nor the stability check's
+    from mmlib.experiment import multiverse, stability
+    from mmlib.experiment.readings import sample_seed
+    import numpy as np
+    seed = int(np.random.SeedSequence(sample_seed(SPACE.paper), spawn_key=(multiverse.RECOVERY_PURPOSE, 0))
+               .generate_state(1)[0])
+    assert seed not in (sample_seed(SPACE.paper), stability.draw_seed(SPACE.paper))
 
 
 def test_synthetic_table_has_the_variance_of_an_independent_paper():
@@ -172,24 +181,42 @@ def test_planted_recovery_bad_input(bad, match):
         forensics.planted_recovery(**args)
 
 
-def test_indistinguishable_is_the_joint_test_of_the_difference():
-    same = forensics.indistinguishable(np.ones(3), np.full(3, 0.1), np.ones(3), np.full(3, 0.1), ["1.0"] * 3, 10, 10)
-    far = forensics.indistinguishable(np.ones(3), np.full(3, 0.01), 2 * np.ones(3), np.full(3, 0.01), ["1.00"] * 3,
-                                      10, 10)
-    assert same["passes"] and same["statistic"] == 0.0 and not far["passes"]
+def test_confusion_is_the_probability_a_printed_table_lies_closer_to_the_other():
+    # one cell, d = |a - b| / sigma: Phi(-d/2); d = 2 * 1.6449 gives 5 % exactly, the threshold
+    z95 = 1.6448536269514722
+    sigma = 0.1 * math.sqrt(2.0)                    # s = 0.1 with M = M_p: sigma^2 = s^2 (1 + 1), printed to 3 dp
+    at = forensics.confusion(np.zeros(1), np.full(1, 0.1), np.full(1, 2 * z95 * sigma), np.full(1, 0.1),
+                             ["0.000"], 10, 10)
+    assert at["probability"] == pytest.approx(0.05, rel=1e-3)
+    same = forensics.confusion(np.ones(3), np.full(3, 0.1), np.ones(3), np.full(3, 0.1), ["1.0"] * 3, 10, 10)
+    far = forensics.confusion(np.ones(3), np.full(3, 0.01), 2 * np.ones(3), np.full(3, 0.01), ["1.00"] * 3, 10, 10)
+    assert same["confused"] and same["probability"] == 0.5 and not far["confused"] and far["probability"] < 1e-12
     with pytest.raises(ValueError, match="a, sa, b, sb"):
-        forensics.indistinguishable(np.ones(3), np.ones(2), np.ones(3), np.ones(3), ["1"] * 3, 10, 10)
+        forensics.confusion(np.ones(3), np.ones(2), np.ones(3), np.ones(3), ["1"] * 3, 10, 10)
+
+
+def test_decimals_of_printed_numbers():
+    assert [forensics._decimals(p) for p in ("2.48", "120", "1.5e-3", "2e3", "0.0")] == [2, 0, 4, -3, 1]
 
 
 # -- the no-information baseline and the reconstruction qualifier ------------------------------------------------
-def test_degenerate_reason_flags_only_when_every_estimator_is_no_better_than_the_baseline():
+def test_degenerate_reason_flags_only_when_no_estimator_is_detectably_better_than_the_baseline():
     what = "the measurement-only estimate's position RMSE"
     assert evaluation.degenerate_reason({"IMM": 5.0, "UKF": 9.0}, 6.0, what=what) == ""
     reason = evaluation.degenerate_reason({"IMM": 700.0, "UKF": float("nan")}, 650.0, what=what)
-    assert reason.startswith("every estimator's error is at least " + what) and "IMM" in reason
-    assert evaluation.degenerate_reason({"IMM": 6.0}, 6.0, what=what) != ""      # "at least": equal counts
+    assert reason.startswith("no estimator is detectably better than " + what) and "IMM" in reason
+    assert evaluation.degenerate_reason({"IMM": 6.0}, 6.0, what=what) != ""      # equal: not better
+    # better by less than 3 combined standard errors: not detectably better, so degenerate whatever the draw
+    assert evaluation.degenerate_reason({"IMM": (5.8, 0.05)}, (6.0, 0.05), what=what) != ""
+    assert evaluation.degenerate_reason({"IMM": (5.7, 0.05)}, (6.0, 0.05), what=what) == ""
+    # detectably better but by less than NEGLIGIBLE (1 %) of the baseline: no better in any way that matters
+    assert evaluation.degenerate_reason({"IMM": (5.95, 1e-4)}, 6.0, what=what) != ""
+    from mmlib.experiment.metrics import MCValue
+    assert evaluation.degenerate_reason({"IMM": MCValue(np.float64(5.0), np.float64(0.1), 10, 0)}, 6.0,
+                                        what=what) == ""
     for kwargs, match in ((dict(errors={}, baseline=1.0, what=what), "errors"),
                           (dict(errors={"a": 1.0}, baseline=0.0, what=what), "baseline"),
+                          (dict(errors={"a": 1.0}, baseline=(1.0, float("nan")), what=what), "baseline"),
                           (dict(errors={"a": "x"}, baseline=1.0, what=what), r"errors\['a'\]"),
                           (dict(errors={"a": 1.0}, baseline=1.0, what=" "), "what")):
         with pytest.raises(ValueError, match=match):

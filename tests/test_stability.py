@@ -63,7 +63,7 @@ def test_a_verdict_that_flips_with_the_run_count_is_detected(tmp_path):
     mv = _mv(flip_universe, tmp_path)
     assert len(mv.universes) == 12 and mv.counted() == list(range(12))
     got = _check(mv, flip_universe, tmp_path)           # size 11: the whole pool, every universe checked
-    assert got["rerun"] and (got["n_runs_universe"], got["n_runs_headline"]) == (20, 100)
+    assert got["rerun"] and (got["n_runs_universe"], got["n_runs_check"]) == (20, 100)
     assert (got["low_runs"], got["high_runs"]) == (20, 100)
     assert [e["universe"] for e in got["universes"]] == list(range(12)) and got["universes"][0]["headline"]
     s2 = [i for i, r in enumerate(mv.readings) if r["B"] == "s2"]
@@ -84,7 +84,7 @@ def test_a_verdict_that_flips_with_the_run_count_is_detected(tmp_path):
 def test_a_multiverse_at_more_runs_than_the_headline_keeps_low_and_high_in_order(tmp_path):
     mv = _mv(flip_universe, tmp_path, n_runs=100)
     got = _check(mv, flip_universe, tmp_path, n_runs=20)
-    assert (got["n_runs_universe"], got["n_runs_headline"], got["low_runs"], got["high_runs"]) == (100, 20, 20, 100)
+    assert (got["n_runs_universe"], got["n_runs_check"], got["low_runs"], got["high_runs"]) == (100, 20, 20, 100)
     changed = [e for e in got["universes"] if e["changed"]]
     assert len(changed) == 4 and all(e["verdicts"][FLIP] == ["not supported", "holds"] for e in changed)
 
@@ -181,7 +181,8 @@ def test_notebook_multiverse_checks_the_run_count(tmp_path, monkeypatch):
     assert nb.stability_universes == 2 and (nb.mv_runs, nb.n_runs) == (10, 20)
     mv = nb.multiverse()
     st = mv.stability
-    assert st["rerun"] and (st["n_runs_universe"], st["n_runs_headline"]) == (10, 20)
+    assert st["rerun"] and (st["n_runs_universe"], st["n_runs_check"]) == (10, 20)
+    assert st["mode"] == "headline" and st["n_runs_headline"] == 20
     assert st["n_universes"] == 2 and st["sample"]["n_sampled"] == 1        # the star design: headline and one
     for e in st["universes"]:
         direct = paper.universe(mv.readings[e["universe"]], 20, paper.root_seed)
@@ -190,7 +191,8 @@ def test_notebook_multiverse_checks_the_run_count(tmp_path, monkeypatch):
     assert mv.as_dict()["stability"] == st                   # written into the results file's multiverse
     coincide = NotebookRun(paper, PROFILE="smoke", OUTPUT_ROOT=str(tmp_path), WORKERS=1, PROGRESS=False)
     st = coincide.multiverse().stability              # equal counts: the check runs at half of them instead
-    assert st["rerun"] and (st["n_runs_universe"], st["n_runs_headline"]) == (20, 10)
+    assert st["rerun"] and (st["n_runs_universe"], st["n_runs_check"]) == (20, 10)
+    assert st["mode"] == "half" and st["n_runs_headline"] == 20
     off = dataclasses.replace(paper, profiles={"full": paper.profiles["full"],
                                                "smoke": {**paper.profiles["smoke"], "stability_universes": 0}})
     assert NotebookRun(off, PROFILE="smoke", OUTPUT_ROOT=str(tmp_path), WORKERS=1, PROGRESS=False,

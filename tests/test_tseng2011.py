@@ -478,14 +478,14 @@ def test_the_headline_is_not_degenerate_and_a_universe_whose_filters_lose_to_the
     base = study.baseline_rms(SPACE.headline, mc)
     # the headline's filters beat the single-epoch fix by a wide margin (about 2 m against 3.3 m)
     assert all(float(study.horizontal_rms(results[a]).value) < 0.8 * float(base.value) for a in PAPER.algorithms)
-    assert study.degenerate_reason(results, float(base.value)) == ""
+    assert study.degenerate_reason(results, base) == ""
     # constructed: every filter's errors blown up past the fix's -> degenerate, with the baseline named
     worse = {a: rs._replace(errors=rs.errors * 10.0) for a, rs in results.items()}
-    reason = study.degenerate_reason(worse, float(base.value))
+    reason = study.degenerate_reason(worse, base)
     assert reason and baseline.WHAT in reason
     # one filter still better than the fix -> not degenerate
     mixed = dict(worse, **{"FUZZY-IMMUKF": results["FUZZY-IMMUKF"]})
-    assert study.degenerate_reason(mixed, float(base.value)) == ""
+    assert study.degenerate_reason(mixed, base) == ""
     # the universe job carries the flag (empty at the headline) and summarise passes it through
     assert study.universe(SPACE.headline, n, PAPER.root_seed).degenerate == ""
     assert study.summarise(worse, n, reason).degenerate == reason

@@ -434,30 +434,48 @@ def consistency_entries(runsets: Mapping[str, RunSet], state_dim: int, *, case: 
     return out
 
 
-def degenerate_reason(errors: Mapping[str, float], baseline: float, *, what: str) -> str:
-    """Why a universe is *degenerate*, or "" when it is not: it is when every estimator's error (``errors``:
-    estimator -> error, e.g. its position RMSE, in the unit of ``baseline``) is at least the no-information
-    ``baseline`` described by ``what`` (e.g. "the measurement-only estimate's position RMSE"): no estimator then
-    does better than ignoring the dynamics, so comparing them measures only how they fail, and the universe's
-    comparisons are kept out of the shares of the reading space (:mod:`mmlib.experiment.multiverse`).  A
-    non-finite error (a diverged estimator) counts as at least the baseline."""
+def _estimate(x, name: str) -> tuple[float, float]:
+    """``(value, stderr)`` of a number (standard error 0), a ``(value, stderr)`` pair or a
+    :class:`~mmlib.experiment.metrics.MCValue`; ValueError naming ``name`` otherwise."""
+    try:
+        if isinstance(x, metrics.MCValue):
+            return float(x.value), float(x.stderr)
+        if isinstance(x, (tuple, list)) and len(x) == 2:
+            return float(x[0]), float(x[1])
+        return float(x), 0.0
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a number, a (value, stderr) pair or an MCValue, got {x!r}") from None
+
+
+def degenerate_reason(errors: Mapping[str, Any], baseline: Any, *, what: str) -> str:
+    r"""Why a universe is *degenerate*, or "" when it is not.  It is when no estimator is detectably and
+    non-negligibly better than the no-information ``baseline`` described by ``what`` (e.g. "the measurement-only
+    estimate's position RMSE"): comparing the estimators then measures only how they fail, so the universe's
+    comparisons are kept out of the shares of the reading space (:mod:`mmlib.experiment.multiverse`).
+
+    ``errors``: estimator -> its error in the unit of ``baseline`` (e.g. its position RMSE), each a number, a
+    ``(value, stderr)`` pair or an :class:`~mmlib.experiment.metrics.MCValue`; ``baseline`` likewise.  An
+    estimator beats the baseline when the claim rule (:func:`mmlib.experiment.verdicts.claim_verdict`) says
+    "error < baseline" *holds*: the difference :math:`e - b` is below zero by more than ``SIGMA_FACTOR`` times
+    :math:`\sqrt{s_e^2 + s_b^2}` (the two estimates' standard errors combined as if independent: on common runs they
+    are positively correlated, so this overstates the paired error and errs toward *degenerate*) and by more than
+    ``NEGLIGIBLE`` of the baseline.  One rule, so a universe near the boundary is not flagged or not by Monte Carlo
+    noise alone.  A non-finite error (a diverged estimator) never beats it."""
+    from mmlib.experiment import verdicts
     _check_mapping(errors, "errors", "estimator name -> error")
-    baseline = float(check_finite(baseline, "baseline"))
-    if not baseline > 0:
-        raise ValueError(f"baseline: expected a positive error, got {baseline!r}")
+    b, sb = _estimate(baseline, "baseline")
+    if not (math.isfinite(b) and b > 0 and math.isfinite(sb) and sb >= 0):
+        raise ValueError(f"baseline: expected a positive finite error with a finite standard error, got {baseline!r}")
     if not isinstance(what, str) or not what.strip():
         raise ValueError(f"what: expected a description of the baseline, got {what!r}")
-    vals = {}
-    for name, e in errors.items():
-        try:
-            vals[str(name)] = float(e)
-        except (TypeError, ValueError):
-            raise ValueError(f"errors[{name!r}]: expected a number, got {e!r}") from None
-    if not all(not math.isfinite(v) or v >= baseline for v in vals.values()):
-        return ""
-    best = min(vals, key=lambda k: (vals[k] if math.isfinite(vals[k]) else math.inf, k))
-    return (f"every estimator's error is at least {what} ({baseline:.4g}; the smallest, {best}'s, is "
-            f"{vals[best]:.4g})")
+    vals = {str(name): _estimate(e, f"errors[{name!r}]") for name, e in errors.items()}
+    for name, (e, se) in vals.items():
+        if math.isfinite(e) and math.isfinite(se) and verdicts.claim_verdict(
+                e - b, math.sqrt(se * se + sb * sb), -1, reference=b) == verdicts.PartVerdict.HOLDS:
+            return ""
+    best = min(vals, key=lambda k: (vals[k][0] if math.isfinite(vals[k][0]) else math.inf, k))
+    return (f"no estimator is detectably better than {what} ({b:.4g} ± {sb:.2g}; the best, {best}'s, is "
+            f"{vals[best][0]:.4g} ± {vals[best][1]:.2g})")
 
 
 def time_algorithms(estimators: dict, init: dict, measurements: ArrayLike, *, repeats: int = 3,

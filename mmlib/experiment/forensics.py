@@ -19,7 +19,18 @@ paper's run count (its Monte Carlo error, the verdict rule's :math:`s_p`, is 0 w
 the paper's draw is an independent stream: the difference between the synthetic table and our value then has the
 variance :math:`s_{pj}^2 (1 + M/M_p)` that an independent paper and our estimate would have
 (Gaussian approximation of the Monte Carlo errors; the draws come from their own seeded generator, never from a
-run's streams).
+run's streams).  Two assumptions make the rates upper bounds rather than exact: the candidates' own values are held
+fixed, so their Monte Carlo differences count as real separation (exact only when all universes share our runs'
+errors, as common random numbers nearly make them), and a paper that does not state its run count is given no
+Monte Carlo error of its own.
+
+A factor is *unidentifiable* from a table when two of its options, varied alone from the headline (the headline's
+option and the star universes'), are confused by the match more often than :data:`CONFUSION`: for tables
+:math:`a` and :math:`b` and per-cell noise :math:`\\sigma_j^2 = s_j^2 (1 + M/M_p) + u_j^2` (a printed table's
+Monte Carlo error and rounding, :math:`u_j` half a unit of its last digit), the probability that a printed table from
+:math:`a` lies closer to :math:`b` is :math:`\\Phi(-d/2)` with :math:`d^2 = \\sum_j (a_j - b_j)^2/\\sigma_j^2`
+(two Gaussians of one covariance).  Such options give "the same table within noise"; a match can be no evidence for
+either.
 """
 from __future__ import annotations
 
@@ -32,14 +43,28 @@ from mmlib.core._validate import as_float_array, check_positive_int
 from mmlib.experiment import verdicts
 from mmlib.experiment.metrics import wilson_interval
 
+#: two options are confused (their factor unidentifiable) when a printed table from one is closer to the other with
+#: at least this probability
+CONFUSION = 0.05
+
 #: planted readings drawn per table (at most the number of candidates): a rate from 50 trials is known to about
 #: +-14 points (95 % Wilson interval at 50 %)
 RECOVERY_TRIALS = 50
 
 
 def _decimals(printed: str) -> int:
-    """Decimals of a number as printed ('2.48' -> 2; '1e-3' -> 3 via the half unit)."""
-    return max(0, int(round(-math.log10(2.0 * verdicts.printed_half_unit(printed)))))
+    """Decimals to round to for a number as printed: '2.48' -> 2, '120' -> 0, '1.5e-3' -> 4 (the last printed digit's
+    place; negative for a printed exponent above it, e.g. '2e3' -> -3)."""
+    mantissa, _, exponent = printed.strip().lower().partition("e")
+    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
+    return decimals - (int(exponent) if exponent else 0)
+
+
+def scale(printed: str) -> float:
+    """The magnitude a printed number's relative distance refers to: ``|printed|``, or half a unit of its last
+    printed digit when it is printed as 0 (the table match's, :mod:`mmlib.experiment.multiverse`)."""
+    p = abs(float(printed))
+    return p if p > 0 else verdicts.printed_half_unit(printed)
 
 
 def synthetic_table(values: np.ndarray, stderrs: np.ndarray, printed: Sequence[str], rng: np.random.Generator,
@@ -58,11 +83,10 @@ def synthetic_table(values: np.ndarray, stderrs: np.ndarray, printed: Sequence[s
     return np.array([round(float(y), _decimals(p)) for y, p in zip(noisy, printed)])
 
 
-def rms_relative(candidates: np.ndarray, table: np.ndarray, scale: np.ndarray) -> np.ndarray:
+def rms_relative(candidates: np.ndarray, table: np.ndarray, scales: np.ndarray) -> np.ndarray:
     """Root-mean-square relative distance of every candidate's values (C, J) from a printed ``table`` (J,), each
-    cell over its ``scale`` (J,) (the printed magnitude, or half a unit of its last digit when printed as 0): the
-    distance the table match ranks by."""
-    rel = (candidates - table[None, :]) / scale[None, :]
+    cell over its ``scales`` (J,) (:func:`scale`): the distance the table match ranks by."""
+    rel = (candidates - table[None, :]) / scales[None, :]
     return np.sqrt(np.mean(rel * rel, axis=1))
 
 
@@ -77,10 +101,18 @@ def planted_recovery(values: np.ndarray, stderrs: np.ndarray, printed: Sequence[
     whose recovery is reported.  ``trials`` candidates (at most C) are planted, drawn without replacement with
     ``numpy.random.default_rng(seed)``, which also draws the synthetic tables.
 
-    Returns ``planted`` (trials run), ``top1`` and ``top3`` (fractions of the trials whose planted universe has no
-    candidate strictly closer, fewer than three), their 95 % Wilson intervals ``top1_interval``, ``top3_interval``,
-    and ``by_factor`` (factor -> fraction of trials whose best match, ties broken by candidate order, has the
-    planted option of that factor)."""
+    Returns ``planted`` (trials run), ``top1`` and ``top3`` (the mean over trials of the probability that the planted
+    universe ranks first, within the first three, with ties among equally distant candidates broken at random: a
+    trial with ``b`` candidates strictly closer and ``t`` others tied scores ``clip((k - b)/(1 + t), 0, 1)`` for
+    the first ``k``), their 95 % Wilson intervals ``top1_interval``, ``top3_interval`` (on the rounded count of
+    successes), ``by_factor`` (factor -> fraction of trials whose best match, ties broken by candidate order, has
+    the planted option of that factor) and ``by_factor_chance`` (the same for a match drawn at random among the
+    candidates: the mean share of candidates that have the planted option)."""
+    if isinstance(readings, (str, bytes, dict)) or not all(isinstance(r, dict) for r in readings):
+        raise ValueError("readings: expected one reading (a dict factor id -> option) per candidate")
+    if isinstance(factors, (str, bytes)) or not all(isinstance(f, str) and all(f in r for r in readings)
+                                                     for f in factors):
+        raise ValueError(f"factors: expected factor ids that every reading names, got {factors!r}")
     values = as_float_array(values, "values")
     stderrs = as_float_array(stderrs, "stderrs")
     if values.ndim != 2 or values.shape != stderrs.shape or values.shape[0] != len(readings) \
@@ -93,33 +125,35 @@ def planted_recovery(values: np.ndarray, stderrs: np.ndarray, printed: Sequence[
     C = values.shape[0]
     rng = np.random.default_rng(check_positive_int(seed, "seed", minimum=0))
     planted = rng.choice(C, size=min(trials, C), replace=False)
-    scale = np.array([abs(float(p)) if float(p) != 0 else verdicts.printed_half_unit(p) for p in printed])
-    top1 = top3 = 0
+    scales = np.array([scale(p) for p in printed])
+    top1 = top3 = 0.0
     hits = {f: 0 for f in factors}
+    chance = {f: 0.0 for f in factors}
     for p in planted:
         table = synthetic_table(values[p], stderrs[p], printed, rng, n_runs, n_runs_paper)
-        d = rms_relative(values, table, scale)
-        better = int(np.sum(d < d[p]))
-        top1 += better == 0
-        top3 += better < 3
+        d = rms_relative(values, table, scales)
+        better, tied = int(np.sum(d < d[p])), int(np.sum(d == d[p])) - 1
+        top1 += min(1.0, max(0.0, (1 - better) / (1 + tied)))
+        top3 += min(1.0, max(0.0, (3 - better) / (1 + tied)))
         best = int(np.argmin(d))
         for f in factors:
             hits[f] += readings[best][f] == readings[p][f]
+            chance[f] += sum(r[f] == readings[p][f] for r in readings) / C
     n = len(planted)
     return {"planted": n, "top1": top1 / n, "top3": top3 / n,
-            "top1_interval": list(wilson_interval(top1, n)), "top3_interval": list(wilson_interval(top3, n)),
-            "by_factor": {f: hits[f] / n for f in factors}}
+            "top1_interval": list(wilson_interval(int(round(top1)), n)),
+            "top3_interval": list(wilson_interval(int(round(top3)), n)),
+            "by_factor": {f: hits[f] / n for f in factors}, "by_factor_chance": {f: chance[f] / n for f in factors}}
 
 
-def indistinguishable(a: np.ndarray, sa: np.ndarray, b: np.ndarray, sb: np.ndarray, printed: Sequence[str],
-                      n_runs: int, n_runs_paper: int | None) -> dict:
-    r"""Whether two universes' tables (values ``a``, ``b`` with standard errors ``sa``, ``sb``, all (J,)) are the
-    same within the noise of a printed table: the joint test (:func:`mmlib.experiment.verdicts.joint_test`) of
-    :math:`z_j = (a_j - b_j)/\sigma_j` with :math:`\sigma_j^2 = s_{aj}^2 + s_{bj}^2 + s_{pj}^2 + u_j^2`, where
-    :math:`s_{pj}` is the paper's Monte Carlo error at its run count (as the verdict rule has it, from the larger
-    of the two standard errors) and :math:`u_j` half a unit of the printed number's last digit.  Passing means a
-    paper-sized table cannot tell the two readings apart.  Returns the test as a dict (``statistic``, ``dof``,
-    ``p_value``, ``passes``)."""
+def confusion(a: np.ndarray, sa: np.ndarray, b: np.ndarray, sb: np.ndarray, printed: Sequence[str],
+              n_runs: int, n_runs_paper: int | None) -> dict:
+    r"""How often a printed table from one of two universes' tables (values ``a``, ``b`` with standard errors
+    ``sa``, ``sb``, all (J,)) would lie closer to the other (module docstring): ``distance``
+    :math:`d = \sqrt{\sum_j (a_j - b_j)^2/\sigma_j^2}` with :math:`\sigma_j^2 = \bar s_j^2 (1 + M/M_p) + u_j^2`
+    (:math:`\bar s_j` the larger standard error, M ``n_runs``, M_p ``n_runs_paper`` (None: no paper error),
+    :math:`u_j` half a unit of the printed number's last digit), ``probability`` :math:`\Phi(-d/2)`, and
+    ``confused``, whether it reaches :data:`CONFUSION`."""
     a, sa, b, sb = (as_float_array(x, name) for x, name in ((a, "a"), (sa, "sa"), (b, "b"), (sb, "sb")))
     if not (a.shape == sa.shape == b.shape == sb.shape == (len(printed),)):
         raise ValueError(f"a, sa, b, sb: expected one value per printed number ({len(printed)}), got {a.shape}, "
@@ -127,8 +161,11 @@ def indistinguishable(a: np.ndarray, sa: np.ndarray, b: np.ndarray, sb: np.ndarr
     n_runs = check_positive_int(n_runs, "n_runs")
     ratio = 0.0 if n_runs_paper is None else n_runs / check_positive_int(n_runs_paper, "n_runs_paper")
     u = np.array([verdicts.printed_half_unit(p) for p in printed])
-    s_p2 = np.maximum(sa, sb) ** 2 * ratio
-    sigma = np.sqrt(sa ** 2 + sb ** 2 + s_p2 + u ** 2)
-    z = np.where(sigma > 0, (a - b) / np.where(sigma > 0, sigma, 1.0), np.where(a == b, 0.0, np.inf))
-    t = verdicts.joint_test(z)
-    return {"statistic": t.statistic, "dof": t.dof, "p_value": t.p_value, "passes": t.passes}
+    sigma2 = np.maximum(sa, sb) ** 2 * (1.0 + ratio) + u ** 2
+    diff2 = (a - b) ** 2
+    if np.any((sigma2 == 0) & (diff2 > 0)):
+        d = math.inf
+    else:
+        d = float(np.sqrt(np.sum(np.where(sigma2 > 0, diff2 / np.where(sigma2 > 0, sigma2, 1.0), 0.0))))
+    prob = 0.5 * math.erfc(d / 2.0 / math.sqrt(2.0))
+    return {"distance": d, "probability": prob, "confused": prob >= CONFUSION}

@@ -39,8 +39,13 @@ The joint test of a group of cells (one published table; one row: the cells of o
 chi-squared with one degree of freedom per cell, over the cells with a finite distance.
 
 The closest universe and the best table match are forensic findings ("Table 1 is consistent with reading X"),
-never the headline, and every run universe takes part in them (the star included); only the declared discrete
-options take part, so nothing continuous is fitted to a published number.
+never the headline. Only readings of the text take part in them (every run universe whose sensitivity factors are at
+the headline and none of whose options is motivated by the results or another paper, the star included); only the
+declared discrete options take part, so nothing continuous is fitted to a published number. How often such a finding
+names the right reading when the answer is known is measured by planting readings (:meth:`Multiverse.recovery`,
+``recovery``), which also names the factors a table cannot identify; each sensitivity factor is reported as its own
+curve (``sensitivity``); universes with a motivated option (``n_motivated``) and degenerate universes (``degenerate``,
+named) are reported apart from every share; ``stability`` holds the run-count check when run.
 """
 from __future__ import annotations
 
@@ -72,6 +77,10 @@ INTERVAL_LEVEL = 0.95
 #: digit when it is printed as 0): 10 %, so that the relative distances that rank the universes are known to
 #: about +-10 % of the printed value, and a value "close" only because it is noisy cannot win
 PRECISION = 0.1
+
+#: the purpose of the planted-reading draws in their SeedSequence's spawn key (:meth:`Multiverse.recovery`): apart
+#: from the sample's seed and from the stability check's draw
+RECOVERY_PURPOSE = 24
 
 #: the robustness label of a claim whose shares cannot be computed
 NO_SHARE = "no share: the design is not a uniform sample"
@@ -258,6 +267,21 @@ class Multiverse:
             return f"uniform sample of {len(self.design.sample)} of {m}, seed {self.design.seed}{apart}"
         return f"none: a {self.design.kind} design of {len(self.universes)} of {m} universes is not a uniform sample"
 
+    def readings_weighting(self, n: int) -> str:
+        """:meth:`weighting` narrowed to the ``n`` counted universes that are readings of the text (the counts of
+        the readings that reproduce and of the table match), when the space has sensitivity factors."""
+        if not self.space.sensitivity_ids:
+            return self.weighting()
+        return (f"{self.weighting()}; of these, the {n} that are readings of the text (sensitivity factors "
+                f"{', '.join(self.space.sensitivity_ids)} at the headline)")
+
+    def claims_weighting(self) -> str:
+        """:meth:`weighting` of the claims' shares, which count the levels of sensitivity factors as options."""
+        if not self.space.sensitivity_ids:
+            return self.weighting()
+        return (f"{self.weighting()}; the levels of the sensitivity factors {', '.join(self.space.sensitivity_ids)} "
+                f"weighted as options (robustness to the tuning included)")
+
     def star_indices(self) -> list:
         """Indices of the universes that differ from the headline in exactly one factor (the star without the
         headline), reported apart from the shares."""
@@ -362,7 +386,7 @@ class Multiverse:
                         "claim": c.claim, "headline_verdict": c.verdict, "headline_decisive": c.decisive,
                         "verdict_counts": sh["counts"], "n_counted": len(labels),
                         "n_simulations": len({sim_of[i] for i, _ in mine}), "n_universes": len(self.universes),
-                        "weighting": self.weighting(), "share": sh["share"], "interval": sh["interval"],
+                        "weighting": self.claims_weighting(), "share": sh["share"], "interval": sh["interval"],
                         "robust": sh["robust"], "robustness": sh["robustness"], "by_option": table,
                         "star_counts": {k: star_v.count(k) for k in report.CLAIM_VERDICTS if k in star_v},
                         "n_star": len(star_v)})
@@ -373,9 +397,15 @@ class Multiverse:
         a reproduced cell inside a failing row or table re-judged *reproduced (isolated)*), ``distance[i][j]``,
         ``tests[i]`` ({("table", table) or ("row", table, item, algorithm): joint-test dict}) and
         ``groups[j]`` (the table and row keys of number j).  Computed once (the universes do not change)."""
-        key = tuple(map(id, self.universes))           # a universe replaced (a test, a re-run) invalidates it
-        if self._memo.get("cells_key") != key:
-            self._memo["cells"], self._memo["cells_key"] = self._judge_cells(), key
+        # valid while the same universe objects (held, so no id is reused), published numbers and paper run count
+        # stand: a universe replaced (a test, a re-run) invalidates it
+        key = self._memo.get("cells_key")
+        stale = key is None or len(key[0]) != len(self.universes) \
+            or any(a is not b for a, b in zip(key[0], self.universes)) \
+            or key[1] is not self.published or key[2] != self.n_runs_paper
+        if stale:
+            self._memo["cells"] = self._judge_cells()
+            self._memo["cells_key"] = (tuple(self.universes), self.published, self.n_runs_paper)
         return self._memo["cells"]
 
     def _judge_cells(self) -> dict:
@@ -450,7 +480,8 @@ class Multiverse:
                         "n_isolated": sum(v == report.ISOLATED for v in mine),
                         "n_qualitative": sum(v == report.QUALITATIVE for v in mine),
                         "n_inconclusive": sum(v.startswith(report.INCONCLUSIVE) for v in mine),
-                        "n_counted": len(mine), "weighting": self.weighting(), "n_universes": len(self.universes),
+                        "n_counted": len(mine), "weighting": self.readings_weighting(len(mine)),
+                        "n_universes": len(self.universes),
                         "precision": PRECISION, "n_precise": len(precise), "closest": closest,
                         "closest_status": status})
         return out
@@ -534,7 +565,7 @@ class Multiverse:
                      "headline_rms_relative": finite_or_none(rms[0]), "headline_n_reproduced": n_rep[0],
                      "joint_test": test[0], "isolated": n_iso[0],
                      "n_passing": sum(bool(test[i] and test[i]["passes"]) for i in counted), "n_counted": len(counted),
-                     "weighting": self.weighting(),
+                     "weighting": self.readings_weighting(len(counted)),
                      "n_excluded_imprecise": sum(not e for e in eligible),
                      "n_excluded_inconclusive": sum(not j for j in judged),
                      "most_n_reproduced": n_rep[most], "most_universe": most,
@@ -579,13 +610,19 @@ class Multiverse:
         readings of the text whose table cells (those the headline computes) are all precise enough, ``trials``
         universes are planted, each gives a synthetic printed table at the paper's run count and printed precision,
         and the table match is run on it.  Per table: ``planted``, ``top1``, ``top3`` (with Wilson intervals),
-        ``by_factor`` (how often the best match has the planted option of each reading factor), ``indistinguishable``
-        (factor -> the option pairs of the headline and a star universe whose tables a printed table cannot tell
-        apart, :func:`mmlib.experiment.forensics.indistinguishable`) and ``unidentifiable`` (those factors: a match
-        is no evidence for one of their options).  The summary (``planted``, ``top1``, ``top3``,
-        ``unidentifiable``) is the mean of the tables' rates and the factors unidentifiable from every table.
-        The draws use their own generator, seeded from the paper's name (:func:`~mmlib.experiment.readings.
-        sample_seed` + 1), never a run's streams."""
+        ``by_factor`` and ``by_factor_chance`` (how often the best match, or a random candidate, has the planted
+        option of each reading factor), ``indistinguishable`` (factor -> the pairs of its options, each varied alone
+        from the headline, that a printed table confuses with probability at least
+        :data:`~mmlib.experiment.forensics.CONFUSION`, :func:`mmlib.experiment.forensics.confusion`) and
+        ``unidentifiable`` (those factors: a match is no evidence for one of their options).  The summary
+        (``planted``, ``top1``, ``top3``, ``unidentifiable``) is the mean of the tables' rates and the factors
+        unidentifiable from every table.  Each table's draws use their own generator, seeded from the paper's name
+        (:func:`~mmlib.experiment.readings.sample_seed`) and the table's place through a ``SeedSequence`` of purpose
+        :data:`RECOVERY_PURPOSE`, never a run's streams or the sample's."""
+        trials = check_positive_int(trials, "trials")
+        key = ("recovery", trials)
+        if self._memo.get(key, (None,))[0] is self._cells():     # the universes' judged cells, computed once
+            return self._memo[key][1]
         readings = self.reading_indices()
         factors = [f.id for f in self.space.factors if f.kind == "reading"]
         tables = []
@@ -595,40 +632,40 @@ class Multiverse:
             if not cells:
                 continue
             pubs = [self.published[j] for j in cells]
+            printed = [p.printed for p in pubs]
             ok = [i for i in readings if all(self.precise(p, self.universes[i]) for p in pubs)]
             entry = {"table": table, "n_cells": len(cells), "n_candidates": len(ok), "planted": 0, "top1": None,
                      "top3": None, "top1_interval": None, "top3_interval": None, "by_factor": {},
-                     "indistinguishable": {}, "unidentifiable": []}
+                     "by_factor_chance": {}, "indistinguishable": {}, "unidentifiable": []}
             if ok:
                 vals, ses = self._cell_arrays(ok, cells)
+                seed = int(np.random.SeedSequence(sample_seed(self.space.paper),
+                                                  spawn_key=(RECOVERY_PURPOSE, t_index)).generate_state(1)[0])
                 entry.update(forensics.planted_recovery(
-                    vals, ses, [p.printed for p in pubs], [self.readings[i] for i in ok], factors,
-                    n_runs=self.n_runs, n_runs_paper=self.n_runs_paper,
-                    seed=sample_seed(self.space.paper) + 1 + t_index, trials=trials))
-            head = self._cell_arrays([0], cells)
+                    vals, ses, printed, [self.readings[i] for i in ok], factors,
+                    n_runs=self.n_runs, n_runs_paper=self.n_runs_paper, seed=seed, trials=trials))
             for f in factors:
-                pairs = []
+                star = []                                    # the options varied alone from the headline, with data
                 for o in self.space.factor(f).names:
                     i = self._star_of(f, o)
-                    if o == self.space.factor(f).headline or i is None or i not in readings:
-                        continue
-                    other = self._cell_arrays([i], cells)
-                    if not (np.isfinite(other[0]).all() and np.isfinite(head[0]).all()):
-                        continue
-                    test = forensics.indistinguishable(head[0][0], head[1][0], other[0][0], other[1][0],
-                                                       [p.printed for p in pubs], self.n_runs, self.n_runs_paper)
-                    if test["passes"]:
-                        pairs.append([self.space.factor(f).headline, o])
+                    if i is not None and i in readings:
+                        v, se = self._cell_arrays([i], cells)
+                        if np.isfinite(v).all() and np.isfinite(se).all():
+                            star.append((o, v[0], se[0]))
+                pairs = [[oa, ob] for k, (oa, va, sa) in enumerate(star) for (ob, vb, sb) in star[k + 1:]
+                         if forensics.confusion(va, sa, vb, sb, printed, self.n_runs, self.n_runs_paper)["confused"]]
                 if pairs:
                     entry["indistinguishable"][f] = pairs
             entry["unidentifiable"] = sorted(entry["indistinguishable"], key=factors.index)
             tables.append(entry)
         run = [t for t in tables if t["planted"]]
         common = [f for f in factors if run and all(f in t["unidentifiable"] for t in run)]
-        return {"planted": sum(t["planted"] for t in run),
-                "top1": float(np.mean([t["top1"] for t in run])) if run else None,
-                "top3": float(np.mean([t["top3"] for t in run])) if run else None,
-                "unidentifiable": common, "trials_per_table": trials, "tables": tables}
+        out = {"planted": sum(t["planted"] for t in run),
+               "top1": float(np.mean([t["top1"] for t in run])) if run else None,
+               "top3": float(np.mean([t["top3"] for t in run])) if run else None,
+               "unidentifiable": common, "trials_per_table": trials, "tables": tables}
+        self._memo[key] = (self._cells(), out)
+        return out
 
     def sensitivity(self) -> list:
         """The curve of every sensitivity factor (:attr:`mmlib.experiment.readings.Factor.kind`): per option, the
@@ -688,7 +725,9 @@ class Multiverse:
         """The ``multiverse`` object of ``data/results/<paper>.json`` (see the module docstring); JSON-able."""
         return {"factors": self.space.as_dict(), "design": self.design.kind,
                 "design_description": self.design.description, "design_sample": list(self.design.sample),
-                "design_seed": self.design.seed, "n_counted": len(self.design.sample), "weighting": self.weighting(),
+                "design_seed": self.design.seed, "n_counted": len(self.counted()) if self.uniform else 0,
+                "n_drawn": len(self.drawn()),
+                "weighting": self.weighting(),
                 "n_universes": len(self.universes),
                 "n_simulations": len(self.simulations()),
                 "full_factorial_size": self.space.size, "n_runs": self.n_runs,
@@ -763,5 +802,4 @@ def from_dict(space: ReadingSpace, doc: dict, published: Iterable[PublishedNumbe
 def _scale(pub: PublishedNumber) -> float:
     """The magnitude a published number's precision and relative distance refer to: ``|printed|``, or half a unit
     of its last printed digit when it is printed as 0."""
-    p = abs(float(pub.printed))
-    return p if p > 0 else report.printed_half_unit(pub.printed)
+    return forensics.scale(pub.printed)

@@ -221,6 +221,7 @@ class NotebookRun:
             if self.progress:
                 from mmlib.experiment.montecarlo import say_progress
                 say_progress(f"  [{p.name} stability] {mv.stability['statement']}")
+            mv.stability.update(n_runs_headline=self.n_runs, mode="headline" if other == self.n_runs else "half")
         return mv
 
     def show(self, fig: matplotlib.figure.Figure, stem: str, claim: str, ours: str) -> None:

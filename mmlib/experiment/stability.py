@@ -86,7 +86,8 @@ def run_count_stability(mv: Multiverse, job: Callable, *, n_runs: int, seed: int
     :func:`~mmlib.experiment.grid.run_grid`; the results do not depend on them.  ``size`` (integer >= 0) is the number
     of sampled universes besides the headline (fewer when the pool, :func:`sample_pool`, is smaller).
 
-    Returns a JSON-able dict: ``n_runs_universe`` (``mv.n_runs``), ``n_runs_headline`` (``n_runs``), ``rerun``
+    Returns a JSON-able dict: ``n_runs_universe`` (``mv.n_runs``), ``n_runs_check`` (``n_runs``, the other
+    count), ``rerun``
     (False when the two counts coincide: nothing is rerun and no verdict can change), ``low_runs`` and
     ``high_runs`` (the smaller and larger count), ``sample`` (the draw: ``size`` asked, ``n_sampled``, ``pool``
     size, ``draw_seed``, ``excluded_degenerate``, ``excluded_motivated``), ``universes`` (per universe checked,
@@ -167,7 +168,7 @@ def run_count_stability(mv: Multiverse, job: Callable, *, n_runs: int, seed: int
         which = "; ".join(f"{c} ({_universes(m)})" for c, m in claims_changed.items() if m)
         statement = (f"{n_changed} of {len(entries)} universes (the headline and {_universes(k)} sampled) change a "
                      f"verdict between {low_runs} and {high_runs} runs: {which}.")
-    return {"n_runs_universe": mv.n_runs, "n_runs_headline": n_runs, "rerun": rerun, "low_runs": low_runs,
+    return {"n_runs_universe": mv.n_runs, "n_runs_check": n_runs, "rerun": rerun, "low_runs": low_runs,
             "high_runs": high_runs,
             "sample": {"size": size, "n_sampled": k, "pool": len(pool), "draw_seed": dseed,
                        "excluded_degenerate": drawn["excluded_degenerate"],

@@ -800,13 +800,13 @@ def recovery_table(mv: Multiverse | dict) -> str:
 def stability_text(mv: Multiverse | dict) -> str:
     """Whether the claims' verdicts are stable in the run count (``multiverse.stability``, written by the lead's
     :attr:`Multiverse.stability`): the statement the check wrote when it gives one, else ``"Run-count check: the
-    verdicts of 6 universes at 40 runs (the universes' count) and at 200 (the headline's): 1 changes (claim C)"``.
+    verdicts of 6 universes at 40 runs (the universes' count) and at 200: 1 changes (claim C)"``.
     A results file without the section is said to have none."""
     st = _section(mv, "stability")
     if st is None:
         return "No run-count check in these results."
     if not isinstance(st, dict) or "n_changed" not in st:
-        raise ValueError(f"mv: 'stability' must be {{n_runs_universe, n_runs_headline, universes, n_changed, "
+        raise ValueError(f"mv: 'stability' must be {{n_runs_universe, n_runs_check, universes, n_changed, "
                          f"claims_changed, statement}}, got {st!r}")
     if st.get("statement"):
         return str(st["statement"])
@@ -815,8 +815,8 @@ def stability_text(mv: Multiverse | dict) -> str:
     n = st["n_changed"]
     which = f" ({'; '.join(changed)})" if changed else ""
     return (f"Run-count check: the verdicts of {n_u} universe{'s' if n_u != 1 else ''} at "
-            f"{st.get('n_runs_universe', '--')} runs (the universes' count) and at {st.get('n_runs_headline', '--')} "
-            f"(the headline's): " + ("no verdict changes." if not n else
+            f"{st.get('n_runs_universe', '--')} runs (the universes' count) and at "
+            f"{st.get('n_runs_check', '--')}: " + ("no verdict changes." if not n else
                                      f"{n} verdict{'s' if n != 1 else ''} change{'s' if n == 1 else ''}{which}."))
 
 

@@ -265,14 +265,12 @@ def baseline_rms(reading: Mapping, mc: MonteCarlo) -> MCValue:
     return _baseline(tuple((f, getattr(s, f)) for f in BASELINE_FIELDS), mc.root_seed, mc.n_runs)
 
 
-def degenerate_reason(results: Mapping, baseline_value: float) -> str:
+def degenerate_reason(results: Mapping, baseline_value: metrics.MCValue) -> str:
     """Why the universe of ``results`` (``{name: RunSet}`` of :data:`~mmlib.papers.tseng2011.text.ALGORITHMS`) is
-    degenerate, or "" (:func:`mmlib.experiment.evaluation.degenerate_reason`): every filter's horizontal position
-    RMSE (:func:`horizontal_rms`, m) is at least ``baseline_value``, the single-epoch fix's (:func:`baseline_rms`,
-    m): no filter then learns anything from the dynamics.  The comparison is of the two Monte Carlo estimates on
-    the same runs, without a margin (a universe near the boundary is flagged or not by Monte Carlo noise; the
-    notebook prints both numbers)."""
-    return evaluation.degenerate_reason({a: float(horizontal_rms(results[a]).value) for a in ALGORITHMS},
+    degenerate, or "" (:func:`mmlib.experiment.evaluation.degenerate_reason`): no filter's horizontal position RMSE
+    (:func:`horizontal_rms`, m) is detectably and non-negligibly below ``baseline_value``, the single-epoch fix's
+    (:func:`baseline_rms`, m, with its standard error): no filter then learns anything from the dynamics."""
+    return evaluation.degenerate_reason({a: horizontal_rms(results[a]) for a in ALGORITHMS},
                                         baseline_value, what=baseline.WHAT)
 
 
@@ -291,7 +289,7 @@ def universe(reading: Mapping, n_runs: int, seed: int) -> UniverseResult:
     when no filter beats the single-epoch fix (:func:`degenerate_reason`)."""
     mc = MonteCarlo(seed, n_runs)
     results = evaluate_reading(reading, mc)
-    return summarise(results, n_runs, degenerate_reason(results, float(baseline_rms(reading, mc).value)))
+    return summarise(results, n_runs, degenerate_reason(results, baseline_rms(reading, mc)))
 
 
 def headline_digest(n_runs: int) -> dict:

@@ -50,8 +50,9 @@ def position_rmse(errors: np.ndarray, valid: np.ndarray | None = None) -> float:
     return float(np.sqrt(np.mean(e[..., 0] ** 2 + e[..., 2] ** 2)))
 
 
-def measurement_only_rmse(setup: Setup, mc: MonteCarlo) -> float:
-    r"""Position RMSE (m, :func:`position_rmse`) of the measurement-only estimate over the runs of ``mc``: the
+def measurement_only_rmse(setup: Setup, mc: MonteCarlo) -> metrics.MCValue:
+    r"""Position RMSE (m, :func:`position_rmse`, with its standard error over runs) of the measurement-only estimate
+    over the runs of ``mc``: the
     measured position itself under the position sensor, the measured range and bearing turned into Cartesian
     coordinates, :math:`p = p_{\rm sensor} + \rho\,[\cos\theta, \sin\theta]`, under the range-bearing sensor
     (Z-5); the estimate that ignores the dynamics, the no-information baseline of :func:`degenerate`.  The same
@@ -62,14 +63,15 @@ def measurement_only_rmse(setup: Setup, mc: MonteCarlo) -> float:
         pos = z
     else:
         pos = np.asarray(setup.sensor_xy) + z[..., :1] * np.stack([np.cos(z[..., 1]), np.sin(z[..., 1])], axis=-1)
-    return float(np.sqrt(np.mean(np.sum((pos - truth[:, 1:, [0, 2]]) ** 2, axis=-1))))
+    return metrics.armse(pos - truth[:, 1:, [0, 2]])
 
 
-def degenerate(results: dict, baseline: float) -> str:
+def degenerate(results: dict, baseline: metrics.MCValue | float) -> str:
     """Why the universe is degenerate (:func:`mmlib.experiment.evaluation.degenerate_reason`), "" when it is not:
-    every algorithm of Table 1 (:data:`RMSE_ALGORITHMS`) has a position RMSE (:func:`position_rmse`, m, valid runs)
-    at least the measurement-only estimate's ``baseline`` (m, :func:`measurement_only_rmse`)."""
-    return evaluation.degenerate_reason({a: position_rmse(results[a].errors, results[a].valid)
+    no algorithm of Table 1 (:data:`RMSE_ALGORITHMS`) has a position RMSE (m, valid runs, with its standard error;
+    :func:`position_rmse`'s) detectably and non-negligibly below the measurement-only estimate's ``baseline`` (m,
+    :func:`measurement_only_rmse`)."""
+    return evaluation.degenerate_reason({a: metrics.armse(results[a].errors[..., [0, 2]], results[a].valid)
                                          for a in RMSE_ALGORITHMS}, baseline, what=BASELINE)
 
 
