@@ -12,8 +12,9 @@ from typing import Iterator, Mapping
 
 from mmlib.experiment.paper import Paper
 
-#: the packages of the replicated papers, in the order of the README's table
-PACKAGES = ("zhu2016", "liu2017", "hu2017", "zhou2017", "tseng2011")
+#: the packages of the replicated papers, in the order of the README's table; the controls of the pipeline
+#: (``Paper.kind == "control"``) first
+PACKAGES = ("controls", "zhu2016", "liu2017", "hu2017", "zhou2017", "tseng2011")
 
 
 class Registry(Mapping):
