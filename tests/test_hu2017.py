@@ -402,3 +402,91 @@ def test_scenario_is_the_headline_in_metres():
     np.testing.assert_allclose(s.P0, np.diag(np.square([100.0, 20.0, 100.0, 20.0])), rtol=1e-12)
     with pytest.raises(ValueError, match="setup"):
         PAPER.scenario(None)
+
+
+# ------------------------------------------------------------------- kinds of factor, consistency, degenerate flag
+def test_only_the_filters_q_is_a_sensitivity_factor_and_no_option_is_motivated():
+    """H-14 sweeps the filters' Q over five decades from one source sentence: a tuning sweep, not a reading; every
+    other factor's options quote the text, and none is motivated by Table 1 or another paper (text.py's review)."""
+    space = PAPER.space
+    assert space.sensitivity_ids == ("H-14",)
+    assert {f.id: f.kind for f in space.factors if f.id != "H-14"} == {f.id: "reading" for f in space.factors
+                                                                       if f.id != "H-14"}
+    assert not any(o.motivated_by for f in space.factors for o in f.options)
+    assert space.is_reading(space.headline)
+    assert not space.is_reading(space.with_headline(**{"H-14": "1"}))          # a level of the sweep
+    assert space.is_reading(space.with_headline(**{"H-4": "km", "H-10": "beta2"}))
+    assert space.factor("H-14").as_dict()["kind"] == "sensitivity"
+
+
+@pytest.fixture(scope="module")
+def headline_consistency():
+    return study.evaluate_reading(PAPER.headline, MonteCarlo(PAPER.root_seed, 10), consistency=True)
+
+
+def test_consistency_entries_cover_every_imm(headline_consistency):
+    """One entry per IMM with both statistics and their bands; the NEES agrees with the second pass's (the same
+    combined estimate and covariance, computed independently) to round-off; IMMCDKF-OBS's fused covariance is
+    over-confident (its ANEES far above the band's upper end)."""
+    res = headline_consistency
+    entries = diagnostics.consistency(res)
+    assert [e["algorithm"] for e in entries] == list(PAPER.algorithms) and {e["case"] for e in entries} == {""}
+    for e in entries:
+        for stat, dof in (("anees", 4.0), ("anis", 2.0)):
+            c = e[stat]
+            assert c["dof"] == dof and c["n_runs"] == 10 and c["value"] is not None
+            assert c["band"][0] < dof < c["band"][1] and c["inside"] == (c["band"][0] <= c["value"] <= c["band"][1])
+    for alg in study.NEES_ALGORITHMS:
+        anees = next(e["anees"]["value"] for e in entries if e["algorithm"] == alg)
+        # two computations of the same sum of squares: round-off only (relative 1e-9 of values up to ~1e5)
+        assert anees == pytest.approx(float(study.nees_average(res, alg).value), rel=1e-9)
+    obs = next(e for e in entries if e["algorithm"] == "IMMCDKF-OBS")
+    assert obs["anees"]["value"] > 10 * obs["anees"]["band"][1] and not obs["anees"]["inside"]
+    table = diagnostics.consistency_table(entries)
+    assert all(alg in table for alg in PAPER.algorithms)
+
+
+def test_consistency_needs_the_consistency_run():
+    res = study.evaluate_reading(PAPER.headline, MonteCarlo(PAPER.root_seed, 3))
+    with pytest.raises(ValueError, match="IMMUKF"):
+        diagnostics.consistency(res)
+
+
+def test_the_consistency_run_leaves_the_estimates_and_the_digest_unchanged(headline_consistency):
+    from mmlib.experiment import digests
+    plain = study.evaluate_reading(PAPER.headline, MonteCarlo(PAPER.root_seed, 10))
+    assert digests.run_digest(plain.runs, 10)["sha256"] == digests.run_digest(headline_consistency.runs, 10)["sha256"]
+
+
+def test_measurement_only_estimate_inverts_the_radar():
+    """Noise-free measurements invert to the true positions (round-off of km-sized values); with noise the
+    measurement-only mean squared error matches the first-order prediction sigma_r^2 + r^2 sigma_theta^2 per step
+    within 4 standard errors over the runs (independent replications)."""
+    s = setup.Setup()
+    mc = MonteCarlo(PAPER.root_seed, 40)
+    schedule, radar = setup.truth_and_radar(s)
+    make_batch, _ = setup.batch(s, mc, names=("IMMCDKF",))
+    truth, z, _ = make_batch(range(40))
+    exact = study.measurement_only_errors(radar, truth, radar.h(truth[:, 1:]))
+    assert np.abs(exact).max() < 1e-12 * np.abs(truth[..., [0, 2]]).max()
+    e2 = (study.measurement_only_errors(radar, truth, z) ** 2).sum(axis=-1)          # (N, K) km^2
+    r2 = (truth[:, 1:][..., [0, 2]] ** 2).sum(axis=-1)
+    predicted = s.sigma_r ** 2 + r2 * np.radians(s.sigma_theta_deg) ** 2
+    d = (e2 - predicted).mean(axis=1)
+    assert abs(d.mean()) < 4 * d.std(ddof=1) / np.sqrt(len(d)), (d.mean(), d.std(ddof=1))
+
+
+def test_degenerate_flag_false_at_the_headline_true_when_no_imm_beats_the_measurements(headline_consistency):
+    res = headline_consistency
+    assert study.degenerate(res) == ""
+    baseline = float(metrics.armse(res.measurement_only).value)
+    assert max(float(v.value) for a, v in study.position_rmse(res).items() if a != "IMMCDKF-OBS") < 0.7 * baseline
+    # constructed: measurements a hundred times more precise, so every IMM's error exceeds the baseline
+    sharp = res._replace(measurement_only=res.measurement_only / 100)
+    why = study.degenerate(sharp)
+    assert why and study.BASELINE in why
+    u = study.summarise(sharp, 10)
+    assert u.degenerate == why and u.as_json()["degenerate"] == why
+    assert study.summarise(res, 10).degenerate == "" and "degenerate" not in study.summarise(res, 10).as_json()
+    with pytest.raises(ValueError, match="res"):
+        study.degenerate(res._replace(measurement_only=None))

@@ -371,3 +371,79 @@ def test_strong_tracking_layers_carry_the_setups_beta_and_rho():
         assert isinstance(layer, StrongTracking)
         assert (layer.beta, layer.rho) == (EXAMPLE1.beta, EXAMPLE1.rho) == (4.5, 0.95)
     assert isinstance(filters["STF"].base, ExtendedKalmanFilter)
+
+
+# ------------------------------------------------------------------- kinds of factor, consistency, degenerate flag
+def test_only_the_filters_process_noise_is_a_sensitivity_factor_and_no_option_is_motivated():
+    """L-2 sweeps sqrt(q) over four decades (Q_ca is never stated): a tuning sweep, not a reading; every other
+    factor's options quote the text -- L-1's 100 s onset is the paper's own discussion, a reading, not an option
+    motivated by the results it gives -- and none is motivated by the results or another paper."""
+    space = PAPER.space
+    assert space.sensitivity_ids == ("L-2",)
+    assert all(f.kind == "reading" for f in space.factors if f.id != "L-2")
+    assert not any(o.motivated_by for f in space.factors for o in f.options)
+    assert space.is_reading(space.with_headline(**{"L-1": "100s"}))
+    assert not space.is_reading(space.with_headline(**{"L-2": "1"}))
+    assert space.factor("L-2").as_dict()["kind"] == "sensitivity"
+
+
+@pytest.fixture(scope="module")
+def headline_consistency():
+    return study.evaluate_reading(PAPER.headline, MonteCarlo(PAPER.root_seed, N_SMALL), consistency=True)
+
+
+def test_consistency_entries_cover_every_filter_of_every_case(headline_consistency):
+    """One entry per case and filter run there, both statistics with their bands (6 and 2 degrees of freedom);
+    SSRCKF, tuned for the non-maneuvering regime, is far over-confident through Example 1's 15-25 m/s^2 maneuver."""
+    entries = diagnostics.consistency(headline_consistency)
+    assert [(e["case"], e["algorithm"]) for e in entries] == \
+        [(case, alg) for case in text.CASES for alg in text.CASE_FILTERS[case]]
+    for e in entries:
+        for stat, dof in (("anees", 6.0), ("anis", 2.0)):
+            c = e[stat]
+            assert c["dof"] == dof and c["n_runs"] == N_SMALL and c["value"] is not None
+            assert c["band"][0] < dof < c["band"][1] and c["inside"] == (c["band"][0] <= c["value"] <= c["band"][1])
+    ssr = next(e for e in entries if e["case"] == "Example 1" and e["algorithm"] == "SSRCKF")
+    assert ssr["anees"]["value"] > 10 * ssr["anees"]["band"][1]
+    table = diagnostics.consistency_table(entries)
+    assert all(case in table for case in text.CASES)
+    plain = study.evaluate_reading(PAPER.headline, MonteCarlo(PAPER.root_seed, 2))
+    with pytest.raises(ValueError, match="SSRCKF"):
+        diagnostics.consistency(plain)
+
+
+def test_the_consistency_run_leaves_the_digest_unchanged(headline_consistency):
+    from mmlib.experiment import digests
+    plain = study.evaluate_reading(PAPER.headline, MonteCarlo(PAPER.root_seed, N_SMALL))
+    assert digests.run_digest(plain.runs, N_SMALL)["sha256"] == \
+        digests.run_digest(headline_consistency.runs, N_SMALL)["sha256"]
+
+
+def test_measurement_only_estimate_inverts_the_radar():
+    """Noise-free measurements invert to the true positions (round-off of values up to ~30 km)."""
+    mc = MonteCarlo(PAPER.root_seed, 3)
+    make_batch, _, _ = setup.make_batch_fn(EXAMPLE1, mc, names=("SSRCKF",))
+    truth, _, _ = make_batch(range(3))
+    radar = setup.build(EXAMPLE1)[1]
+    exact = study.measurement_only_errors(radar, truth, radar.h(truth[:, 1:]))
+    assert np.abs(exact).max() < 1e-12 * np.abs(truth[..., [0, 3]]).max()
+
+
+def test_degenerate_only_when_every_case_is(headline_consistency):
+    """The rule: a universe is degenerate when every case its claims use is; one case whose best filter beats the
+    measurement-only estimate keeps it counted."""
+    res = headline_consistency
+    assert study.degenerate_cases(res) == {case: "" for case in text.CASES} and study.degenerate(res) == ""
+    assert study.summarise(res, N_SMALL).degenerate == ""
+
+    def sharp(cases):                     # measurements a thousand times more precise in ``cases``
+        return res._replace(measurement_only={c: e / 1000 if c in cases else e
+                                              for c, e in res.measurement_only.items()})
+    one = sharp(text.CASES[:1])
+    assert study.degenerate_cases(one)[text.CASES[0]] and study.degenerate(one) == ""
+    every = sharp(text.CASES)
+    why = study.degenerate(every)
+    assert why.startswith("in every example") and all(case in why for case in text.CASES)
+    assert study.summarise(every, N_SMALL).degenerate == why
+    with pytest.raises(ValueError, match="results"):
+        study.degenerate(res._replace(measurement_only=None))

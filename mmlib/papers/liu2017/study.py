@@ -10,33 +10,64 @@ from __future__ import annotations
 
 from typing import Mapping, NamedTuple
 
+import numpy as np
+
+from mmlib.core.models import RangeBearing
 from mmlib.experiment import digests, evaluation, metrics, report
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment.universe import UniverseResult
 from mmlib.papers.liu2017 import text
 from mmlib.papers.liu2017.claims import after_onset, judge_claims
-from mmlib.papers.liu2017.setup import Examples, for_reading, make_batch_fn
+from mmlib.papers.liu2017.setup import Examples, build, for_reading, make_batch_fn
+
+#: the no-information baseline of the degenerate flag (:func:`degenerate`)
+BASELINE = "the measurement-only estimate's position RMSE"
 
 
 class ReadingResults(NamedTuple):
     """Monte Carlo results of one reading: ``runs[case][algorithm]`` is a RunSet, ``setups`` the reading's
-    :class:`~mmlib.papers.liu2017.setup.Examples`."""
+    :class:`~mmlib.papers.liu2017.setup.Examples`, ``measurement_only[case]`` the (N, K, 2) position error (m) of
+    every radar measurement inverted alone (:func:`measurement_only_errors`)."""
 
     reading: dict
     setups: Examples
     runs: dict
+    measurement_only: dict | None = None
 
 
-def evaluate_reading(reading: Mapping[str, str], mc: MonteCarlo, progress: bool = False) -> ReadingResults:
+def measurement_only_errors(radar: RangeBearing, truth: np.ndarray, z: np.ndarray) -> np.ndarray:
+    r"""Position error (m) of the measurement-only estimate, (B, K, 2): every radar measurement inverted alone,
+    :math:`\hat p_k = s + r_k (\cos\theta_k, \sin\theta_k)` with ``s`` the radar's position (the origin, Eq.
+    40), minus the true position (x, y) at steps 1..K.  ``truth`` (B, K+1, 6) with x_0 first, ``z`` (B, K, 2)
+    range (m) and bearing (rad).  It uses no dynamics and no prior: the no-information baseline of
+    :func:`degenerate`."""
+    r, theta = z[..., 0], z[..., 1]
+    est = np.stack([radar.sensor[0] + r * np.cos(theta), radar.sensor[1] + r * np.sin(theta)], axis=-1)
+    return est - truth[:, 1:][..., list(radar.position_index)]
+
+
+def evaluate_reading(reading: Mapping[str, str], mc: MonteCarlo, progress: bool = False,
+                     consistency: bool = False) -> ReadingResults:
     """Example 1 (the five filters of Table 1 and the plain CKF) and both cases of Example 2 (the five
-    filters of Table 3) under ``reading``, all on the runs of ``mc`` (common random numbers)."""
+    filters of Table 3) under ``reading``, all on the runs of ``mc`` (common random numbers), and each case's
+    measurement-only errors (:func:`measurement_only_errors`, from the same truth and measurements).
+    ``consistency=True`` also records every filter's NEES and NIS per run and step in its RunSet
+    (:func:`mmlib.experiment.evaluation.evaluate`; the estimates are the same bits either way), what
+    :func:`mmlib.papers.liu2017.diagnostics.consistency` reads."""
     reading = text.SPACE.validate(reading)
     sets = for_reading(reading)
-    runs = {}
+    runs, meas_only = {}, {}
     for case in text.CASES:
         make_batch, estimators, _ = make_batch_fn(sets[case], mc, names=text.CASE_FILTERS[case])
-        runs[case] = evaluation.evaluate(estimators, make_batch, mc, label=f"{text.NAME} {case}", progress=progress)
-    return ReadingResults(reading, sets, runs)
+        runs[case] = evaluation.evaluate(estimators, make_batch, mc, label=f"{text.NAME} {case}", progress=progress,
+                                         consistency=consistency)
+        radar = build(sets[case])[1]
+        parts = []
+        for chunk in mc.chunks(250):
+            truth, z, _ = make_batch(chunk)
+            parts.append(measurement_only_errors(radar, truth, z))
+        meas_only[case] = np.concatenate(parts)
+    return ReadingResults(reading, sets, runs, meas_only)
 
 
 def table_values(results: ReadingResults) -> list:
@@ -74,11 +105,43 @@ def diverged(results: ReadingResults) -> dict:
     return {f"{case} {alg}": int((~rs.valid).sum()) for case in text.CASES for alg, rs in results.runs[case].items()}
 
 
+def position_rmse(results: ReadingResults, case: str) -> dict:
+    """Per filter of ``case``, its position ARMSE (m, Eq. 42: over its valid runs and every step; NaN when every
+    run diverged)."""
+    return {alg: metrics.armse(rs.errors[..., list(text.POSITION)], rs.valid)
+            for alg, rs in results.runs[case].items()}
+
+
+def degenerate_cases(results: ReadingResults) -> dict:
+    """Per case of :data:`text.CASES`, why it is degenerate or ""
+    (:func:`mmlib.experiment.evaluation.degenerate_reason`): every filter's position ARMSE (:func:`position_rmse`) at
+    least the measurement-only estimate's (:func:`measurement_only_errors`, the same ARMSE over every run and step),
+    the no-information baseline."""
+    if results.measurement_only is None:
+        raise ValueError("results: no measurement-only errors (ReadingResults from evaluate_reading)")
+    return {case: evaluation.degenerate_reason(position_rmse(results, case),
+                                               metrics.armse(results.measurement_only[case]),
+                                               what=BASELINE)
+            for case in text.CASES}
+
+
+def degenerate(results: ReadingResults) -> str:
+    """Why the universe is degenerate, or "".  The rule: a universe is degenerate when *every* case its claims use
+    (Example 1 and both cases of Example 2, :data:`text.CASES`) is degenerate (:func:`degenerate_cases`): while one
+    case has a filter that beats the measurement-only estimate, the claims judged on that case still compare
+    filters that track, so the universe's comparisons are kept in the shares."""
+    cases = degenerate_cases(results)
+    if not all(cases.values()):
+        return ""
+    return "in every example: " + "; ".join(f"{case}: {why}" for case, why in cases.items())
+
+
 def summarise(results: ReadingResults, n_runs: int) -> UniverseResult:
     """The universe result of one reading: Table 1 and 3 values, claim verdicts, effects (the key
-    effect first) and diverged-run counts."""
+    effect first), diverged-run counts and whether the universe is degenerate (:func:`degenerate`)."""
     return UniverseResult.build(values=table_values(results), claims=judge_claims(results),
-                                diverged=diverged(results), effects=effects(results), n_runs=n_runs)
+                                diverged=diverged(results), effects=effects(results), n_runs=n_runs,
+                                degenerate=degenerate(results))
 
 
 def universe(reading: Mapping[str, str], n_runs: int, seed: int) -> UniverseResult:
