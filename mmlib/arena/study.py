@@ -44,6 +44,22 @@ Metrics per cell (units: m, m/s; Bar-Shalom, Li & Kirubarajan 2001, Sec. 5.4.2 f
 Comparisons (:func:`compare`) read the part verdict of the one rule (:func:`mmlib.experiment.report.claim_verdict`)
 in the arena's vocabulary :class:`ArenaVerdict`: helps, hurts, no detectable difference, identical (to round-off),
 diverges, not comparable.
+
+Who takes part, and what is pooled (issue 24):
+
+* the scenarios are the registered papers' (:func:`paper_names`: every paper of :data:`mmlib.papers.REGISTRY` except
+  the controls, ``kind == "control"``, which test the pipeline and take no part in the arena) and the ladder's; a
+  paper's scenario is what its ``Paper.scenario`` builds from its headline set-up (Zhou et al. 2017: Case 2 under the
+  per-step fault reading, :data:`mmlib.papers.zhou2017.setup.ARENA_FAULT_KIND`, because the headline's accumulating
+  bearing drift is unobservable and every filter errs by the measurement-only error there);
+* cross-scenario (pooled) tallies -- a paper's claim judged across the arena (:func:`paper_claims`), an idea's
+  counts of verdicts (:func:`idea_summary`), the consistency counts of :func:`findings` -- leave out the
+  *excluded* scenarios (:attr:`ArenaResult.excluded`, :func:`exclusions`) and report them apart: a scenario from a
+  paper whose verdicts judge a reconstruction (``Paper.qualifier``, e.g. a set-up the paper does not give), and a
+  *degenerate* scenario, on which no applicable algorithm's position RMSE is detectably and non-negligibly below the
+  measurement-only estimate's (:func:`measurement_only_rmse`, paired on the common runs; the claim rule of
+  :func:`mmlib.experiment.evaluation.degenerate_reason`): no algorithm there extracts anything from the motion, so
+  comparing them measures only how they fail.  The per-scenario tables and comparisons keep every scenario.
 """
 from __future__ import annotations
 
@@ -59,7 +75,8 @@ from typing import Callable, Iterable, Mapping, NamedTuple, Sequence
 import numpy as np
 
 from mmlib.arena import ladder, recipes
-from mmlib.core._validate import (as_float_array, check_bool, check_has, check_mask, check_names,
+from mmlib.core import models
+from mmlib.core._validate import (check_bool, check_has, check_names,
                                   check_positive_int, check_scalar)
 from mmlib.core.protocols import Estimator
 from mmlib.experiment import evaluation, metrics, report
@@ -69,12 +86,21 @@ from mmlib.experiment.paper import Study
 from mmlib.experiment.scenario import Scenario
 from mmlib.papers import REGISTRY
 
+
+def paper_names() -> tuple:
+    """The registered papers that take part in the arena, in the registry's order: every paper of
+    :data:`mmlib.papers.REGISTRY` (including papers registered after import) except the controls (``kind ==
+    "control"``: a closed-form check of the pipeline, not a tracking problem of the literature)."""
+    return tuple(name for name in REGISTRY if REGISTRY[name].kind != "control")
+
+
 PAPER = "arena"
 #: the arena notebook's name, root seed (the ladder's; paper scenarios keep their papers') and profiles: 1000 runs per
 #: cell, smoke the first 20 of the same streams (so the smoke digest equals the full study's)
 STUDY = Study(PAPER, ladder.ROOT_SEED, {"full": {"n_runs": 1000}, "smoke": {"n_runs": 20}})
-#: the default scenarios: every registered paper's headline (in the registry's order), then the ladder's rungs
-SCENARIOS = tuple(REGISTRY) + ladder.NAMES
+#: the default scenarios: every registered paper's headline (in the registry's order, controls skipped:
+#: :func:`paper_names`), then the ladder's rungs
+SCENARIOS = paper_names() + ladder.NAMES
 ALGORITHMS = recipes.ALGORITHMS
 CHUNK_SIZE = 250
 COST_RUNS = 100           #: runs of the batched run that measures a cell's cost (the same batch for every algorithm)
@@ -115,6 +141,9 @@ VERSUS_BEST = {report.PartVerdict.HOLDS: "worse", report.PartVerdict.HOLDS_NEGLI
                report.PartVerdict.IDENTICAL: "identical (to round-off)",
                report.PartVerdict.NOT_COMPARABLE: "not comparable"}
 
+#: the ANEES/ANIS summary of a cell, in the experiment layer since issue 24 (every paper reports it too)
+consistency = evaluation.consistency
+
 
 def scenario(name: str) -> Scenario:
     """The scenario ``name``: a paper's headline scenario (``zhu2016`` ...) or a ladder rung; ValueError listing the
@@ -125,14 +154,14 @@ def scenario(name: str) -> Scenario:
 
 
 def known_scenarios() -> tuple:
-    """Every scenario name: the registered papers' (:data:`mmlib.papers.REGISTRY`, including papers registered
-    after import) and the ladder's."""
-    return tuple(REGISTRY) + ladder.NAMES
+    """Every scenario name: the registered papers' (:func:`paper_names`: :data:`mmlib.papers.REGISTRY`, including
+    papers registered after import, without the controls) and the ladder's."""
+    return paper_names() + ladder.NAMES
 
 
 @functools.lru_cache(maxsize=32)
 def _scenario(name: str) -> Scenario:
-    if name in REGISTRY:
+    if name in REGISTRY and name in paper_names():
         paper = REGISTRY[name]
         return paper.scenario(paper.headline_setup())
     if name in ladder.NAMES:
@@ -201,53 +230,6 @@ def _per_run_squared(rs: evaluation.RunSet, idx) -> np.ndarray:
     return sq
 
 
-def consistency(stat: np.ndarray, dof: int | np.ndarray, ok: np.ndarray, *, white: bool) -> dict:
-    """ANEES/ANIS summary of per-run, per-step chi-square statistics ``stat`` (N, K) with ``dof`` degrees of freedom
-    (an int, or (K,) per step), over the valid runs ``ok`` (module docstring).  ``dof`` in the result is the mean
-    degrees of freedom over the steps (what a consistent filter's average has as its mean); ``white`` says the
-    statistics of one run are independent in time (the NIS of a consistent filter), which makes the band of the run-
-    and-time average exact; otherwise (the NEES) the band is that of a run-average at one step (module docstring)."""
-    stat = as_float_array(stat, "stat")
-    if stat.ndim != 2:
-        raise ValueError(f"stat: expected per-run, per-step statistics of shape (N, K), got {stat.shape}")
-    ok = check_mask(ok, "ok", stat.shape[0])
-    d = as_float_array(dof, "dof")
-    if d.shape not in ((), (stat.shape[1],)) or not np.all(np.isfinite(d)) or np.any(d < 1) \
-            or np.any(d != np.round(d)):
-        raise ValueError(f"dof: expected a count of components >= 1, or one per step ({stat.shape[1]},), got {dof!r}")
-    check_bool(white, "white")
-    s = stat[ok]
-    N, K = s.shape
-    dof_k = np.broadcast_to(np.asarray(dof, dtype=float), (K,))
-    dof_mean = float(dof_k.mean())
-    out = {"value": None, "stderr": None, "dof": dof_mean, "band": None, "band_kind": None, "inside": None,
-           "steps_inside": None, "runs_inside": None, "n_runs": int(N)}
-    if N < 2 or not np.isfinite(s).all():
-        return out
-    per_run = s.mean(axis=1)
-    value = float(per_run.mean())
-    dof_int = np.asarray(dof_k, dtype=int)                       # degrees of freedom are counts of components
-    bands = {d: metrics.chi2_band(int(d), N) for d in np.unique(dof_int)}   # a run-average at one step
-    step_lo = np.array([bands[d][0] for d in dof_int])
-    step_hi = np.array([bands[d][1] for d in dof_int])
-    step_mean = s.mean(axis=0)
-    total = int(dof_int.sum())
-    run_lo, run_hi = (b / K for b in metrics.chi2_band(total, 1))        # one run's time average
-    if white:
-        band = [b / K for b in metrics.chi2_band(total, N)]
-        kind = "run-and-time average, white statistics: chi2(N sum_k m_k) / (N K)"
-    else:
-        band = list(metrics.chi2_band(int(round(dof_mean)), N))
-        kind = "run-average at one step: chi2(n N) / N (the time average of a consistent filter lies inside it " \
-               "with at least 95 % probability)"
-    band = [float(b) for b in band]
-    out.update(value=value, stderr=float(per_run.std(ddof=1) / math.sqrt(N)), band=band, band_kind=kind,
-               inside=band[0] <= value <= band[1],
-               steps_inside=float(np.mean((step_mean >= step_lo) & (step_mean <= step_hi))),
-               runs_inside=float(np.mean((per_run >= run_lo) & (per_run <= run_hi))))
-    return out
-
-
 def cell_metrics(rs: evaluation.RunSet, s: Scenario, cost_seconds: float) -> dict:
     """The metrics of one cell (module docstring) from its RunSet and its cost (CPU seconds per run-step)."""
     _check_cell_inputs(rs, s)
@@ -260,8 +242,8 @@ def cell_metrics(rs: evaluation.RunSet, s: Scenario, cost_seconds: float) -> dic
         out["rmse_velocity"] = _mc_value(metrics.rms_with_se(np.nan_to_num(_per_run_squared(rs, s.velocity)), ok))
     else:
         out["rmse_position"] = out["rmse_velocity"] = None
-    out["anees"] = consistency(rs.nees, s.dim, ok, white=False) if rs.nees is not None else None
-    out["anis"] = consistency(rs.nis, rs.nis_dof, ok, white=True) if rs.nis is not None else None
+    out["anees"] = evaluation.consistency(rs.nees, s.dim, ok, white=False) if rs.nees is not None else None
+    out["anis"] = evaluation.consistency(rs.nis, rs.nis_dof, ok, white=True) if rs.nis is not None else None
     return out
 
 
@@ -363,14 +345,18 @@ def rank_scenario(cells: dict) -> dict:
 class ArenaResult(NamedTuple):
     """What :func:`run_arena` returns: ``cells`` (one document per (algorithm, scenario), scenario-major, with metrics
     and ranks or the reason it does not apply), ``per_run`` ({(scenario, algorithm): (N,) per-run time-averaged
-    squared position error, NaN for diverged runs}) for paired comparisons, and ``details`` (every per-run number of
-    :func:`per_run_values`)."""
+    squared position error, NaN for diverged runs}) for paired comparisons, ``details`` (every per-run number of
+    :func:`per_run_values`), ``baselines`` ({scenario: the measurement-only position RMSE, :func:`measurement_only_rmse`
+    as ``{"value", "stderr", "n_runs"}`` in m, or None where the sensor has no measurement-only position estimate}) and
+    ``excluded`` ({scenario: why it is kept out of the pooled tallies}, :func:`exclusions`)."""
 
     cells: list
     per_run: dict
     n_runs: int
     details: dict = {}        #: {(scenario, algorithm): per_run_values(...)}: every per-run number (for the digest)
     ops: dict = {}            #: {(scenario, algorithm): floating-point operations of one run, or None if unknown}
+    baselines: dict = {}      #: {scenario: measurement-only position RMSE {"value", "stderr", "n_runs"} (m), or None}
+    excluded: dict = {}       #: {scenario: reason}: kept out of every pooled tally, reported apart
 
     def operations(self, scenario_name: str, a: str, b: str) -> int:
         """The operation count of the round-off floor of a paired comparison of ``a`` and ``b`` on one scenario:
@@ -386,6 +372,147 @@ def _check_result(result) -> ArenaResult:
     return result
 
 
+#: what a scenario's no-information baseline is, in a degenerate scenario's reason (:func:`degenerate_reason`)
+BASELINE_WHAT = ("the measurement-only estimate's position RMSE on the same runs (an algorithm's ± is that of its "
+                 "paired difference from it where the runs are known)")
+
+
+def measurement_only_errors(s: Scenario, truth: np.ndarray, z: np.ndarray) -> np.ndarray | None:
+    r"""Per run and step, the position error norm (m) of the *measurement-only* estimate of scenario ``s``: each
+    measurement turned into a position without the dynamics or any other measurement -- for a range-bearing radar
+    (:class:`mmlib.core.models.RangeBearing`) :math:`s + r(\cos\theta, \sin\theta)`, for a linear sensor whose
+    rows include one unit row per position component the measured positions themselves.  ``truth`` (N, K+1, n) with
+    the initial state first, ``z`` (N, K, m) the scenario's measurements; returns (N, K), or None where the sensor
+    gives no such estimate (per-step sensors, e.g. GNSS pseudoranges; a sensor that does not measure the position)."""
+    recipes._check_scenario(s, "s")
+    m = s.measurement
+    if m is None or not isinstance(z, np.ndarray):
+        return None
+    truth = np.asarray(truth, dtype=float)
+    pos = list(s.position)
+    if truth.ndim != 3 or truth.shape[-1] != s.dim or z.ndim != 3 or z.shape[:2] != (truth.shape[0],
+                                                                                      truth.shape[1] - 1):
+        raise ValueError(f"truth, z: expected (N, K+1, {s.dim}) and (N, K, m), got {truth.shape} and {z.shape}")
+    if isinstance(m, models.RangeBearing) and len(pos) == 2 and tuple(m.position_index) == tuple(pos):
+        sx, sy = (float(v) for v in m.sensor)
+        est = np.stack([sx + z[..., 0] * np.cos(z[..., 1]), sy + z[..., 0] * np.sin(z[..., 1])], axis=-1)
+    elif isinstance(m, models.LinearMeasurement):
+        rows = []
+        for p in pos:
+            unit = np.zeros(s.dim)
+            unit[p] = 1.0
+            hits = [r for r in range(m.H.shape[0]) if np.array_equal(m.H[r], unit)]
+            if not hits:
+                return None
+            rows.append(hits[0])
+        est = z[..., rows]
+    else:
+        return None
+    return np.sqrt(((est - truth[:, 1:][..., pos]) ** 2).sum(axis=-1))
+
+
+def measurement_only_mse(s: Scenario, n_runs: int, seed: int | None = None) -> np.ndarray | None:
+    """Per run, the time-averaged squared position error (m², (N,)) of the measurement-only estimate of scenario
+    ``s`` (:func:`measurement_only_errors`) on its first ``n_runs`` runs (root seed :func:`seed_of`: the runs every
+    cell sees); None where the sensor gives no measurement-only estimate."""
+    recipes._check_scenario(s, "s")
+    n_runs = check_positive_int(n_runs, "n_runs")
+    if s.measurement is None:
+        return None
+    truth, z, _ = s.simulator(MonteCarlo(seed_of(s, seed), n_runs))(range(n_runs))
+    e = measurement_only_errors(s, truth, z)
+    return None if e is None else (e ** 2).mean(axis=1)
+
+
+def measurement_only_rmse(s: Scenario, n_runs: int, seed: int | None = None) -> dict | None:
+    r"""The no-information baseline of scenario ``s`` on its first ``n_runs`` runs: the measurement-only estimate's
+    position RMSE :math:`\sqrt{\frac{1}{NK}\sum_{i,k}\lVert \hat p_{i,k} - p_{i,k}\rVert^2}` (m;
+    :func:`measurement_only_mse`), the statistic of a cell's ``rmse_position``, as ``{"value", "stderr", "n_runs"}``
+    (delta-method standard error over runs); None where the sensor gives no measurement-only estimate."""
+    sq = measurement_only_mse(s, n_runs, seed)
+    return None if sq is None else _mc_value(metrics.rms_with_se(sq))
+
+
+def _paired(m: np.ndarray, beta: np.ndarray, base_value: float) -> tuple[float, float]:
+    """``(value, stderr)`` of the RMSE whose per-run time-averaged squared errors are ``m`` (NaN: a diverged run),
+    paired with the baseline's ``beta`` on the same runs: ``base_value`` plus the difference of the two RMSEs over
+    the runs valid for it, with the delta-method standard error of that difference (per-run influence values
+    m_i / (2 e) - beta_i / (2 b))."""
+    ok = np.isfinite(m)
+    if not ok.any():
+        return math.inf, math.nan
+    m, beta = m[ok], np.asarray(beta, dtype=float)[ok]
+    e, b = math.sqrt(m.mean()), math.sqrt(beta.mean())
+    infl = m / (2 * e) - beta / (2 * b)
+    se = float(infl.std(ddof=1) / math.sqrt(len(infl))) if len(infl) > 1 else math.nan
+    return base_value + (e - b), se
+
+
+def degenerate_reason(cells: Iterable[Mapping], scenario_name: str, baseline: Mapping | None,
+                      per_run: Mapping | None = None, baseline_per_run: np.ndarray | None = None) -> str:
+    r"""Why scenario ``scenario_name`` is degenerate, "" when it is not (or has no ``baseline``, or no applicable
+    cell): no applicable cell of it in ``cells`` (:func:`run_arena`'s documents) has a position RMSE detectably and
+    non-negligibly below the measurement-only RMSE ``baseline["value"]`` (:func:`measurement_only_rmse`), by the
+    claim rule (:func:`mmlib.experiment.evaluation.degenerate_reason`: more than 3 standard errors and more than the
+    claims' negligible 1 %).  With the cells' per-run squared errors ``per_run`` ({(scenario, algorithm): (N,)},
+    :attr:`ArenaResult.per_run`) and the baseline's ``baseline_per_run`` (:func:`measurement_only_mse`) the
+    difference is paired on the common runs; otherwise each cell enters with its own standard error and the
+    baseline's (as if independent: toward *degenerate*).  A cell without an RMSE (every run diverged) never beats
+    the baseline."""
+    if not isinstance(scenario_name, str):
+        raise ValueError(f"scenario_name: expected a scenario name, got {scenario_name!r}")
+    if baseline is not None and not isinstance(baseline, Mapping):
+        raise ValueError(f"baseline: expected None or measurement_only_rmse's dict, got {baseline!r}")
+    if baseline is None or baseline.get("value") is None:
+        return ""
+    b, sb = float(baseline["value"]), float(baseline.get("stderr") or 0.0)
+    per_run = {} if per_run is None else per_run
+    errors = {}
+    for c in cells:
+        if not isinstance(c, Mapping) or "scenario" not in c or "algorithm" not in c:
+            raise ValueError(f"cells: expected run_arena's cell documents (scenario, algorithm, ...), got {c!r:.80}")
+        if c["scenario"] != scenario_name or "reason" in c:
+            continue
+        key = (scenario_name, c["algorithm"])
+        r = c.get("rmse_position")
+        if key in per_run and baseline_per_run is not None:
+            errors[c["algorithm"]] = _paired(np.asarray(per_run[key], dtype=float), baseline_per_run, b)
+        elif r is None or r.get("value") is None:
+            errors[c["algorithm"]] = (math.inf, math.nan)
+        else:
+            errors[c["algorithm"]] = (float(r["value"]), math.hypot(float(r.get("stderr") or 0.0), sb))
+    if not errors:
+        return ""
+    why = evaluation.degenerate_reason(errors, (b, 0.0), what=BASELINE_WHAT)
+    return f"degenerate: {why}" if why else ""
+
+
+def exclusions(cells: Iterable[Mapping], baselines: Mapping[str, Mapping | None], per_run: Mapping | None = None,
+               baseline_per_run: Mapping[str, np.ndarray | None] | None = None) -> dict:
+    """``{scenario: reason}``: the scenarios of ``cells`` kept out of the pooled tallies (module docstring) -- a
+    registered paper's scenario whose verdicts judge a reconstruction (its ``Paper.qualifier``, read from the
+    registry), and a degenerate scenario (:func:`degenerate_reason` against ``baselines[scenario]``, paired on the
+    runs where ``per_run`` and ``baseline_per_run[scenario]`` are given)."""
+    if isinstance(cells, (str, bytes, Mapping)) or not hasattr(cells, "__iter__"):
+        raise ValueError(f"cells: expected run_arena's list of cell documents, got {type(cells).__name__}")
+    cells = list(cells)
+    if not isinstance(baselines, Mapping):
+        raise ValueError(f"baselines: expected a dict scenario -> measurement-only RMSE (or None), got {baselines!r}")
+    baseline_per_run = {} if baseline_per_run is None else baseline_per_run
+    out = {}
+    for name in dict.fromkeys(c.get("scenario") for c in cells if isinstance(c, Mapping)):
+        reasons = []
+        if name in REGISTRY and REGISTRY[name].qualifier:
+            reasons.append(f"its verdicts judge a {REGISTRY[name].qualifier} (the paper does not give the set-up: "
+                           f"Paper.qualifier of {name})")
+        why = degenerate_reason(cells, name, baselines.get(name), per_run, baseline_per_run.get(name))
+        if why:
+            reasons.append(why)
+        if reasons:
+            out[name] = "; ".join(reasons)
+    return out
+
+
 def run_arena(n_runs: int, *, scenarios: Iterable[str] | None = None, algorithms: Iterable[str] = ALGORITHMS,
               seed: int | None = None, workers: int | None = None, executor: cf.Executor | None = None,
               progress: bool | Callable[[str], None] = True, use_cache: bool = True,
@@ -393,7 +520,8 @@ def run_arena(n_runs: int, *, scenarios: Iterable[str] | None = None, algorithms
     """Every cell of ``algorithms`` x ``scenarios`` at ``n_runs`` runs (integer >= 2), in parallel and cached
     (:func:`mmlib.experiment.grid.run_grid`), with the ranks of each scenario.  Unknown names are a ValueError listing
     the known ones; ``scenarios`` None is every known one (:func:`known_scenarios`).  ``seed`` overrides every
-    scenario's root seed."""
+    scenario's root seed.  Beside the cells: each scenario's measurement-only baseline and the scenarios kept out of
+    the pooled tallies (:attr:`ArenaResult.baselines`, :attr:`ArenaResult.excluded`)."""
     scenarios = known_scenarios() if scenarios is None else scenarios
     scenarios = check_names(scenarios, "scenarios")
     algorithms = check_names(algorithms, "algorithms")
@@ -435,7 +563,10 @@ def run_arena(n_runs: int, *, scenarios: Iterable[str] | None = None, algorithms
                 details[(s, a)] = c["per_run"]
                 ops[(s, a)] = c["metrics"].get("operations_per_run")
             cells.append(doc)
-    return ArenaResult(cells, per_run, int(n_runs), details, ops)
+    base_runs = {s: measurement_only_mse(scenario(s), int(n_runs), seed) for s in scenarios}
+    baselines = {s: None if sq is None else _mc_value(metrics.rms_with_se(sq)) for s, sq in base_runs.items()}
+    return ArenaResult(cells, per_run, int(n_runs), details, ops, baselines,
+                       exclusions(cells, baselines, per_run, base_runs))
 
 
 def _every(total: int, progress, lines: int = 20):
@@ -468,7 +599,7 @@ ARENA_IDEAS = (
 def all_ideas() -> tuple:
     """``(idea, A, B, paper)``: every registered paper's ideas (its ``arena`` entry, in the registry's order), then
     the arena's own (:data:`ARENA_IDEAS`, paper "all")."""
-    out = [(idea, a, b, name) for name in REGISTRY if REGISTRY[name].arena is not None
+    out = [(idea, a, b, name) for name in paper_names() if REGISTRY[name].arena is not None
            for idea, a, b in REGISTRY[name].arena.ideas]
     return tuple(out) + tuple((idea, a, b, "all") for idea, a, b in ARENA_IDEAS)
 
@@ -529,14 +660,17 @@ def compare(result: ArenaResult, a: str, b: str, scenario_name: str) -> dict | N
 
 def ideas(result: ArenaResult, scenarios: Iterable[str] | None = None) -> list:
     """Every idea of :func:`all_ideas` on every scenario where both its algorithms apply: ``[{idea, paper, a, b,
-    comparisons: [compare(...)]}]``."""
+    comparisons: [compare(...)], excluded: {scenario: reason}}]``, ``excluded`` naming those of its comparisons'
+    scenarios that the pooled tallies leave out (:attr:`ArenaResult.excluded`; :func:`idea_summary`)."""
     _check_result(result)
     names = list(dict.fromkeys(c["scenario"] for c in result.cells)) if scenarios is None else \
         check_names(scenarios, "scenarios")
     out = []
     for idea, a, b, paper in all_ideas():
         comps = [c for c in (compare(result, a, b, s) for s in names) if c is not None]
-        out.append({"idea": idea, "paper": paper, "a": a, "b": b, "comparisons": comps})
+        out.append({"idea": idea, "paper": paper, "a": a, "b": b, "comparisons": comps,
+                    "excluded": {c["scenario"]: result.excluded[c["scenario"]] for c in comps
+                                 if c["scenario"] in result.excluded}})
     return out
 
 
@@ -589,17 +723,27 @@ def scenario_table(names: Iterable[str] | None = None, n_index_runs: int = 50, m
 def paper_claim_list() -> tuple:
     """``(paper, claim, ((A, B), ...))``: each registered paper's central accuracy claim as "A is more accurate than
     B" comparisons (its ``arena`` entry), checked on every scenario where both apply."""
-    return tuple((name, REGISTRY[name].arena.claim, REGISTRY[name].arena.claim_pairs) for name in REGISTRY
+    return tuple((name, REGISTRY[name].arena.claim, REGISTRY[name].arena.claim_pairs) for name in paper_names()
                  if REGISTRY[name].arena is not None and REGISTRY[name].arena.claim)
 
 
+def _judge_parts(parts: list) -> report.Judgement:
+    """The one judgement of a claim on ``parts`` (not assessable without any)."""
+    if parts:
+        return report.judge(parts)
+    return report.Judgement.of(report.NOT_ASSESSABLE, "no scenario where both algorithms of a pair apply and two "
+                                                      "runs are valid in both")
+
+
 def _paper_judgements(result: ArenaResult) -> list:
-    """``(paper, claim, Judgement, pairs)`` per paper claim of :func:`paper_claim_list` (:func:`paper_claims`)."""
+    """``(paper, claim, Judgement, pairs, excluded)`` per paper claim of :func:`paper_claim_list`
+    (:func:`paper_claims`): the judgement pooled over the scenarios not excluded (:attr:`ArenaResult.excluded`),
+    and ``excluded`` ``[(scenario, reason, Judgement)]``, each excluded scenario judged alone."""
     _check_result(result)
     names = list(dict.fromkeys(c["scenario"] for c in result.cells))
     out = []
     for paper, claim, pairs in paper_claim_list():
-        parts, docs = [], []
+        parts, docs, apart = [], [], {}
         for a, b in pairs:
             verdicts, part_verdicts = {}, {}
             for s in names:
@@ -609,14 +753,11 @@ def _paper_judgements(result: ArenaResult) -> list:
                 c, p = got
                 verdicts[s], part_verdicts[s] = c["claim"], p.verdict
                 if p.verdict != report.PartVerdict.NOT_COMPARABLE:
-                    parts.append(p)
+                    (apart.setdefault(s, []) if s in result.excluded else parts).append(p)
             docs.append({"a": a, "b": b, "verdicts": verdicts, "part_verdicts": part_verdicts})
-        if parts:
-            j = report.judge(parts)
-        else:
-            j = report.Judgement.of(report.NOT_ASSESSABLE, "no scenario where both algorithms of a pair apply and "
-                                                           "two runs are valid in both")
-        out.append((paper, claim, j, docs))
+        excluded = [(s, result.excluded[s], _judge_parts(apart.get(s, []))) for s in names
+                    if s in result.excluded and any(s in d["verdicts"] for d in docs)]
+        out.append((paper, claim, _judge_parts(parts), docs, excluded))
     return out
 
 
@@ -624,11 +765,16 @@ def paper_claims(result: ArenaResult) -> list:
     """Each paper's accuracy claim (:func:`paper_claim_list`) across the arena: one ``verdict`` of the claim
     vocabulary with its ``decisive`` number, judged once (:func:`mmlib.experiment.report.judge`) on the flat list of
     its ``parts`` -- one per pair "A is more accurate than B" and scenario where both apply (:func:`compare`'s
-    part; a scenario where they are not comparable is left out) -- and per pair the ``verdicts`` (scenario -> the
-    one-part claim verdict) and ``part_verdicts`` (scenario -> the part verdict, e.g. "identical (to round-off)")."""
+    part; a scenario where they are not comparable is left out, and so is every excluded scenario,
+    :attr:`ArenaResult.excluded`) -- and per pair the ``verdicts`` (scenario -> the one-part claim verdict) and
+    ``part_verdicts`` (scenario -> the part verdict, e.g. "identical (to round-off)"), every scenario included.
+    ``excluded`` reports the excluded scenarios apart: ``[{scenario, reason, verdict, decisive, parts}]``, the claim
+    judged on that scenario's parts alone."""
     return [{"paper": paper, "claim": claim, "verdict": j.verdict, "decisive": j.decisive,
-             "parts": [p.as_json() for p in j.parts], "pairs": pairs}
-            for paper, claim, j, pairs in _paper_judgements(result)]
+             "parts": [p.as_json() for p in j.parts], "pairs": pairs,
+             "excluded": [{"scenario": s, "reason": why, "verdict": je.verdict, "decisive": je.decisive,
+                           "parts": [p.as_json() for p in je.parts]} for s, why, je in excluded]}
+            for paper, claim, j, pairs, excluded in _paper_judgements(result)]
 
 
 def arena_claims(result: ArenaResult) -> report.Claims:
@@ -636,10 +782,14 @@ def arena_claims(result: ArenaResult) -> report.Claims:
     (claim ``"<claim> (<paper>, across the arena)"``, its judgement and, as evidence, the part verdicts counted per
     pair), for :func:`mmlib.experiment.notebook.claims_table`."""
     claims = report.Claims()
-    for paper, claim, j, pairs in _paper_judgements(result):
+    for paper, claim, j, pairs, excluded in _paper_judgements(result):
         evidence = " | ".join(f"{pair['a']} − {pair['b']}: " + (", ".join(
-            f"{v} {n}" for v, n in _count(pair["part_verdicts"].values()).items()) or "no scenario")
+            f"{v} {n}" for v, n in _count(v_ for s_, v_ in pair["part_verdicts"].items()
+                                          if s_ not in result.excluded).items()) or "no scenario")
             for pair in pairs)
+        if excluded:
+            evidence += " | kept out of this verdict: " + "; ".join(f"{s} ({je.verdict} there; {why})"
+                                                                    for s, why, je in excluded)
         claims.add(f"{claim} ({paper}, across the arena)", j, evidence)
     return claims
 
@@ -656,20 +806,27 @@ def _scenario_list(names) -> str:
 
 
 def idea_summary(idea: dict) -> dict:
-    """Counts of one idea's verdicts over the scenarios where it applies, and the scenarios of each verdict."""
+    """Counts of one idea's verdicts over the scenarios where it applies and that the pooled tallies keep
+    (``n_scenarios``, ``by_verdict``: verdict -> scenarios), and apart, ``excluded``: {scenario: its verdict} for the
+    scenarios of the idea's ``excluded`` (:func:`ideas`)."""
     if not isinstance(idea, Mapping) or any(k not in idea for k in ("idea", "paper", "a", "b", "comparisons")):
         raise ValueError(f"idea: expected an item of ideas(...) (idea, paper, a, b, comparisons), got {idea!r}")
+    out_of = idea.get("excluded", {})
     groups: dict = {}
-    for c in idea["comparisons"]:
+    kept = [c for c in idea["comparisons"] if c["scenario"] not in out_of]
+    for c in kept:
         groups.setdefault(c["verdict"], []).append(c["scenario"])
     return {"idea": idea["idea"], "paper": idea["paper"], "a": idea["a"], "b": idea["b"],
-            "n_scenarios": len(idea["comparisons"]), "by_verdict": groups}
+            "n_scenarios": len(kept), "by_verdict": groups,
+            "excluded": {c["scenario"]: c["verdict"] for c in idea["comparisons"] if c["scenario"] in out_of}}
 
 
 def findings(result: ArenaResult, scenario_rows: list) -> list:
     """The arena's findings as Markdown bullets, every number from ``result`` and ``scenario_rows``
-    (:func:`scenario_table`): which idea helps where, which algorithms are consistent, which diverge, and where the
-    rules separate along the ladder."""
+    (:func:`scenario_table`): which scenarios the pooled tallies leave out and why (:attr:`ArenaResult.excluded`),
+    which idea helps where, which algorithms are consistent, which diverge, and where the rules separate along the
+    ladder; the tallies over scenarios (ideas, consistency counts, the papers' claims) leave the excluded scenarios
+    out and name them apart."""
     _check_result(result)
     if isinstance(scenario_rows, (str, bytes, Mapping)) or not hasattr(scenario_rows, "__iter__") or not all(
             isinstance(r, Mapping) and all(k in r for k in ("scenario", "nonlinearity_index", "properties"))
@@ -678,19 +835,26 @@ def findings(result: ArenaResult, scenario_rows: list) -> list:
                          "properties)")
     out = []
     index = {r["scenario"]: r["nonlinearity_index"]["median"] for r in scenario_rows}
+    if result.excluded:
+        out.append("- **Kept out of every pooled tally below** (each reported apart): " + "; ".join(
+            f"{name}: {why}" for name, why in result.excluded.items()) + ".")
     for idea in ideas(result):
         s = idea_summary(idea)
+        apart = ("; kept out: " + ", ".join(f"{sc} {v}" for sc, v in s["excluded"].items())) if s["excluded"] else ""
         if not s["n_scenarios"]:
-            out.append(f"- **{s['idea']}** ({s['a']} against {s['b']}): applies to no scenario of this run.")
+            out.append(f"- **{s['idea']}** ({s['a']} against {s['b']}): applies to no pooled scenario of this run"
+                       f"{apart}.")
             continue
         parts = [f"{k} in {len(v)} ({_scenario_list(v)})" for k, v in sorted(s["by_verdict"].items())]
         out.append(f"- **{s['idea']}** ({s['a']} against {s['b']}, {s['paper']}): over the {s['n_scenarios']} "
-                   f"scenarios where both apply, " + "; ".join(parts) + ".")
+                   f"scenarios where both apply, " + "; ".join(parts) + apart + ".")
     metric_cells = [c for c in result.cells if "reason" not in c]
     for stat, what in (("anis", "ANIS inside its exact 95 % band (white innovations)"),
                        ("anees", "ANEES inside its 95 % one-step band (a lenient test: module docstring)")):
         judged = {}
         for c in metric_cells:
+            if c["scenario"] in result.excluded:
+                continue
             m = c.get(stat) or {}
             if m.get("inside") is not None:
                 judged.setdefault(c["algorithm"], []).append(bool(m["inside"]))
@@ -718,11 +882,15 @@ def findings(result: ArenaResult, scenario_rows: list) -> list:
         for pair in pc["pairs"]:
             groups: dict = {}
             for sc, v in pair["part_verdicts"].items():
+                if sc in result.excluded:
+                    continue
                 groups.setdefault(str(v), []).append(sc)
             counts = "; ".join(f"{v} in {len(ss)} ({_scenario_list(ss)})" for v, ss in sorted(groups.items()))
             parts.append(f"{pair['a']} against {pair['b']}: " + (counts or "no scenario where both apply"))
+        apart = ("; kept out of this verdict: " + "; ".join(f"{e['scenario']} **{e['verdict']}** ({e['decisive']})"
+                                                            for e in pc["excluded"])) if pc["excluded"] else ""
         out.append(f"- **{pc['paper']}'s claim** *{pc['claim']}*, across the arena: **{pc['verdict']}** "
-                   f"({pc['decisive']}); " + " | ".join(parts) + ".")
+                   f"({pc['decisive']}); " + " | ".join(parts) + apart + ".")
     return out
 
 

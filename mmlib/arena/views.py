@@ -630,7 +630,8 @@ def claim_scenario_matrix(paper_claims: Iterable[dict]) -> str:
     (none for an identity, "div." for a divergence part); empty where the pair does not apply.
 
     ``paper_claims``: the list of :func:`mmlib.arena.study.paper_claims` (``paper``, ``verdict``, ``parts``,
-    ``pairs`` with ``part_verdicts``)."""
+    ``pairs`` with ``part_verdicts``, optionally ``excluded``); a scenario kept out of the pooled verdicts (in some
+    claim's ``excluded``) is marked † in the header: its cells are shown, its parts are not in the row's verdict."""
     from mmlib.experiment.notebook import PART_SYMBOLS
     from mmlib.experiment.report import PartVerdict
     from mmlib.experiment.views import markdown_table
@@ -671,4 +672,9 @@ def claim_scenario_matrix(paper_claims: Iterable[dict]) -> str:
             rows.append(row)
     legend = ("✓ holds · ✗ contradicted · (✓)/(✗) detected but negligible (< 1 %) · · no detectable difference · "
               "≡ identical to round-off · ? not comparable · div.: A diverged detectably more often")
-    return markdown_table(["paper", "verdict", "A − B", *scenarios], rows) + "\n\n" + legend
+    apart = {e["scenario"] for pc in paper_claims for e in pc.get("excluded", ())}
+    if apart:
+        legend += (" · †: kept out of the pooled verdict (a degenerate scenario or a reconstruction; judged apart: "
+                   "study.paper_claims' excluded)")
+    header = [f"{s} †" if s in apart else s for s in scenarios]
+    return markdown_table(["paper", "verdict", "A − B", *header], rows) + "\n\n" + legend

@@ -12,16 +12,20 @@ The package, behind :data:`PAPER` (:class:`mmlib.experiment.paper.Paper`):
 * :mod:`.text`: Tables 1-5 as printed, the deviations (Z-1 ... Z-13), the factors and the reading space, the
   published numbers and the key effect;
 * :mod:`.setup`: the :class:`~.setup.Setup` of Section 4.1, a reading's :class:`~.setup.Cases` (Case 1 without
-  faults, Case 2 with them), the estimators, the Monte Carlo batches, the arena scenario (Case 2); :mod:`.faults`:
+  faults, Case 2 with them), the estimators, the Monte Carlo batches, the arena scenario (Case 2 under the per-step
+  fault reading, :data:`~.setup.ARENA_FAULT_KIND`: the headline's accumulating drift is unobservable); :mod:`.faults`:
   Eq. 2's radar faults;
-* :mod:`.study`: one universe (evaluation, Table 2-3 rows, claims, effects, :class:`UniverseResult`), the digest;
-  :mod:`.section23`: the analytic example of Section 2.3 and its claims;
-* :mod:`.diagnostics`: what only the notebook shows (NEES, Tables 4-5, the synthetic analogue of Section 4.2).
+* :mod:`.study`: one universe (evaluation, Table 2-3 rows, claims, effects, the measurement-only baselines and the
+  degenerate flag, :class:`UniverseResult`), the consistency entries, the digest; :mod:`.section23`: the analytic
+  example of Section 2.3 and its claims;
+* :mod:`.diagnostics`: what only the notebook shows (NEES and NIS of every algorithm, the evidence that the drift
+  fault is unobservable, Tables 4-5, the synthetic analogue of Section 4.2).
 
 Reading space (issue 10): the ambiguities are the factors ``text.FACTORS`` (ids = deviation numbers:
 the noise gain Gamma Z-2, R's units Z-3, the truth's process noise Z-4, P0 Z-5, the fault model Z-6,
 the UKF's parameters Z-7, NAUKF's window Z-8, NAUKF as printed or inflate-only Z-12, the filters'
-process-noise intensity Z-13); ``text.SPACE`` is their product (1152 universes), run as a uniform random
+process-noise intensity Z-13; Z-5, Z-8 and Z-13 are sensitivity factors, Z-6 "constant" and Z-12 "inflate-only"
+options motivated by results); ``text.SPACE`` is their product (1152 universes), run as a uniform random
 sample of 200 universes beside the headline and the star (:meth:`~mmlib.experiment.readings.ReadingSpace.design`).
 A universe is :func:`.study.universe` = :func:`.study.summarise` of
 :func:`.study.evaluate_reading`; the notebook's headline rows and claims are :func:`.study.judge_claims` of the same
