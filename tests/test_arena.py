@@ -118,7 +118,7 @@ def test_paper_cell_equals_the_papers_own_evaluation_bit_for_bit(name):
         pytest.skip("a rescaling to metres: test_hu2017_cell_is_the_papers_evaluation_in_metres")
     n = 8 if s.n_steps <= 500 else 3                   # the 1800-epoch GNSS scenario: 3 runs
     mc = MonteCarlo(paper.root_seed, n)
-    make_batch, estimators, *models = paper.batch(paper.headline_setup(), mc)
+    make_batch, estimators, *models = paper.batch(paper.arena_setup(), mc)
     # every estimator of the batch that the paper's arena entry runs (by its recipe name or an alias)
     algs = [a for a in estimators if recipes.ALIASES.get(a, a) in paper.arena.algorithms]
     assert algs, f"{name}: no estimator of the paper's batch is one of its arena algorithms"
@@ -735,7 +735,7 @@ def test_zhou2017_arena_scenario_is_not_degenerate_but_its_headline_drift_would_
     paper = REGISTRY["zhou2017"]
     mc = MonteCarlo(paper.root_seed, n)
     for s, degenerate in ((study.scenario("zhou2017"), False),
-                          (paper.scenario(paper.headline_setup(), fault_kind=None), True)):
+                          (paper.scenario(paper.headline_setup()), True)):
         rs, _ = study.evaluate_cell("IMMUKF", s, mc, consistency=False)
         cells = [{"scenario": "zhou2017", "algorithm": "IMMUKF", **study.cell_metrics(rs, s, 0.0)}]
         per_run = {("zhou2017", "IMMUKF"): np.array(study.per_run_values(rs, s)["position_mse"], dtype=float)}

@@ -347,7 +347,8 @@ def test_pooled_tallies_keep_controls_and_qualified_verdicts_apart():
     assert pooled["claims"]["holds"] == 1 and pooled["claims"]["contradicted"] == 2
     assert pooled["apart"] == {"controls": ["ctrl"], "qualified_papers": ["gamma2003"],
                                "qualified_rows": {**{k: 0 for k in pooled["rows"]}, "not reproduced": 5},
-                               "qualified_claims": {"contradicted by the reconstruction": 4}}
+                               "qualified_claims": {"contradicted by the reconstruction": 4},
+                               "degenerate_headlines": []}
     text = make_report.render_index(docs)
     assert text.index("## Controls: the machinery reproduces") < text.index("| paper | runs |")
     assert ("- [ctrl.md](ctrl.md): the machinery reproduces when the paper is right: positive control 12/12 cells "
@@ -355,8 +356,16 @@ def test_pooled_tallies_keep_controls_and_qualified_verdicts_apart():
     assert "| pooled over the 2 papers whose set-up is given | -- | 1 | 0 | 0 | 0 | 0 | 2 | 0 | 0 | -- |" in text
     assert "| apart: verdicts on a reconstruction (gamma2003) | -- | 0 | 0 | 0 | 0 | 0 | 5 | 0 | 0 | -- |" in text
     assert ("Pooled over the 2 papers whose set-up is given (3 claims, headline verdicts): holds 1, contradicted 2; "
-            "apart, 4 claims on a reconstruction (gamma2003): contradicted by the reconstruction 4.") in text
+            "apart, 4 claims on a reconstruction or a degenerate headline (gamma2003): contradicted by the "
+            "reconstruction 4.") in text
     assert "| gamma2003 *[reconstruction]* | 100 |" in text and "| ctrl |" not in text
+    # a paper whose headline universe is degenerate: its rows pooled, its claims apart
+    delta = paper_doc("delta2004", ["not reproduced"], ["holds", "contradicted"])
+    delta["multiverse"] = {"universes": [{"degenerate": "no estimator is detectably better than the raw data"}]}
+    more = make_report.pooled_tallies(docs + [delta])
+    assert more["papers"][-1] == "delta2004" and more["rows"]["not reproduced"] == 3
+    assert more["claims"] == pooled["claims"] and more["apart"]["degenerate_headlines"] == ["delta2004"]
+    assert more["apart"]["qualified_claims"]["holds (degenerate headline)"] == 1
     # the site's chip
     site = load_tool("build_site")
     assert site.chip("reconstruction") in make_report.render_index(docs, chip=site.chip)

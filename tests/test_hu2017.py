@@ -405,17 +405,20 @@ def test_scenario_is_the_headline_in_metres():
 
 
 # ------------------------------------------------------------------- kinds of factor, consistency, degenerate flag
-def test_only_the_filters_q_is_a_sensitivity_factor_and_no_option_is_motivated():
-    """H-14 sweeps the filters' Q over five decades from one source sentence: a tuning sweep, not a reading; every
-    other factor's options quote the text, and none is motivated by Table 1 or another paper (text.py's review)."""
+def test_the_filters_q_and_the_ukf_parameters_are_sensitivity_factors_and_no_option_is_motivated():
+    """H-14 sweeps the filters' Q over five decades from one source sentence, and H-10's two UKF weightings are values
+    the paper does not give (as zhu2016's Z-11 and zhou2017's Z-7): tuning, not readings; every other factor's options
+    quote the text, and none is motivated by Table 1 or another paper (text.py's review)."""
     space = PAPER.space
-    assert space.sensitivity_ids == ("H-14",)
-    assert {f.id: f.kind for f in space.factors if f.id != "H-14"} == {f.id: "reading" for f in space.factors
-                                                                       if f.id != "H-14"}
+    assert space.sensitivity_ids == ("H-14", "H-10")
+    tuning = set(space.sensitivity_ids)
+    assert {f.id: f.kind for f in space.factors if f.id not in tuning} == \
+        {f.id: "reading" for f in space.factors if f.id not in tuning}
     assert not any(o.motivated_by for f in space.factors for o in f.options)
     assert space.is_reading(space.headline)
     assert not space.is_reading(space.with_headline(**{"H-14": "1"}))          # a level of the sweep
-    assert space.is_reading(space.with_headline(**{"H-4": "km", "H-10": "beta2"}))
+    assert space.is_reading(space.with_headline(**{"H-4": "km", "H-9": "mode1"}))
+    assert not space.is_reading(space.with_headline(**{"H-10": "beta2"}))
     assert space.factor("H-14").as_dict()["kind"] == "sensitivity"
 
 

@@ -30,7 +30,7 @@ def zhou_study(n_runs: int = N_RUNS):
     estimates and divergence causes travel too) on ``n_runs``."""
     paper = REGISTRY["zhou2017"]
     mc = MonteCarlo(paper.root_seed, n_runs)
-    make_batch, estimators = paper.batch(paper.headline_setup(), mc)  # Case 2, the per-step fault (the arena's)
+    make_batch, estimators = paper.batch(paper.headline_setup(), mc)  # Case 2 of the headline reading
     return estimators, make_batch, mc
 
 

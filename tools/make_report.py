@@ -235,19 +235,26 @@ def markdown_chip(qualifier: str) -> str:
 def pooled_tallies(docs: list[dict]) -> dict:
     """Verdict tallies pooled over the papers, with what pooling would mix kept apart: the controls (they test the
     pipeline, not a paper) and every verdict carrying a qualifier (a paper whose set-up is reconstructed: its rows
-    and claims judge the reconstruction, not the paper).  Returns ``{"papers": [names pooled], "rows": {number verdict:
-    count}, "claims": {claim verdict: count}, "apart": {"controls": [names], "qualified_papers": [names],
-    "qualified_rows": {verdict: count}, "qualified_claims": {stated words: count}}}``; the arena is not a paper and
-    takes no part."""
+    and claims judge the reconstruction, not the paper), and the claims of a paper whose headline universe is
+    degenerate (no filter beats the no-information baseline: its comparisons measure only how the filters fail; its
+    rows, printed numbers, stay pooled), listed in ``apart["degenerate_headlines"]``. Returns ``{"papers": [names
+    pooled], "rows": {number verdict: count}, "claims": {claim verdict: count}, "apart": {"controls": [names],
+    "qualified_papers": [names], "qualified_rows": {verdict: count}, "qualified_claims": {stated words: count}}}``;
+    the arena is not a paper and takes no part."""
     from mmlib.experiment.verdicts import CLAIM_VERDICTS, VERDICTS, claim_category, verdict_category
     papers = [d for d in docs if d.get("kind") != "arena"]
     out = {"papers": [], "rows": {str(v): 0 for v in VERDICTS}, "claims": {str(v): 0 for v in CLAIM_VERDICTS},
            "apart": {"controls": [], "qualified_papers": [], "qualified_rows": {str(v): 0 for v in VERDICTS},
                      "qualified_claims": {}}}
+    out["apart"]["degenerate_headlines"] = []
     for d in papers:
         if is_control(d):
             out["apart"]["controls"].append(d["paper"])
             continue
+        universes = (d.get("multiverse") or {}).get("universes") or [{}]
+        degenerate = bool(universes[0].get("degenerate"))  # no filter beats the raw measurements at the headline
+        if degenerate:
+            out["apart"]["degenerate_headlines"].append(d["paper"])
         q = qualifier_of(d)
         if q:
             out["apart"]["qualified_papers"].append(d["paper"])
@@ -257,7 +264,10 @@ def pooled_tallies(docs: list[dict]) -> dict:
         for r in d["rows"]:
             rows[str(verdict_category(r["verdict"]))] += 1
         for c in d.get("claims", []):
-            if c.get("qualifier") or q:
+            if degenerate and not (c.get("qualifier") or q):
+                words = f"{views.claim_words(c)} (degenerate headline)"
+                out["apart"]["qualified_claims"][words] = out["apart"]["qualified_claims"].get(words, 0) + 1
+            elif c.get("qualifier") or q:
                 words = views.claim_words(c if c.get("qualifier") or c.get("stated") else {**c, "qualifier": q})
                 out["apart"]["qualified_claims"][words] = out["apart"]["qualified_claims"].get(words, 0) + 1
             else:
@@ -313,7 +323,8 @@ def render_index(docs, link=None, title: str = "# All papers: what holds", chip=
               "comparison rows of each paper (tables; timing rows included); a *reproduced (isolated)* cell matched "
               "inside a table or row that fails its joint test and does not count as reproduced. The pooled row "
               "leaves out the controls and the papers whose set-up had to be reconstructed (their verdicts judge the "
-              "reconstruction, not the paper: shown apart).", "",
+              "reconstruction, not the paper: shown apart); the claims of a paper whose headline universe is "
+              "degenerate are counted apart too.", "",
               f"*Assumption of the rule:* {PAPER_ERROR_ASSUMPTION}", "",
               markdown_table(["paper", "runs", *VERDICTS, "report"], count_rows), ""]
     with_mv = [d for d in docs if d.get("multiverse")]
@@ -350,8 +361,9 @@ def render_index(docs, link=None, title: str = "# All papers: what holds", chip=
               "by the reconstruction\").", "",
               f"Pooled over the {len(pooled['papers'])} papers whose set-up is given "
               f"({sum(pooled['claims'].values())} claims, headline verdicts): {_counts(pooled['claims'])}"
-              + (f"; apart, {sum(apart.values())} claims on a reconstruction "
-                 f"({', '.join(pooled['apart']['qualified_papers'])}): {_counts(apart)}" if apart else "") + ".", ""]
+              + (f"; apart, {sum(apart.values())} claims on a reconstruction or a degenerate headline "
+                 f"({', '.join(pooled['apart']['qualified_papers'] + pooled['apart']['degenerate_headlines'])}): "
+                 f"{_counts(apart)}" if apart else "") + ".", ""]
     for d in docs:
         mv = d.get("multiverse", {})
         across = {c["claim"]: c for c in mv.get("claims_summary", [])}

@@ -163,7 +163,7 @@ def known_scenarios() -> tuple:
 def _scenario(name: str) -> Scenario:
     if name in REGISTRY and name in paper_names():
         paper = REGISTRY[name]
-        return paper.scenario(paper.headline_setup())
+        return paper.scenario(paper.arena_setup())
     if name in ladder.NAMES:
         return ladder.scenario(name)
     raise ValueError(f"scenario: unknown scenario {name!r}; known: {', '.join(known_scenarios())}")

@@ -59,12 +59,15 @@ class ArenaEntry(NamedTuple):
     headline scenario among them): the ``algorithms`` it proposes or runs (recipe names of
     :data:`mmlib.arena.recipes.RECIPES`, credited to it in the arena's algorithm table), the ``ideas`` it
     contributes (``(idea, algorithm, baseline)``: the arena asks whether the idea helps, scenario by scenario) and
-    its central ``claim`` with the ``(algorithm, baseline)`` pairs that test it."""
+    its central ``claim`` with the ``(algorithm, baseline)`` pairs that test it; ``reading``, ``(factor, option)``
+    pairs changing the headline reading for the arena's scenario (:meth:`Paper.arena_setup`), where the headline
+    makes a degenerate scenario (zhou2017's unobservable drift: its per-step fault instead)."""
 
     algorithms: tuple[str, ...]
     ideas: tuple[tuple[str, str, str], ...] = ()
     claim: str = ""
     claim_pairs: tuple[tuple[str, str], ...] = ()
+    reading: tuple[tuple[str, str], ...] = ()
 
 
 class Study(NamedTuple):
@@ -164,6 +167,10 @@ class Paper:
             raise ValueError("profiles: the smoke profile's runs are a prefix of the full profile's: no more of them")
         if self.arena is not None:
             _check_arena(self.arena)
+            try:
+                self.space.with_headline(**dict(self.arena.reading))
+            except ValueError as exc:
+                raise ValueError(f"arena.reading: {exc}") from None
         if self.kind not in KINDS:
             raise ValueError(f"kind: expected one of {KINDS}, got {self.kind!r}")
         if self.qualifier not in QUALIFIERS:
@@ -187,6 +194,13 @@ class Paper:
     def headline_setup(self) -> Any:
         """The set-up of the headline reading."""
         return self.setup(self.space.headline)
+
+    def arena_setup(self) -> Any:
+        """The set-up of the arena's scenario: the headline reading changed by :attr:`ArenaEntry.reading` (the
+        headline's own set-up when the paper has no arena entry or the entry changes nothing)."""
+        if self.arena is None or not self.arena.reading:
+            return self.headline_setup()
+        return self.setup(self.space.with_headline(**dict(self.arena.reading)))
 
     def deviation(self, id_: str) -> Deviation:
         """The deviation numbered ``id_`` (e.g. "Z-5"); ValueError listing the ids otherwise."""
@@ -214,6 +228,7 @@ def _check_arena(entry) -> None:
         raise ValueError("arena.algorithms: expected at least one algorithm")
     names(entry.ideas, "ideas", 3)
     names(entry.claim_pairs, "claim_pairs", 2)
+    names(entry.reading, "reading", 2)
     if not isinstance(entry.claim, str) or bool(entry.claim) != bool(entry.claim_pairs):
         raise ValueError(f"arena.claim: expected a claim with its pairs, or neither, got {entry.claim!r} with "
                          f"{len(entry.claim_pairs)} pair(s)")

@@ -175,7 +175,7 @@ FACTORS = (
                {"ukf": (1.0, 0.0, -1.0)}),
         Option("beta2", "α = 1, β = 2, κ = −1", "not given; beta = 2 is optimal for Gaussian priors (the UKF of "
                "ref. [9] with the Wan-van der Merwe weights)", {"ukf": (1.0, 2.0, -1.0)}),
-    ), "beta0", "Sec. 3 names IMMUKF without its parameters"),
+    ), "beta0", "Sec. 3 names IMMUKF without its parameters", kind="sensitivity"),
     Factor("H-9", "initial mode probabilities mu_0 (not given)", (
         Option("uniform", "μ₀ = (0.5, 0.5)", "Sec. 2.2 initialisation 'mu_0^i = mu_0', value not given: no mode "
                "preferred", {"mode_probabilities0": (0.5, 0.5)}),
@@ -205,9 +205,9 @@ FACTORS = (
 #: as a curve.  Every other factor is a *reading*: each option quotes the text (H-4's unit, H-13's state equation
 #: vs uniform circular motion, H-6's text vs Eq. 18, H-7's garbled sum, H-8's Eq. 20, H-1's "Stirling
 #: interpolation" of Sec. 1.1 and its refs. [14, 15], H-9's "first 10 sampling periods", H-5's text vs state
-#: equation, H-11's caption vs Figs. 6-7).  H-10 is the one unstated value among them; it is kept a reading because
-#: its two options are not levels of a sweep but the two published weightings of the UKF the paper cites (ref.
-#: [9]): Julier's classic one and the Gaussian-optimal beta = 2.  No option is motivated by Table 1 or by another
+#: equation, H-11's caption vs Figs. 6-7).  H-10, the UKF's weights, is a sensitivity factor too: its two options
+#: (Julier's classic weighting and the Gaussian-optimal beta = 2) quote only "not given", the standard zhu2016's Z-11
+#: and zhou2017's Z-7 follow for the same parameter.  No option is motivated by Table 1 or by another
 #: paper (``motivated_by`` empty everywhere): each was argued from the text, and H-4 from the truth's plausibility.
 #:
 #: Every factor is influential: the covering design pairs every option of every two factors.  No factor is

@@ -126,14 +126,14 @@ def degenerate_cases(results: ReadingResults) -> dict:
 
 
 def degenerate(results: ReadingResults) -> str:
-    """Why the universe is degenerate, or "".  The rule: a universe is degenerate when *every* case its claims use
-    (Example 1 and both cases of Example 2, :data:`text.CASES`) is degenerate (:func:`degenerate_cases`): while one
-    case has a filter that beats the measurement-only estimate, the claims judged on that case still compare
-    filters that track, so the universe's comparisons are kept in the shares."""
+    """Why the universe is degenerate, or "".  The rule (zhou2017's too): a universe is degenerate when *any* case its
+    claims use (Example 1 and both cases of Example 2, :data:`text.CASES`) is degenerate (:func:`degenerate_cases`):
+    the universe's claims pool its cases, so a comparison on a case where no filter beats the measurement-only
+    estimate would enter the shares through them."""
     cases = degenerate_cases(results)
-    if not all(cases.values()):
+    if not any(cases.values()):
         return ""
-    return "in every example: " + "; ".join(f"{case}: {why}" for case, why in cases.items())
+    return "; ".join(f"{case}: {why}" for case, why in cases.items() if why)
 
 
 def summarise(results: ReadingResults, n_runs: int) -> UniverseResult:

@@ -177,10 +177,10 @@ def _arena_case(setup, fault_kind: str | None) -> Setup:
     return replace(case2, fault_kind=fault_kind)
 
 
-def batch(setup: Cases, mc: MonteCarlo, fault_kind: str | None = ARENA_FAULT_KIND) -> tuple:
+def batch(setup: Cases, mc: MonteCarlo, fault_kind: str | None = None) -> tuple:
     """``(make_batch, estimators)`` of Case 2 of ``setup`` on the runs of ``mc`` (:func:`make_batch_fn`, every
-    estimator of :func:`build`), with the fault reading ``fault_kind`` (default the arena's,
-    :data:`ARENA_FAULT_KIND`; None keeps the set-up's own): the batch of :func:`scenario`."""
+    estimator of :func:`build`), with the set-up's own fault reading (or ``fault_kind``): the batch of
+    :func:`scenario`."""
     make_batch, estimators, _ = make_batch_fn(_arena_case(setup, fault_kind), mc)
     return make_batch, estimators
 
@@ -197,10 +197,10 @@ _FAULT_TEXT = {"constant-drift": "range offset and accumulating bearing drift",
                "constant": "constant range and bearing offsets"}
 
 
-def scenario(setup: Cases, fault_kind: str | None = ARENA_FAULT_KIND) -> Scenario:
-    """Case 2 of Section 4.1 (sensor faults) of ``setup`` as an arena scenario, with the fault reading
-    ``fault_kind`` of Z-6 (default the arena's, :data:`ARENA_FAULT_KIND` = "per-step", whatever the set-up's own,
-    which is degenerate at the headline: see there; None keeps the set-up's own): CV and two coordinated-turn
+def scenario(setup: Cases, fault_kind: str | None = None) -> Scenario:
+    """Case 2 of Section 4.1 (sensor faults) of ``setup`` as an arena scenario, with the set-up's own fault reading
+    of Z-6 (or ``fault_kind``; the arena's set-up takes :data:`ARENA_FAULT_KIND`, through the paper's
+    ``ArenaEntry.reading``, since the headline's drift is degenerate: see there): CV and two coordinated-turn
     modes, a range-bearing radar with Eq. 2's range and bearing deviations.  Single-model filters use the CV mode:
     the paper runs single-model UKF, AUKF and NAUKF only in its field test (Table 4), whose model it does not give."""
     setup = _arena_case(setup, fault_kind)

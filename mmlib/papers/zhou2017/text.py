@@ -158,7 +158,7 @@ FACTORS = (
         Option("scaled", "UKF alpha = 1e-3, beta = 2, kappa = 0", "not given, as above: the scaled unscented transform "
                "with the usual defaults (Wan & van der Merwe 2000; beta = 2 optimal for Gaussian priors)",
                {"ukf": (1e-3, 2.0, 0.0)}),
-    ), "kappa3-n", "Sec. 3.2 (UKF weights cited to [3], not given)"),
+    ), "kappa3-n", "Sec. 3.2 (UKF weights cited to [3], not given)", kind="sensitivity"),
     Factor("Z-8", "NAUKF innovation window (P_zz~ of Eq. 27)", (
         Option("w10", "window of 10 innovations", "Eq. 27 needs an estimate of the innovation covariance; not "
                "given — 10 samples is the smallest common choice for a 2-D innovation", {"window": 10}),
@@ -180,16 +180,16 @@ FACTORS = (
         Option("q/100", "filters' q / 100", "Eqs. 42/44 garbled, as above", {"filter_q_scale": 0.01}),
     ), "q", "Sec. 4.1, Eqs. 42/44 (garbled)", kind="sensitivity"),
 )
-#: Kinds (issue 24): Z-5 (P0), Z-8 (NAUKF's window) and Z-13 (the filters' q, q/10, q/100) are *sensitivity* factors:
+#: Kinds (issue 24): Z-5 (P0), Z-7 (the UKF's weights), Z-8 (NAUKF's window) and Z-13 (the filters' q, q/10, q/100)
+#: are *sensitivity* factors:
 #: the paper states none of these values, and their options are levels of an unstated tuning value (one sentence of
 #: text, "not given", behind every level), not alternatives the text supports; they are reported as curves, never as
 #: a reading that reproduces.  The other factors are readings.  Options motivated by results (``motivated_by``): Z-6
 #: "constant" and Z-12 "inflate-only" (their histories are in their ``motivated_by``); none is motivated by another
-#: paper.  The readings of the text alone are 2 (Z-2) x 2 (Z-3) x 2 (Z-4) x 2 (Z-6) x 2 (Z-7) = 32 universes; measured
-#: on the paper's 100 runs, 8 are degenerate (:func:`mmlib.papers.zhou2017.study.degenerate_reason`): Z-6 "drift" with
-#: the mrad² bearing variance (Case 2 filters remove 0.11-0.20 % of the measurement-only MSE).  Under "drift" with deg²
-#: the bearing noise (67 mrad) is so large that the filters remove 6-11 % of it by averaging, so those 8 are not
-#: flagged, although the drift is as unobservable there (Case 2 errors 0.85-0.96 km against Table 3's <= 11.9 m).
+#: paper.  The readings of the text alone are 2 (Z-2) x 2 (Z-3) x 2 (Z-4) x 2 (Z-6) = 16 universes.  Under Z-6 "drift"
+#: with the mrad² bearing variance they are degenerate (:func:`mmlib.papers.zhou2017.study.degenerate_reason`); under
+#: "drift" with deg² the bearing noise is so large that the filters beat the raw measurements by averaging it, so
+#: they are not flagged, although the drift is as unobservable there (the notebook's observability check).
 #:
 #: the full factorial (2 x 2 x 2 x 2 x 3 x 2 x 2 x 2 x 3 = 1152 universes) exceeds the budget, so the auto design
 #: is a uniform random sample of 200 universes (shares with a 95 % Wilson interval at most ±6.9 points wide), beside
