@@ -33,7 +33,7 @@ TABLE = {0.01: ("3.631", "0.1847"), 0.1: ("6.000", "1.000"), 0.3: ("7.327", "2.1
 POSITIVE = "positive control"
 #: the negative controls: (table name, relative perturbation of every cell, the verdict category every cell must get)
 #: -- within the rule's 25 % band a 10 % error is "qualitatively reproduced" (beyond 3 sigma, not a reproduction),
-#: +50 % lies outside the band (|r - p'| / p' = 1/3): "not reproduced"
+#: +50 % lies outside the band (``|r - p'| / p' = 1/3``): "not reproduced"
 NEGATIVES = (("negative control +10 %", 0.10, "qualitatively reproduced"),
              ("negative control −10 %", -0.10, "qualitatively reproduced"),
              ("negative control +50 %", 0.50, "not reproduced"))
