@@ -48,24 +48,28 @@ def test_setup_validation():
 
 
 def test_setup_is_the_two_cases_and_scenario_and_batch_are_case_2_under_the_arena_fault_reading():
-    """The contract's set-up of a reading is its two cases; the arena's scenario and the batch are Case 2 under the
-    per-step fault reading (the headline's drift is degenerate), unless the caller keeps the set-up's own."""
+    """The contract's set-up of a reading is its two cases; the scenario and the batch are its Case 2 under the set-up's
+    own fault reading (faithful to the set-up given); the arena's set-up (``Paper.arena_setup``, the entry's reading)
+    takes the per-step fault, since the headline's drift is degenerate."""
     cases = PAPER.headline_setup()
     assert isinstance(cases, Cases) and PAPER.setup_type is Cases
     assert cases == (Setup(), _replace(Setup(), faults=True))
     assert ARENA_FAULT_KIND == "per-step" and cases.case2.fault_kind == "constant-drift"
-    s = PAPER.scenario(cases)
+    assert "'constant-drift'" in PAPER.scenario(cases).properties["measurement"]
+    arena = PAPER.arena_setup()
+    assert arena.case2.fault_kind == "per-step" and dict(PAPER.arena.reading) == {"Z-6": "per-step"}
+    s = PAPER.scenario(arena)
     assert s.name == PAPER.name and s.root_seed == PAPER.root_seed and "'per-step'" in s.properties["measurement"]
-    assert "'constant-drift'" in PAPER.scenario(cases, fault_kind=None).properties["measurement"]
+    assert "'per-step'" in PAPER.scenario(cases, fault_kind="per-step").properties["measurement"]
     mc = MonteCarlo(PAPER.root_seed, 2)
-    make_batch, estimators = PAPER.batch(cases, mc)
+    make_batch, estimators = PAPER.batch(arena, mc)
     own, own_est, _ = make_batch_fn(_replace(cases.case2, fault_kind="per-step"), mc)
     drift = make_batch_fn(cases.case2, mc, names=())[0]
     assert set(estimators) == set(own_est) == set(build(Setup())[2])
     for a, b in zip(make_batch(range(2))[:2], own(range(2))[:2]):
         np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(s.simulator(mc)(range(2))[1], own(range(2))[1])
-    np.testing.assert_array_equal(PAPER.batch(cases, mc, fault_kind=None)[0](range(2))[1], drift(range(2))[1])
+    np.testing.assert_array_equal(PAPER.batch(cases, mc)[0](range(2))[1], drift(range(2))[1])
     assert not np.array_equal(own(range(2))[1], drift(range(2))[1])
     for call in (PAPER.scenario, lambda c: PAPER.batch(c, mc)):
         with pytest.raises(ValueError, match="setup"):

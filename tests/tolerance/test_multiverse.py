@@ -32,7 +32,7 @@ def test_committed_multiverse_is_the_declared_design(paper):
     for f, decl in zip(mv["factors"], space.factors):
         assert f["options"] == list(decl.names) and f["headline"] == decl.headline
     # a sampled design is redrawn from its recorded size and seed (the size may be a MULTIVERSE_UNIVERSES override)
-    design = (space.design("sampled", sample_size=mv["n_counted"], seed=mv["design_seed"])
+    design = (space.design("sampled", sample_size=mv["n_drawn"], seed=mv["design_seed"])
               if mv["design"] == "sampled" else space.design(mv["design"]))
     assert [u["reading"] for u in mv["universes"]] == list(design.readings)
     assert mv["n_universes"] == len(design) == len(mv["universes"])
@@ -44,13 +44,17 @@ def test_committed_multiverse_is_the_declared_design(paper):
 @pytest.mark.parametrize("profile", ["smoke", "full"])
 def test_shares_follow_from_the_universes(paper, profile):
     """Every claim's share, interval and claim x option table recomputed from the stored universes of the counted
-    sample: shares only from a full or sampled design, the interval the Wilson interval (or no width when the full
-    factorial is run), robust exactly when a lower bound reaches 90 %."""
+    sample (the drawn universes without those with a motivated option or flagged degenerate, set apart): shares only
+    from a full or sampled design, the interval the Wilson interval (or no width when the full factorial is run),
+    robust exactly when a lower bound reaches 90 %."""
     from mmlib.experiment.metrics import wilson_interval
     mv = load(paper, profile)["multiverse"]
+    space = REGISTRY[paper].space
     uniform = mv["design"] in ("full", "sampled")
-    exact = uniform and mv["n_counted"] == mv["full_factorial_size"]
-    counted = [mv["universes"][i] for i in mv["design_sample"]]
+    exact = uniform and len(mv["design_sample"]) == mv["full_factorial_size"]
+    counted = [mv["universes"][i] for i in mv["design_sample"]
+               if not space.motivated(mv["universes"][i]["reading"]) and not mv["universes"][i].get("degenerate")]
+    assert not uniform or len(counted) == mv["n_counted"]
     for c in mv["claims_summary"]:
         if not uniform:
             assert c["share"] is None and c["robust"] is None and c["by_option"] is None
