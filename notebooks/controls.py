@@ -98,7 +98,7 @@ section = control.section(rows, n_runs=nb.n_runs)
 pos, neg = section["positive"], section["negative"]
 fig, axes = plt.subplots(1, 2, figsize=(10, 4))
 lams = np.array(text.LAMBDAS)
-for ax, (quantity, _), i, unit in zip(axes, text.QUANTITIES, (0, 1), ("m", "m/s")):
+for ax, (quantity, _), i in zip(axes, text.QUANTITIES, (0, 1)):          # each quantity names its unit
     lo = np.logspace(-2.2, 1.2, 200)
     exact = [closed_form.steady_state(x, text.T, text.SIGMA_W).P[i, i] ** 0.5 for x in lo]
     ax.plot(lo, exact, "k-", lw=1, label="closed form")
@@ -108,7 +108,8 @@ for ax, (quantity, _), i, unit in zip(axes, text.QUANTITIES, (0, 1), ("m", "m/s"
     for name, fraction, _ in text.NEGATIVES:
         ax.plot(lams, [float(text.printed_table(name)[lam][i]) for lam in text.LAMBDAS], "x", ms=5,
                 label=f"printed {100 * fraction:+.0f} %")
-    ax.set(xscale="log", yscale="log", xlabel="tracking index λ", ylabel=f"{quantity}", title=quantity)
+    ax.set(xscale="log", yscale="log", xlabel="tracking index λ (dimensionless)", ylabel=quantity,
+           title=f"Fig. 1{'ab'[i]}: {quantity}")
     ax.legend(fontsize=7)
 nb.show(fig, "fig01_controls",
         "the steady-state error standard deviations of the Kalman filter (closed form, printed to 4 figures)",
