@@ -272,7 +272,7 @@ nb.show(fig, "extra_nees_consistency", "(not in the paper)",
 
 # %%
 consistency = diagnostics.consistency(res)
-display(Markdown(diagnostics.consistency_table(consistency)))
+display(Markdown(views.consistency_table(consistency)))
 
 # %% [markdown]
 # ## Claims of the abstract and conclusions (headline reading)

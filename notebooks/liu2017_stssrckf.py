@@ -157,7 +157,7 @@ print("headline universe degenerate:", repr(summary.degenerate) if summary.degen
 
 # %%
 consistency = diagnostics.consistency(headline)
-display(Markdown(diagnostics.consistency_table(consistency)))
+display(Markdown(views.consistency_table(consistency)))
 
 # %% [markdown]
 # ## Why STUKF, STCKF, STSSRCKF (and even STF) cannot differ materially here

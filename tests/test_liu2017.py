@@ -5,7 +5,7 @@ import pytest
 from mmlib import MonteCarlo
 from mmlib.core.filters import ExtendedKalmanFilter
 from mmlib.core.layers.strong_tracking import StrongTracking
-from mmlib.experiment import evaluation, metrics
+from mmlib.experiment import evaluation, metrics, views
 from mmlib.experiment.universe import UniverseResult
 from mmlib.papers import REGISTRY
 from mmlib.papers.liu2017 import diagnostics, setup, study, table2, text
@@ -405,7 +405,7 @@ def test_consistency_entries_cover_every_filter_of_every_case(headline_consisten
             assert c["band"][0] < dof < c["band"][1] and c["inside"] == (c["band"][0] <= c["value"] <= c["band"][1])
     ssr = next(e for e in entries if e["case"] == "Example 1" and e["algorithm"] == "SSRCKF")
     assert ssr["anees"]["value"] > 10 * ssr["anees"]["band"][1]
-    table = diagnostics.consistency_table(entries)
+    table = views.consistency_table(entries)           # the one renderer (mmlib.experiment.views)
     assert all(case in table for case in text.CASES)
     plain = study.evaluate_reading(PAPER.headline, MonteCarlo(PAPER.root_seed, 2))
     with pytest.raises(ValueError, match="SSRCKF"):

@@ -14,7 +14,6 @@ import numpy as np
 from mmlib.experiment import evaluation, report
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment.multiverse import Multiverse
-from mmlib.experiment.views import markdown_table, value_pm
 from mmlib.papers.hu2017.setup import batch, setup
 from mmlib.papers.hu2017.study import KEY_EFFECT, ReadingResult
 from mmlib.papers.hu2017.text import ALGORITHMS, SPACE
@@ -50,23 +49,6 @@ def consistency(res: ReadingResult) -> list:
     IMM's combined estimate and covariance (Bar-Shalom, Li & Kirubarajan 2001, Sec. 5.4.2); IMMCDKF-OBS's is that
     of its fused covariance, which Eqs. 22-24 shrink as if the N + 1 members were independent."""
     return evaluation.consistency_entries({alg: res.runs[alg] for alg in ALGORITHMS}, 4)
-
-
-def _stat_cells(c: Mapping) -> list:
-    """Value ± standard error, 95 % band and whether inside, of one ANEES or ANIS summary
-    (:func:`mmlib.experiment.evaluation.consistency`), as table cells."""
-    if c["value"] is None:
-        return ["undefined (no two valid runs, or a non-finite statistic)", "", ""]
-    return [value_pm(c["value"], c["stderr"], 3 if abs(c["value"]) < 100 else 0),
-            f"[{c['band'][0]:.3g}, {c['band'][1]:.3g}]",
-            "yes" if c["inside"] else "no"]
-
-
-def consistency_table(entries: list) -> str:
-    """A markdown table of :func:`consistency`'s entries: per IMM its ANEES and ANIS with standard errors, 95 %
-    chi-square bands and whether each lies inside its band."""
-    return markdown_table(["algorithm", "ANEES (4 dof)", "95 % band", "inside", "ANIS (2 dof)", "95 % band", "inside"],
-                          [[e["algorithm"], *_stat_cells(e["anees"]), *_stat_cells(e["anis"])] for e in entries])
 
 
 def coincidence(res: ReadingResult) -> dict:

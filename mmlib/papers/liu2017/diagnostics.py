@@ -12,7 +12,7 @@ from mmlib.core.estimation import run as run_filter
 from mmlib.experiment import evaluation, metrics, report
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment.multiverse import Multiverse
-from mmlib.experiment.views import markdown_table, value_pm
+from mmlib.experiment.views import value_pm
 from mmlib.papers.liu2017.setup import Setup, make_batch_fn
 from mmlib.papers.liu2017.study import ReadingResults
 from mmlib.papers.liu2017.text import CASES, KEY_EFFECT, POSITION, QUANTITIES
@@ -37,25 +37,6 @@ def consistency(results: ReadingResults) -> list:
     ``evaluate_reading(..., consistency=True)`` (ValueError naming the filter otherwise).  A strong-tracking filter's
     NEES is that of its faded covariance (Eqs. 20-36), the covariance it reports."""
     return [e for case in CASES for e in evaluation.consistency_entries(results.runs[case], 6, case=case)]
-
-
-def _stat_cells(c: dict) -> list:
-    """Value ± standard error, 95 % band and whether inside, of one ANEES or ANIS summary
-    (:func:`mmlib.experiment.evaluation.consistency`), as table cells."""
-    if c["value"] is None:
-        return ["undefined (no two valid runs, or a non-finite statistic)", "", ""]
-    return [value_pm(c["value"], c["stderr"], 3 if abs(c["value"]) < 100 else 0),
-            f"[{c['band'][0]:.3g}, {c['band'][1]:.3g}]",
-            "yes" if c["inside"] else "no"]
-
-
-def consistency_table(entries: list) -> str:
-    """A markdown table of :func:`consistency`'s entries: per case and filter its ANEES and ANIS with standard
-    errors, 95 % chi-square bands and whether each lies inside its band."""
-    return markdown_table(["case", "filter", "ANEES (6 dof)", "95 % band", "inside", "ANIS (2 dof)", "95 % band",
-                           "inside"],
-                          [[e["case"], e["algorithm"], *_stat_cells(e["anees"]), *_stat_cells(e["anis"])]
-                           for e in entries])
 
 
 def near_equality(runs: dict) -> tuple[dict, dict]:
