@@ -229,23 +229,13 @@ def weighted_outer(dy, w, dx, add):
 
 
 @njit(**_OPTS)
-def kalman_moments(mean, cov, nu, S, Pxz, H, R):
-    r"""The numerical part of :func:`mmlib.core.filters.kalman_update` for a stack of N runs.
-
-    mean (N, n), cov (N, n, n), innovation nu (N, m), S (N, m, m), Pxz (N, n, m); ``H`` (N, m, n) and
-    ``R`` (N, m, m) select the Joseph form (``H`` of shape (N, 0, 0): the form :math:`P - AA^T`).
-    With :math:`S = LL^T`, :math:`A = P_{xz}L^{-T}`, :math:`e = L^{-1}\nu`: :math:`\hat x^+ = \hat x + Ae`,
-    :math:`P^+ = \mathrm{sym}(P - AA^T)` or :math:`\mathrm{sym}((I-KH)P(I-KH)^T + KRK^T)` with
-    :math:`K = AL^{-1}`; NIS :math:`e^Te`; :math:`\log|S| = 2\sum\log L_{ii}`.
-    Returns ``(mean+, cov+, nis, logdet, failed)``; a run fails when S or :math:`P^+` has no Cholesky
-    factor: its mean and covariance (and, if S failed, NIS and log-determinant) are NaN."""
-    N, n = mean.shape
-    m = nu.shape[1]
-    joseph = H.shape[1] > 0
-    P = _inner(cov, N)
-    Sb = _inner(S, N)
-    Pxzb = _inner(Pxz, N)
-    nub = _inner(nu, N)
+def _kalman_core(mean_b, P, nub, Sb, Pxzb, Hb, Rb, joseph, C, nis, logdet, failed):
+    r"""The body of :func:`kalman_moments`, batch innermost: the prior mean mean_b (n, N) (overwritten by the
+    posterior mean), cov P (n, n, N), innovation nub (m, N), Sb (m, m, N), Pxzb (n, m, N), and with ``joseph`` Hb
+    (m, n, N) and Rb (m, m, N) -> posterior cov C (n, n, N), nis, logdet, failed (N,) (a failed run's mean and C
+    are to be replaced by NaN by the caller)."""
+    n, N = mean_b.shape
+    m = nub.shape[0]
     s_bad = np.zeros(N, dtype=np.bool_)
     L = np.empty((m, m, N))
     _chol(Sb, L, s_bad)
@@ -262,7 +252,7 @@ def kalman_moments(mean, cov, nu, S, Pxz, H, R):
             for b in range(N):
                 Li[i, j, b] = -acc[b] * Li[i, i, b]
     e = np.zeros((m, N))
-    nis = np.zeros(N)
+    nis[:] = 0.0
     for i in range(m):
         for k in range(i + 1):
             for b in range(N):
@@ -275,12 +265,10 @@ def kalman_moments(mean, cov, nu, S, Pxz, H, R):
             for k in range(j + 1):
                 for b in range(N):
                     A[i, j, b] += Pxzb[i, k, b] * Li[j, k, b]
-    mean_b = _inner(mean, N)
     for i in range(n):
         for k in range(m):
             for b in range(N):
                 mean_b[i, b] += A[i, k, b] * e[k, b]
-    C = np.empty((n, n, N))
     if not joseph:
         # sym(P - AA^T): (AA^T)_ij is symmetric bit for bit; P is symmetrised as given
         s = np.empty(N)
@@ -295,8 +283,6 @@ def kalman_moments(mean, cov, nu, S, Pxz, H, R):
                     C[i, j, b] = v
                     C[j, i, b] = v
     else:
-        Hb = _inner(H, N)
-        Rb = _inner(R, N)
         K = np.zeros((n, m, N))                              # K = A Linv
         for i in range(n):
             for j in range(m):
@@ -348,11 +334,10 @@ def kalman_moments(mean, cov, nu, S, Pxz, H, R):
     p_bad = np.zeros(N, dtype=np.bool_)
     Lp = np.empty((n, n, N))
     _chol(C, Lp, p_bad)
-    logdet = np.zeros(N)
+    logdet[:] = 0.0
     for i in range(m):                                       # scalar loop: log is not vectorised
         for b in range(N):
             logdet[b] += math.log(L[i, i, b])
-    failed = np.empty(N, dtype=np.bool_)
     for b in range(N):
         failed[b] = s_bad[b] or p_bad[b]
         if s_bad[b]:
@@ -360,6 +345,30 @@ def kalman_moments(mean, cov, nu, S, Pxz, H, R):
             logdet[b] = np.nan
     for b in range(N):
         logdet[b] = 2.0 * logdet[b]
+
+
+@njit(**_OPTS)
+def kalman_moments(mean, cov, nu, S, Pxz, H, R):
+    r"""The numerical part of :func:`mmlib.core.filters.kalman_update` for a stack of N runs.
+
+    mean (N, n), cov (N, n, n), innovation nu (N, m), S (N, m, m), Pxz (N, n, m); ``H`` (N, m, n) and
+    ``R`` (N, m, m) select the Joseph form (``H`` of shape (N, 0, 0): the form :math:`P - AA^T`).
+    With :math:`S = LL^T`, :math:`A = P_{xz}L^{-T}`, :math:`e = L^{-1}\nu`: :math:`\hat x^+ = \hat x + Ae`,
+    :math:`P^+ = \mathrm{sym}(P - AA^T)` or :math:`\mathrm{sym}((I-KH)P(I-KH)^T + KRK^T)` with
+    :math:`K = AL^{-1}`; NIS :math:`e^Te`; :math:`\log|S| = 2\sum\log L_{ii}`.
+    Returns ``(mean+, cov+, nis, logdet, failed)``; a run fails when S or :math:`P^+` has no Cholesky
+    factor: its mean and covariance (and, if S failed, NIS and log-determinant) are NaN."""
+    N, n = mean.shape
+    joseph = H.shape[1] > 0
+    mean_b = _inner(mean, N)
+    C = np.empty((n, n, N))
+    nis = np.empty(N)
+    logdet = np.empty(N)
+    failed = np.empty(N, dtype=np.bool_)
+    Hb = _inner(H, N) if joseph else np.empty((0, 0, N))
+    Rb = _inner(R, N) if joseph else np.empty((0, 0, N))
+    _kalman_core(mean_b, _inner(cov, N), _inner(nu, N), _inner(S, N), _inner(Pxz, N), Hb, Rb, joseph, C, nis,
+                 logdet, failed)
     mean_out = _outer(mean_b)
     cov_out = _outer(C)
     _nan_rows(mean_out, failed)
@@ -406,22 +415,19 @@ def combine_covariances(wt, means, covs, centres):
 
 
 @njit(**_OPTS)
-def sigma_point_predict_linear(mean, cov, xi, wm, wc, F, Q):
-    r"""Fused sigma-point time update through linear dynamics :math:`f(x) = Fx` (the moments
-    :func:`sigma_points`, ``F X``, :func:`weighted_mean` and :func:`weighted_outer` give in turn):
-    :math:`X_p = m + L\xi_p`, :math:`Y_p = FX_p`, :math:`\bar y = \sum w^m_p Y_p`,
-    :math:`P^- = \sum w^c_p (Y_p - \bar y)(Y_p - \bar y)^T + Q`.  mean (N, n), cov (N, n, n), xi (M, n),
-    wm, wc (M,), F (N, n, n), Q (N, n, n) -> ``(mean-, cov-, failed)``; a failed run's moments are NaN."""
-    N, n = mean.shape
+def _predict_core(mb, Pb, xi, wm, wc, Fb, Qb, ybar, Pm, failed):
+    r"""The body of :func:`sigma_point_predict_linear`, batch innermost: mean mb (n, N), cov Pb (n, n, N),
+    F and Q as Fb, Qb (n, n, N) -> ybar (n, N), Pm (n, n, N), ``failed`` (N,) set for the runs whose P has no
+    Cholesky factor (their outputs are to be replaced by NaN by the caller)."""
+    n, N = mb.shape
     M = xi.shape[0]
+    failed[:] = False
     L = np.empty((n, n, N))
-    failed = np.zeros(N, dtype=np.bool_)
-    _chol(_inner(cov, N), L, failed)
+    _chol(Pb, L, failed)
     X = np.empty((M, n, N))
-    _points(_inner(mean, N), L, xi, X)
-    Fb = _inner(F, N)
+    _points(mb, L, xi, X)
     Y = np.zeros((M, n, N))
-    ybar = np.zeros((n, N))
+    ybar[:, :] = 0.0
     for p in range(M):
         for i in range(n):
             for j in range(n):
@@ -434,8 +440,21 @@ def sigma_point_predict_linear(mean, cov, xi, wm, wc, F, Q):
         for i in range(n):
             for b in range(N):
                 Y[p, i, b] -= ybar[i, b]
+    _outer_sums(Y, wc, np.empty((M, 0, N)), Qb, Pm, np.empty((0, n, N)))
+
+
+@njit(**_OPTS)
+def sigma_point_predict_linear(mean, cov, xi, wm, wc, F, Q):
+    r"""Fused sigma-point time update through linear dynamics :math:`f(x) = Fx` (the moments
+    :func:`sigma_points`, ``F X``, :func:`weighted_mean` and :func:`weighted_outer` give in turn):
+    :math:`X_p = m + L\xi_p`, :math:`Y_p = FX_p`, :math:`\bar y = \sum w^m_p Y_p`,
+    :math:`P^- = \sum w^c_p (Y_p - \bar y)(Y_p - \bar y)^T + Q`.  mean (N, n), cov (N, n, n), xi (M, n),
+    wm, wc (M,), F (N, n, n), Q (N, n, n) -> ``(mean-, cov-, failed)``; a failed run's moments are NaN."""
+    N, n = mean.shape
+    failed = np.zeros(N, dtype=np.bool_)
+    ybar = np.empty((n, N))
     Pm = np.empty((n, n, N))
-    _outer_sums(Y, wc, np.empty((M, 0, N)), _inner(Q, N), Pm, np.empty((0, n, N)))
+    _predict_core(_inner(mean, N), _inner(cov, N), xi, wm, wc, _inner(F, N), _inner(Q, N), ybar, Pm, failed)
     mean_out = _outer(ybar)
     cov_out = _outer(Pm)
     _nan_rows(mean_out, failed)
@@ -449,23 +468,17 @@ def _wrap(a):
 
 
 @njit(**_OPTS)
-def measurement_moments(X, mean, Z, wm, wc, angular, R):
-    r"""Fused sigma-point measurement moments: from the points X (N, M, n) of the prior with mean
-    (N, n) and their images Z (N, M, m) under h, the predicted measurement
-    :math:`\hat z = \sum w^m_p Z_p` (for the components flagged ``angular`` (m,): the reference point
-    plus the mean of the wrapped residuals about it, wrapped to :math:`(-\pi, \pi]`),
-    :math:`S = \sum w^c_p\, dz_p dz_p^T + R` and :math:`P_{xz} = \sum w^c_p (X_p - m) dz_p^T` with
-    :math:`dz_p = Z_p - \hat z` (angles wrapped).  R (N, m, m).  Returns ``(z_pred, S, Pxz)``."""
-    N, M, n = X.shape
-    m = Z.shape[2]
-    Zb = _inner(Z, N)
-    DX = _inner(X, N)
-    mb = _inner(mean, N)
+def _measurement_core(DX, mb, Zb, wm, wc, angular, Rb, zp, S, Pxz):
+    r"""The body of :func:`measurement_moments`, batch innermost: the points DX (M, n, N) (overwritten by their
+    deviations from the mean mb (n, N)), their images Zb (M, m, N) (overwritten by the residuals about the predicted
+    measurement), R as Rb (m, m, N) -> zp (m, N), S (m, m, N), Pxz (n, m, N)."""
+    M, n, N = DX.shape
+    m = Zb.shape[1]
     for p in range(M):
         for i in range(n):
             for b in range(N):
                 DX[p, i, b] -= mb[i, b]
-    zp = np.zeros((m, N))
+    zp[:, :] = 0.0
     for c in range(m):
         if angular[c]:
             for p in range(M):
@@ -487,10 +500,51 @@ def measurement_moments(X, mean, Z, wm, wc, angular, R):
             else:
                 for b in range(N):
                     Zb[p, c, b] -= zp[c, b]
+    _outer_sums(Zb, wc, DX, Rb, S, Pxz)
+
+
+@njit(**_OPTS)
+def measurement_moments(X, mean, Z, wm, wc, angular, R):
+    r"""Fused sigma-point measurement moments: from the points X (N, M, n) of the prior with mean
+    (N, n) and their images Z (N, M, m) under h, the predicted measurement
+    :math:`\hat z = \sum w^m_p Z_p` (for the components flagged ``angular`` (m,): the reference point
+    plus the mean of the wrapped residuals about it, wrapped to :math:`(-\pi, \pi]`),
+    :math:`S = \sum w^c_p\, dz_p dz_p^T + R` and :math:`P_{xz} = \sum w^c_p (X_p - m) dz_p^T` with
+    :math:`dz_p = Z_p - \hat z` (angles wrapped).  R (N, m, m).  Returns ``(z_pred, S, Pxz)``."""
+    N, M, n = X.shape
+    m = Z.shape[2]
+    zp = np.empty((m, N))
     S = np.empty((m, m, N))
     Pxz = np.empty((n, m, N))
-    _outer_sums(Zb, wc, DX, _inner(R, N), S, Pxz)
+    _measurement_core(_inner(X, N), _inner(mean, N), _inner(Z, N), wm, wc, angular, _inner(R, N), zp, S, Pxz)
     return _outer(zp), _outer(S), _outer(Pxz)
+
+
+@njit(**_OPTS)
+def _mix_core(mub, T, Xb, Pb, c, mm, out):
+    r"""The body of :func:`imm_mix`, batch innermost: mub (r, N), T (r, r), means Xb (r, n, N), covs Pb (r, n, n, N)
+    -> c (r, N), mixed means mm (r, n, N), mixed covs out (r, n, n, N)."""
+    r, N = mub.shape
+    n = Xb.shape[1]
+    c[:, :] = 0.0
+    for j in range(r):
+        for i in range(r):
+            t = T[i, j]
+            for b in range(N):
+                c[j, b] += mub[i, b] * t
+    W = np.empty((r, r, N))                                  # W[j, i] = mu_{i|j}
+    for j in range(r):
+        for i in range(r):
+            t = T[i, j]
+            for b in range(N):
+                W[j, i, b] = t * mub[i, b] / c[j, b] if c[j, b] > 0.0 else mub[i, b]
+    mm[:, :, :] = 0.0
+    for j in range(r):
+        for k in range(n):
+            for i in range(r):
+                for b in range(N):
+                    mm[j, k, b] += W[j, i, b] * Xb[i, k, b]
+    _combine(W, Xb, Pb, mm, out)
 
 
 @njit(**_OPTS)
@@ -502,28 +556,10 @@ def imm_mix(mu, T, means, covs):
     mu (B, r), T (r, r) rows "from", means (B, r, n), covs (B, r, n, n) -> ``(c, mixed means, mixed covs)``."""
     B, r = mu.shape
     n = means.shape[2]
-    mub = _inner(mu, B)
-    c = np.zeros((r, B))
-    for j in range(r):
-        for i in range(r):
-            t = T[i, j]
-            for b in range(B):
-                c[j, b] += mub[i, b] * t
-    W = np.empty((r, r, B))                                  # W[j, i] = mu_{i|j}
-    for j in range(r):
-        for i in range(r):
-            t = T[i, j]
-            for b in range(B):
-                W[j, i, b] = t * mub[i, b] / c[j, b] if c[j, b] > 0.0 else mub[i, b]
-    Xb = _inner(means, B)
-    mm = np.zeros((r, n, B))
-    for j in range(r):
-        for k in range(n):
-            for i in range(r):
-                for b in range(B):
-                    mm[j, k, b] += W[j, i, b] * Xb[i, k, b]
+    c = np.empty((r, B))
+    mm = np.empty((r, n, B))
     out = np.empty((r, n, n, B))
-    _combine(W, Xb, _inner(covs, B), mm, out)
+    _mix_core(_inner(mu, B), T, _inner(means, B), _inner(covs, B), c, mm, out)
     return _outer(c), _outer(mm), _outer(out)
 
 
@@ -543,6 +579,46 @@ def range_bearing(x, i, j, sx, sy):
 
 
 @njit(**_OPTS)
+def _output_core(ll, cb, Xb, Pb, Nb, Sb, with_cov, mub, marginal, underflow, fused, fcov, innov, icov):
+    r"""The body of :func:`imm_output`, batch innermost: ll (r, N), cb (1, r, N), Xb (r, n, N), Pb (r, n, n, N),
+    Nb (r, m, N), Sb (r, m, m, N) -> mub (1, r, N), marginal, underflow (N,), fused (1, n, N), fcov (1, n, n, N)
+    (if ``with_cov``), innov (1, m, N), icov (1, m, m, N)."""
+    r, N = ll.shape
+    n = Xb.shape[1]
+    m = Nb.shape[1]
+    lp = np.empty(r)
+    for b in range(N):
+        top = -np.inf
+        for j in range(r):
+            lp[j] = ll[j, b] + math.log(cb[0, j, b]) if cb[0, j, b] > 0.0 else -np.inf + ll[j, b]
+            if lp[j] != lp[j] or top != top:
+                top = np.nan
+            elif lp[j] > top:
+                top = lp[j]
+        total = 0.0
+        for j in range(r):
+            mub[0, j, b] = math.exp(lp[j] - top) if top > -np.inf else np.nan
+            total += mub[0, j, b]
+        for j in range(r):
+            mub[0, j, b] = mub[0, j, b] / total
+        marginal[b] = top + math.log(total) if total > 0.0 else np.nan
+        underflow[b] = top == -np.inf
+    fused[:, :, :] = 0.0
+    for j in range(r):
+        for k in range(n):
+            for b in range(N):
+                fused[0, k, b] += mub[0, j, b] * Xb[j, k, b]
+    innov[:, :, :] = 0.0
+    for j in range(r):
+        for k in range(m):
+            for b in range(N):
+                innov[0, k, b] += cb[0, j, b] * Nb[j, k, b]
+    _combine(cb, Nb, Sb, innov, icov)
+    if with_cov:
+        _combine(mub, Xb, Pb, fused, fcov)
+
+
+@njit(**_OPTS)
 def imm_output(loglik, c, means, covs, nu, S, with_cov):
     r"""The end of an IMM cycle fused (Zhu et al. 2016, Eqs. 57-59): mode probabilities
     :math:`\mu_j \propto c_j L_j` (computed in logs about the largest term), the log marginal likelihood
@@ -556,53 +632,17 @@ def imm_output(loglik, c, means, covs, nu, S, with_cov):
     B, r = loglik.shape
     n = means.shape[2]
     m = nu.shape[2]
-    mu = np.empty((B, r))
+    mub = np.empty((1, r, B))
     marginal = np.empty(B)
     underflow = np.zeros(B, dtype=np.bool_)
-    lp = np.empty(r)
-    for b in range(B):
-        top = -np.inf
-        for j in range(r):
-            lp[j] = loglik[b, j] + math.log(c[b, j]) if c[b, j] > 0.0 else -np.inf + loglik[b, j]
-            if lp[j] != lp[j] or top != top:
-                top = np.nan
-            elif lp[j] > top:
-                top = lp[j]
-        total = 0.0
-        for j in range(r):
-            mu[b, j] = math.exp(lp[j] - top) if top > -np.inf else np.nan
-            total += mu[b, j]
-        for j in range(r):
-            mu[b, j] = mu[b, j] / total
-        marginal[b] = top + math.log(total) if total > 0.0 else np.nan
-        underflow[b] = top == -np.inf
-    mub = np.empty((1, r, B))
-    cb = np.empty((1, r, B))
-    for b in range(B):
-        for j in range(r):
-            mub[0, j, b] = mu[b, j]
-            cb[0, j, b] = c[b, j]
-    Xb = _inner(means, B)
-    fused = np.zeros((1, n, B))
-    for j in range(r):
-        for k in range(n):
-            for b in range(B):
-                fused[0, k, b] += mub[0, j, b] * Xb[j, k, b]
-    Nb = _inner(nu, B)
-    innov = np.zeros((1, m, B))
-    for j in range(r):
-        for k in range(m):
-            for b in range(B):
-                innov[0, k, b] += cb[0, j, b] * Nb[j, k, b]
+    fused = np.empty((1, n, B))
+    fcov = np.empty((1, n, n, B) if with_cov else (1, 0, 0, B))
+    innov = np.empty((1, m, B))
     icov = np.empty((1, m, m, B))
-    _combine(cb, Nb, _inner(S, B), innov, icov)
-    if with_cov:
-        fcov = np.empty((1, n, n, B))
-        _combine(mub, Xb, _inner(covs, B), fused, fcov)
-        cov_out = _outer(fcov)[:, 0]
-    else:
-        cov_out = np.empty((B, 0, 0))
-    return (mu, marginal, underflow, _outer(fused)[:, 0], cov_out, _outer(innov)[:, 0],
+    _output_core(_inner(loglik, B), _inner(c, B).reshape((1, r, B)), _inner(means, B), _inner(covs, B),
+                 _inner(nu, B), _inner(S, B), with_cov, mub, marginal, underflow, fused, fcov, innov, icov)
+    cov_out = _outer(fcov)[:, 0] if with_cov else np.empty((B, 0, 0))
+    return (_outer(mub[0]), marginal, underflow, _outer(fused)[:, 0], cov_out, _outer(innov)[:, 0],
             _outer(icov)[:, 0])
 
 
@@ -644,3 +684,273 @@ def linear_predict(mean, cov, F, Q):
                 out[i, b] += Fb[i, k, b] * mb[k, b]
     S, _ = congruence(F, cov, Q)
     return _outer(out), S
+
+
+# --------------------------------------------------------------------------- a whole IMM sigma-point step
+@njit(**_OPTS)
+def _lanes(a, b0, N, period_of, out):
+    """out (..., N) <- rows of ``a`` (P, ...) (C-contiguous) for the N lanes of a block starting at run b0: lane l
+    takes row ``((b0 + l) * stride + offset) % P`` with ``period_of = (stride, offset)``: (1, 0) the runs b0..b0+N-1
+    themselves, (r, j) mode j of the flattened (runs, r modes) stack, a shared or periodic operand either way."""
+    P = a.shape[0]
+    flat = a.reshape((P, a.size // P))
+    k = flat.shape[1]
+    o = out.reshape((k, N))
+    stride, offset = period_of
+    for lane in range(N):
+        src = ((b0 + lane) * stride + offset) % P
+        for i in range(k):
+            o[i, lane] = flat[src, i]
+
+
+@njit(**_OPTS)
+def _nan_lanes(a, failed):
+    """Every entry of lane b of ``a`` (..., N) NaN for the lanes with ``failed[b]``."""
+    N = a.shape[-1]
+    flat = a.reshape((a.size // N, N))
+    for b in range(N):
+        if failed[b]:
+            for i in range(flat.shape[0]):
+                flat[i, b] = np.nan
+
+
+@njit(**_OPTS)
+def _measure(X, kind, A, idx, sensor, Z):
+    r"""The images Z (M, m, N) of the points X (M, n, N) under the measurement function ``kind``, computed as the
+    model's own ``h`` computes them:
+
+    * 0, linear: :math:`Hx` with H = A (m, n), summed in index order from 0 (:func:`matmul_rows`);
+    * 1, range and bearing of the position components idx[0], idx[1] seen from ``sensor`` (2,) (:func:`range_bearing`:
+      ``hypot``, ``atan2``, scalar);
+    * 2, pseudoranges :math:`\lVert s_i - p\rVert + b` to the satellites A (m, 3) of the position components
+      idx[0..2] with the clock bias idx[3] (:class:`mmlib.core.gnss.Pseudoranges`: the squares summed from the first
+      axis on, as numpy reduces three terms)."""
+    M, n, N = X.shape
+    m = Z.shape[1]
+    if kind == 0:
+        for p in range(M):
+            for c in range(m):
+                for b in range(N):
+                    Z[p, c, b] = 0.0
+                for j in range(n):
+                    h = A[c, j]
+                    for b in range(N):
+                        Z[p, c, b] += X[p, j, b] * h
+    elif kind == 1:
+        i0, i1 = idx[0], idx[1]
+        sx, sy = sensor[0], sensor[1]
+        for p in range(M):
+            for b in range(N):
+                dx = X[p, i0, b] - sx
+                dy = X[p, i1, b] - sy
+                Z[p, 0, b] = math.hypot(dx, dy)
+                Z[p, 1, b] = math.atan2(dy, dx)
+    else:
+        for p in range(M):
+            for c in range(m):
+                for b in range(N):
+                    d0 = A[c, 0] - X[p, idx[0], b]
+                    d1 = A[c, 1] - X[p, idx[1], b]
+                    d2 = A[c, 2] - X[p, idx[2], b]
+                    Z[p, c, b] = math.sqrt((d0 * d0 + d1 * d1) + d2 * d2) + X[p, idx[3], b]
+
+
+@njit(**_OPTS)
+def _filter_step(mb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, mean, cov, nu, S, ll,
+                 failed):
+    r"""One step of a sigma-point filter on linear dynamics, batch innermost, as the composed operations compute it:
+    :func:`sigma_point_predict_linear` of the prior mb (n, N), Pb (n, n, N) through Fb, Qb (n, n, N); fresh points
+    (:func:`sigma_points`); their images (:func:`_measure`); :func:`measurement_moments` with Rb (m, m, N); the
+    residual of zb (m, N) (``angular`` components wrapped); :func:`kalman_moments` (the form :math:`P - AA^T`); the
+    log-likelihood :math:`-\tfrac12(\nu^TS^{-1}\nu + \log|S| + m\log 2\pi)`.  Writes the posterior ``mean`` (n, N) and
+    ``cov`` (n, n, N) (NaN for a failed run), ``nu`` (m, N), ``S`` (m, m, N), ``ll`` (N,) (NaN for a failed run) and
+    ``failed`` (N,): S or the posterior covariance without a Cholesky factor."""
+    n, N = mb.shape
+    M = xi.shape[0]
+    m = zb.shape[0]
+    Pm = np.empty((n, n, N))
+    f_pred = np.empty(N, dtype=np.bool_)
+    _predict_core(mb, Pb, xi, wm, wc, Fb, Qb, mean, Pm, f_pred)
+    _nan_lanes(mean, f_pred)
+    _nan_lanes(Pm, f_pred)
+    f_pts = np.zeros(N, dtype=np.bool_)
+    L = np.empty((n, n, N))
+    _chol(Pm, L, f_pts)
+    X = np.empty((M, n, N))
+    _points(mean, L, xi, X)
+    _nan_lanes(X, f_pts)
+    Z = np.empty((M, m, N))
+    _measure(X, kind, A, idx, sensor, Z)
+    zp = np.empty((m, N))
+    Pxz = np.empty((n, m, N))
+    _measurement_core(X, mean, Z, wm, wc, angular, Rb, zp, S, Pxz)
+    for i in range(m):
+        if angular[i]:
+            for lane in range(N):
+                nu[i, lane] = _wrap(zb[i, lane] - zp[i, lane])
+        else:
+            for lane in range(N):
+                nu[i, lane] = zb[i, lane] - zp[i, lane]
+    nis = np.empty(N)
+    logdet = np.empty(N)
+    no_H = np.empty((0, 0, N))
+    _kalman_core(mean, Pm, nu, S, Pxz, no_H, no_H, False, cov, nis, logdet, failed)
+    _nan_lanes(mean, failed)
+    _nan_lanes(cov, failed)
+    for lane in range(N):
+        ll[lane] = np.nan if failed[lane] else -0.5 * (nis[lane] + logdet[lane] + m * log_2pi)
+
+
+@njit(**_OPTS)
+def sigma_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, angular, R, log_2pi, block):
+    r"""One step of a single-model sigma-point filter on linear dynamics in one call (:func:`_filter_step`, the same
+    bits as the composed operations), for blocks of ``block`` runs: mean (B, n), cov (B, n, n), rule xi (M, n), wm, wc
+    (M,), F (n, n), Q (P, n, n) and R (P', m, m) periodic over the runs, z (B, m), the measurement function
+    (:func:`_measure`).  Returns ``(mean+, cov+, loglik, innovation, S, failed)``."""
+    B, n = mean.shape
+    m = z.shape[1]
+    mean_out = np.empty((B, n))
+    cov_out = np.empty((B, n, n))
+    ll_out = np.empty(B)
+    nu_out = np.empty((B, m))
+    S_out = np.empty((B, m, m))
+    failed_out = np.zeros(B, dtype=np.bool_)
+    for b0 in range(0, B, block):
+        N = min(block, B - b0)
+        Fb = np.empty((n, n, N))
+        for lane in range(N):
+            for i in range(n):
+                for k in range(n):
+                    Fb[i, k, lane] = F[i, k]
+        Qb = np.empty((n, n, N))
+        _lanes(Q, b0, N, (1, 0), Qb)
+        Rb = np.empty((m, m, N))
+        _lanes(R, b0, N, (1, 0), Rb)
+        post_mean = np.empty((n, N))
+        post_cov = np.empty((n, n, N))
+        nu = np.empty((m, N))
+        S = np.empty((m, m, N))
+        ll = np.empty(N)
+        failed = np.empty(N, dtype=np.bool_)
+        mb = np.empty((n, N))
+        _lanes(mean, b0, N, (1, 0), mb)
+        Pb = np.empty((n, n, N))
+        _lanes(cov, b0, N, (1, 0), Pb)
+        zb = np.empty((m, N))
+        _lanes(z, b0, N, (1, 0), zb)
+        _filter_step(mb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, post_mean, post_cov,
+                     nu, S, ll, failed)
+        for lane in range(N):
+            b = b0 + lane
+            ll_out[b] = ll[lane]
+            failed_out[b] = failed[lane]
+            for i in range(n):
+                mean_out[b, i] = post_mean[i, lane]
+                for k in range(n):
+                    cov_out[b, i, k] = post_cov[i, k, lane]
+            for i in range(m):
+                nu_out[b, i] = nu[i, lane]
+                for k in range(m):
+                    S_out[b, i, k] = S[i, k, lane]
+    return mean_out, cov_out, ll_out, nu_out, S_out, failed_out
+
+
+@njit(**_OPTS)
+def imm_sigma_step(mu, T, means, covs, xi, wm, wc, F, Q, z, kind, A, idx, sensor, angular, R, with_cov, log_2pi,
+                   block):
+    r"""One whole IMM cycle of a sigma-point filter with linear mode dynamics, fused: what :func:`imm_mix`,
+    :func:`sigma_point_predict_linear`, :func:`sigma_points`, the measurement function (:func:`_measure`),
+    :func:`measurement_moments`, the residual, :func:`kalman_moments` (the form :math:`P - AA^T`), the
+    log-likelihood :math:`-\tfrac12(\nu^TS^{-1}\nu + \log|S| + m\log 2\pi)` and :func:`imm_output` compute in turn,
+    by the same loop bodies (``_*_core``), hence the same bits, for blocks of ``block`` runs at a time with every
+    intermediate batch innermost: one transposition of the state in and out per step instead of one per operation.
+
+    mu (B, r), T (r, r), means (B, r, n), covs (B, r, n, n), rule xi (M, n), wm, wc (M,), F (r, n, n),
+    Q (P, n, n) periodic over the flattened (runs, modes) stack (row ``(b r + j) % P`` for run b, mode j),
+    z (B, m), the measurement function ``kind``, A, idx, sensor (:func:`_measure`), angular (m,),
+    R (P', m, m) periodic as Q, ``log_2pi`` = log(2 pi) as the numpy path computes it.
+
+    Returns ``(means+, covs+, mu+, marginal, underflow, mean, cov, innovation, innovation_cov, failed)``: the mode
+    filters' posteriors (B, r, n), (B, r, n, n), the mode probabilities (B, r), the log marginal likelihood (B,),
+    ``underflow`` (B,), the fused estimate (B, n) and covariance (B, n, n) ((B, 0, 0) without ``with_cov``), the
+    mixture prior's innovation (B, m) and its covariance (B, m, m), and ``failed`` (B, r): a mode filter whose S or
+    posterior covariance has no Cholesky factor (its mean and covariance NaN, its log-likelihood NaN)."""
+    B, r = mu.shape
+    n = means.shape[2]
+    m = z.shape[1]
+    means_out = np.empty((B, r, n))
+    covs_out = np.empty((B, r, n, n))
+    mu_out = np.empty((B, r))
+    marginal = np.empty(B)
+    underflow = np.zeros(B, dtype=np.bool_)
+    mean_out = np.empty((B, n))
+    cov_out = np.empty((B, n, n) if with_cov else (B, 0, 0))
+    innov_out = np.empty((B, m))
+    icov_out = np.empty((B, m, m))
+    failed_out = np.zeros((B, r), dtype=np.bool_)
+    for b0 in range(0, B, block):
+        N = min(block, B - b0)
+        mub = np.empty((r, N))
+        Xb = np.empty((r, n, N))
+        Pb = np.empty((r, n, n, N))
+        for j in range(r):
+            for lane in range(N):
+                mub[j, lane] = mu[b0 + lane, j]
+                for i in range(n):
+                    Xb[j, i, lane] = means[b0 + lane, j, i]
+                    for k in range(n):
+                        Pb[j, i, k, lane] = covs[b0 + lane, j, i, k]
+        c = np.empty((1, r, N))
+        mm = np.empty((r, n, N))
+        mc = np.empty((r, n, n, N))
+        _mix_core(mub, T, Xb, Pb, c[0], mm, mc)
+        Fb = np.empty((n, n, N))
+        Qb = np.empty((n, n, N))
+        Rb = np.empty((m, m, N))
+        zb = np.empty((m, N))
+        _lanes(z, b0, N, (1, 0), zb)
+        ll = np.empty((r, N))
+        post_mean = np.empty((r, n, N))
+        post_cov = np.empty((r, n, n, N))
+        nu = np.empty((r, m, N))
+        S = np.empty((r, m, m, N))
+        f_upd = np.empty(N, dtype=np.bool_)
+        for j in range(r):
+            for lane in range(N):
+                for i in range(n):
+                    for k in range(n):
+                        Fb[i, k, lane] = F[j, i, k]
+            _lanes(Q, b0, N, (r, j), Qb)
+            _lanes(R, b0, N, (r, j), Rb)
+            _filter_step(mm[j], mc[j], xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi,
+                         post_mean[j], post_cov[j], nu[j], S[j], ll[j], f_upd)
+            for lane in range(N):
+                failed_out[b0 + lane, j] = f_upd[lane]
+        mu_b = np.empty((1, r, N))
+        marg = np.empty(N)
+        under = np.zeros(N, dtype=np.bool_)
+        fused = np.empty((1, n, N))
+        fcov = np.empty((1, n, n, N) if with_cov else (1, 0, 0, N))
+        innov = np.empty((1, m, N))
+        icov = np.empty((1, m, m, N))
+        _output_core(ll, c, post_mean, post_cov, nu, S, with_cov, mu_b, marg, under, fused, fcov, innov, icov)
+        for lane in range(N):
+            b = b0 + lane
+            marginal[b] = marg[lane]
+            underflow[b] = under[lane]
+            for j in range(r):
+                mu_out[b, j] = mu_b[0, j, lane]
+                for i in range(n):
+                    means_out[b, j, i] = post_mean[j, i, lane]
+                    for k in range(n):
+                        covs_out[b, j, i, k] = post_cov[j, i, k, lane]
+            for i in range(n):
+                mean_out[b, i] = fused[0, i, lane]
+                if with_cov:
+                    for k in range(n):
+                        cov_out[b, i, k] = fcov[0, i, k, lane]
+            for i in range(m):
+                innov_out[b, i] = innov[0, i, lane]
+                for k in range(m):
+                    icov_out[b, i, k] = icov[0, i, k, lane]
+    return (means_out, covs_out, mu_out, marginal, underflow, mean_out, cov_out, innov_out, icov_out, failed_out)

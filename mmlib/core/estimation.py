@@ -26,7 +26,9 @@ from numpy.typing import ArrayLike
 
 from mmlib.core import linalg, protocols
 from mmlib.core.linalg import combine_covariances, imm_output, mixing_weights  # noqa: F401  (public here too)
-from mmlib.core.models import StackedDynamics
+from mmlib.core.filters import LOG_2PI, GaussianState, SigmaPointFilter
+from mmlib.core.gnss import CLOCK_INDEX, POSITION_INDEX, Pseudoranges
+from mmlib.core.models import LinearMeasurement, RangeBearing, StackedDynamics
 from mmlib.core._validate import (check_finite, as_float_array, check_applies, check_batch_vector, check_bool,
                                   check_has, check_index, check_mask, check_name, check_probabilities,
                                   check_transition_matrix)
@@ -240,6 +242,14 @@ class SingleModel:
 
     def _step(self, state, z, with_cov, measurement) -> tuple:
         """:meth:`step` on inputs :meth:`_check_step` has checked (``measurement`` the step's model, not None)."""
+        measure = _fused_measure(measurement) if _fusable(self.filter, state, self.dynamics) else None
+        if measure is not None:
+            up = self.filter.rule.unit_points(self.dynamics.dim)
+            mean, cov, loglik, innovation, S, failed = linalg.sigma_step(
+                state.mean, state.cov, up.xi, up.wm, up.wc, self.dynamics.F, self.dynamics.Q, z, measure,
+                measurement.angular, measurement.R, LOG_2PI)
+            return GaussianState(mean, cov), Estimate(mean, cov, None, loglik, innovation, innovation_cov=S,
+                                                      failure=_failure_codes(failed))
         state = self.filter.predict(state, self.dynamics)
         state, info = self.filter.update(state, z, measurement)
         return state, Estimate(state.mean, state.cov, None, info.loglik, info.innovation, innovation_cov=info.S,
@@ -475,6 +485,9 @@ class IMM:
 
     def _step(self, state, z, with_cov, measurement, dynamics=None) -> tuple:
         """:meth:`step` on inputs :meth:`_check_step` (and :meth:`_check_dynamics`) have checked."""
+        fused = self._fused_step(state, z, with_cov, measurement, dynamics)
+        if fused is not None:
+            return fused
         modes = state.modes
         if type(self.mixing) is MomentMixing:
             c, mixed_means, mixed_covs = linalg.imm_mix(state.mode_probabilities, self.transition, modes.mean,
@@ -496,6 +509,54 @@ class IMM:
             failure = np.where(underflow & (failure == _NONE), _LIKELIHOOD, failure)
         return IMMState(modes, mu), Estimate(fused_mean, fused_cov, mu, marginal, innovation,
                                              innovation_cov=innovation_cov, failure=failure)
+
+    def _fused_step(self, state, z, with_cov, measurement, dynamics):
+        """:meth:`_step` in one compiled call (:func:`mmlib.core.linalg.imm_sigma_step`, the same bits) where that
+        call computes exactly what the composed step does: the compiled kernels with fusion on
+        (:func:`mmlib.core.linalg.fused`), moment-matching mixing, a plain :class:`SigmaPointFilter` (not a layer or a
+        subclass) whose rule's covariances are weighted outer products, linear mode dynamics, a
+        :class:`~mmlib.core.filters.GaussianState` per mode and a measurement model whose function the kernel
+        evaluates itself (:func:`_fused_measure`); None otherwise (the composed step runs)."""
+        stacked = self.stacked if dynamics is None else dynamics
+        if type(self.mixing) is not MomentMixing or not _fusable(self.filter, state.modes, stacked):
+            return None
+        measure = _fused_measure(measurement)
+        if measure is None:
+            return None
+        up = self.filter.rule.unit_points(stacked.dim)
+        means, covs, mu, marginal, underflow, mean, cov, innovation, innovation_cov, failed = linalg.imm_sigma_step(
+            state.mode_probabilities, self.transition, state.modes.mean, state.modes.cov, up.xi, up.wm, up.wc,
+            stacked.F, stacked.Q, z, measure, measurement.angular, measurement.R, with_cov, LOG_2PI)
+        failure = _failure_codes(failed)
+        if underflow.any():
+            failure = np.where(underflow & (failure == _NONE), _LIKELIHOOD, failure)
+        return IMMState(GaussianState(means, covs), mu), Estimate(mean, cov, mu, marginal, innovation,
+                                                                  innovation_cov=innovation_cov, failure=failure)
+
+
+def _fusable(filt, state, dynamics) -> bool:
+    """Whether a step of ``filt`` from ``state`` through ``dynamics`` can run as one compiled call (with a measurement
+    model :func:`_fused_measure` knows): the compiled kernels with fusion on (:func:`mmlib.core.linalg.fused`), a
+    plain :class:`SigmaPointFilter` (not a layer or a subclass, which may override a step) whose rule's covariances
+    are weighted outer products, a :class:`~mmlib.core.filters.GaussianState` and linear dynamics."""
+    return (linalg.fused() and type(filt) is SigmaPointFilter and filt.rule.weighted_moments
+            and type(state) is GaussianState and bool(getattr(dynamics, "is_linear", False)))
+
+
+def _fused_measure(measurement) -> tuple | None:
+    """The measurement function of ``measurement`` as :func:`mmlib.core.linalg.imm_sigma_step` takes it, ``(kind, A,
+    idx, sensor)``, for the models whose ``h``, ``average`` and ``residual`` the fused step reproduces (exactly
+    :class:`LinearMeasurement`, :class:`RangeBearing` and :class:`~mmlib.core.gnss.Pseudoranges`, not a subclass,
+    which may override them); None for any other."""
+    cls = type(measurement)
+    if cls is LinearMeasurement:
+        return linalg.MEASURE_LINEAR, measurement.H, (), np.zeros(2)
+    if cls is RangeBearing:
+        return linalg.MEASURE_RANGE_BEARING, np.zeros((1, 1)), measurement.position_index, measurement.sensor
+    if cls is Pseudoranges:
+        return (linalg.MEASURE_PSEUDORANGES, measurement.satellites, POSITION_INDEX + CLOCK_INDEX[:1],
+                np.zeros(2))
+    return None
 
 
 # --------------------------------------------------------------------------- driver

@@ -130,10 +130,10 @@ BLOCK = 1024
 
 
 #: Shapes of each compiled kernel's array arguments, by axis symbol ("N": the runs of the flattened stack, of
-#: which an operand may hold a divisor, its rows being periodic; "-": not checked; None: not an array; a
-#: signature starting with "?" is checked only when the argument is not empty).  The kernels do not check
-#: bounds, so :func:`_call` checks these before every call: a mismatch is a ValueError, never a silent read
-#: out of bounds.
+#: which an operand may hold a divisor, its rows being periodic; "-": not checked; "...": any leading axes;
+#: None: not an array; a signature starting with "?" is checked only when the argument is not empty).
+#: The kernels do not check bounds, so :func:`_call` (and each fused step) checks these before every call: a mismatch
+#: is a ValueError, never a silent read out of bounds.
 _SHAPES = {
     "cholesky": ("N n n",),
     "matmul_rows": ("N k", "k d"),
@@ -148,6 +148,10 @@ _SHAPES = {
     "congruence": ("N d n", "N n n", "N d d"),
     "linear_predict": ("N n", "N n n", "N n n", "N n n"),
     "imm_output": ("N r", "N r", "N r n", "N r n n", "N r m", "N r m m", None),
+    # the fused steps (mmlib.core.linalg.imm_sigma_step, sigma_step): the array arguments they check, R any stack of
+    # (m, m) (periodic over the runs and modes: read modulo its rows)
+    "imm_sigma_step": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N m", "... m m"),
+    "sigma_step": ("N n", "N n n", "M n", "M", "M", "n n", "N m", "... m m"),
 }
 _CHECKED: set = set()
 
@@ -165,6 +169,9 @@ def _check_shapes(name: str, n_runs: int, args) -> None:
         shape = np.shape(a)
         if optional and 0 in shape:
             continue
+        if axes[0] == "...":                       # any leading axes: the trailing ones are checked
+            axes = axes[1:]
+            shape = shape[len(shape) - len(axes):] if len(shape) >= len(axes) else shape
         if len(shape) != len(axes):
             raise ValueError(f"{name}: argument {pos} has shape {shape}, expected ({', '.join(axes)})")
         for ax, size in zip(axes, shape):
@@ -580,6 +587,109 @@ def _range_bearing_compiled(x, i, j, sensor):
     flat = _contiguous(x).reshape(-1, n)
     out = _compiled_module().range_bearing(flat, i, j, float(sensor[0]), float(sensor[1]))
     return out.reshape(x.shape[:-1] + (2,))
+
+
+# --------------------------------------------------------------------------- a whole fused IMM step (compiled only)
+def _initial_fused() -> bool:
+    """``$MMLIB_FUSED``: ``0`` turns the fused IMM step off (every step then composes the operations above), ``1`` or
+    unset leaves it on."""
+    env = os.environ.get("MMLIB_FUSED", "").strip()
+    if env not in ("", "0", "1"):
+        raise ValueError(f"MMLIB_FUSED: expected 0 or 1, got {env!r}")
+    return env != "0"
+
+
+_FUSED = [_initial_fused()]
+
+
+def fused() -> bool:
+    """Whether an IMM step that can be fused (:func:`imm_sigma_step`) is, on the compiled kernels."""
+    return _FUSED[0] and _KERNEL[0] == "numba"
+
+
+@contextlib.contextmanager
+def use_fused(on: bool) -> Iterator[None]:
+    """Context manager: run the body with the fused IMM step on or off (``on`` a bool, else a ValueError naming it);
+    the numbers are the same bits either way (``tests/test_fused.py``), only the time differs."""
+    if not isinstance(on, bool):
+        raise ValueError(f"on: expected True or False, got {on!r}")
+    previous = _FUSED[0]
+    _FUSED[0] = on
+    try:
+        yield
+    finally:
+        _FUSED[0] = previous
+
+
+#: Runs per block of the fused IMM step: every intermediate of a step for this many runs (a few tens of KB for n = 4,
+#: r = 3) stays in a core's L1/L2 cache while the loops over the runs stay long enough to vectorise.  A tuning choice
+#: only: a run's numbers do not depend on it (``tests/test_fused.py``).
+FUSED_BLOCK = 128
+
+#: the measurement functions the fused step evaluates itself (:func:`mmlib.core._kernels._measure`)
+MEASURE_LINEAR, MEASURE_RANGE_BEARING, MEASURE_PSEUDORANGES = 0, 1, 2
+
+
+def imm_sigma_step(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, covs: np.ndarray, xi: np.ndarray,
+                   wm: np.ndarray, wc: np.ndarray, F: np.ndarray, Q: np.ndarray, z: np.ndarray, measure: tuple,
+                   angular, R: np.ndarray, with_cov: bool, log_2pi: float) -> tuple:
+    r"""One IMM cycle of a sigma-point filter over linear mode dynamics in one compiled call (compiled kernels only;
+    :func:`fused`): mixing, the rule's time update through :math:`F_j`, fresh points, the measurement function,
+    the measurement moments, the residual, the Kalman update :math:`P - AA^T` and the IMM output, computed by the
+    same loop bodies as the operations :func:`imm_mix`, :func:`sigma_point_predict_linear`, :func:`sigma_points`,
+    :func:`measurement_moments`, :func:`kalman_moments` and :func:`imm_output` (the same bits as composing them,
+    ``tests/test_fused.py``), the runs in blocks of :data:`FUSED_BLOCK`.
+
+    ``mu`` (B, r), ``transition`` (r, r) rows "from", ``means`` (B, r, n), ``covs`` (B, r, n, n), the rule's unit
+    points ``xi`` (M, n) and weights ``wm``, ``wc`` (M,), ``F`` (r, n, n), ``Q`` broadcasting against
+    (B, r, n, n), ``z`` (B, m); ``measure`` = ``(kind, A, idx, sensor)``: :data:`MEASURE_LINEAR` with H = A (m, n),
+    :data:`MEASURE_RANGE_BEARING` with the position indices idx = (i, j) and the ``sensor`` (x, y) in m, or
+    :data:`MEASURE_PSEUDORANGES` with the satellites A (m, 3) in m and idx = the position and clock-bias indices
+    (:func:`mmlib.core._kernels._measure`); ``angular`` (m,) the components whose residuals are wrapped; ``R``
+    broadcasting against (B, r, m, m); ``log_2pi`` the constant of the log-likelihood.  Returns
+    ``(means+, covs+, mu+, marginal, underflow, mean, cov, innovation, innovation_cov, failed)``
+    (:func:`mmlib.core._kernels.imm_sigma_step`; ``cov`` None without ``with_cov``)."""
+    B, r, n = means.shape
+    lead = (B, r)
+    _check_shapes("imm_sigma_step", B, (mu, transition, means, covs, xi, wm, wc, F, z, R))
+    out = _compiled_module().imm_sigma_step(
+        _contiguous(mu), _contiguous(transition), _contiguous(means), _contiguous(covs), _contiguous(xi),
+        _contiguous(wm), _contiguous(wc), _contiguous(F), _periodic(Q, 2, lead), _contiguous(z),
+        *_measure_args(measure, n, z.shape[-1]), np.asarray(angular, dtype=np.bool_), _periodic(R, 2, lead),
+        bool(with_cov),
+        float(log_2pi), FUSED_BLOCK)
+    return out[:6] + ((out[6] if with_cov else None),) + out[7:]
+
+
+def sigma_step(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray, wc: np.ndarray, F: np.ndarray,
+               Q: np.ndarray, z: np.ndarray, measure: tuple, angular, R: np.ndarray, log_2pi: float) -> tuple:
+    r"""One step of a single-model sigma-point filter over linear dynamics in one compiled call (compiled kernels
+    only; :func:`fused`): what :func:`sigma_point_predict_linear`, :func:`sigma_points`, the measurement function,
+    :func:`measurement_moments`, the residual and :func:`kalman_moments` compute in turn, the same bits.  ``mean``
+    (B, n), ``cov`` (B, n, n), the rule ``xi``, ``wm``, ``wc``, ``F`` (n, n), ``Q`` broadcasting against (B, n, n),
+    ``z`` (B, m), ``measure``, ``angular``, ``R``, ``log_2pi`` as :func:`imm_sigma_step`.  Returns ``(mean+, cov+,
+    loglik, innovation, S, failed)`` (each (B, ...))."""
+    B, n = mean.shape
+    _check_shapes("sigma_step", B, (mean, cov, xi, wm, wc, F, z, R))
+    return _compiled_module().sigma_step(
+        _contiguous(mean), _contiguous(cov), _contiguous(xi), _contiguous(wm), _contiguous(wc), _contiguous(F),
+        _periodic(Q, 2, (B,)), _contiguous(z), *_measure_args(measure, n, z.shape[-1]),
+        np.asarray(angular, dtype=np.bool_),
+        _periodic(R, 2, (B,)), float(log_2pi), FUSED_BLOCK)
+
+
+def _measure_args(measure: tuple, n: int, m: int) -> tuple:
+    """``(kind, A, idx, sensor)`` of a fused step's measurement function as the compiled kernel takes them, checked
+    against the state dimension ``n`` and the measurement dimension ``m`` (the kernel does not check bounds: a
+    mismatch is a ValueError naming ``measure``, never a read out of bounds)."""
+    kind, A, idx, sensor = measure
+    A, idx, sensor = _contiguous(A), np.asarray(idx, dtype=np.int64), _contiguous(sensor)
+    expected = {MEASURE_LINEAR: ((m, n), 0), MEASURE_RANGE_BEARING: (None, 2), MEASURE_PSEUDORANGES: ((m, 3), 4)}
+    if kind not in expected or (expected[kind][0] is not None and A.shape != expected[kind][0]) \
+            or idx.shape != (expected[kind][1],) or sensor.shape != (2,) or (kind == MEASURE_RANGE_BEARING and m != 2):
+        raise ValueError(f"measure: kind {kind!r} with A {A.shape}, idx {tuple(idx.tolist())}, sensor {sensor.shape} "
+                         f"does not describe a measurement function of {m} components of an {n}-state")
+    return int(kind), A, idx % n, sensor
 
 
 # --------------------------------------------------------------------------- fused filter steps

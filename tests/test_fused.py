@@ -1,0 +1,332 @@
+"""The fused IMM step (issue 25): one compiled call per IMM cycle of a sigma-point filter on linear mode dynamics
+(:func:`mmlib.core.linalg.imm_sigma_step`) computes the same bits as the composed step (mixing, time update, fresh
+points, measurement function, moments, Kalman update, IMM output, each its own compiled call), whatever the batch
+and the block size; the fused path is really taken where it applies and never where it does not.
+
+The comparisons are exact (raw bits, NaN == NaN): the fused kernel runs the same loop bodies (``_*_core`` of
+:mod:`mmlib.core._kernels`) on the same operands, so any difference is a defect, not round-off.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mmlib import MonteCarlo
+from mmlib.core import estimation, gnss, linalg, models, rules
+from mmlib.core.estimation import IMM, MomentMixing, SingleModel, run
+from mmlib.core.filters import SigmaPointFilter
+from mmlib.experiment.simulate import ManeuverSchedule, simulate
+from mmlib.papers import REGISTRY
+
+pytestmark = pytest.mark.skipif(linalg.kernel() != "numba", reason="the fused step exists on the compiled kernels")
+
+K = 25
+T, OMEGA = 1.0, np.radians(3.0)
+TRANSITION = np.array([[0.90, 0.05, 0.05], [0.10, 0.85, 0.05], [0.10, 0.05, 0.85]])
+X0 = np.array([20000.0, -150.0, 15000.0, 60.0])
+P0 = np.diag([400.0, 100.0, 400.0, 100.0])
+
+
+def _bits(a):
+    a = np.ascontiguousarray(a)
+    return a.view(np.uint8)
+
+
+def _same(a, b) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return a.shape == b.shape and np.array_equal(_bits(a), _bits(b))
+
+
+def _modes():
+    return [models.constant_velocity(T, 1.0), models.coordinated_turn(T, OMEGA, 1.0),
+            models.coordinated_turn(T, -OMEGA, 1.0)]
+
+
+RULES = {"UKF": rules.Unscented(1.0, 2.0, 0.0), "CKF": rules.Cubature(), "5CKF": rules.FifthDegreeCubature()}
+MEASUREMENTS = {
+    "range-bearing": models.RangeBearing(np.diag([100.0, np.radians(0.5) ** 2])),
+    "range-bearing off-centre": models.RangeBearing(np.diag([25.0, np.radians(1.0) ** 2]), sensor=(-3000.0, 500.0)),
+    "linear": models.LinearMeasurement([[1.0, 0, 0, 0], [0, 0, 1.0, 0]], np.diag([100.0, 150.0])),
+}
+
+
+def _problem(measurement, n_runs: int, seed: int = 7):
+    """Measurements of ``n_runs`` runs of a turning target (independent of the filter under test)."""
+    sched = ManeuverSchedule(_modes(), [(8, 16, 1)], 0, T, K, truncate=True)
+    return simulate(sched, X0, measurement, MonteCarlo(seed, n_runs), range(n_runs)).measurements
+
+
+def _track(imm, z, fused: bool, **kw):
+    with linalg.use_fused(fused):
+        return run(imm, imm.init(np.tile(X0, (z.shape[0], 1)), P0), z, **kw)
+
+
+def _assert_same_track(a, b):
+    for field in ("mean", "cov", "mode_probabilities", "diverged_step", "divergence_cause", "nees", "nis"):
+        assert _same(getattr(a, field), getattr(b, field)), field
+
+
+@pytest.mark.parametrize("rule", sorted(RULES))
+@pytest.mark.parametrize("meas", sorted(MEASUREMENTS))
+@pytest.mark.parametrize("keep_cov", [True, False])
+def test_fused_equals_composed_bit_for_bit(rule, meas, keep_cov):
+    measurement = MEASUREMENTS[meas]
+    imm = IMM(SigmaPointFilter(RULES[rule]), _modes(), measurement, TRANSITION)
+    z = _problem(measurement, 37)
+    _assert_same_track(_track(imm, z, False, keep_cov=keep_cov), _track(imm, z, True, keep_cov=keep_cov))
+
+
+def test_fused_with_consistency_and_truth_equals_composed():
+    measurement = MEASUREMENTS["range-bearing"]
+    imm = IMM(SigmaPointFilter(RULES["UKF"]), _modes(), measurement, TRANSITION)
+    sched = ManeuverSchedule(_modes(), [(8, 16, 1)], 0, T, K, truncate=True)
+    sim = simulate(sched, X0, measurement, MonteCarlo(3, 20), range(20))
+    kw = dict(consistency=True, truth=sim.truth)
+    _assert_same_track(_track(imm, sim.measurements, False, **kw), _track(imm, sim.measurements, True, **kw))
+
+
+def test_fused_per_run_noise_override_and_one_step_equal_composed():
+    """A per-run, per-mode Q (B, r, n, n), as the noise-adaptive layers pass through ``step(dynamics=)``, is read
+    periodically over the (runs, modes) stack exactly as the composed step reads it."""
+    measurement = MEASUREMENTS["range-bearing"]
+    imm = IMM(SigmaPointFilter(RULES["CKF"]), _modes(), measurement, TRANSITION)
+    B = 11
+    rng = np.random.default_rng(0)
+    scale = rng.uniform(0.5, 4.0, size=(B, 3, 1, 1))
+    dyn = imm.stacked.with_noise(imm.stacked.Q[None] * scale)
+    state = imm.init(np.tile(X0, (B, 1)), P0)
+    z = _problem(measurement, B)[:, 0]
+    out = []
+    for on in (False, True):
+        with linalg.use_fused(on):
+            out.append(imm.step(state, z, dynamics=dyn))
+    (s0, e0), (s1, e1) = out
+    for a, b in zip((s0.modes.mean, s0.modes.cov, s0.mode_probabilities) + tuple(e0),
+                    (s1.modes.mean, s1.modes.cov, s1.mode_probabilities) + tuple(e1)):
+        assert _same(None if a is None else np.asarray(a), None if b is None else np.asarray(b))
+
+
+def test_fused_failed_runs_equal_composed():
+    """Runs whose covariance is not positive definite fail at the same step with the same cause and the same NaN
+    pattern, and the other runs of the batch are untouched."""
+    measurement = MEASUREMENTS["range-bearing"]
+    imm = IMM(SigmaPointFilter(RULES["UKF"]), _modes(), measurement, TRANSITION)
+    B = 9
+    z = _problem(measurement, B)
+    cov = np.tile(P0, (B, 1, 1))
+    cov[[2, 5], 0, 0] = -1.0                       # not positive definite: the first step's points fail
+    tracks = []
+    for on in (False, True):
+        with linalg.use_fused(on):
+            state = imm.init(np.tile(X0, (B, 1)), P0)
+            state = state._replace(modes=state.modes._replace(cov=np.repeat(cov[:, None], 3, axis=1)))
+            tracks.append(run(imm, state, z))
+    _assert_same_track(*tracks)
+    assert set(np.flatnonzero(tracks[1].diverged)) == {2, 5}
+
+
+@pytest.mark.parametrize("block", [1, 2, 3, 64, 128, 1000])
+def test_fused_block_size_changes_no_bit(block, monkeypatch):
+    measurement = MEASUREMENTS["range-bearing"]
+    imm = IMM(SigmaPointFilter(RULES["UKF"]), _modes(), measurement, TRANSITION)
+    z = _problem(measurement, 130)
+    reference = _track(imm, z, True)
+    monkeypatch.setattr(linalg, "FUSED_BLOCK", block)
+    _assert_same_track(reference, _track(imm, z, True))
+
+
+@pytest.mark.parametrize("batch", [1, 2, 3, 64])
+def test_fused_batch_size_changes_no_bit(batch):
+    measurement = MEASUREMENTS["range-bearing"]
+    imm = IMM(SigmaPointFilter(RULES["5CKF"]), _modes(), measurement, TRANSITION)
+    z = _problem(measurement, 64)
+    whole = _track(imm, z, True)
+    part = _track(imm, z[:batch], True)
+    for field in ("mean", "cov", "mode_probabilities"):
+        assert _same(getattr(whole, field)[:batch], getattr(part, field)), field
+
+
+class _NotDeclaredLinear:
+    """A linear model's transition and Jacobian under a class that does not declare itself linear: the stacked
+    dynamics have no ``F``, as for a nonlinear model."""
+
+    def __init__(self, model):
+        self.model, self.dim, self.Q = model, model.dim, model.Q
+
+    def transition(self, x):
+        return self.model.transition(x)
+
+    def jacobian(self, x):
+        return self.model.jacobian(x)
+
+
+def _spy(monkeypatch):
+    """Count the fused calls; make the composed step's first operation raise, so a silent fallback fails."""
+    calls = []
+    real = linalg.imm_sigma_step
+
+    def counting(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    def composed(*args, **kwargs):
+        raise AssertionError("the composed step ran where the fused one applies")
+
+    monkeypatch.setattr(linalg, "imm_sigma_step", counting)
+    monkeypatch.setattr(linalg, "imm_mix", composed)
+    return calls
+
+
+def test_fused_path_is_taken(monkeypatch):
+    """The benchmark's IMM-UKF takes the fused step at every step (it fails if the path silently falls back)."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from bench import job
+    calls = _spy(monkeypatch)
+    est = job.mmlib_run(5, 12)
+    assert len(calls) == 12 and np.isfinite(est.mean).all()
+
+
+@pytest.mark.parametrize("why", ["numpy kernels", "fusion off", "central differences", "mixing strategy",
+                                 "nonlinear dynamics", "user measurement model", "filter subclass"])
+def test_fused_path_is_not_taken_where_it_does_not_apply(why, monkeypatch):
+    measurement = MEASUREMENTS["range-bearing"]
+    modes, filt, mixing = _modes(), SigmaPointFilter(RULES["UKF"]), MomentMixing()
+    if why == "central differences":
+        filt = SigmaPointFilter(rules.CentralDifference(np.sqrt(3.0)))
+    elif why == "mixing strategy":
+        class Mixing(MomentMixing):
+            pass
+        mixing = Mixing()
+    elif why == "nonlinear dynamics":
+        modes = [models.constant_velocity(T, 1.0), _NotDeclaredLinear(models.coordinated_turn(T, OMEGA, 1.0))]
+    elif why == "user measurement model":
+        class Radar(models.RangeBearing):
+            pass
+        measurement = Radar(np.asarray(measurement.R))
+    elif why == "filter subclass":
+        class Filter(SigmaPointFilter):
+            pass
+        filt = Filter(RULES["UKF"])
+    transition = TRANSITION if len(modes) == 3 else np.array([[0.95, 0.05], [0.05, 0.95]])
+    imm = IMM(filt, modes, measurement, transition, mixing=mixing)
+    calls = []
+    monkeypatch.setattr(linalg, "imm_sigma_step", lambda *a, **k: calls.append(1))
+    z = _problem(MEASUREMENTS["range-bearing"], 4)
+    kernel = "numpy" if why == "numpy kernels" else "numba"
+    with linalg.use_kernel(kernel), linalg.use_fused(why != "fusion off"):
+        track = run(imm, imm.init(np.tile(X0, (4, 1)), P0), z)
+    assert not calls and np.isfinite(track.mean).all()
+
+
+def test_use_fused_and_environment_reject_bad_values(monkeypatch):
+    with pytest.raises(ValueError, match="on"):
+        with linalg.use_fused(1):
+            pass
+    monkeypatch.setenv("MMLIB_FUSED", "yes")
+    with pytest.raises(ValueError, match="MMLIB_FUSED"):
+        linalg._initial_fused()
+    monkeypatch.setenv("MMLIB_FUSED", "0")
+    assert linalg._initial_fused() is False
+
+
+def test_fused_measure_only_for_the_library_models():
+    assert estimation._fused_measure(MEASUREMENTS["linear"])[0] == linalg.MEASURE_LINEAR
+    assert estimation._fused_measure(MEASUREMENTS["range-bearing"])[0] == linalg.MEASURE_RANGE_BEARING
+    sats = gnss.Pseudoranges(np.array([[2e7, 1e6, 1.5e7], [-1e7, 5e6, 2e7]]), np.eye(2) * 9.0)
+    assert estimation._fused_measure(sats)[0] == linalg.MEASURE_PSEUDORANGES
+
+    class Radar(models.RangeBearing):
+        pass
+    assert estimation._fused_measure(Radar(np.eye(2))) is None
+
+
+def _headline_tracks(name: str, fused: bool, calls: list) -> dict:
+    """Every estimator of paper ``name``'s headline batch (8 runs; a prefix of 40 epochs with per-step measurement
+    models), run with the fused step on or off; ``calls`` collects the fused calls."""
+    paper = REGISTRY[name]
+    batch = paper.batch(paper.headline_setup(), MonteCarlo(paper.root_seed, 8))
+    make_batch, estimators = batch[0], batch[1]
+    per_step = batch[2] if len(batch) == 3 else None
+    truth, z, init = make_batch(range(8))
+    if per_step is not None:
+        z, per_step = z[:40], per_step[:40]
+    out = {}
+    with linalg.use_fused(fused):
+        for est_name, est in estimators.items():
+            before = len(calls)
+            out[est_name] = (run(est, init[est_name], z, measurement_models=per_step), len(calls) > before)
+    return out
+
+
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_every_paper_headline_fused_equals_composed(name, monkeypatch):
+    """Every estimator of every registered paper's headline gives the same bits with the fused step on and off
+    (those that do not take it trivially); a fused step is taken by every IMM or single model of a plain sigma-point
+    filter on linear dynamics with a library measurement model, and by no other estimator."""
+    calls = []
+    for step in ("imm_sigma_step", "sigma_step"):
+        real = getattr(linalg, step)
+        monkeypatch.setattr(linalg, step, lambda *a, _real=real, **k: calls.append(1) or _real(*a, **k))
+    composed = _headline_tracks(name, False, calls)
+    assert not calls
+    fused = _headline_tracks(name, True, calls)
+    for est_name, (track, _) in composed.items():
+        _assert_same_track(track, fused[est_name][0])
+    for est_name, (track, took) in fused.items():
+        est = REGISTRY[name].batch(REGISTRY[name].headline_setup(), MonteCarlo(1, 2))[1][est_name]
+        assert took == _should_fuse(est), (est_name, took)
+
+
+def _should_fuse(est) -> bool:
+    """What the rule of :func:`mmlib.core.estimation._fusable` says of an estimator (an IMM, a single model, or a
+    layer holding an IMM as ``imm``), written out independently."""
+    inner = getattr(est, "imm", est)
+    if isinstance(inner, IMM):
+        filt, dyn, mixing_ok = inner.filter, inner.stacked, type(inner.mixing) is MomentMixing
+    elif isinstance(inner, SingleModel):
+        filt, dyn, mixing_ok = inner.filter, inner.dynamics, True
+    else:
+        return False
+    measurement_ok = inner.measurement is None or estimation._fused_measure(inner.measurement) is not None
+    return (mixing_ok and type(filt) is SigmaPointFilter and filt.rule.weighted_moments
+            and bool(getattr(dyn, "is_linear", False)) and measurement_ok)
+
+
+@pytest.mark.parametrize("rule", sorted(RULES))
+@pytest.mark.parametrize("meas", sorted(MEASUREMENTS))
+def test_single_model_fused_equals_composed_bit_for_bit(rule, meas, monkeypatch):
+    measurement = MEASUREMENTS[meas]
+    est = SingleModel(SigmaPointFilter(RULES[rule]), models.constant_velocity(T, 1.0), measurement)
+    z = _problem(measurement, 21)
+    composed = _track(est, z, False)
+    calls = []
+    real = linalg.sigma_step
+    monkeypatch.setattr(linalg, "sigma_step", lambda *a, **k: calls.append(1) or real(*a, **k))
+    fused = _track(est, z, True)
+    assert len(calls) == K
+    _assert_same_track(composed, fused)
+
+
+def test_fused_steps_reject_mismatched_shapes():
+    """The compiled kernels do not check bounds: a mismatched operand is a ValueError before the call."""
+    B, r, n, m, M = 4, 3, 4, 2, 9
+    up = RULES["UKF"].unit_points(n)
+    args = dict(mu=np.full((B, r), 1 / 3), transition=TRANSITION, means=np.zeros((B, r, n)),
+                covs=np.tile(np.eye(n), (B, r, 1, 1)), xi=up.xi, wm=up.wm, wc=up.wc, F=np.tile(np.eye(n), (r, 1, 1)),
+                Q=np.eye(n), z=np.ones((B, m)), measure=(linalg.MEASURE_RANGE_BEARING, np.zeros((1, 1)), (0, 2),
+                                                         np.zeros(2)),
+                angular=(False, True), R=np.eye(m), with_cov=True, log_2pi=np.log(2 * np.pi))
+    assert np.isfinite(linalg.imm_sigma_step(**args)[5]).all()
+    for name, bad in (("covs", np.zeros((B, r, n, n + 1))), ("xi", np.zeros((M, n + 1))), ("R", np.eye(m + 1)),
+                      ("F", np.eye(n)), ("z", np.ones((B, m, 1)))):
+        with pytest.raises(ValueError):
+            linalg.imm_sigma_step(**{**args, name: bad})
+    for measure in ((linalg.MEASURE_LINEAR, np.zeros((m, n + 1)), (), np.zeros(2)),
+                    (linalg.MEASURE_PSEUDORANGES, np.zeros((m, 2)), (0, 2, 4, 6), np.zeros(2)),
+                    (linalg.MEASURE_RANGE_BEARING, np.zeros((1, 1)), (0,), np.zeros(2)), (7, np.zeros((1, 1)), (),
+                                                                                            np.zeros(2))):
+        with pytest.raises(ValueError, match="measure"):
+            linalg.imm_sigma_step(**{**args, "measure": measure})
