@@ -35,6 +35,8 @@ $(STAMP): requirements.lock pyproject.toml
 
 figures: $(STAMP)
 	$(PY) tools/run_notebooks.py --profile $(PROFILE) $(EXEC_ARGS) $(RUN_ARGS)
+	@# wall time per notebook and universes per minute per paper, from the run just promoted (data/bench/notebooks.json)
+	$(if $(N_RUNS)$(SEED),,$(if $(filter full,$(PROFILE)),$(PY) -m bench.notebooks))
 	@# the site of what was just promoted (a run with N_RUNS or SEED went to build/custom/: no site of it; after
 	@# PAPER=... the site is rebuilt when every paper's outputs exist, and otherwise says which are missing)
 	$(if $(N_RUNS)$(SEED),,$(PY) tools/build_site.py --profile $(PROFILE) --if-complete)
@@ -60,13 +62,16 @@ test: $(STAMP)
 	$(PY) tools/emulated_tests.py
 	$(PY) -m pytest -q tests
 
-# The benchmark report (data/bench/: imm_ukf.json, scaling.json, scaling.png, notebooks.json; cross_cpu.json: how far
+# The benchmark report (data/bench/: imm_ukf.json, scaling.json, scaling.png, notebooks.json, cost_model.json (state
+# sizes 2..12 and the papers' timed filters against the cost model), papers.json (every paper's filters against the
+# flop floor, fused steps on and off); cross_cpu.json: how far
 # each paper's headline moves on emulated AVX2/SSE4.2 CPUs, x86-64 only), single-threaded:
 # the script sets OMP/OPENBLAS/MKL/BLIS/NUMBA_NUM_THREADS to BENCH_THREADS (default 1) before numpy loads.
 # Options: BENCH_REPEATS (interleaved repeats per library, default 5), BENCH_MAX_RUNS (largest size, default 100000)
 bench: $(STAMP)
 	$(PY) bench/imm_ukf.py
 	$(PY) bench/cost_model.py
+	$(PY) bench/papers.py
 	$(PY) tools/emulated_tests.py --measure
 
 clean:

@@ -2,7 +2,7 @@
 metadata: the notebook's start and end times and each cell's ``metadata.papermill.duration``.
 
 Per paper: the wall time (papermill's ``duration``, end - start, kernel start-up included), its
-*headline* part (the cells before the first code cell that calls ``run_multiverse(``: set-up, the
+*headline* part (the cells before the first code cell that calls ``nb.multiverse()``: set-up, the
 headline reading's Monte Carlo evaluation, figures, claims) and its *multiverse* part (that cell and
 every later one: the reading-space universes and their tables and figures); the rest of the wall
 time is papermill's own (kernel start, between cells).  These are the times of the run that produced
@@ -16,7 +16,8 @@ from pathlib import Path
 
 from mmlib.experiment.results import read_results
 
-MULTIVERSE_CALL = "run_multiverse("
+#: the call that starts a notebook's reading space (``nb.multiverse()`` of NotebookRun; ``run_multiverse(`` before it)
+MULTIVERSE_CALL = re.compile(r"\brun_multiverse\(|\.multiverse\(")
 CACHE_LINE = re.compile(r"(\d+)/(\d+) universes from the cache")
 
 
@@ -35,7 +36,7 @@ def notebook_time(path: Path) -> dict:
     durations, split, cached = [], None, 0
     for cell in nb.get("cells", []):
         src = "".join(cell.get("source", ""))
-        if split is None and cell.get("cell_type") == "code" and MULTIVERSE_CALL in src:
+        if split is None and cell.get("cell_type") == "code" and MULTIVERSE_CALL.search(src):
             split = len(durations)
             cached = sum(int(m.group(1)) for m in CACHE_LINE.finditer(_text(cell.get("outputs"))))
         durations.append(float(cell.get("metadata", {}).get("papermill", {}).get("duration") or 0.0))
@@ -55,6 +56,18 @@ def notebook_time(path: Path) -> dict:
     }
 
 
+def _throughput(doc: dict, t: dict) -> dict:
+    """The reading space's universes of a paper's results (``multiverse.universes``), those computed in this run (the
+    rest came from the cache) and the computed ones per minute of the multiverse part's wall time (with its pool of
+    workers: per minute of the machine, not of one core); {} without a multiverse."""
+    universes = (doc.get("multiverse") or {}).get("universes")
+    if not isinstance(universes, list) or not t.get("multiverse_s"):
+        return {}
+    computed = len(universes) - int(t.get("universes_from_cache") or 0)
+    return {"universes": len(universes), "universes_computed": computed,
+            "universes_per_minute": 60.0 * computed / t["multiverse_s"] if computed > 0 else None}
+
+
 def notebook_times(executed_dir: Path, results_dir: Path | None = None) -> dict:
     """Every ``*.ipynb`` of ``executed_dir``, keyed by paper (the file name up to its first ``_``), with the
     git commit recorded in the paper's results file (``results_dir/<paper>.json``) when there is one; and
@@ -70,6 +83,7 @@ def notebook_times(executed_dir: Path, results_dir: Path | None = None) -> dict:
             doc = read_results(res, name=f"{Path(results_dir).name}/{res.name}")
             t["results_git_commit"] = doc.get("provenance", {}).get("git_commit")
             kind = doc.get("kind")
+            t.update(_throughput(doc, t))
         (studies if kind == "arena" else papers)[paper] = t
 
     def total(key):
@@ -80,14 +94,39 @@ def notebook_times(executed_dir: Path, results_dir: Path | None = None) -> dict:
     return {
         "what": "wall times of the run that produced the committed executed notebooks (notebooks/executed/), "
                 "read from papermill's metadata; not times of this benchmark's run. headline = the cells before "
-                "the first code cell calling run_multiverse( ; multiverse = that cell and all later ones; "
+                "the first code cell calling nb.multiverse() ; multiverse = that cell and all later ones; "
                 "papermill_overhead = wall - sum of the cells (kernel start-up). The multiverse's universes run in "
                 "a pool of $WORKERS processes (default: the usable cores) with one BLAS thread each; the "
                 "notebooks do not record the worker count. universes_from_cache: universes read from the "
-                "multiverse cache instead of computed (0: all computed).",
+                "multiverse cache instead of computed (0: all computed); universes_per_minute: the computed universes "
+                "per minute of the multiverse part's wall time (all its workers together). Written by make figures "
+                "after the notebooks run (python -m bench.notebooks) and by make bench.",
         "papers": papers,
         "studies": studies,
         "sum": {"wall_s": total("wall_s"), "headline_s": total("headline_s"), "multiverse_s": total("multiverse_s"),
                 "cells_s": total("cells_s"), "papermill_overhead_s": total("papermill_overhead_s")},
         "first_start": min(starts) if starts else None, "last_end": max(ends) if ends else None,
     }
+
+
+def main() -> int:
+    """Write ``data/bench/notebooks.json`` from the executed notebooks and results in place (``make figures`` runs
+    this after the notebooks)."""
+    import sys
+    repo = Path(__file__).resolve().parent.parent
+    sys.path.insert(0, str(repo))
+    from bench.provenance import provenance
+    from mmlib.experiment.writing import atomic_write_text
+    doc = notebook_times(repo / "notebooks" / "executed", repo / "data" / "results")
+    doc.update(provenance())
+    (repo / "data" / "bench").mkdir(parents=True, exist_ok=True)
+    atomic_write_text(repo / "data" / "bench" / "notebooks.json", json.dumps(doc, indent=1) + "\n")
+    for paper, t in doc["papers"].items():
+        rate = t.get("universes_per_minute")
+        print(f"  {paper}: {t['wall_s']:.0f} s wall" + (f", {t['universes_computed']} universes computed, "
+                                                        f"{rate:.1f} per minute" if rate else ""))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -6,6 +6,7 @@ The direct count runs a scalar implementation of the IMM-UKF step (written here,
 implementation's numbers are checked against mmlib's ``IMM.step``, so the counted algorithm is the
 one the library runs (up to the symmetrisations and checks the floor leaves out).
 """
+import json
 import math
 
 import numpy as np
@@ -218,3 +219,26 @@ def test_flop_count_of_the_benchmark_job():
     assert flops["total"] == 5115
     assert flops["predict: transition"] == 3 * 9 * 4 * 7          # F X_i: 9 points x 4 rows x (4 + 3)
     assert flops["predict: Cholesky"] == 3 * 30                    # n^3/3 + n^2/2 + n/6 = 30 for n = 4
+
+
+def test_notebook_times_split_at_the_reading_space_and_count_universes_per_minute(tmp_path):
+    """bench.notebooks reads papermill's metadata: the headline is the cells before ``nb.multiverse()``, the cached
+    universes are parsed from that cell's output, and the computed ones per minute of the multiverse's wall time
+    follow from the results file's universes."""
+    from bench import notebooks
+
+    def cell(src, seconds, text=""):
+        return {"cell_type": "code", "source": src, "metadata": {"papermill": {"duration": seconds}},
+                "outputs": [{"name": "stderr", "output_type": "stream", "text": text}]}
+    nb = {"metadata": {"papermill": {"start_time": "a", "end_time": "b", "duration": 40.0, "parameters": {}}},
+          "cells": [cell("x = 1", 5.0), cell("mv = nb.multiverse()", 30.0,
+                                             "  [p] 2/12 universes from the cache (build/cache/p)\n"),
+                    cell("mv.table()", 3.0)]}
+    path = tmp_path / "p_notebook.ipynb"
+    path.write_text(json.dumps(nb))
+    t = notebooks.notebook_time(path)
+    assert (t["headline_s"], t["multiverse_s"], t["universes_from_cache"], t["multiverse_first_cell"]) == \
+        (5.0, 33.0, 2, 1)
+    rate = notebooks._throughput({"multiverse": {"universes": [{}] * 12}}, t)
+    assert rate == {"universes": 12, "universes_computed": 10, "universes_per_minute": 60.0 * 10 / 33.0}
+    assert notebooks._throughput({"rows": []}, t) == {}

@@ -1,7 +1,8 @@
-"""The fused IMM step (issue 25): one compiled call per IMM cycle of a sigma-point filter on linear mode dynamics
-(:func:`mmlib.core.linalg.imm_sigma_step`) computes the same bits as the composed step (mixing, time update, fresh
-points, measurement function, moments, Kalman update, IMM output, each its own compiled call), whatever the batch
-and the block size; the fused path is really taken where it applies and never where it does not.
+"""The fused filter steps (issue 25): one compiled call per IMM cycle (:func:`mmlib.core.linalg.imm_sigma_step`) or
+per step of a single model (:func:`mmlib.core.linalg.sigma_step`) of a plain sigma-point filter on linear dynamics
+computes the same bits as the composed step (mixing, time update, fresh points, measurement function, moments,
+Kalman update, IMM output, each its own compiled call), whatever the batch and the block size; the fused path is
+really taken where it applies and never where it does not.
 
 The comparisons are exact (raw bits, NaN == NaN): the fused kernel runs the same loop bodies (``_*_core`` of
 :mod:`mmlib.core._kernels`) on the same operands, so any difference is a defect, not round-off.
@@ -290,7 +291,8 @@ def _should_fuse(est) -> bool:
         filt, dyn, mixing_ok = inner.filter, inner.dynamics, True
     else:
         return False
-    measurement_ok = inner.measurement is None or estimation._fused_measure(inner.measurement) is not None
+    measurement_ok = inner.measurement is None or type(inner.measurement) in (models.LinearMeasurement,
+                                                                              models.RangeBearing, gnss.Pseudoranges)
     return (mixing_ok and type(filt) is SigmaPointFilter and filt.rule.weighted_moments
             and bool(getattr(dyn, "is_linear", False)) and measurement_ok)
 
@@ -321,12 +323,109 @@ def test_fused_steps_reject_mismatched_shapes():
                 angular=(False, True), R=np.eye(m), with_cov=True, log_2pi=np.log(2 * np.pi))
     assert np.isfinite(linalg.imm_sigma_step(**args)[5]).all()
     for name, bad in (("covs", np.zeros((B, r, n, n + 1))), ("xi", np.zeros((M, n + 1))), ("R", np.eye(m + 1)),
-                      ("F", np.eye(n)), ("z", np.ones((B, m, 1)))):
+                      ("F", np.eye(n)), ("z", np.ones((B, m, 1))), ("angular", (False,)), ("Q", np.eye(n + 1)),
+                      ("Q", np.zeros((2, 8)))):
         with pytest.raises(ValueError):
             linalg.imm_sigma_step(**{**args, name: bad})
     for measure in ((linalg.MEASURE_LINEAR, np.zeros((m, n + 1)), (), np.zeros(2)),
                     (linalg.MEASURE_PSEUDORANGES, np.zeros((m, 2)), (0, 2, 4, 6), np.zeros(2)),
-                    (linalg.MEASURE_RANGE_BEARING, np.zeros((1, 1)), (0,), np.zeros(2)), (7, np.zeros((1, 1)), (),
-                                                                                            np.zeros(2))):
+                    (linalg.MEASURE_RANGE_BEARING, np.zeros((1, 1)), (0,), np.zeros(2)),
+                    (linalg.MEASURE_RANGE_BEARING, np.zeros((1, 1)), (0, 7), np.zeros(2)),
+                    (7, np.zeros((1, 1)), (), np.zeros(2))):
         with pytest.raises(ValueError, match="measure"):
             linalg.imm_sigma_step(**{**args, "measure": measure})
+
+
+def _same_steps(est, state, zs, **step_kw):
+    """Step ``est`` through the measurements ``zs`` (K, B, m) with the fused steps off and on; every field of every
+    step's Estimate and the final state must be the same bits."""
+    out = []
+    for on in (False, True):
+        s, estimates = state, []
+        with linalg.use_fused(on):
+            for z in zs:
+                s, e = est.step(s, z, **step_kw)
+                estimates.append(e)
+        out.append((s, estimates))
+    (s0, e0), (s1, e1) = out
+    for k, (a, b) in enumerate(zip(e0, e1)):
+        for field, x, y in zip(a._fields, a, b):
+            assert _same(None if x is None else np.asarray(x), None if y is None else np.asarray(y)), (k, field)
+    flat0, flat1 = _leaves(s0), _leaves(s1)
+    assert len(flat0) == len(flat1) and all(_same(x, y) for x, y in zip(flat0, flat1))
+    return e1
+
+
+def _leaves(state):
+    if isinstance(state, tuple):
+        return [leaf for part in state for leaf in _leaves(part)]
+    return [np.asarray(state)] if isinstance(state, np.ndarray) else []
+
+
+def test_every_estimate_field_at_every_step_with_failures_at_a_later_pivot_and_bearings_at_the_cut():
+    """Runs whose covariance fails at the last pivot in one mode (run 1) or in every mode (run 4), bearings within
+    0.02 rad of the +-pi cut: the log-likelihoods, innovations, their covariances, failures and states agree bit for
+    bit at every step, for the IMM and the single model."""
+    B = 6
+    rng = np.random.default_rng(1)
+    radar = models.RangeBearing(np.diag([100.0, np.radians(0.5) ** 2]), sensor=(25000.0, 14000.0))
+    zs = []
+    for _ in range(4):
+        z = np.column_stack([rng.uniform(4000, 6000, B), np.pi - rng.uniform(0, 0.02, B) * rng.choice([-1, 1], B)])
+        z[:, 1] = (z[:, 1] + np.pi) % (2 * np.pi) - np.pi
+        zs.append(z)
+    imm = IMM(SigmaPointFilter(RULES["UKF"]), _modes(), radar, TRANSITION)
+    state = imm.init(np.tile(X0, (B, 1)), P0)
+    cov = state.modes.cov.copy()
+    cov[1, 2, 3, 3] = -1.0
+    cov[4, :, 3, 3] = -5.0
+    state = state._replace(modes=state.modes._replace(cov=cov))
+    estimates = _same_steps(imm, state, zs, with_cov=False)
+    assert estimates[0].failure[4] != 0 and np.isfinite(estimates[-1].mean[[0, 2, 3, 5]]).all()
+    single = SingleModel(SigmaPointFilter(RULES["CKF"]), _modes()[1], radar)
+    _same_steps(single, single.init(np.tile(X0, (B, 1)), P0), zs)
+
+
+@pytest.mark.parametrize("block", [1, 7, 128])
+def test_single_model_over_several_blocks_equals_composed(block, monkeypatch):
+    """More runs than a block: every block of the single-model step lands on its own runs."""
+    monkeypatch.setattr(linalg, "FUSED_BLOCK", block)
+    measurement = MEASUREMENTS["range-bearing off-centre"]
+    est = SingleModel(SigmaPointFilter(RULES["5CKF"]), models.constant_velocity(T, 1.0), measurement)
+    z = _problem(measurement, 300)
+    _same_steps(est, est.init(np.tile(X0, (300, 1)), P0), np.swapaxes(z[:, :6], 0, 1))
+
+
+def test_shared_stacks_and_stacked_single_dynamics_equal_composed():
+    """Operands the composed step reads periodically -- mode covariances shared by the runs, a single model's
+    covariance shared by the runs, its dynamics as a one-model stack -- give the composed bits (the fused wrappers
+    broadcast them; the kernel never reads past a stack)."""
+    B = 5
+    measurement = MEASUREMENTS["range-bearing"]
+    zs = np.swapaxes(_problem(measurement, B)[:, :3], 0, 1)
+    imm = IMM(SigmaPointFilter(RULES["UKF"]), _modes(), measurement, TRANSITION)
+    state = imm.init(np.tile(X0, (B, 1)), P0)
+    state = state._replace(modes=state.modes._replace(cov=state.modes.cov[:1]))
+    _same_steps(imm, state, zs)
+    single = SingleModel(SigmaPointFilter(RULES["CKF"]), models.constant_velocity(T, 1.0), measurement)
+    s0 = single.init(np.tile(X0, (B, 1)), P0)
+    _same_steps(single, s0._replace(cov=P0), zs)
+    stacked = SingleModel(SigmaPointFilter(RULES["CKF"]), models.StackedDynamics.of([models.constant_velocity(T, 1.0)]),
+                          measurement)
+    _same_steps(stacked, s0, zs)
+
+
+def test_huge_bearing_residual_wraps_as_the_composed_residual():
+    """A finite but huge bearing (1e20 rad) wraps to the composed residual's bits (np.floor, not an integer floor)."""
+    measurement = MEASUREMENTS["range-bearing"]
+    imm = IMM(SigmaPointFilter(RULES["UKF"]), _modes(), measurement, TRANSITION)
+    z = _problem(measurement, 3)[:, :2].copy()
+    z[1, 1, 1] = 1e20
+    _same_steps(imm, imm.init(np.tile(X0, (3, 1)), P0), np.swapaxes(z, 0, 1))
+
+
+def test_no_vectorised_transcendentals():
+    """The kernels call the C library's log, hypot and atan2 one value at a time: with Intel's SVML numba would
+    vectorise them, and the bits would depend on the machine (the lock file does not install it)."""
+    import numba
+    assert not numba.config.USING_SVML

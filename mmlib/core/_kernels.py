@@ -1,12 +1,16 @@
 r"""Compiled (numba) kernels of :mod:`mmlib.core.linalg`: the same mathematics as its numpy reference
-path, fused into one loop nest per filter operation.
+path, fused into one loop nest per filter operation, and whole filter steps made of those loop nests.
 
 Why: the filters spend their time in many small operations on ``(B, r, n, n)`` stacks (n = 2..9).
 numpy pays a dispatch per operation far larger than its arithmetic; a plain compiled loop per run
 is no better, because each run's sums are chains of dependent additions (latency bound).  Here every
 kernel copies its operands into a **batch-innermost** layout ``(n, n, N)`` (:func:`_inner`, back with
 :func:`_outer`) and runs each scalar operation of the algorithm as a loop over the N runs: independent
-lanes that LLVM turns into SIMD instructions, with no temporaries and one call per filter operation.
+lanes that LLVM turns into SIMD instructions, with no temporaries and one call per filter operation.  Each
+operation's loop nest is a ``_*_core`` function on batch-innermost operands; the public kernel wraps it in the
+layout changes, and the *fused steps* (:func:`sigma_step`, :func:`imm_sigma_step`) chain the same cores for a block of
+runs at a time, so a whole filter or IMM step is one call with one layout change of the state, and gives the bits of
+the composed operations.
 
 Conventions shared with the numpy path (:mod:`mmlib.core.linalg`), and tested against it
 (``tests/test_kernels.py``):
@@ -20,14 +24,18 @@ Conventions shared with the numpy path (:mod:`mmlib.core.linalg`), and tested ag
   sequence of IEEE operations whatever N (SIMD lanes and the scalar remainder execute the same
   additions, multiplications, divisions and square roots, each correctly rounded); there is no
   ``fastmath``, so LLVM neither reassociates sums nor contracts ``a*b + c`` into a fused multiply-add,
-  and the bits do not depend on the machine's instruction set; transcendental functions (log, atan2)
-  are not used in vectorised loops;
+  and the bits do not depend on the machine's instruction set; transcendental functions (log, hypot, atan2)
+  are the C library's scalar ones (numba vectorises them only with Intel's SVML, which the lock file does not
+  install, and ``tests/test_fused.py`` checks that it is not in use);
 * the two paths agree to round-off, not bit for bit (BLAS and LAPACK sum in other orders;
   ``tests/test_kernels.py`` states the bounds).
 
 Nothing here is called directly: each public kernel is the compiled twin of one operation of
 :mod:`mmlib.core.linalg`, declared there next to its numpy body, and which of the two runs is decided there
-once (:func:`mmlib.core.linalg.kernel`; ``MMLIB_KERNEL=numpy`` selects the reference path).
+once (:func:`mmlib.core.linalg.kernel`; ``MMLIB_KERNEL=numpy`` selects the reference path).  The fused steps have
+no numpy twin: their reference is the composition of the operations, which the estimators of
+:mod:`mmlib.core.estimation` run instead wherever a fused step does not apply or is turned off
+(:func:`mmlib.core.linalg.fused`).
 """
 from __future__ import annotations
 
@@ -464,7 +472,9 @@ def sigma_point_predict_linear(mean, cov, xi, wm, wc, F, Q):
 
 @njit(**_OPTS)
 def _wrap(a):
-    return a + _TWO_PI * math.floor((math.pi - a) / _TWO_PI)
+    """:func:`mmlib.core.linalg.wrap_angle` of one angle, the same bits for every float (``np.floor``: a float, where
+    ``math.floor`` would overflow an integer beyond 2**63 and at infinity)."""
+    return a + _TWO_PI * np.floor((math.pi - a) / _TWO_PI)
 
 
 @njit(**_OPTS)
@@ -721,7 +731,7 @@ def _measure(X, kind, A, idx, sensor, Z):
 
     * 0, linear: :math:`Hx` with H = A (m, n), summed in index order from 0 (:func:`matmul_rows`);
     * 1, range and bearing of the position components idx[0], idx[1] seen from ``sensor`` (2,) (:func:`range_bearing`:
-      ``hypot``, ``atan2``, scalar);
+      the C library's ``hypot`` and ``atan2``);
     * 2, pseudoranges :math:`\lVert s_i - p\rVert + b` to the satellites A (m, 3) of the position components
       idx[0..2] with the clock bias idx[3] (:class:`mmlib.core.gnss.Pseudoranges`: the squares summed from the first
       axis on, as numpy reduces three terms)."""

@@ -242,7 +242,8 @@ class SingleModel:
 
     def _step(self, state, z, with_cov, measurement) -> tuple:
         """:meth:`step` on inputs :meth:`_check_step` has checked (``measurement`` the step's model, not None)."""
-        measure = _fused_measure(measurement) if _fusable(self.filter, state, self.dynamics) else None
+        measure = _fused_measure(measurement) if _fusable(self.filter, state, self.dynamics) \
+            and np.ndim(self.dynamics.F) == 2 else None
         if measure is not None:
             up = self.filter.rule.unit_points(self.dynamics.dim)
             mean, cov, loglik, innovation, S, failed = linalg.sigma_step(
@@ -339,7 +340,8 @@ class MomentMixing:
     ``means`` (B, r, n), ``covs`` (B, r, n, n), ``w`` (B, r_from, r_to) (:func:`mmlib.core.linalg.mixing_weights`)
     -> ``(mixed means (B, r, n), mixed covs (B, r, n, n))``, in the state's units
     (:func:`mmlib.core.linalg.mix_moments`; an IMM with this mixing takes the fused
-    :func:`mmlib.core.linalg.imm_mix`).
+    :func:`mmlib.core.linalg.imm_mix`, or the whole fused step :func:`mmlib.core.linalg.imm_sigma_step` where it
+    applies).
     Alternative strategies (e.g. cubature-principle mixing, Zhou et al. 2017)
     implement the same call."""
 

@@ -8,14 +8,18 @@ compiled form is declared here as a pair: its numpy body, the reference path (LA
 ``matmul`` on the leading-batch layout), and right after it its compiled twin, which flattens the stack
 and calls the loop nest of :mod:`mmlib.core._kernels` (batch innermost, vectorised across the runs).
 Callers call the operation and never choose; the choice is made in one place, the dispatch that
-``_operation`` builds, from :func:`kernel`: ``"numba"`` (default when numba imports) or ``"numpy"``.
+``_operation`` builds, from :func:`kernel`: ``"numba"`` (default when numba imports) or ``"numpy"``.  The two fused
+steps below are the exception: compiled only, taken by the estimators where they apply (:func:`fused`).
 
 The fused operations (:func:`linear_predict`, :func:`sigma_point_predict_linear`,
-:func:`measurement_moments`, :func:`imm_mix`, :func:`imm_output`) do a whole filter step in one
+:func:`measurement_moments`, :func:`imm_mix`, :func:`imm_output`) do a whole part of a filter step in one
 compiled call; their numpy bodies compose the generic operations exactly as a filter step does
-(``tests/test_kernels.py`` checks that bit for bit).  The two paths agree to round-off, not bit for bit
-(BLAS and LAPACK sum in other orders; ``tests/test_kernels.py``); each gives a run the same bits in any
-batch (``tests/test_batch_independence.py``).
+(``tests/test_kernels.py`` checks that bit for bit).  On the compiled kernels, the *fused steps*
+(:func:`sigma_step`, :func:`imm_sigma_step`) go further: a whole step of a plain sigma-point filter or of its IMM on
+linear dynamics in one call, with the bits of composing those operations (``tests/test_fused.py``); the estimators
+of :mod:`mmlib.core.estimation` take them where they apply (:func:`fused`, ``MMLIB_FUSED=0`` turns them off).  The
+numpy and compiled paths agree to round-off, not bit for bit (BLAS and LAPACK sum in other orders;
+``tests/test_kernels.py``); each gives a run the same bits in any batch (``tests/test_batch_independence.py``).
 
 A matrix that is not positive definite never raises inside the batch: the
 affected runs are returned in a mask and their factor is NaN, so that the
@@ -150,8 +154,8 @@ _SHAPES = {
     "imm_output": ("N r", "N r", "N r n", "N r n n", "N r m", "N r m m", None),
     # the fused steps (mmlib.core.linalg.imm_sigma_step, sigma_step): the array arguments they check, R any stack of
     # (m, m) (periodic over the runs and modes: read modulo its rows)
-    "imm_sigma_step": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N m", "... m m"),
-    "sigma_step": ("N n", "N n n", "M n", "M", "M", "n n", "N m", "... m m"),
+    "imm_sigma_step": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N m", "... m m", "m", "... n n"),
+    "sigma_step": ("N n", "N n n", "M n", "M", "M", "n n", "N m", "... m m", "m", "... n n"),
 }
 _CHECKED: set = set()
 
@@ -589,10 +593,10 @@ def _range_bearing_compiled(x, i, j, sensor):
     return out.reshape(x.shape[:-1] + (2,))
 
 
-# --------------------------------------------------------------------------- a whole fused IMM step (compiled only)
+# --------------------------------------------------------------------------- whole fused filter steps (compiled only)
 def _initial_fused() -> bool:
-    """``$MMLIB_FUSED``: ``0`` turns the fused IMM step off (every step then composes the operations above), ``1`` or
-    unset leaves it on."""
+    """``$MMLIB_FUSED``: ``0`` turns the fused filter steps off (every step then composes the operations above), ``1``
+    or unset leaves them on."""
     env = os.environ.get("MMLIB_FUSED", "").strip()
     if env not in ("", "0", "1"):
         raise ValueError(f"MMLIB_FUSED: expected 0 or 1, got {env!r}")
@@ -603,13 +607,14 @@ _FUSED = [_initial_fused()]
 
 
 def fused() -> bool:
-    """Whether an IMM step that can be fused (:func:`imm_sigma_step`) is, on the compiled kernels."""
+    """Whether a filter or IMM step that can be fused (:func:`sigma_step`, :func:`imm_sigma_step`) is: fusion on and
+    the compiled kernels in use."""
     return _FUSED[0] and _KERNEL[0] == "numba"
 
 
 @contextlib.contextmanager
 def use_fused(on: bool) -> Iterator[None]:
-    """Context manager: run the body with the fused IMM step on or off (``on`` a bool, else a ValueError naming it);
+    """Context manager: run the body with the fused filter steps on or off (``on`` a bool, else a ValueError naming it);
     the numbers are the same bits either way (``tests/test_fused.py``), only the time differs."""
     if not isinstance(on, bool):
         raise ValueError(f"on: expected True or False, got {on!r}")
@@ -621,18 +626,18 @@ def use_fused(on: bool) -> Iterator[None]:
         _FUSED[0] = previous
 
 
-#: Runs per block of the fused IMM step: every intermediate of a step for this many runs (a few tens of KB for n = 4,
+#: Runs per block of the fused steps: every intermediate of a step for this many runs (a few tens of KB for n = 4,
 #: r = 3) stays in a core's L1/L2 cache while the loops over the runs stay long enough to vectorise.  A tuning choice
 #: only: a run's numbers do not depend on it (``tests/test_fused.py``).
 FUSED_BLOCK = 128
 
-#: the measurement functions the fused step evaluates itself (:func:`mmlib.core._kernels._measure`)
+#: the measurement functions the fused steps evaluate themselves (:func:`mmlib.core._kernels._measure`)
 MEASURE_LINEAR, MEASURE_RANGE_BEARING, MEASURE_PSEUDORANGES = 0, 1, 2
 
 
 def imm_sigma_step(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, covs: np.ndarray, xi: np.ndarray,
                    wm: np.ndarray, wc: np.ndarray, F: np.ndarray, Q: np.ndarray, z: np.ndarray, measure: tuple,
-                   angular, R: np.ndarray, with_cov: bool, log_2pi: float) -> tuple:
+                   angular: ArrayLike, R: np.ndarray, with_cov: bool, log_2pi: float) -> tuple:
     r"""One IMM cycle of a sigma-point filter over linear mode dynamics in one compiled call (compiled kernels only;
     :func:`fused`): mixing, the rule's time update through :math:`F_j`, fresh points, the measurement function,
     the measurement moments, the residual, the Kalman update :math:`P - AA^T` and the IMM output, computed by the
@@ -649,20 +654,25 @@ def imm_sigma_step(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, co
     broadcasting against (B, r, m, m); ``log_2pi`` the constant of the log-likelihood.  Returns
     ``(means+, covs+, mu+, marginal, underflow, mean, cov, innovation, innovation_cov, failed)``
     (:func:`mmlib.core._kernels.imm_sigma_step`; ``cov`` None without ``with_cov``)."""
-    B, r, n = means.shape
+    B, r, n = mu.shape[0], mu.shape[1], means.shape[-1]
     lead = (B, r)
-    _check_shapes("imm_sigma_step", B, (mu, transition, means, covs, xi, wm, wc, F, z, R))
+    # the kernel reads every run's own rows: a stack shared by the runs (read periodically by the composed step) is
+    # broadcast to all of them first
+    means, covs = _stack(means, 2, (B,)), _stack(covs, 3, (B,))
+    angular = np.asarray(angular, dtype=np.bool_)
+    _check_shapes("imm_sigma_step", B, (mu, transition, means, covs, xi, wm, wc, F, z, R, angular, Q))
     out = _compiled_module().imm_sigma_step(
         _contiguous(mu), _contiguous(transition), _contiguous(means), _contiguous(covs), _contiguous(xi),
         _contiguous(wm), _contiguous(wc), _contiguous(F), _periodic(Q, 2, lead), _contiguous(z),
-        *_measure_args(measure, n, z.shape[-1]), np.asarray(angular, dtype=np.bool_), _periodic(R, 2, lead),
+        *_measure_args(measure, n, z.shape[-1]), angular, _periodic(R, 2, lead),
         bool(with_cov),
         float(log_2pi), FUSED_BLOCK)
     return out[:6] + ((out[6] if with_cov else None),) + out[7:]
 
 
 def sigma_step(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray, wc: np.ndarray, F: np.ndarray,
-               Q: np.ndarray, z: np.ndarray, measure: tuple, angular, R: np.ndarray, log_2pi: float) -> tuple:
+               Q: np.ndarray, z: np.ndarray, measure: tuple, angular: ArrayLike, R: np.ndarray,
+               log_2pi: float) -> tuple:
     r"""One step of a single-model sigma-point filter over linear dynamics in one compiled call (compiled kernels
     only; :func:`fused`): what :func:`sigma_point_predict_linear`, :func:`sigma_points`, the measurement function,
     :func:`measurement_moments`, the residual and :func:`kalman_moments` compute in turn, the same bits.  ``mean``
@@ -670,23 +680,26 @@ def sigma_step(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray
     ``z`` (B, m), ``measure``, ``angular``, ``R``, ``log_2pi`` as :func:`imm_sigma_step`.  Returns ``(mean+, cov+,
     loglik, innovation, S, failed)`` (each (B, ...))."""
     B, n = mean.shape
-    _check_shapes("sigma_step", B, (mean, cov, xi, wm, wc, F, z, R))
+    cov = _stack(cov, 2, (B,))                 # a covariance shared by the runs: every run's own copy
+    angular = np.asarray(angular, dtype=np.bool_)
+    _check_shapes("sigma_step", B, (mean, cov, xi, wm, wc, F, z, R, angular, Q))
     return _compiled_module().sigma_step(
         _contiguous(mean), _contiguous(cov), _contiguous(xi), _contiguous(wm), _contiguous(wc), _contiguous(F),
         _periodic(Q, 2, (B,)), _contiguous(z), *_measure_args(measure, n, z.shape[-1]),
-        np.asarray(angular, dtype=np.bool_),
+        angular,
         _periodic(R, 2, (B,)), float(log_2pi), FUSED_BLOCK)
 
 
 def _measure_args(measure: tuple, n: int, m: int) -> tuple:
     """``(kind, A, idx, sensor)`` of a fused step's measurement function as the compiled kernel takes them, checked
     against the state dimension ``n`` and the measurement dimension ``m`` (the kernel does not check bounds: a
-    mismatch is a ValueError naming ``measure``, never a read out of bounds)."""
+    mismatch, or an index outside ``[-n, n)``, is a ValueError naming ``measure``, never a read out of bounds)."""
     kind, A, idx, sensor = measure
     A, idx, sensor = _contiguous(A), np.asarray(idx, dtype=np.int64), _contiguous(sensor)
     expected = {MEASURE_LINEAR: ((m, n), 0), MEASURE_RANGE_BEARING: (None, 2), MEASURE_PSEUDORANGES: ((m, 3), 4)}
     if kind not in expected or (expected[kind][0] is not None and A.shape != expected[kind][0]) \
-            or idx.shape != (expected[kind][1],) or sensor.shape != (2,) or (kind == MEASURE_RANGE_BEARING and m != 2):
+            or idx.shape != (expected[kind][1],) or ((idx < -n) | (idx >= n)).any() or sensor.shape != (2,) \
+            or (kind == MEASURE_RANGE_BEARING and m != 2):
         raise ValueError(f"measure: kind {kind!r} with A {A.shape}, idx {tuple(idx.tolist())}, sensor {sensor.shape} "
                          f"does not describe a measurement function of {m} components of an {n}-state")
     return int(kind), A, idx % n, sensor
