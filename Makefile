@@ -12,6 +12,8 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 PROFILE ?= full
+# processes of make test's pytest run (pytest-xdist): the reference machine's two cores
+TEST_WORKERS ?= 2
 # passed through to tools/run_notebooks.py: the papers to run (default all) and notebook parameter overrides
 RUN_ARGS = $(if $(N_RUNS),-p N_RUNS=$(N_RUNS)) $(if $(SEED),-p SEED=$(SEED)) $(PAPER)
 # execution settings (never change a result, so never send the outputs to build/custom/): WORKERS=n worker
@@ -60,7 +62,9 @@ test: $(STAMP)
 	$(PY) tools/run_notebooks.py --profile smoke $(EXEC_ARGS)
 	@# the committed-digest and batch-independence tests again as on an AVX2 and an SSE4.2 machine (x86-64 only)
 	$(PY) tools/emulated_tests.py
-	$(PY) -m pytest -q tests
+	@# the suite in TEST_WORKERS processes (pytest-xdist; a file's tests stay in one process, so its module fixtures,
+	@# e.g. the site built once, are not built twice; the longest files start first, tests/conftest.py)
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile tests
 
 # The benchmark report (data/bench/: imm_ukf.json, scaling.json, scaling.png, notebooks.json, cost_model.json (state
 # sizes 2..12 and the papers' timed filters against the cost model), papers.json (every paper's filters against the
