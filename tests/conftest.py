@@ -60,7 +60,8 @@ def linear_problem():
 #: schema mutations, the runner's notebook executions): run first, so that with ``pytest -n 2 --dist loadfile``
 #: (``make test``) the other worker fills the time with the many short files instead of idling behind one long file
 #: at the end.  Order only: no test depends on another.
-LONG_FIRST = ("test_site.py", "test_install.py", "test_results_contract.py", "test_runner.py", "test_runner_parallel.py")
+LONG_FIRST = ("test_site.py", "test_install.py", "test_results_contract.py", "test_runner.py",
+              "test_runner_parallel.py")
 
 
 def pytest_collection_modifyitems(session, config, items):
