@@ -55,15 +55,3 @@ def linear_problem():
     P0 = np.diag([100.0, 25.0, 100.0, 25.0])
     return dyn, meas, x0, P0, zs
 
-
-#: the test files that take most of the suite's time (the site's build and browser check, the fresh-venv install, the
-#: schema mutations, the runner's notebook executions): run first, so that with ``pytest -n 2 --dist loadfile``
-#: (``make test``) the other worker fills the time with the many short files instead of idling behind one long file
-#: at the end.  Order only: no test depends on another.
-LONG_FIRST = ("test_site.py", "test_install.py", "test_results_contract.py", "test_runner.py",
-              "test_runner_parallel.py")
-
-
-def pytest_collection_modifyitems(session, config, items):
-    rank = {name: i for i, name in enumerate(LONG_FIRST)}
-    items.sort(key=lambda item: rank.get(item.path.name, len(LONG_FIRST)))   # stable: file order kept otherwise
