@@ -140,56 +140,78 @@ VERDICT_TABLES = """() => Array.from(document.querySelectorAll('table')).filter(
   t => Array.from(t.querySelectorAll('th')).some(h => /verdict/i.test(h.textContent))).length"""
 
 
+class PageChecker:
+    """One browser context and page that visit the site's pages in turn (the cache and MathJax's compiled code shared
+    between pages, as when a reader browses: half the time of a context per page), each page's problems attributed
+    to it: every request, console message, page error and failed response is recorded under the page being checked."""
+
+    def __init__(self, browser, base: str, out: Path):
+        self.base, self.out, self.rel, self.problems = base, out, "", []
+        self.context = browser.new_context(viewport={"width": 1280, "height": 1600})
+        host = urlsplit(base).netloc
+
+        def route(r):
+            if urlsplit(r.request.url).netloc == host or r.request.url.startswith(("data:", "blob:", "about:")):
+                r.continue_()
+            else:
+                self.problems.append(f"{self.rel}: request to another host: {r.request.url}")
+                r.abort()
+
+        self.context.route("**/*", route)
+        self.page = self.context.new_page()
+        self.page.on("console", lambda m: self.problems.append(f"{self.rel}: console {m.type}: {m.text}")
+                     if m.type == "error" else None)
+        self.page.on("pageerror", lambda e: self.problems.append(f"{self.rel}: page error: {e}"))
+        self.page.on("response", lambda r: self.problems.append(f"{self.rel}: {r.status} for {r.url}")
+                     if r.status >= 400 and urlsplit(r.url).netloc == host else None)
+
+    def check(self, rel: str) -> list[str]:
+        """Every problem of page ``rel``, each a sentence naming the page."""
+        self.rel, first = rel, len(self.problems)
+        problems: list[str] = []
+        page, base, out = self.page, self.base, self.out
+        page.goto(base + rel, wait_until="load", timeout=60_000)
+        if page.evaluate("() => document.querySelectorAll('.math.notranslate').length"):
+            try:          # MathJax loaded, then everything queued before this callback (the page's typesetting) done
+                page.wait_for_function("() => window.MathJax && window.MathJax.Hub && MathJax.isReady", timeout=60_000)
+                page.evaluate("() => new Promise(done => MathJax.Hub.Queue(() => done(true)))")
+            except Exception as exc:  # noqa: BLE001 -- reported with the page, the other checks still run
+                problems.append(f"{rel}: MathJax did not load or finish typesetting: {type(exc).__name__}")
+            math = page.evaluate(MATH_STATE)
+            problems += [f"{rel}: math not typeset: {t!r}" for t in math["raw"][:5]]
+            problems += [f"{rel}: MathJax error: {t!r}" for t in math["errors"][:5]]
+        left = page.evaluate(LEFTOVER_TEXT)
+        problems += [f"{rel}: $...$ left as text: {t!r}" for t in left["dollars"][:5]]
+        problems += [f"{rel}: Markdown table left as text: {t!r}" for t in left["pipes"][:5]]
+        problems += [f"{rel}: image does not load: {src}" for src in page.evaluate(IMAGES)]
+        if rel.startswith("papers/") or rel == "arena.html" or page.evaluate(
+                "() => document.querySelectorAll('div.cell').length"):
+            nb = page.evaluate(NOTEBOOK_STATE)
+            if nb["unfolded"]:
+                problems.append(f"{rel}: {nb['unfolded']} of {nb['cells']} code cells not folded")
+            problems += [f"{rel}: stderr output published: {t!r}" for t in nb["stderr"][:3]]
+        if rel.startswith(("papers/", "controls/")):
+            if page.evaluate(VERDICT_TABLES) == 0:
+                problems.append(f"{rel}: no comparison table with a verdict column")
+            CHECK_DIR.mkdir(parents=True, exist_ok=True)
+            page.screenshot(path=str(CHECK_DIR / f"{Path(rel).stem}.png"), full_page=True,
+                            clip={"x": 0, "y": 0, "width": 1280, "height": 4000})
+        hrefs = page.evaluate("() => Array.from(document.querySelectorAll('a[href]'), a => a.getAttribute('href'))")
+        for href in hrefs:
+            problems += link_problems(base, out, rel, href)
+        return self.problems[first:] + problems
+
+    def close(self) -> None:
+        self.context.close()
+
+
 def check_page(browser, base: str, out: Path, rel: str) -> list[str]:
-    """Every problem of one page, each a sentence naming the page."""
-    problems: list[str] = []
-    context = browser.new_context(viewport={"width": 1280, "height": 1600})
-    host = urlsplit(base).netloc
-
-    def route(r):
-        if urlsplit(r.request.url).netloc == host or r.request.url.startswith(("data:", "blob:", "about:")):
-            r.continue_()
-        else:
-            problems.append(f"{rel}: request to another host: {r.request.url}")
-            r.abort()
-
-    context.route("**/*", route)
-    page = context.new_page()
-    page.on("console", lambda m: problems.append(f"{rel}: console {m.type}: {m.text}")
-            if m.type == "error" else None)
-    page.on("pageerror", lambda e: problems.append(f"{rel}: page error: {e}"))
-    page.on("response", lambda r: problems.append(f"{rel}: {r.status} for {r.url}")
-            if r.status >= 400 and urlsplit(r.url).netloc == host else None)
-    page.goto(base + rel, wait_until="load", timeout=60_000)
-    if page.evaluate("() => document.querySelectorAll('.math.notranslate').length"):
-        try:          # MathJax loaded, then everything queued before this callback (the page's typesetting) done
-            page.wait_for_function("() => window.MathJax && window.MathJax.Hub && MathJax.isReady", timeout=60_000)
-            page.evaluate("() => new Promise(done => MathJax.Hub.Queue(() => done(true)))")
-        except Exception as exc:  # noqa: BLE001 -- reported with the page, the other checks still run
-            problems.append(f"{rel}: MathJax did not load or finish typesetting: {type(exc).__name__}")
-        math = page.evaluate(MATH_STATE)
-        problems += [f"{rel}: math not typeset: {t!r}" for t in math["raw"][:5]]
-        problems += [f"{rel}: MathJax error: {t!r}" for t in math["errors"][:5]]
-    left = page.evaluate(LEFTOVER_TEXT)
-    problems += [f"{rel}: $...$ left as text: {t!r}" for t in left["dollars"][:5]]
-    problems += [f"{rel}: Markdown table left as text: {t!r}" for t in left["pipes"][:5]]
-    problems += [f"{rel}: image does not load: {src}" for src in page.evaluate(IMAGES)]
-    if rel.startswith("papers/") or rel == "arena.html" or page.evaluate(
-            "() => document.querySelectorAll('div.cell').length"):
-        nb = page.evaluate(NOTEBOOK_STATE)
-        if nb["unfolded"]:
-            problems.append(f"{rel}: {nb['unfolded']} of {nb['cells']} code cells not folded")
-        problems += [f"{rel}: stderr output published: {t!r}" for t in nb["stderr"][:3]]
-    if rel.startswith(("papers/", "controls/")):
-        if page.evaluate(VERDICT_TABLES) == 0:
-            problems.append(f"{rel}: no comparison table with a verdict column")
-        CHECK_DIR.mkdir(parents=True, exist_ok=True)
-        page.screenshot(path=str(CHECK_DIR / f"{Path(rel).stem}.png"), full_page=True,
-                        clip={"x": 0, "y": 0, "width": 1280, "height": 4000})
-    for href in page.evaluate("() => Array.from(document.querySelectorAll('a[href]'), a => a.getAttribute('href'))"):
-        problems += link_problems(base, out, rel, href)
-    context.close()
-    return problems
+    """Every problem of one page, each a sentence naming the page, in a context of its own."""
+    checker = PageChecker(browser, base, out)
+    try:
+        return checker.check(rel)
+    finally:
+        checker.close()
 
 
 @functools.lru_cache(maxsize=None)
@@ -227,7 +249,9 @@ def test_every_page_in_a_real_browser(site, browser):
         f"controls/{notebooks[c].stem}.html" for c in controls)
     assert sorted(r for r in rels if r.startswith("papers/")) == sorted(
         f"papers/{nb.stem}.html" for p, nb in notebooks.items() if p != "arena" and p not in controls)
-    problems = [p for rel in rels for p in check_page(browser, base, out, rel)]
+    checker = PageChecker(browser, base, out)
+    problems = [p for rel in rels for p in checker.check(rel)]
+    checker.close()
     assert not problems, f"{len(problems)} problem(s):\n" + "\n".join(problems[:60])
     assert sorted(p.name for p in CHECK_DIR.glob("*.png")) == sorted(
         f"{Path(r).stem}.png" for r in rels if r.startswith(("papers/", "controls/")))
