@@ -58,20 +58,22 @@ def _env_float(name: str, default: float) -> float:
     return v
 
 
-def time_per_step(estimator, init, z, repeats: int) -> dict:
+def time_per_step(estimator, init, z, repeats: int, measurement_models=None) -> dict:
     """CPU seconds per run-step of ``run(estimator, init, z, keep_cov=False)``: the fastest of ``repeats`` timed
-    calls after one untimed call, and the median; ``z`` (B, K, m)."""
+    calls after one untimed call, and the median; ``z`` (B, K, m), or with per-step ``measurement_models`` a list of
+    K arrays (B, m_k)."""
     from mmlib.core.estimation import run
 
-    B, K = z.shape[0], z.shape[1]
-    run(estimator, init, z, keep_cov=False)
+    B = (z[0] if measurement_models is not None else z).shape[0]
+    K = len(z) if measurement_models is not None else z.shape[1]
+    run(estimator, init, z, keep_cov=False, measurement_models=measurement_models)
     times = []
     was = gc.isenabled()
     gc.disable()
     try:
         for _ in range(repeats):
             t0 = time.thread_time()
-            run(estimator, init, z, keep_cov=False)
+            run(estimator, init, z, keep_cov=False, measurement_models=measurement_models)
             times.append((time.thread_time() - t0) / (B * K))
     finally:
         if was:

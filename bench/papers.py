@@ -5,8 +5,9 @@ For each paper of :data:`mmlib.papers.REGISTRY` (the controls too: their KF and 
 estimator of its headline batch (``Paper.batch`` of its headline set-up) is run on the first ``BENCH_PAPER_STEPS``
 steps of ``BENCH_PAPER_RUNS`` runs, batched (``run(..., keep_cov=False)``, the papers' timing setting), after one
 untimed call: CPU time per run-step (the fastest of ``BENCH_PAPER_REPEATS``, ``time.thread_time``, garbage collector
-paused), with the fused filter steps on (the default) and off (``linalg.use_fused(False)``: every step composed of its
-operations), and whether the fused step was taken.  Beside each: its flops per run-step (the cost model,
+paused, :func:`bench.cost_model.time_per_step`), with the fused filter steps on (the default) and off
+(``linalg.use_fused(False)``: every step composed of its operations), and whether the fused step was taken.
+Beside each: its flops per run-step (the cost model,
 :func:`mmlib.core.cost.step_flops`; with per-step measurement models, those of the largest) and the ratio of the
 measured time to the *flop floor*, those flops at this core's peak rate (:func:`bench.flops.peak_gflops`, a large
 matrix product).  Written to ``data/bench/papers.json`` with its provenance.
@@ -27,9 +28,7 @@ if __name__ == "__main__":            # before numpy is imported (the BLAS reads
     from bench.provenance import pin_threads
     pin_threads()
 
-import gc                               # noqa: E402
 import json                             # noqa: E402
-import time                             # noqa: E402
 
 import numpy as np                      # noqa: E402
 
@@ -44,29 +43,9 @@ def _env_int(name: str, default: int) -> int:
     return int(v)
 
 
-def _timed(estimator, init, z, models, repeats: int) -> float:
-    """The fastest of ``repeats`` CPU times per run-step of one batched run, after one untimed run."""
-    from mmlib.core.estimation import run
-
-    B = (z[0] if models is not None else z).shape[0]
-    K = len(z) if models is not None else z.shape[1]
-    run(estimator, init, z, keep_cov=False, measurement_models=models)
-    times = []
-    was = gc.isenabled()
-    gc.disable()
-    try:
-        for _ in range(repeats):
-            t0 = time.thread_time()
-            run(estimator, init, z, keep_cov=False, measurement_models=models)
-            times.append((time.thread_time() - t0) / (B * K))
-    finally:
-        if was:
-            gc.enable()
-    return min(times)
-
-
 def paper_filters(n_runs: int, n_steps: int, repeats: int, peak_gflops: float) -> list:
     """One row per estimator of every registered paper's headline batch (see the module docstring)."""
+    from bench.cost_model import time_per_step
     from mmlib.core import cost, linalg
     from mmlib.experiment.montecarlo import MonteCarlo
     from mmlib.papers import REGISTRY
@@ -87,11 +66,11 @@ def paper_filters(n_runs: int, n_steps: int, repeats: int, peak_gflops: float) -
             linalg.imm_sigma_step = lambda *a, **k: calls.append(1) or fused_steps[0](*a, **k)
             linalg.sigma_step = lambda *a, **k: calls.append(1) or fused_steps[1](*a, **k)
             try:
-                fused = _timed(est, init[est_name], z, models, repeats)
+                fused = time_per_step(est, init[est_name], z, repeats, models)["best_s"]
             finally:
                 linalg.imm_sigma_step, linalg.sigma_step = fused_steps
             with linalg.use_fused(False):
-                composed = _timed(est, init[est_name], z, models, repeats)
+                composed = time_per_step(est, init[est_name], z, repeats, models)["best_s"]
             floor = flops / (peak_gflops * 1e9)
             row = {"paper": name, "filter": est_name, "runs": n_runs, "steps": n_steps, "flops_per_run_step": flops,
                    "fused_step_taken": bool(calls), "us_per_run_step": 1e6 * fused,

@@ -336,24 +336,33 @@ def test_fused_steps_reject_mismatched_shapes():
             linalg.imm_sigma_step(**{**args, "measure": measure})
 
 
-def _same_steps(est, state, zs, **step_kw):
-    """Step ``est`` through the measurements ``zs`` (K, B, m) with the fused steps off and on; every field of every
-    step's Estimate and the final state must be the same bits."""
-    out = []
+def _same_steps(est, state, zs, **step_kw) -> tuple:
+    """Step ``est`` through the measurements ``zs`` (K, B, m) with the fused steps off and on: ``(mismatches, fused
+    estimates, fused calls)``, the mismatches naming every (step, Estimate field) and final-state leaf whose bits
+    differ (the test asserts there is none), the calls counting the fused steps taken."""
+    out, calls = [], []
+    fused_steps = (linalg.imm_sigma_step, linalg.sigma_step)
     for on in (False, True):
         s, estimates = state, []
         with linalg.use_fused(on):
             for z in zs:
-                s, e = est.step(s, z, **step_kw)
+                before = linalg.imm_sigma_step, linalg.sigma_step
+                linalg.imm_sigma_step = lambda *a, **k: calls.append(1) or fused_steps[0](*a, **k)
+                linalg.sigma_step = lambda *a, **k: calls.append(1) or fused_steps[1](*a, **k)
+                try:
+                    s, e = est.step(s, z, **step_kw)
+                finally:
+                    linalg.imm_sigma_step, linalg.sigma_step = before
                 estimates.append(e)
         out.append((s, estimates))
     (s0, e0), (s1, e1) = out
-    for k, (a, b) in enumerate(zip(e0, e1)):
-        for field, x, y in zip(a._fields, a, b):
-            assert _same(None if x is None else np.asarray(x), None if y is None else np.asarray(y)), (k, field)
+    mismatches = [f"step {k} {field}" for k, (a, b) in enumerate(zip(e0, e1)) for field, x, y in zip(a._fields, a, b)
+                  if not _same(None if x is None else np.asarray(x), None if y is None else np.asarray(y))]
     flat0, flat1 = _leaves(s0), _leaves(s1)
-    assert len(flat0) == len(flat1) and all(_same(x, y) for x, y in zip(flat0, flat1))
-    return e1
+    if len(flat0) != len(flat1):
+        mismatches.append(f"final state: {len(flat0)} vs {len(flat1)} arrays")
+    mismatches += [f"final state leaf {i}" for i, (x, y) in enumerate(zip(flat0, flat1)) if not _same(x, y)]
+    return mismatches, e1, len(calls)
 
 
 def _leaves(state):
@@ -380,10 +389,12 @@ def test_every_estimate_field_at_every_step_with_failures_at_a_later_pivot_and_b
     cov[1, 2, 3, 3] = -1.0
     cov[4, :, 3, 3] = -5.0
     state = state._replace(modes=state.modes._replace(cov=cov))
-    estimates = _same_steps(imm, state, zs, with_cov=False)
+    mismatches, estimates, calls = _same_steps(imm, state, zs, with_cov=False)
+    assert not mismatches and calls == len(zs)
     assert estimates[0].failure[4] != 0 and np.isfinite(estimates[-1].mean[[0, 2, 3, 5]]).all()
     single = SingleModel(SigmaPointFilter(RULES["CKF"]), _modes()[1], radar)
-    _same_steps(single, single.init(np.tile(X0, (B, 1)), P0), zs)
+    mismatches, _, calls = _same_steps(single, single.init(np.tile(X0, (B, 1)), P0), zs)
+    assert not mismatches and calls == len(zs)
 
 
 @pytest.mark.parametrize("block", [1, 7, 128])
@@ -393,7 +404,9 @@ def test_single_model_over_several_blocks_equals_composed(block, monkeypatch):
     measurement = MEASUREMENTS["range-bearing off-centre"]
     est = SingleModel(SigmaPointFilter(RULES["5CKF"]), models.constant_velocity(T, 1.0), measurement)
     z = _problem(measurement, 300)
-    _same_steps(est, est.init(np.tile(X0, (300, 1)), P0), np.swapaxes(z[:, :6], 0, 1))
+    mismatches, estimates, calls = _same_steps(est, est.init(np.tile(X0, (300, 1)), P0), np.swapaxes(z[:, :6], 0, 1))
+    assert not mismatches and calls == 6
+    assert np.isfinite(estimates[-1].mean).all() and estimates[-1].mean.shape == (300, 4)
 
 
 def test_shared_stacks_and_stacked_single_dynamics_equal_composed():
@@ -406,13 +419,16 @@ def test_shared_stacks_and_stacked_single_dynamics_equal_composed():
     imm = IMM(SigmaPointFilter(RULES["UKF"]), _modes(), measurement, TRANSITION)
     state = imm.init(np.tile(X0, (B, 1)), P0)
     state = state._replace(modes=state.modes._replace(cov=state.modes.cov[:1]))
-    _same_steps(imm, state, zs)
+    mismatches, _, calls = _same_steps(imm, state, zs)
+    assert not mismatches and calls == len(zs)
     single = SingleModel(SigmaPointFilter(RULES["CKF"]), models.constant_velocity(T, 1.0), measurement)
     s0 = single.init(np.tile(X0, (B, 1)), P0)
-    _same_steps(single, s0._replace(cov=P0), zs)
+    mismatches, _, calls = _same_steps(single, s0._replace(cov=P0), zs)
+    assert not mismatches and calls == len(zs)
     stacked = SingleModel(SigmaPointFilter(RULES["CKF"]), models.StackedDynamics.of([models.constant_velocity(T, 1.0)]),
                           measurement)
-    _same_steps(stacked, s0, zs)
+    mismatches, _, calls = _same_steps(stacked, s0, zs)
+    assert not mismatches and calls == 0                 # a stacked F falls back to the composed step
 
 
 def test_huge_bearing_residual_wraps_as_the_composed_residual():
@@ -421,7 +437,9 @@ def test_huge_bearing_residual_wraps_as_the_composed_residual():
     imm = IMM(SigmaPointFilter(RULES["UKF"]), _modes(), measurement, TRANSITION)
     z = _problem(measurement, 3)[:, :2].copy()
     z[1, 1, 1] = 1e20
-    _same_steps(imm, imm.init(np.tile(X0, (3, 1)), P0), np.swapaxes(z, 0, 1))
+    mismatches, estimates, calls = _same_steps(imm, imm.init(np.tile(X0, (3, 1)), P0), np.swapaxes(z, 0, 1))
+    assert not mismatches and calls == 2
+    assert -np.pi < estimates[1].innovation[1, 1] <= np.pi      # wrapped, as wrap_angle wraps it
 
 
 def test_no_vectorised_transcendentals():
