@@ -629,6 +629,15 @@ def _output_core(ll, cb, Xb, Pb, Nb, Sb, with_cov, mub, marginal, underflow, fus
 
 
 @njit(**_OPTS)
+def _output_buffers(r, n, m, N, with_cov):
+    """The outputs of :func:`_output_core` for N runs innermost: ``(mu (1, r, N), marginal (N,), underflow (N,)
+    zeroed, fused mean (1, n, N), its covariance (1, n, n, N) or (1, 0, 0, N) without ``with_cov``, innovation
+    (1, m, N), its covariance (1, m, m, N))``."""
+    return (np.empty((1, r, N)), np.empty(N), np.zeros(N, dtype=np.bool_), np.empty((1, n, N)),
+            np.empty((1, n, n, N) if with_cov else (1, 0, 0, N)), np.empty((1, m, N)), np.empty((1, m, m, N)))
+
+
+@njit(**_OPTS)
 def imm_output(loglik, c, means, covs, nu, S, with_cov):
     r"""The end of an IMM cycle fused (Zhu et al. 2016, Eqs. 57-59): mode probabilities
     :math:`\mu_j \propto c_j L_j` (computed in logs about the largest term), the log marginal likelihood
@@ -642,13 +651,7 @@ def imm_output(loglik, c, means, covs, nu, S, with_cov):
     B, r = loglik.shape
     n = means.shape[2]
     m = nu.shape[2]
-    mub = np.empty((1, r, B))
-    marginal = np.empty(B)
-    underflow = np.zeros(B, dtype=np.bool_)
-    fused = np.empty((1, n, B))
-    fcov = np.empty((1, n, n, B) if with_cov else (1, 0, 0, B))
-    innov = np.empty((1, m, B))
-    icov = np.empty((1, m, m, B))
+    mub, marginal, underflow, fused, fcov, innov, icov = _output_buffers(r, n, m, B, with_cov)
     _output_core(_inner(loglik, B), _inner(c, B).reshape((1, r, B)), _inner(means, B), _inner(covs, B),
                  _inner(nu, B), _inner(S, B), with_cov, mub, marginal, underflow, fused, fcov, innov, icov)
     cov_out = _outer(fcov)[:, 0] if with_cov else np.empty((B, 0, 0))
@@ -936,13 +939,7 @@ def imm_sigma_step(mu, T, means, covs, xi, wm, wc, F, Q, z, kind, A, idx, sensor
                          post_mean[j], post_cov[j], nu[j], S[j], ll[j], f_upd)
             for lane in range(N):
                 failed_out[b0 + lane, j] = f_upd[lane]
-        mu_b = np.empty((1, r, N))
-        marg = np.empty(N)
-        under = np.zeros(N, dtype=np.bool_)
-        fused = np.empty((1, n, N))
-        fcov = np.empty((1, n, n, N) if with_cov else (1, 0, 0, N))
-        innov = np.empty((1, m, N))
-        icov = np.empty((1, m, m, N))
+        mu_b, marg, under, fused, fcov, innov, icov = _output_buffers(r, n, m, N, with_cov)
         _output_core(ll, c, post_mean, post_cov, nu, S, with_cov, mu_b, marg, under, fused, fcov, innov, icov)
         for lane in range(N):
             b = b0 + lane
