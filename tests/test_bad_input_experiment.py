@@ -121,8 +121,13 @@ def _arena_rows():
              "properties": {"axis": "nonlinearity", "sigma_theta_mrad": 1.0, "omega_deg_s": 3.0}}]
 
 
+#: the cases' scratch folders, under one folder removed when the test process ends (a finalizer of
+#: TemporaryDirectory), so no mmlib-bad-input-* folder is left in the system's temporary folder
+_SCRATCH = tempfile.TemporaryDirectory(prefix="mmlib-bad-input-")
+
+
 def _tmp():
-    return tempfile.mkdtemp(prefix="mmlib-bad-input-")
+    return tempfile.mkdtemp(dir=_SCRATCH.name)
 
 
 def _one_arena_cell(**kw):
