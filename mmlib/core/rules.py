@@ -26,6 +26,9 @@ import numpy as np
 from mmlib.core._validate import check_positive_int, check_scalar
 from mmlib.core.linalg import offset_points, weighted_covariances
 
+__all__ = ["Unscented", "Cubature", "FifthDegreeCubature", "SphericalSimplexRadial", "CentralDifference",
+           "rule_by_name", "SigmaPointRule", "UnitPoints", "regular_simplex"]
+
 
 @dataclass(frozen=True)
 class UnitPoints:
