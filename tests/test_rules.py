@@ -1,4 +1,5 @@
 """Each quadrature rule integrates every monomial up to its degree exactly against N(0, I)."""
+import dataclasses
 import itertools
 import math
 
@@ -157,3 +158,76 @@ def test_rule_lookup_and_bad_parameters():
         rules.CentralDifference(h=1.0)
     with pytest.raises(ValueError, match="kappa"):
         rules.Unscented(kappa=-5.0).unit_points(2)
+
+
+def _transform(rule, mean, chol, g):
+    """Mean (B, d) and covariance (B, d, d) of g(x), x ~ N(mean, chol chol^T), by ``rule``."""
+    X = rule.points(mean, chol)
+    Y = g(X)
+    up = rule.unit_points(mean.shape[-1])
+    ybar = np.einsum("p,...pd->...d", up.wm, Y)
+    return ybar, rule.covariance(X - mean[..., None, :], Y - ybar[..., None, :])
+
+
+def test_unscented_defaults_are_stated_in_the_first_docstring_line():
+    # the defaults are read from the dataclass, so changing them without the docstring fails here
+    first = rules.Unscented.__doc__.strip().splitlines()[0]
+    defaults = {f.name: f.default for f in dataclasses.fields(rules.Unscented)}
+    assert set(defaults) == {"alpha", "beta", "kappa"}
+    for name, value in defaults.items():
+        assert f"{name}={value:g}" in first, (name, value, first)
+
+
+def test_default_unscented_is_not_the_cubature_rule():
+    # scalar x ~ N(m, s^2): Var[x^2] = 4 m^2 s^2 + 2 s^4 (Gaussian fourth moment).  The default beta = 2 puts
+    # the centre covariance weight 2 there and gets it exactly; the cubature rule (two points m +- s) misses the
+    # 2 s^4 term entirely, and so does the former default (alpha, beta, kappa) = (1, 0, 0).
+    m, s = 1.5, 0.7
+    mean, chol = np.array([[m]]), np.array([[[s]]])
+    exact = 4 * m * m * s * s + 2 * s ** 4
+    got = {name: _transform(rule, mean, chol, lambda x: x ** 2)
+           for name, rule in (("ukf", rules.Unscented()), ("ckf", rules.Cubature()),
+                              ("former", rules.Unscented(1.0, 0.0, 0.0)))}
+    for name, (ybar, _) in got.items():             # E[x^2] = m^2 + s^2: degree 2, every rule exact
+        assert ybar[0, 0] == pytest.approx(m * m + s * s, rel=1e-14), name
+    # tolerance: a few roundings of numbers of size 4 m^2 s^2 ~ 4.4
+    assert got["ukf"][1][0, 0, 0] == pytest.approx(exact, rel=1e-13)
+    assert got["ckf"][1][0, 0, 0] == pytest.approx(exact - 2 * s ** 4, rel=1e-13)
+    assert got["former"][1][0, 0, 0] == pytest.approx(got["ckf"][1][0, 0, 0], rel=1e-13)
+
+
+@pytest.mark.parametrize("n", [2, 4, 5])
+def test_default_unscented_differs_from_cubature_by_the_centre_term(n):
+    # the documented relation: same means, P_yy differs by 2 (Y_0 - ybar)(Y_0 - ybar)^T, which is not zero on a
+    # curved map (range from the origin) and is zero on a linear one
+    rng = np.random.default_rng(n)
+    mean = rng.normal(size=(3, n)) * 10.0
+    a = rng.normal(size=(3, n, n))
+    chol = np.linalg.cholesky(a @ np.swapaxes(a, -1, -2) + np.eye(n))
+    ukf, ckf = rules.Unscented(), rules.Cubature()
+
+    def rng_(x):
+        return np.linalg.norm(x[..., :2], axis=-1, keepdims=True)
+    (mu, pu), (mc, pc) = _transform(ukf, mean, chol, rng_), _transform(ckf, mean, chol, rng_)
+    np.testing.assert_allclose(mu, mc, rtol=1e-13)
+    y0 = rng_(mean) - mu                                          # (B, 1): image of the mean minus mean of images
+    assert np.all(np.abs(y0) > 1e-6)                              # curved: the centre term is not zero
+    # tolerance: P_yy's entries are ~ (10 * spread)^2; the difference is formed from sums of such entries
+    np.testing.assert_allclose(pu - pc, 2.0 * y0[..., None] * y0[..., None, :], rtol=1e-9,
+                               atol=1e-12 * np.abs(pu).max())
+    H = rng.normal(size=(2, n))
+    qu = _transform(ukf, mean, chol, lambda x: x @ H.T)[1]
+    qc = _transform(ckf, mean, chol, lambda x: x @ H.T)[1]
+    np.testing.assert_allclose(qu, qc, rtol=1e-12, atol=1e-12 * np.abs(qu).max())
+
+
+def test_rule_by_name_ukf_is_the_documented_default():
+    assert rules.rule_by_name("ukf") == rules.Unscented() == rules.rule_by_name("UNSCENTED")
+    assert rules.rule_by_name("ukf") != rules.Unscented(1.0, 0.0, 0.0)       # not the cubature setting
+    assert "Unscented()" in rules.rule_by_name.__doc__
+    defaults = {f.name: f.default for f in dataclasses.fields(rules.Unscented)}
+    assert all(f"{k}={v:g}" in " ".join(rules.rule_by_name.__doc__.split()) for k, v in defaults.items())
+    # a parameter given replaces only that default
+    assert rules.rule_by_name("ukf", kappa=-1.0) == rules.Unscented(defaults["alpha"], defaults["beta"], -1.0)
+    from mmlib.core.filters import filter_by_name
+    assert filter_by_name("ukf").rule == rules.Unscented()

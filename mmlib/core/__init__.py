@@ -6,3 +6,4 @@ and the batched driver (``estimation``, with pluggable ``mixing``), dynamics and
 
 Nothing here imports the experiment layer (``mmlib.experiment``) or the paper set-ups (``mmlib.papers``).
 """
+__all__: list[str] = []      # a package: its modules are the API

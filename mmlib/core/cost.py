@@ -61,9 +61,9 @@ from mmlib.core.models import LinearMeasurement, RangeBearing
 from mmlib.core.protocols import Dynamics, Estimator, Filter, MeasurementModel
 from mmlib.core.rules import CentralDifference, SigmaPointRule
 
-__all__ = ["WRAP_FLOPS", "RANGE_BEARING_H_FLOPS", "RANGE_BEARING_JACOBIAN_FLOPS", "FunctionCosts", "dot",
-           "cholesky_flops", "tril_inverse_flops", "lu_flops", "solve_flops", "inverse_flops", "point_flops",
-           "function_costs", "filter_flops", "imm_flops", "step_flops"]
+__all__ = ["step_flops", "filter_flops", "imm_flops", "function_costs", "FunctionCosts", "point_flops",
+           "cholesky_flops", "tril_inverse_flops", "lu_flops", "solve_flops", "inverse_flops", "dot", "WRAP_FLOPS",
+           "RANGE_BEARING_H_FLOPS", "RANGE_BEARING_JACOBIAN_FLOPS", "MEMBERSHIP_FLOPS"]
 
 #: Wrapping one angle to (-pi, pi]: ``a + 2 pi floor((pi - a) / 2 pi)`` (:func:`mmlib.core.models.wrap_angle`).
 WRAP_FLOPS = 5

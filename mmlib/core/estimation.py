@@ -33,6 +33,11 @@ from mmlib.core._validate import (check_finite, as_float_array, check_applies, c
                                   check_has, check_index, check_mask, check_name, check_probabilities,
                                   check_transition_matrix)
 
+__all__ = ["IMM", "SingleModel", "run", "Track", "Estimate", "IMMState", "MomentMixing", "KnownModeSequence",
+           "SwitchingState", "FilterDivergence", "summarise_divergence", "normalised_square", "select_runs",
+           "batch_size", "Failure", "FAILURE_CAUSES", "FILTER_METHODS", "DYNAMICS_METHODS", "MEASUREMENT_METHODS",
+           "ESTIMATOR_METHODS", "mixing_weights", "combine_covariances", "imm_output"]
+
 
 class Failure(IntEnum):
     """Why a run diverged (``Estimate.failure``, ``Track.divergence_cause``); 0 = it did not."""

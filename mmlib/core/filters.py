@@ -40,6 +40,9 @@ from mmlib.core._validate import as_float_array, check_batch_vector, check_covar
 from mmlib.core.protocols import Dynamics, MeasurementModel, MomentFilter, State, members
 from mmlib.core.rules import SigmaPointRule, rule_by_name
 
+__all__ = ["SigmaPointFilter", "ExtendedKalmanFilter", "KalmanFilter", "filter_by_name", "GaussianState",
+           "gaussian_state", "kalman_update", "MeasurementPrediction", "UpdateInfo", "FilterLayer", "LOG_2PI"]
+
 LOG_2PI = math.log(2.0 * math.pi)
 
 

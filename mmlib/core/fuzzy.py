@@ -25,6 +25,8 @@ import numpy as np
 from mmlib.core._validate import as_float_array, check_finite, check_scalar
 from mmlib.core.linalg import matmul_rows
 
+__all__ = ["TakagiSugeno", "Trapezoid", "ramp_sets"]
+
 
 @dataclass(frozen=True)
 class Trapezoid:

@@ -31,6 +31,10 @@ import numpy as np
 from mmlib.core._validate import as_float_array, check_covariance, check_finite, check_scalar
 from mmlib.core.models import LinearGaussianDynamics, _psd_factor
 
+__all__ = ["Pseudoranges", "nominal_gps24", "CircularOrbitConstellation", "LocalFrame", "elevation", "clock_dynamics",
+           "clock_process_noise", "PVClockNoise", "STATE_DIM", "POSITION_INDEX", "VELOCITY_INDEX", "CLOCK_INDEX",
+           "SPEED_OF_LIGHT", "EARTH_ROTATION", "EARTH_GM", "GPS_SEMI_MAJOR_AXIS"]
+
 SPEED_OF_LIGHT = 299_792_458.0          # m/s
 EARTH_ROTATION = 7.2921151467e-5        # rad/s (WGS 84, IS-GPS-200)
 EARTH_GM = 3.986005e14                  # m^3/s^2 (WGS 84 value used by GPS)

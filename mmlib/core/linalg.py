@@ -41,6 +41,13 @@ from collections.abc import Callable, Iterator
 import numpy as np
 from numpy.typing import ArrayLike
 
+__all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused", "sigma_points", "offset_points",
+           "weighted_mean", "weighted_covariances", "kalman_moments", "measurement_moments", "congruence", "cholesky",
+           "log_det_from_cholesky", "tril_inverse", "symmetrize", "trace", "wrap_angle", "range_bearing", "matmul_rows",
+           "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
+           "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
+           "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES"]
+
 #: The implementations of the kernels below: ``"numba"`` (compiled loops, :mod:`mmlib.core._kernels`) and
 #: ``"numpy"`` (the reference path).  They compute the same mathematics and agree to round-off
 #: (``tests/test_kernels.py``); each gives every run the same bits in any batch.

@@ -26,6 +26,8 @@ import numpy as np
 
 from mmlib.core import linalg
 
+__all__ = ["CubatureMixing"]
+
 
 @dataclass(frozen=True)
 class CubatureMixing:

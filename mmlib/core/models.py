@@ -25,6 +25,11 @@ from mmlib.core import linalg
 from mmlib.core.linalg import linear_transition, matmul_rows, wrap_angle
 from mmlib.core.protocols import Dynamics, MeasurementModel
 
+__all__ = ["constant_velocity", "constant_acceleration", "coordinated_turn", "CoordinatedTurnRate", "range_bearing",
+           "position_measurement", "RangeBearing", "LinearMeasurement", "LinearGaussianDynamics", "from_noise_gain",
+           "acceleration_noise_gain", "coordinated_turn_matrix", "StackedDynamics", "position_indices", "SensorFault",
+           "radar_drift", "wrap_angle", "TWO_PI"]
+
 
 TWO_PI = 2.0 * math.pi
 
@@ -219,6 +224,168 @@ def coordinated_turn(T: float, omega: float, q: np.ndarray | float,
     omega = check_scalar(omega, "omega")
     return from_noise_gain(F, acceleration_noise_gain(T) if G is None else G, q,
                            f"CT({math.degrees(omega):+.3g} deg/s)")
+
+
+# turn-rate functions: sin(t)/t, (1 - cos t)/t and their derivatives, by their Taylor series for |t| < 1 (no
+# division by a small t, no cancellation) and in closed form beyond; 10 terms leave a truncation error below
+# 1/21! ~ 2e-20 at |t| = 1
+_SERIES_TERMS = 10
+_SERIES_LIMIT = 1.0
+
+
+def _turn_functions(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    r""":math:`s_1 = \sin\theta/\theta`, :math:`c_1 = (1-\cos\theta)/\theta` and their derivatives
+    :math:`s_1' = (\theta\cos\theta - \sin\theta)/\theta^2`, :math:`c_1' = (\theta\sin\theta - 1 + \cos\theta)/\theta^2`
+    for turn angles ``theta`` (any shape, rad), continuous through ``theta = 0`` (1, 0, 0, 1/2 there)."""
+    t = np.asarray(theta, dtype=float)
+    small = np.abs(t) < _SERIES_LIMIT
+    ts = np.where(small, t, 0.0)
+    t2 = ts * ts
+    s1 = np.zeros_like(ts)
+    c1 = np.zeros_like(ts)
+    ds1 = np.zeros_like(ts)
+    dc1 = np.zeros_like(ts)
+    # Horner from the highest term: s1 = sum (-t^2)^k/(2k+1)!, c1 = t sum (-t^2)^k/(2k+2)!,
+    # ds1 = t sum (-t^2)^k (-(2k+2))/(2k+3)!, dc1 = sum (-t^2)^k (2k+1)/(2k+2)!
+    for k in range(_SERIES_TERMS - 1, -1, -1):
+        s1 = s1 * -t2 + 1.0 / math.factorial(2 * k + 1)
+        c1 = c1 * -t2 + 1.0 / math.factorial(2 * k + 2)
+        ds1 = ds1 * -t2 - (2 * k + 2) / math.factorial(2 * k + 3)
+        dc1 = dc1 * -t2 + (2 * k + 1) / math.factorial(2 * k + 2)
+    c1, ds1 = c1 * ts, ds1 * ts
+    tl = np.where(small, 1.0, t)                       # large angles only: no division by a small number
+    sin, cos = np.sin(tl), np.cos(tl)
+    one_minus_cos = 2.0 * np.sin(0.5 * tl) ** 2        # 1 - cos t without cancellation
+    return (np.where(small, s1, sin / tl), np.where(small, c1, one_minus_cos / tl),
+            np.where(small, ds1, (tl * cos - sin) / (tl * tl)),
+            np.where(small, dc1, (tl * sin - one_minus_cos) / (tl * tl)))
+
+
+@dataclass(frozen=True, eq=False)
+class CoordinatedTurnRate:
+    r"""Nearly coordinated turn with the turn rate in the state, ``[x, vx, y, vy, omega]`` (m, m/s, m, m/s, rad/s).
+
+    The turn rate :math:`\omega` (positive counter-clockwise) is estimated with the kinematics, so the model is
+    nonlinear.  Over one period ``T`` the exact discretisation of the continuous-time coordinated turn
+    :math:`\dot x = v_x,\ \dot v_x = -\omega v_y,\ \dot y = v_y,\ \dot v_y = \omega v_x,\ \dot\omega = 0`
+    (Bar-Shalom, Li & Kirubarajan 2001, Sec. 11.7.1: the matrix of Eq. 11.7.1-4 with the rate :math:`\Omega`
+    appended to the state; Li & Jilkov 2003, IEEE TAES 39(4), Sec. V, the coordinated turn with unknown rate)
+    is, with :math:`\theta = \omega T`,
+
+    .. math::
+        f(x) = \begin{bmatrix}
+            x + \frac{\sin\theta}{\omega} v_x - \frac{1-\cos\theta}{\omega} v_y \\
+            \cos\theta\, v_x - \sin\theta\, v_y \\
+            y + \frac{1-\cos\theta}{\omega} v_x + \frac{\sin\theta}{\omega} v_y \\
+            \sin\theta\, v_x + \cos\theta\, v_y \\
+            \omega \end{bmatrix},
+
+    the known-rate matrix of :func:`coordinated_turn_matrix` applied with the state's own rate.  The
+    coefficients :math:`\sin\theta/\omega = T\,\sin\theta/\theta` and :math:`(1-\cos\theta)/\omega` are computed
+    through their series for :math:`|\theta| < 1`, so :math:`\omega \to 0` gives the constant-velocity
+    transition continuously, with no division by a small rate (tested against :func:`constant_velocity`).
+
+    Process noise, the nearly-coordinated-turn model (Bar-Shalom et al. 2001, Sec. 11.7.1; Li & Jilkov 2003,
+    Sec. V): a discrete white acceleration on each position axis (gain :math:`[T^2/2, T]^T`, Sec. 6.3.2, as
+    :func:`acceleration_noise_gain`) and a random walk of the turn rate (gain ``T``),
+    :math:`Q = \Gamma\,\mathrm{diag}(q, q, q_\omega)\,\Gamma^T`,
+    :math:`\Gamma = \begin{bmatrix} T^2/2 & 0 & 0\\ T & 0 & 0\\ 0 & T^2/2 & 0\\ 0 & T & 0\\ 0 & 0 & T
+    \end{bmatrix}`.
+
+    ``T`` the sampling period (s, > 0); ``q`` the variance of the acceleration noise per axis
+    ((m/s^2)^2, >= 0); ``q_omega`` the variance of the turn-rate acceleration noise ((rad/s^2)^2, >= 0; the rate's
+    increment over a step has standard deviation :math:`T\sqrt{q_\omega}` rad/s); ``name`` a string.  Each is a
+    ValueError naming it when bad.  Satisfies :class:`mmlib.core.protocols.SimulatedDynamics`: the UKF, CKF and
+    the other sigma-point filters use :meth:`transition`, the EKF :meth:`jacobian` (analytic)."""
+
+    T: float
+    q: float
+    q_omega: float
+    name: str = "CT(omega in state)"
+    is_linear: bool = field(default=False, init=False)
+
+    def __post_init__(self):
+        _check_name(self.name)
+        T = _check_period(self.T)
+        q = check_scalar(self.q, "q", nonnegative=True)
+        q_omega = check_scalar(self.q_omega, "q_omega", nonnegative=True)
+        object.__setattr__(self, "T", T)
+        object.__setattr__(self, "q", q)
+        object.__setattr__(self, "q_omega", q_omega)
+        G = self.noise_gain
+        factor = G * np.sqrt([q, q, q_omega])
+        Q = G @ np.diag([q, q, q_omega]) @ G.T
+        _freeze(self, Q=0.5 * (Q + Q.T), _factor=factor)
+
+    dim = 5
+
+    @property
+    def noise_gain(self) -> np.ndarray:
+        r"""The gain :math:`\Gamma` (5, 3) of the class docstring (s^2, s): columns the x and y accelerations
+        and the turn-rate acceleration."""
+        T = self.T
+        G = np.zeros((5, 3))
+        G[0:2, 0] = G[2:4, 1] = (0.5 * T * T, T)
+        G[4, 2] = T
+        return G
+
+    @property
+    def noise_factor(self) -> np.ndarray:
+        r""":math:`\Gamma\,\mathrm{diag}(\sqrt q, \sqrt q, \sqrt{q_\omega})` (5, 3), a factor of ``Q``
+        (:math:`G G^T = Q`), used to draw the truth's process noise."""
+        return self._factor
+
+    def _check_x(self, x) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        if x.ndim < 1 or x.shape[-1] != 5:
+            raise ValueError(f"x: expected states of shape (..., 5), [x, vx, y, vy, omega], got shape {x.shape}")
+        return x
+
+    def transition(self, x: np.ndarray) -> np.ndarray:
+        r""":math:`f(x)` of the class docstring for states or sigma points ``x`` (..., 5), any leading axes
+        (e.g. (B, 5) or (B, p, 5)), in m, m/s and rad/s; returns a new array (..., 5).  A last axis other than 5
+        is a ValueError naming ``x``."""
+        x = self._check_x(x)
+        T = self.T
+        px, vx, py, vy, w = (x[..., i] for i in range(5))
+        theta = w * T
+        s1, c1, _, _ = _turn_functions(theta)
+        a, b = T * s1, T * c1                              # sin(wT)/w, (1 - cos(wT))/w
+        sin, cos = np.sin(theta), np.cos(theta)
+        return np.stack([px + a * vx - b * vy, cos * vx - sin * vy, py + b * vx + a * vy,
+                         sin * vx + cos * vy, w], axis=-1)
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        r""":math:`\partial f/\partial x` (..., 5, 5) at states ``x`` (..., 5), analytic: with
+        :math:`a = \sin\theta/\omega`, :math:`b = (1-\cos\theta)/\omega`, :math:`\theta = \omega T`,
+
+        .. math::
+            \begin{bmatrix}
+            1 & a & 0 & -b & v_x a' - v_y b' \\
+            0 & \cos\theta & 0 & -\sin\theta & -T(\sin\theta\, v_x + \cos\theta\, v_y) \\
+            0 & b & 1 & a & v_x b' + v_y a' \\
+            0 & \sin\theta & 0 & \cos\theta & T(\cos\theta\, v_x - \sin\theta\, v_y) \\
+            0 & 0 & 0 & 0 & 1 \end{bmatrix},
+
+        :math:`a' = \partial a/\partial\omega = T^2(\theta\cos\theta - \sin\theta)/\theta^2`,
+        :math:`b' = \partial b/\partial\omega = T^2(\theta\sin\theta - 1 + \cos\theta)/\theta^2` (series for
+        small :math:`\theta`; 0 and :math:`T^2/2` at :math:`\omega = 0`).
+        Units: the last column in m/(rad/s) and m/s/(rad/s) per row.  A last axis other than 5 is a ValueError
+        naming ``x``."""
+        x = self._check_x(x)
+        T = self.T
+        vx, vy, w = x[..., 1], x[..., 3], x[..., 4]
+        theta = w * T
+        s1, c1, ds1, dc1 = _turn_functions(theta)
+        a, b, da, db = T * s1, T * c1, T * T * ds1, T * T * dc1
+        sin, cos = np.sin(theta), np.cos(theta)
+        jac = np.zeros(x.shape[:-1] + (5, 5))
+        jac[..., 0, 0] = jac[..., 2, 2] = jac[..., 4, 4] = 1.0
+        jac[..., 0, 1], jac[..., 0, 3], jac[..., 0, 4] = a, -b, vx * da - vy * db
+        jac[..., 1, 1], jac[..., 1, 3], jac[..., 1, 4] = cos, -sin, -T * (sin * vx + cos * vy)
+        jac[..., 2, 1], jac[..., 2, 3], jac[..., 2, 4] = b, a, vx * db + vy * da
+        jac[..., 3, 1], jac[..., 3, 3], jac[..., 3, 4] = sin, cos, T * (cos * vx - sin * vy)
+        return jac
 
 
 # --------------------------------------------------------------------------- measurements

@@ -27,6 +27,9 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+__all__ = ["Dynamics", "SimulatedDynamics", "MeasurementModel", "Filter", "MomentFilter", "Layer", "Estimator", "State",
+           "require", "members", "missing"]
+
 
 @runtime_checkable
 class Dynamics(Protocol):

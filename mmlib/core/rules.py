@@ -26,6 +26,9 @@ import numpy as np
 from mmlib.core._validate import check_positive_int, check_scalar
 from mmlib.core.linalg import offset_points, weighted_covariances
 
+__all__ = ["Unscented", "Cubature", "FifthDegreeCubature", "SphericalSimplexRadial", "CentralDifference",
+           "rule_by_name", "SigmaPointRule", "UnitPoints", "regular_simplex"]
+
 
 @dataclass(frozen=True)
 class UnitPoints:
@@ -97,19 +100,41 @@ class SigmaPointRule:
 
 @dataclass(frozen=True)
 class Unscented(SigmaPointRule):
-    r"""Scaled unscented transform (Julier 2002; Wan & van der Merwe 2000).
+    r"""Scaled unscented transform, defaults ``alpha=1, beta=2, kappa=0`` (Julier 2002; Wan & van der Merwe 2000).
 
     :math:`\lambda = \alpha^2 (n+\kappa) - n`; points :math:`0, \pm\sqrt{n+\lambda}\,e_i`;
     :math:`w^m_0 = \lambda/(n+\lambda)`, :math:`w^c_0 = w^m_0 + 1 - \alpha^2 + \beta`,
-    :math:`w_i = 1/(2(n+\lambda))` (Liu & Wu 2017, Eq. 2).  Exact for polynomials
-    of degree 3 (and for degree-2 covariances whatever ``beta``).
+    :math:`w_i = 1/(2(n+\lambda))` (Liu & Wu 2017, Eq. 2; Wan & van der Merwe 2000, Eq. 15).  Exact for
+    polynomials of degree 3 (and for degree-2 covariances whatever ``beta``).
 
     ``alpha`` > 0, ``beta`` and ``kappa`` finite real numbers (dimensionless; stored as floats);
     ``n + lambda > 0`` is checked per dimension in :meth:`unit_points`.
+
+    **The defaults** ``(alpha, beta, kappa) = (1, 2, 0)``, also the default ``ukf`` of
+    :class:`mmlib.experiment.scenario.Scenario` and of :func:`rule_by_name`:
+
+    * ``beta = 2`` is the value Wan & van der Merwe 2000 (Sec. 3, after Eq. 15) and Julier 2002 give as
+      optimal for a Gaussian prior: the extra centre weight :math:`1 - \alpha^2 + \beta` carries the
+      prior's kurtosis into the covariance (for scalar :math:`x \sim N(m, s^2)` the rule gives
+      :math:`\mathrm{Var}[x^2] = 4m^2s^2 + 2s^4` exactly; tested);
+    * ``kappa = 0`` is the secondary scaling "usually set to 0" of Wan & van der Merwe 2000 (Sec. 3).
+      Julier & Uhlmann's ``kappa = 3 - n`` (1997; 2004) depends on the state dimension,
+      so it is not a default here: pass it, e.g. ``Unscented(1.0, 2.0, 3.0 - n)``;
+    * ``alpha = 1`` keeps every mean weight non-negative (:math:`w^m_0 = 0`): the small ``alpha`` (e.g.
+      1e-3) Wan & van der Merwe suggest gives :math:`w^m_0 \approx 1 - 1/\alpha^2 \approx -10^6`, whose
+      cancellation costs about 6 of the 16 digits of float64.
+
+    With these defaults the outer points and the mean weights are those of :class:`Cubature` (the centre
+    point has mean weight 0, so the transformed *means* and the cross-covariances are the cubature rule's)
+    and the covariance :math:`P_{yy}` differs from the cubature rule's by :math:`2\,(Y_0 - \bar y)(Y_0 -
+    \bar y)^T`, :math:`Y_0` the image of the mean: the two rules agree on linear maps and differ wherever
+    the image of the mean is not the mean of the images, i.e. on curved maps such as a range (tested).  The setting
+    ``alpha=1, beta=0, kappa=0``, this class's default before, *is* the cubature rule.  Every paper's
+    set-up passes its own three parameters.
     """
 
     alpha: float = 1.0
-    beta: float = 0.0
+    beta: float = 2.0
     kappa: float = 0.0
     name = "unscented"
     degree = 3
@@ -347,7 +372,10 @@ _RULES = {
 def rule_by_name(name: str, **params: float | str) -> SigmaPointRule:
     """Look up a rule by its short name (``ukf``, ``ckf``, ``5ckf``, ``ssrckf``, ``cdkf``, any case);
     ``params`` are the rule's own parameters (e.g. ``alpha``, ``beta``, ``kappa`` for ``ukf``, ``h`` and
-    ``form`` for ``cdkf``); an unknown parameter is a ValueError naming it."""
+    ``form`` for ``cdkf``); an unknown parameter is a ValueError naming it.  Parameters left out take the
+    class's defaults: ``rule_by_name("ukf")`` is ``Unscented()``, i.e. ``alpha=1, beta=2, kappa=0``
+    (:class:`Unscented`; not the cubature rule), ``rule_by_name("cdkf")`` is ``CentralDifference()``
+    (``h = sqrt(3)``, Stirling form)."""
     if not isinstance(name, str):
         raise ValueError(f"name: expected a rule name (a string), got {type(name).__name__}")
     key = name.lower()

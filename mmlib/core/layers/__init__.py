@@ -3,3 +3,4 @@ adaptation (``adaptive``), observation bootstrapping (``bootstrap``), the IMM wh
 controller sets each step (``adaptive_imm``) and the fuzzy controller of those levels (``fuzzy_noise``).  Each
 wraps a filter of :class:`mmlib.core.protocols.Filter` and is one itself (or, for ``adaptive_imm`` and
 ``fuzzy_noise``, wraps an IMM and is an :class:`mmlib.core.protocols.Estimator`)."""
+__all__: list[str] = []      # a package: its modules are the API

@@ -44,6 +44,8 @@ from mmlib.core.filters import FilterLayer, MeasurementPrediction, kalman_update
 from mmlib.core.linalg import trace
 from mmlib.core.protocols import MeasurementModel
 
+__all__ = ["InnovationAdaptive", "AdaptiveState"]
+
 
 class AdaptiveState(NamedTuple):
     """State of :class:`InnovationAdaptive`: ``mean`` (B, n), ``cov`` (B, n, n); ``innovations`` (B, W, m)

@@ -33,6 +33,9 @@ from mmlib.core._validate import as_float_array, check_bool, check_has, check_na
 from mmlib.core.estimation import IMM, IMMState
 from mmlib.core.protocols import MeasurementModel
 
+__all__ = ["NoiseAdaptiveIMM", "WindowedNoiseAdaptiveIMM", "NoiseAdaptiveState", "WindowedNoiseAdaptiveState",
+           "degree_of_divergence"]
+
 
 def degree_of_divergence(innovation: np.ndarray, noise_variance: np.ndarray | float) -> np.ndarray:
     r"""(B, 2): :math:`[\xi/\bar s, \eta/\sqrt{\bar s}]` for innovations (B, m) and a reference variance

@@ -42,6 +42,8 @@ from mmlib.core._validate import (as_float_array, check_choice, check_finite, ch
 from mmlib.core.filters import FilterLayer, MeasurementPrediction, UpdateInfo, gaussian_state, kalman_update
 from mmlib.core.protocols import MeasurementModel
 
+__all__ = ["ObservationBootstrap", "BootstrapState"]
+
 
 class BootstrapState(NamedTuple):
     """State of :class:`ObservationBootstrap`: ``mean`` (B, n), ``cov`` (B, n, n), the pre-drawn standard

@@ -48,7 +48,7 @@ from mmlib.core.fuzzy import TakagiSugeno, ramp_sets
 from mmlib.core.layers.adaptive_imm import NoiseAdaptiveIMM, WindowedNoiseAdaptiveIMM, degree_of_divergence
 from mmlib.core.protocols import MeasurementModel, MomentFilter
 
-__all__ = ["NORMALISE", "SET_NAMES", "FuzzyNoiseBounds", "fuzzy_system", "fuzzy_imm"]
+__all__ = ["fuzzy_imm", "FuzzyNoiseBounds", "fuzzy_system", "NORMALISE", "SET_NAMES"]
 
 #: the reference variances the degree of divergence is divided by (see the module docstring)
 NORMALISE = ("innovation", "measurement")

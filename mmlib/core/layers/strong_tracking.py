@@ -36,6 +36,8 @@ from mmlib.core.filters import FilterLayer, MeasurementPrediction, kalman_update
 from mmlib.core.linalg import trace
 from mmlib.core.protocols import MeasurementModel
 
+__all__ = ["StrongTracking", "StrongTrackingState"]
+
 
 class StrongTrackingState(NamedTuple):
     """State of :class:`StrongTracking`: ``mean`` (B, n), ``cov`` (B, n, n), ``V`` (B, m, m) the smoothed
