@@ -190,7 +190,7 @@ def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
         *[f"papers/{notebooks[d['paper']].stem}" for d in sorted(papers, key=lambda d: d["paper"])], "```", "",
         "```{toctree}", ":maxdepth: 1", ":caption: Across the papers", "", "reading-spaces", "arena", "```", "",
         "```{toctree}", ":maxdepth: 1", ":caption: The library", "", "getting-started", "api/index", "results-contract",
-        "new-paper", "```", "",
+        "new-paper", "compare-two-filters", "```", "",
         summary])
 
 
