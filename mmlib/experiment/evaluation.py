@@ -21,6 +21,12 @@ from mmlib.core.protocols import Estimator, MeasurementModel
 from mmlib.experiment.simulate import ManeuverSchedule, simulate
 from mmlib.experiment.executors import run_tasks
 
+__all__ = [
+    "evaluate", "RunSet", "paired_mse_difference", "better_claim", "nees_profile", "NEESProfile", "consistency",
+    "consistency_entries", "simulator", "make_batches", "with_initial_states", "evaluate_with_cost", "select",
+    "time_algorithms", "first_runs", "divergence_report", "degenerate_reason", "run_operations", "pair_operations"
+]
+
 
 
 class RunSet(NamedTuple):
