@@ -38,6 +38,8 @@ myst_heading_anchors = 3
 myst_dmath_double_inline = True
 
 # --- API reference from the docstrings
+# "bysource" is the order of a module's __all__ when it has one (its public API in order of importance; autodoc then
+# documents exactly the names of __all__), the source order otherwise (tests/test_public_api_experiment.py)
 autodoc_member_order = "bysource"
 autodoc_typehints = "description"
 autodoc_default_options = {"members": True, "show-inheritance": True}

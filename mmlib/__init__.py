@@ -17,9 +17,10 @@ The folders are the layers, numbered; each depends only on the layers with a sma
 
 The most used names are re-exported here (``mmlib.IMM``, ``mmlib.SigmaPointFilter``, ``mmlib.models`` ...).
 """
-from mmlib.core.layers import adaptive, bootstrap, strong_tracking
-from mmlib.core import estimation, filters, linalg, mixing, models, rules
-from mmlib.experiment import metrics, montecarlo, report, simulate
+# the modules, reachable as mmlib.models, mmlib.metrics ... (attributes, not in __all__: its names are the API objects)
+from mmlib.core.layers import adaptive, bootstrap, strong_tracking  # noqa: F401
+from mmlib.core import estimation, filters, linalg, mixing, models, rules  # noqa: F401
+from mmlib.experiment import metrics, montecarlo, report, simulate  # noqa: F401
 from mmlib.core.layers.adaptive import InnovationAdaptive
 from mmlib.core.layers.bootstrap import ObservationBootstrap
 from mmlib.core.mixing import CubatureMixing
@@ -34,11 +35,8 @@ from mmlib.core.rules import (CentralDifference, Cubature, FifthDegreeCubature, 
 __version__ = "0.1.0"
 
 __all__ = [
-    "adaptive", "bootstrap", "estimation", "filters", "linalg", "metrics", "mixing", "models", "montecarlo", "report",
-    "rules", "simulate", "strong_tracking",
-    "InnovationAdaptive", "ObservationBootstrap", "CubatureMixing", "StrongTracking",
-    "IMM", "MomentMixing", "SingleModel", "Track", "run",
-    "ExtendedKalmanFilter", "GaussianState", "KalmanFilter", "SigmaPointFilter", "filter_by_name", "kalman_update",
-    "MonteCarlo", "Stream",
-    "CentralDifference", "Cubature", "FifthDegreeCubature", "SphericalSimplexRadial", "Unscented", "rule_by_name",
+    "IMM", "SingleModel", "run", "Track", "SigmaPointFilter", "Unscented", "Cubature", "FifthDegreeCubature",
+    "SphericalSimplexRadial", "CentralDifference", "rule_by_name", "ExtendedKalmanFilter", "KalmanFilter",
+    "filter_by_name", "MonteCarlo", "Stream", "MomentMixing", "CubatureMixing", "StrongTracking", "InnovationAdaptive",
+    "ObservationBootstrap", "GaussianState", "kalman_update"
 ]

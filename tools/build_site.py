@@ -189,8 +189,8 @@ def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
         "```{toctree}", ":maxdepth: 1", ":caption: Papers", "",
         *[f"papers/{notebooks[d['paper']].stem}" for d in sorted(papers, key=lambda d: d["paper"])], "```", "",
         "```{toctree}", ":maxdepth: 1", ":caption: Across the papers", "", "reading-spaces", "arena", "```", "",
-        "```{toctree}", ":maxdepth: 1", ":caption: The library", "", "getting-started", "api/index", "results-contract",
-        "new-paper", "```", "",
+        "```{toctree}", ":maxdepth: 1", ":caption: The library", "", "getting-started", "compare-two-filters",
+        "api/index", "results-contract", "new-paper", "```", "",
         summary])
 
 

@@ -9,3 +9,5 @@ ranks and the results document) and ``views`` (heat maps and ladder curves).  It
 claim each paper declares for it (:class:`mmlib.experiment.paper.ArenaEntry`) and the parameters of its headline
 set-up; it is used by ``notebooks/arena.py`` only.
 """
+
+__all__: list[str] = []

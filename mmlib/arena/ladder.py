@@ -39,6 +39,11 @@ from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.experiment.scenario import Scenario
 from mmlib.experiment.simulate import ManeuverSchedule
 
+__all__ = [
+    "rung", "scenario", "nonlinearity_index", "Rung", "RUNGS", "NAMES", "ROOT_SEED", "T", "N_STEPS", "X0", "P0_SD", "Q",
+    "SIGMA_R", "LINEAR_SIGMA", "SIGMA_THETA_MRAD", "TURNS", "MANOEUVRE_OMEGA_DEG", "TRANSITION"
+]
+
 ROOT_SEED = 20261201          #: the arena's root seed (the ladder's streams; paper scenarios keep their papers')
 T = 1.0
 N_STEPS = 100

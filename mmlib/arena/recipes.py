@@ -45,6 +45,11 @@ from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment.scenario import Scenario
 from mmlib.papers import REGISTRY
 
+__all__ = [
+    "build", "recipe", "Recipe", "RECIPES", "ALGORITHMS", "ALIASES", "applicability", "requirement", "NotApplicable",
+    "initial_state", "ukf", "cdkf", "naukf", "aukf", "cdkf_obs", "strong", "LIU", "ZHOU", "HU", "TSENG", "KINDS"
+]
+
 #: the proposing papers' headline set-ups (their headline readings), whose layer parameters the recipes use
 LIU = REGISTRY["liu2017"].headline_setup().example1
 ZHOU = REGISTRY["zhou2017"].headline_setup().case1

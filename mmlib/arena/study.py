@@ -86,6 +86,15 @@ from mmlib.experiment.paper import Study
 from mmlib.experiment.scenario import Scenario
 from mmlib.papers import REGISTRY
 
+__all__ = [
+    "run_arena", "ArenaResult", "findings", "compare", "arena_claims", "paper_claims", "paper_claim_list",
+    "idea_summary", "ideas", "all_ideas", "ARENA_IDEAS", "scenario_table", "evaluate_cell", "cell", "cell_metrics",
+    "per_run_values", "rank_scenario", "cost_per_run_step", "scenario", "known_scenarios", "seed_of",
+    "measurement_only_errors", "measurement_only_mse", "measurement_only_rmse", "degenerate_reason", "exclusions",
+    "digest", "paper_names", "ArenaVerdict", "ARENA_READING", "VERSUS_BEST", "BASELINE_WHAT", "PAPER", "STUDY",
+    "SCENARIOS", "ALGORITHMS", "CHUNK_SIZE", "COST_RUNS", "RESULT_KEYS"
+]
+
 
 def paper_names() -> tuple:
     """The registered papers that take part in the arena, in the registry's order: every paper of

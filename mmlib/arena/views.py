@@ -27,6 +27,12 @@ import numpy as np
 from mmlib.core._validate import check_names
 from mmlib.experiment.views import value_pm
 
+__all__ = [
+    "rmse_heatmap", "consistency_heatmap", "ladder_curves", "cell_table", "claim_scenario_matrix", "LADDER_ALGORITHMS",
+    "RMSE_RATIO_RANGE", "CONSISTENCY_RANGE", "BAND_SIGMAS", "NA_COLOUR", "NO_VALUE_COLOUR", "DIVERGED_COLOUR",
+    "CONSISTENCY_NAMES", "CELL_TABLE_KEYS"
+]
+
 if TYPE_CHECKING:
     import matplotlib.axes
     import matplotlib.figure

@@ -599,6 +599,29 @@ class Track(NamedTuple):
         """How many runs diverged, at which steps and why (:func:`summarise_divergence`)."""
         return summarise_divergence(self.diverged_step, self.divergence_cause)
 
+    def errors(self, truth: ArrayLike) -> np.ndarray:
+        r"""The estimation errors :math:`\tilde x_k = \hat x_{k|k} - x_k`, k = 1..K, (B, K, n), in the state's units.
+
+        ``truth``: the true states x_0..x_K (B, K+1, n), as :func:`mmlib.experiment.simulate.simulate` returns them
+        (its first state x_0 is the start, before the first measurement, and is dropped), or x_1..x_K (B, K, n).
+        Estimate k of ``mean`` (0-based; the estimate after the (k+1)-th measurement) is compared with truth
+        ``x_{k+1}``, the state the measurement z_{k+1} was drawn from -- the alignment of ``run(..., truth=)``'s NEES
+        and of :func:`mmlib.experiment.evaluation.evaluate`.  Runs that diverged carry what their estimates hold
+        (non-finite from the divergence on): select ``~track.diverged`` before averaging.  A ``truth`` of another
+        shape (runs, steps or state dimension) or non-numeric is a ValueError naming ``truth``."""
+        B, K, n = self.mean.shape
+        return self.mean - _aligned_truth(truth, B, K, n)
+
+
+def _aligned_truth(truth, B: int, K: int, n: int | None = None) -> np.ndarray:
+    """x_1..x_K (B, K, n) from the true states ``truth`` x_0..x_K (B, K+1, n) or x_1..x_K (B, K, n): the one alignment
+    of truth and estimates (:meth:`Track.errors`, ``run(..., truth=)``); ValueError naming ``truth`` otherwise."""
+    x = as_float_array(truth, "truth")
+    if x.ndim != 3 or x.shape[0] != B or x.shape[1] not in (K, K + 1) or (n is not None and x.shape[2] != n):
+        raise ValueError(f"truth: expected shape ({B}, {K + 1}, {'n' if n is None else n}) (x_0..x_K) or "
+                         f"({B}, {K}, {'n' if n is None else n}) (x_1..x_K), got {x.shape}")
+    return x[:, 1:] if x.shape[1] == K + 1 else x
+
 
 def summarise_divergence(diverged_step: np.ndarray, cause: np.ndarray | None = None) -> str:
     """``"4 of 100 runs diverged (steps 12, 40 ×2, 41; covariance no longer positive definite)"`` from the
@@ -776,10 +799,7 @@ def _check_truth(truth, B: int, K: int, consistency: bool):
         return None
     if not consistency:
         raise ValueError("truth: only used with consistency=True (the NEES)")
-    x = check_finite(as_float_array(truth, "truth"), "truth")
-    if x.ndim != 3 or x.shape[0] != B or x.shape[1] not in (K, K + 1):
-        raise ValueError(f"truth: expected shape ({B}, {K + 1}, n) (x_0..x_K) or ({B}, {K}, n), got {x.shape}")
-    return x[:, 1:] if x.shape[1] == K + 1 else x
+    return check_finite(_aligned_truth(truth, B, K), "truth")
 
 
 def select_runs(state: Any, index: slice | np.ndarray) -> Any:

@@ -9,11 +9,13 @@ every notebook shares (``notebook``).
 It depends only on the estimation core (``mmlib.core``); the paper set-ups (``mmlib.papers``) and the arena
 (``mmlib.arena``) depend on it.
 """
-from mmlib.experiment import evaluation, grid, multiverse, readings
+from mmlib.experiment import evaluation, grid, multiverse, readings  # noqa: F401  (modules: attributes, not in __all__)
 from mmlib.experiment.grid import run_grid
 from mmlib.experiment.multiverse import Multiverse, run_multiverse
 from mmlib.experiment.universe import PublishedNumber, UniverseResult
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 
-__all__ = ["evaluation", "grid", "multiverse", "readings", "run_grid", "Multiverse", "PublishedNumber",
-           "run_multiverse", "UniverseResult", "Deviation", "Factor", "Option", "ReadingSpace"]
+__all__ = [
+    "run_grid", "run_multiverse", "Multiverse", "ReadingSpace", "Factor", "Option", "Deviation", "UniverseResult",
+    "PublishedNumber"
+]

@@ -42,6 +42,10 @@ from mmlib.core.linalg import kernel
 from mmlib.experiment.evaluation import RunSet, _flat_runsets
 from mmlib.experiment.machine import differences, fingerprint
 
+__all__ = [
+    "run_digest", "compare_digests", "DigestComparison", "same_numbers", "DIGEST_VERSION", "RTOL_MACHINE", "RTOL_KERNEL"
+]
+
 #: Tag hashed first by :func:`run_digest`; change it whenever what is hashed changes.
 DIGEST_VERSION = "mmlib-run-digest-2"
 

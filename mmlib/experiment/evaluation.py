@@ -15,11 +15,17 @@ from numpy.typing import ArrayLike
 from mmlib.experiment import metrics
 from mmlib.core._validate import (as_float_array, check_bool, check_finite, check_finite_runs, check_has,
                                   check_index, check_mask, check_positive_int)
-from mmlib.core.estimation import run, select_runs, summarise_divergence
+from mmlib.core.estimation import Track, run, select_runs, summarise_divergence
 from mmlib.experiment.montecarlo import MonteCarlo, Progress
 from mmlib.core.protocols import Estimator, MeasurementModel
 from mmlib.experiment.simulate import ManeuverSchedule, simulate
 from mmlib.experiment.executors import run_tasks
+
+__all__ = [
+    "evaluate", "RunSet", "paired_mse_difference", "better_claim", "nees_profile", "NEESProfile", "consistency",
+    "consistency_entries", "simulator", "make_batches", "with_initial_states", "evaluate_with_cost", "select",
+    "time_algorithms", "first_runs", "divergence_report", "degenerate_reason", "run_operations", "pair_operations"
+]
 
 
 
@@ -273,29 +279,51 @@ def _evaluate_chunk(estimators: dict, make_batch: Callable, measurement_models, 
         if track.mean.shape[-1] != truth.shape[-1]:
             raise ValueError(f"make_batch: truth of state dimension {truth.shape[-1]}, but {name!r} estimates "
                              f"{track.mean.shape[-1]}")
-        out[name] = {"err": track.mean - truth[:, 1:], "mu": track.mode_probabilities, "div": track.diverged_step,
+        out[name] = {"err": track.errors(truth), "mu": track.mode_probabilities, "div": track.diverged_step,
                      "diag": track.diagnostics, "cause": track.divergence_cause, "first": track.mean[0],
                      "nees": track.nees, "nis": track.nis, "nis_dof": track.nis_dof, "cpu": cpu}
     return out
 
 
-def paired_mse_difference(a: RunSet, b: RunSet, components: int | Sequence[int]) -> metrics.MCValue:
+def paired_mse_difference(a: RunSet | Track, b: RunSet | Track, components: int | Sequence[int], *,
+                          truth: ArrayLike | None = None) -> metrics.MCValue:
     r"""Mean over runs of (time-averaged squared error of a minus that of b), with its standard
     error; ``components`` is one state index or a tuple whose squared errors are summed (e.g. x
     and y for a position error).  Runs diverged in either estimator are excluded and counted.
 
     :math:`d_m = \frac1K\sum_k \sum_{i} (e^a_{m,k,i})^2 - (e^b_{m,k,i})^2` over the runs m valid in both;
-    returns the mean of :math:`d_m` and its standard error (unit: squared unit of the components)."""
-    _check_runset(a, "a")
-    _check_runset(b, "b")
-    if a.errors.ndim != 3 or a.errors.shape != b.errors.shape:
-        raise ValueError(f"a, b: expected errors of the same shape (N, K, n) (the same runs), got "
-                         f"{a.errors.shape} and {b.errors.shape}")
-    idx = _components(components, a.errors.shape[-1])
-    ok = a.valid & b.valid
-    check_finite_runs(a.errors[..., idx], "a.errors", ok)
-    check_finite_runs(b.errors[..., idx], "b.errors", ok)
-    ea, eb = a.errors[ok][..., idx], b.errors[ok][..., idx]
+    returns the mean of :math:`d_m` and its standard error (unit: squared unit of the components).
+
+    ``a`` and ``b``: two :class:`RunSet` of :func:`evaluate` (their ``errors``), or two
+    :class:`~mmlib.core.estimation.Track` of :func:`mmlib.core.estimation.run` on the same runs (common random
+    numbers) with ``truth`` the true states (B, K+1, n) x_0..x_K (or (B, K, n)), their errors
+    :meth:`Track.errors(truth) <mmlib.core.estimation.Track.errors>`.  ``truth`` is required with tracks and refused
+    with RunSets (which hold their errors already); a mix of the two is a ValueError naming ``b``."""
+    if isinstance(a, Track) or isinstance(b, Track):
+        if not isinstance(a, Track):
+            raise ValueError(f"a: expected a Track like b, got {type(a).__name__}")
+        if not isinstance(b, Track):
+            raise ValueError(f"b: expected a Track like a, got {type(b).__name__}")
+        if truth is None:
+            raise ValueError("truth: required to compare two tracks (the true states (B, K+1, n))")
+        if a.mean.shape != b.mean.shape:
+            raise ValueError(f"a, b: expected estimates of the same shape (B, K, n) (the same runs), got "
+                             f"{a.mean.shape} and {b.mean.shape}")
+        ea, eb, ok_a, ok_b = a.errors(truth), b.errors(truth), ~a.diverged, ~b.diverged
+    else:
+        _check_runset(a, "a")
+        _check_runset(b, "b")
+        if truth is not None:
+            raise ValueError("truth: only for two tracks; RunSets hold their errors already")
+        if a.errors.ndim != 3 or a.errors.shape != b.errors.shape:
+            raise ValueError(f"a, b: expected errors of the same shape (N, K, n) (the same runs), got "
+                             f"{a.errors.shape} and {b.errors.shape}")
+        ea, eb, ok_a, ok_b = a.errors, b.errors, a.valid, b.valid
+    idx = _components(components, ea.shape[-1])
+    ok = ok_a & ok_b
+    check_finite_runs(ea[..., idx], "a.errors", ok)
+    check_finite_runs(eb[..., idx], "b.errors", ok)
+    ea, eb = ea[ok][..., idx], eb[ok][..., idx]
     d = np.zeros(ok.shape)
     d[ok] = (ea ** 2).sum(axis=-1).mean(axis=1) - (eb ** 2).sum(axis=-1).mean(axis=1)
     return metrics.mean_with_se(d, ok)
@@ -353,7 +381,7 @@ def nees_profile(estimator: Estimator, init: Any, measurements: ArrayLike, truth
     truth = np.asarray(truth)
     tr = run(estimator, init, measurements)
     ok = ~tr.diverged
-    nees = metrics.nees(tr.mean - truth[:, 1:], tr.cov, valid=ok)[ok]
+    nees = metrics.nees(tr.errors(truth), tr.cov, valid=ok)[ok]
     return NEESProfile(nees.mean(axis=0), metrics.mean_with_se(nees.mean(axis=1)), int((~ok).sum()))
 
 

@@ -44,6 +44,12 @@ from typing import TYPE_CHECKING, Any, Callable, Sequence
 from mmlib.core._validate import check_positive_int
 from mmlib.experiment.source import source_hash
 
+__all__ = [
+    "run_tasks", "choose_executor", "default_workers", "worker_count", "SerialExecutor", "local_pool", "dask_executor",
+    "dask_client", "scheduler_address", "in_task", "shutdown", "SchedulerError", "WORKERS_VARIABLE",
+    "SCHEDULER_VARIABLE", "SCHEDULER_TIMEOUT", "BLAS_THREAD_VARIABLES", "PARENT_POLL", "DASK_HINT"
+]
+
 if TYPE_CHECKING:
     import distributed
 

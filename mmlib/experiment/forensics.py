@@ -43,6 +43,10 @@ from mmlib.core._validate import as_float_array, check_positive_int
 from mmlib.experiment import verdicts
 from mmlib.experiment.metrics import wilson_interval
 
+__all__ = [
+    "planted_recovery", "confusion", "synthetic_table", "rms_relative", "scale", "CONFUSION", "RECOVERY_TRIALS"
+]
+
 #: two options are confused (their factor unidentifiable) when a printed table from one is closer to the other with
 #: at least this probability
 CONFUSION = 0.05

@@ -54,6 +54,11 @@ from mmlib.experiment.montecarlo import say_progress
 from mmlib.experiment.source import PRESENTATION_MODULES, source_hash  # noqa: F401
 from mmlib.experiment.writing import atomic_write_text
 
+__all__ = [
+    "run_grid", "CacheWarning", "default_cache_dir", "key_document", "result_checksum", "job_name", "job_code",
+    "check_paper", "PAPER_NAME", "RESULT_KEYS"
+]
+
 
 def default_cache_dir() -> Path:
     """``$MMLIB_CACHE`` if set, else ``build/cache/multiverse`` of the repository holding mmlib."""

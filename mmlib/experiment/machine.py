@@ -25,6 +25,11 @@ import json
 import os
 import platform
 
+__all__ = [
+    "fingerprint", "fingerprint_id", "differences", "dispatch_environment", "openblas", "numpy_simd",
+    "DISPATCH_VARIABLES"
+]
+
 #: the environment variables that change which code the libraries dispatch to (recorded as set or not)
 DISPATCH_VARIABLES = ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES", "NPY_ENABLE_CPU_FEATURES", "NUMBA_CPU_NAME",
                       "NUMBA_CPU_FEATURES", "MMLIB_KERNEL")

@@ -18,6 +18,11 @@ from mmlib.core.estimation import normalised_square
 from mmlib.core._validate import (as_float_array, check_covariance, check_finite, check_finite_runs, check_index,
                                   check_mask, check_positive_int, check_scalar)
 
+__all__ = [
+    "MCValue", "mean_with_se", "armse", "rmse_over_time", "rmse_time_averaged", "mean_rmse_over_time", "rms_with_se",
+    "nees", "chi2_band", "jackknife", "wilson_interval", "timing_ratio", "ratio_spread_text"
+]
+
 
 class MCValue(NamedTuple):
     """A Monte Carlo estimate: ``value`` and its standard error ``stderr`` (same shape and unit), from

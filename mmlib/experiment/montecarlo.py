@@ -25,6 +25,10 @@ from numpy.typing import ArrayLike
 
 from mmlib.core._validate import check_bool, check_index, check_positive_int
 
+__all__ = [
+    "MonteCarlo", "Stream", "Progress", "check_stream", "say_progress", "PROGRESS_LOG_ENV"
+]
+
 
 class Stream(IntEnum):
     """The purpose ``p`` of a run's random stream (the second element of its spawn key): TRUTH (process noise of

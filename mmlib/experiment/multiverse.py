@@ -64,6 +64,11 @@ from mmlib.experiment import forensics
 from mmlib.experiment.readings import Design, ReadingSpace, sample_seed
 from mmlib.experiment.universe import Effect, PublishedNumber, UniverseResult, Value, finite_or_none, items
 
+__all__ = [
+    "run_multiverse", "Multiverse", "from_dict", "ROBUST_FRACTION", "INTERVAL_LEVEL", "PRECISION", "RECOVERY_PURPOSE",
+    "NO_SHARE"
+]
+
 
 #: a claim is robust when the lower bound of the interval of one verdict's share of the reading space is at least
 #: this fraction (the share itself when it is exact, the full factorial run)

@@ -12,6 +12,11 @@ from mmlib.experiment.readings import Deviation
 from mmlib.experiment.report import PartVerdict, Row, joint_tests
 from mmlib.experiment.views import markdown_table, value_pm
 
+__all__ = [
+    "NotebookRun", "rows_table", "claims_table", "claim_matrix", "deviations_table", "shade_intervals", "plot_style",
+    "PART_SYMBOLS", "CORE_PROVENANCE", "PARAMETER_MINIMUM", "STABILITY_UNIVERSES", "DESIGNS"
+]
+
 if TYPE_CHECKING:
     from mmlib.experiment.montecarlo import MonteCarlo
     from mmlib.experiment.multiverse import Multiverse

@@ -39,7 +39,9 @@ from mmlib.experiment.readings import Deviation, ReadingSpace
 from mmlib.experiment.verdicts import RECONSTRUCTION
 from mmlib.experiment.universe import PublishedNumber, UniverseResult
 
-__all__ = ["Paper", "Study", "ArenaEntry", "UniverseResult", "PublishedNumber", "PROFILE_KEYS"]
+__all__ = [
+    "Paper", "Study", "ArenaEntry", "PROFILE_KEYS", "DESIGNS", "KINDS", "QUALIFIERS", "NAME_PATTERN"
+]
 
 #: what a notebook profile may set (checked): headline runs, timing runs and repeats, runs per universe, the design;
 #: a paper may add keys of its own (e.g. tseng2011's oracle runs)

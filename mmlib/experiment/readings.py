@@ -38,6 +38,11 @@ import numpy as np
 
 from mmlib.core._validate import as_plain_json, check_bool, check_choice, check_positive_int
 
+__all__ = [
+    "ReadingSpace", "Factor", "Option", "Deviation", "Design", "sample_seed", "FACTOR_KINDS", "DESIGN_KINDS",
+    "UNIFORM_KINDS"
+]
+
 
 def _check_text(obj, fields, optional=()) -> None:
     """Each of ``fields`` of ``obj`` a non-empty string (``optional`` ones may be empty)."""

@@ -25,3 +25,5 @@ from mmlib.experiment.verdicts import (CLAIM_VERDICTS, CONTRADICTED, COST_MARGIN
 # re-exported: writing the outputs
 from mmlib.experiment.writing import (atomic_write_text, git_commit, provenance, save_figure,  # noqa: F401
                                       write_results)
+
+__all__: list[str] = []

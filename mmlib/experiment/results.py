@@ -22,6 +22,10 @@ import re
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
+__all__ = [
+    "read_results", "validate_results", "results_schema", "RESULTS_SCHEMA_FILE"
+]
+
 #: the JSON Schema of the results contract, a file of this package beside this module
 RESULTS_SCHEMA_FILE = "results.schema.json"
 

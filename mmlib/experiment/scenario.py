@@ -28,6 +28,10 @@ from mmlib.core._validate import (as_float_array, check_applies, check_covarianc
                                   check_indices, check_name, check_positive_int, check_scalar)
 from mmlib.core.protocols import Dynamics, MeasurementModel, require
 
+__all__ = [
+    "Scenario"
+]
+
 
 @dataclass(frozen=True, eq=False)
 class Scenario:

@@ -21,6 +21,10 @@ from mmlib.core.linalg import matmul_rows
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.core.protocols import MeasurementModel, SimulatedDynamics, members
 
+__all__ = [
+    "simulate", "ManeuverSchedule", "Scenario", "propagate", "SIMULATED_DYNAMICS_METHODS"
+]
+
 SIMULATED_DYNAMICS_METHODS = members(SimulatedDynamics)
 
 

@@ -10,6 +10,10 @@ import functools
 import hashlib
 from pathlib import Path
 
+__all__ = [
+    "source_hash", "PRESENTATION_MODULES"
+]
+
 #: modules that only render results (tables, figures): editing them cannot change a universe's numbers
 PRESENTATION_MODULES = ("experiment/views.py", "experiment/notebook.py", "arena/views.py")
 

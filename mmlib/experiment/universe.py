@@ -25,6 +25,10 @@ import numpy as np
 from mmlib.core._validate import as_float_array, check_count, check_positive_int
 from mmlib.experiment import verdicts
 
+__all__ = [
+    "UniverseResult", "PublishedNumber", "Value", "JudgedClaim", "Effect", "finite_or_none", "items", "JSON_KEYS"
+]
+
 
 class PublishedNumber(NamedTuple):
     """A number printed in the paper: ``table`` groups cells for the table match (e.g.

@@ -73,6 +73,16 @@ from typing import Iterable, Mapping, NamedTuple
 
 import numpy as np
 
+__all__ = [
+    "verdict", "make_row", "Row", "Verdict", "judge", "Judgement", "part", "Part", "claim_verdict", "ClaimVerdict",
+    "PartVerdict", "Claims", "joint_test", "joint_tests", "JointTest", "ratio_part", "exact_part", "exact_row",
+    "analytic_row", "identity_floor", "standardized_distance", "printed_half_unit", "verdict_category",
+    "claim_category", "is_reproduced", "qualified", "rule", "REPRODUCED", "REPRODUCED_EXACT", "ISOLATED", "QUALITATIVE",
+    "INCONCLUSIVE", "NOT_REPRODUCED", "NOT_REPRODUCED_EXACT", "NOT_REPLICABLE", "VERDICTS", "HOLDS", "PARTLY",
+    "CONTRADICTED", "NOT_SUPPORTED", "NOT_ASSESSABLE", "CLAIM_VERDICTS", "RECONSTRUCTION", "PAPER_ERROR_ASSUMPTION",
+    "SIGMA_FACTOR", "RELATIVE_BAND", "NEGLIGIBLE", "ROUNDOFF_OPS", "COST_MARGIN", "JOINT_ALPHA"
+]
+
 
 class _Vocabulary(enum.StrEnum):
     """A verdict category: its string in every respect a caller can see (equality, hash, format, JSON and repr, so

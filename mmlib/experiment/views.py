@@ -21,6 +21,14 @@ from mmlib.experiment import verdicts
 from mmlib.experiment.multiverse import PRECISION, ROBUST_FRACTION, Multiverse
 from mmlib.experiment.readings import ReadingSpace
 
+__all__ = [
+    "markdown_table", "value_pm", "summary_line", "claims_table", "claim_option_table", "numbers_table",
+    "table_match_table", "table_match_sentence", "table_match_figure", "specification_curve", "one_factor_table",
+    "factors_table", "options_table", "consistency_table", "sensitivity_table", "recovery_table", "recovery_text",
+    "stability_text", "degenerate_list", "degenerate_text", "controls_text", "reading_text", "most_reading",
+    "share_text", "robustness_text", "claim_words", "claim_cell", "percent"
+]
+
 if TYPE_CHECKING:
     import matplotlib.figure
 

@@ -22,6 +22,10 @@ import numpy as np
 from mmlib.experiment import results, verdicts
 from mmlib.experiment.verdicts import Row
 
+__all__ = [
+    "write_results", "save_figure", "provenance", "git_commit", "atomic_write_text"
+]
+
 if TYPE_CHECKING:
     import matplotlib.figure
 

@@ -12,6 +12,10 @@ from typing import Iterator, Mapping
 
 from mmlib.experiment.paper import Paper
 
+__all__ = [
+    "REGISTRY", "Registry", "PACKAGES"
+]
+
 #: the packages of the replicated papers, in the order of the README's table; the controls of the pipeline
 #: (``Paper.kind == "control"``) first
 PACKAGES = ("controls", "zhu2016", "liu2017", "hu2017", "zhou2017", "tseng2011")

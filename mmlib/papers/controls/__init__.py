@@ -19,6 +19,10 @@ from __future__ import annotations
 from mmlib.experiment.paper import Paper
 from mmlib.papers.controls import setup, study, text
 
+__all__ = [
+    "PAPER"
+]
+
 PAPER = Paper(
     name=text.NAME, title=text.TITLE, citation=text.CITATION, doi=text.DOI, root_seed=text.ROOT_SEED,
     n_runs=None, setup_type=setup.Setup, deviations=text.DEVIATIONS, space=text.SPACE, published=text.PUBLISHED,

@@ -19,6 +19,10 @@ from __future__ import annotations
 from mmlib.experiment.paper import ArenaEntry, Paper
 from mmlib.papers.hu2017 import setup, study, text
 
+__all__ = [
+    "PAPER"
+]
+
 PAPER = Paper(
     name=text.NAME, title="Hu et al. 2017: IMM with a central difference KF and bootstrapped observations",
     citation=text.CITATION, doi=text.DOI, root_seed=text.ROOT_SEED, n_runs=text.N_RUNS,

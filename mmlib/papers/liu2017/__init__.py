@@ -23,6 +23,10 @@ from __future__ import annotations
 from mmlib.experiment.paper import ArenaEntry, Paper
 from mmlib.papers.liu2017 import setup, study, text
 
+__all__ = [
+    "PAPER"
+]
+
 PAPER = Paper(
     name=text.NAME, title=text.TITLE, citation=text.CITATION, doi=text.DOI, root_seed=text.ROOT_SEED,
     n_runs=text.N_RUNS, setup_type=setup.Examples, deviations=text.DEVIATIONS, space=text.SPACE,
