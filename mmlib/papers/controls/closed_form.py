@@ -47,6 +47,10 @@ import numpy as np
 
 from mmlib.core._validate import check_scalar
 
+__all__ = [
+    "SteadyState", "acceleration_sd", "steady_state", "riccati", "two_point_covariance", "settling_steps"
+]
+
 
 class SteadyState(NamedTuple):
     """The steady state of the DWNA Kalman filter per axis: the gains ``alpha`` and ``beta`` (dimensionless), the

@@ -24,6 +24,10 @@ from mmlib.experiment import verdicts
 from mmlib.experiment.verdicts import Row
 from mmlib.papers.controls import text
 
+__all__ = [
+    "rejection_power", "tightening_detection", "table_of", "rejected", "rule_window", "section"
+]
+
 _TABLE_OF = {p.key: p.table for p in text.PUBLISHED}
 _NEGATIVE = {name: (fraction, expected) for name, fraction, expected in text.NEGATIVES}
 

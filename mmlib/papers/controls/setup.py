@@ -23,6 +23,10 @@ from mmlib.experiment.scenario import Scenario
 from mmlib.experiment.simulate import ManeuverSchedule
 from mmlib.papers.controls import closed_form, text
 
+__all__ = [
+    "setup", "Setup", "build", "scenario", "batch", "make_batch_fn", "case_seed", "STARTS"
+]
+
 STARTS = ("steady", "two-point")
 
 

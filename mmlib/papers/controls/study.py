@@ -19,6 +19,11 @@ from mmlib.experiment.universe import UniverseResult
 from mmlib.papers.controls import closed_form, text
 from mmlib.papers.controls.setup import Setup, make_batch_fn, setup
 
+__all__ = [
+    "universe", "evaluate_reading", "summarise", "ControlResults", "rms_per_axis", "case_values", "values", "claims",
+    "effects", "table_rows", "consistency", "headline_digest"
+]
+
 
 class ControlResults(NamedTuple):
     """``runs[case label][algorithm]`` a RunSet per tracking index, ``setup`` the reading's :class:`Setup`."""

@@ -11,6 +11,12 @@ from __future__ import annotations
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 from mmlib.experiment.universe import PublishedNumber
 
+__all__ = [
+    "PUBLISHED", "SPACE", "FACTORS", "DEVIATIONS", "case_label", "perturbed", "item", "printed_table", "NAME", "TITLE",
+    "CITATION", "DOI", "ROOT_SEED", "T", "SIGMA_W", "LAMBDAS", "HEADLINE_CASE", "ALGORITHM", "ALGORITHMS", "QUANTITIES",
+    "TABLE", "POSITIVE", "NEGATIVES", "TABLES", "KEY_EFFECT", "SEARCHED"
+]
+
 NAME = "controls"
 TITLE = "Controls: the steady-state Kalman filter of the DWNA model (closed form), reproduced and perturbed"
 CITATION = ("P. R. Kalata, The Tracking Index: A Generalized Parameter for α-β and α-β-γ Target Trackers, IEEE Trans. "

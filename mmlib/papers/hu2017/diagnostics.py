@@ -18,6 +18,10 @@ from mmlib.papers.hu2017.setup import batch, setup
 from mmlib.papers.hu2017.study import KEY_EFFECT, ReadingResult
 from mmlib.papers.hu2017.text import ALGORITHMS, SPACE
 
+__all__ = [
+    "truth_statistics", "consistency", "coincidence", "influence", "bootstrapping_helps", "INFLUENCE_EFFECTS"
+]
+
 #: the quantities :func:`influence` watches besides the claim verdicts: every Table 1 cell and these effects
 INFLUENCE_EFFECTS = (KEY_EFFECT, "mode_probability_obs_minus_cdkf")
 

@@ -27,6 +27,10 @@ from mmlib.experiment.scenario import Scenario
 from mmlib.experiment.simulate import ManeuverSchedule
 from mmlib.papers.hu2017.text import CITATION, NAME, RMSE_METRICS, ROOT_SEED, SPACE
 
+__all__ = [
+    "setup", "Setup", "build", "scenario", "batch", "simulator", "truth_and_radar", "in_metres", "KM"
+]
+
 
 @dataclass(frozen=True)
 class Setup:

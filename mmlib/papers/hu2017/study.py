@@ -20,6 +20,13 @@ from mmlib.papers.hu2017.setup import Setup, batch, setup, truth_and_radar
 from mmlib.papers.hu2017.text import (ALGORITHMS, N_RUNS, NAME, RMSE_METRICS, ROOT_SEED, SPACE, TABLE1,
                                       TABLE1_QUANTITIES, published_position_mse)
 
+__all__ = [
+    "universe", "evaluate_reading", "summarise", "judge_claims", "ReadingResult", "measurement_only_errors",
+    "table1_metric", "true_mode_probability", "mode_matching_difference", "nees_average", "position_rmse", "degenerate",
+    "table1_rows", "headline_digest", "NEES_ALGORITHMS", "KEY_EFFECT", "MSE_EFFECTS", "AXES", "POSITION", "BASELINE",
+    "EKF_COMPARATORS"
+]
+
 #: estimators whose covariance is kept for NEES
 NEES_ALGORITHMS = ("IMMCDKF", "IMMCDKF-OBS")
 #: the effects of every universe: name -> (algorithm a, algorithm b) for paired position-MSE differences a - b

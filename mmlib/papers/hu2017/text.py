@@ -12,6 +12,12 @@ import math
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 from mmlib.experiment.universe import PublishedNumber
 
+__all__ = [
+    "PUBLISHED", "SPACE", "FACTORS", "DEVIATIONS", "published_position_mse", "paper_ratio_text", "NAME", "CITATION",
+    "DOI", "ROOT_SEED", "N_RUNS", "ALGORITHMS", "TABLE1", "TABLE1_QUANTITIES", "RMSE_METRICS", "Q_PRINTED",
+    "Q_FILTER_DECADES"
+]
+
 NAME = "hu2017"
 CITATION = ("Z. Hu, J. Zhang, C. Fu, X. Li, Maneuvering target tracking algorithm based on CDKF in observation "
             "bootstrapping strategy, High Technology Letters 23(2), 2017, doi:10.3772/j.issn.1006-6748.2017.02.005")

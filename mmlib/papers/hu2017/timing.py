@@ -21,6 +21,10 @@ from mmlib.experiment import report
 from mmlib.experiment.metrics import ratio_spread_text as _spread
 from mmlib.papers.hu2017.text import ALGORITHMS, TABLE1, paper_ratio_text
 
+__all__ = [
+    "judge_timing", "QUANTITY", "SHORTEST_CLAIM", "OBS_CLAIM"
+]
+
 #: what the rows and the claims compare
 QUANTITY = "model flops per step"
 SHORTEST_CLAIM = "IMMEKF has the shortest run time (Table 1)"

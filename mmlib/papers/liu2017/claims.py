@@ -19,6 +19,11 @@ import numpy as np
 from mmlib.experiment import evaluation, metrics, report
 from mmlib.papers.liu2017.text import CASES, POSITION, QUANTITIES
 
+__all__ = [
+    "judge_claims", "after_onset", "accuracy_part", "after_onset_part", "divergence_part", "ROBUSTNESS_DEFINITION",
+    "UNITS"
+]
+
 if TYPE_CHECKING:
     from mmlib.papers.liu2017.study import ReadingResults
 

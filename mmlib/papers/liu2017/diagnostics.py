@@ -17,6 +17,10 @@ from mmlib.papers.liu2017.setup import Setup, make_batch_fn
 from mmlib.papers.liu2017.study import ReadingResults
 from mmlib.papers.liu2017.text import CASES, KEY_EFFECT, POSITION, QUANTITIES
 
+__all__ = [
+    "nonlinearity_index", "consistency", "near_equality", "findings"
+]
+
 
 def nonlinearity_index(setup: Setup, mc: MonteCarlo, n_runs: int = 50) -> np.ndarray:
     """Median over runs of sigma_pos / range of STSSRCKF's estimate at every step, shape (K,) (the size of the

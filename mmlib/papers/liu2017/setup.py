@@ -26,6 +26,11 @@ from mmlib.experiment.scenario import Scenario
 from mmlib.experiment.simulate import ManeuverSchedule
 from mmlib.papers.liu2017 import text
 
+__all__ = [
+    "Setup", "build", "scenario", "batch", "simulator", "make_batch_fn", "Examples", "for_reading", "TIMELINES",
+    "INITIAL_ESTIMATES", "BASE_SETUPS"
+]
+
 TIMELINES = ("set-up", "discussion")
 INITIAL_ESTIMATES = ("true", "sampled", "sampled-if-unprinted")
 

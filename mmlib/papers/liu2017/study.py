@@ -20,6 +20,11 @@ from mmlib.papers.liu2017 import text
 from mmlib.papers.liu2017.claims import after_onset, judge_claims
 from mmlib.papers.liu2017.setup import Examples, build, for_reading, make_batch_fn
 
+__all__ = [
+    "universe", "evaluate_reading", "summarise", "ReadingResults", "measurement_only_errors", "table_values", "effects",
+    "diverged", "position_rmse", "degenerate_cases", "degenerate", "table_rows", "headline_digest", "BASELINE"
+]
+
 #: the no-information baseline of the degenerate flag (:func:`degenerate`)
 BASELINE = "the measurement-only estimate's position RMSE"
 

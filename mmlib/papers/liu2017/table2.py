@@ -18,6 +18,10 @@ from mmlib.experiment import report
 from mmlib.experiment.metrics import ratio_spread_text as _spread
 from mmlib.papers.liu2017.text import FILTERS, TABLE2_COMPLEXITY, TABLE2_COUNTS, TABLE2_N, TABLE2_TIME
 
+__all__ = [
+    "printed_complexity_orders", "counted_complexity_orders", "complexity_rows", "table2"
+]
+
 
 def printed_complexity_orders(text: str) -> tuple:
     """``(order in the number of points, order in n)`` of a complexity printed as ``O(n^k)``,

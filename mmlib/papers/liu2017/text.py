@@ -11,6 +11,13 @@ from __future__ import annotations
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 from mmlib.experiment.universe import PublishedNumber
 
+__all__ = [
+    "PUBLISHED", "SPACE", "FACTORS", "DEVIATIONS", "published_mse_difference", "NAME", "TITLE", "CITATION", "DOI",
+    "ROOT_SEED", "N_RUNS", "FILTERS", "QUANTITIES", "POSITION", "TABLE1", "TABLE2_TIME", "TABLE2_COMPLEXITY",
+    "TABLE2_COUNTS", "TABLE2_N", "TABLE3", "CASES", "ITEMS", "PRINTED", "CASE_FILTERS", "ALGORITHMS", "ROW_DEVIATIONS",
+    "KEY_EFFECT", "EFFECTS"
+]
+
 NAME = "liu2017"
 TITLE = "Liu & Wu 2017: strong tracking spherical simplex-radial CKF"
 CITATION = ("H. Liu, W. Wu, Strong Tracking Spherical Simplex-Radial Cubature Kalman Filter for Maneuvering "

@@ -25,6 +25,10 @@ from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.papers.tseng2011.simulation import Experiment, simulator
 from mmlib.papers.tseng2011.text import EAST, NORTH
 
+__all__ = [
+    "ls_fix", "ls_errors", "ls_rms", "WHAT"
+]
+
 #: what the baseline is, in the words of a degenerate universe's reason
 WHAT = "the single-epoch least-squares fix's horizontal position RMSE"
 

@@ -19,6 +19,11 @@ from mmlib.papers.tseng2011.simulation import Experiment, make_batch_fn, motion_
 from mmlib.papers.tseng2011.study import direction_parts, rms, rms_reduction
 from mmlib.papers.tseng2011.text import ALGORITHMS, AXES, EAST, NAME, NORTH
 
+__all__ = [
+    "ekf_claim", "maneuver_flags", "clairvoyant_schedules", "evaluate_oracles", "oracle_summary", "consistency",
+    "qualified_claims"
+]
+
 
 def ekf_claim(results: dict) -> tuple:
     """Judgement and evidence on "the UKF avoids the EKF's linearisation errors" (needs the EKF in ``results``):

@@ -25,6 +25,10 @@ from mmlib.core.rules import Unscented
 from mmlib.papers.tseng2011.space import SPACE
 from mmlib.papers.tseng2011.text import P0_SD
 
+__all__ = [
+    "setup", "Setup", "build", "noise_model", "transition_matrix", "UKF_RULES"
+]
+
 #: the single UKF's acceleration PSD relative to the IMM's levels (T-8; :attr:`Setup.ukf_level`)
 UKF_RULES = ("geometric", "lower", "below", "upper")
 

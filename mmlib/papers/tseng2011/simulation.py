@@ -26,6 +26,11 @@ from mmlib.experiment.simulate import ManeuverSchedule, propagate
 from mmlib.papers.tseng2011.setup import Setup, build, noise_model, transition_matrix
 from mmlib.papers.tseng2011.text import ALGORITHMS, CITATION, NAME, ROOT_SEED
 
+__all__ = [
+    "scenario", "batch", "simulator", "make_batch_fn", "motion_schedule", "trajectory", "maneuver_intervals", "Sky",
+    "sky", "Experiment", "experiment", "NoiseLevels", "GEOMETRY_FIELDS"
+]
+
 
 def motion_schedule(setup: Setup) -> ManeuverSchedule:
     """The segment table as a schedule of planar models [e, ve, n, vn]: model 0 = straight line,

@@ -25,6 +25,10 @@ from __future__ import annotations
 from mmlib.experiment.readings import Factor, Option, ReadingSpace
 from mmlib.papers.tseng2011.text import CLOCKS, NAME, P0_SD
 
+__all__ = [
+    "SPACE", "FACTORS", "NON_INFLUENTIAL"
+]
+
 
 def _opt(name, label, source, motivated_by="", **changes) -> Option:
     return Option(name, label, source, changes, motivated_by=motivated_by)

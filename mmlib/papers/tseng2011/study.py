@@ -30,6 +30,12 @@ from mmlib.papers.tseng2011.space import SPACE
 from mmlib.papers.tseng2011.text import (ALGORITHMS, AXES, EAST, IMM_EFFECT, ITEM, KEY_EFFECT, NAME, NORTH, PAIRS,
                                          PUBLISHED, ROOT_SEED, published_mse_difference)
 
+__all__ = [
+    "universe", "evaluate_reading", "summarise", "judge_claims", "rms", "horizontal_rms", "rms_reduction", "values",
+    "table_rows", "size_parts", "direction_parts", "diverged", "divergence_judgement", "effects", "baseline_rms",
+    "degenerate_reason", "headline_digest", "BASELINE_FIELDS"
+]
+
 
 # ---------------------------------------------------------------- evaluation
 def _canonical(setup: Setup, name: str) -> Setup:

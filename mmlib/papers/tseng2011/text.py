@@ -13,6 +13,12 @@ from mmlib.core import gnss
 from mmlib.experiment.readings import Deviation
 from mmlib.experiment.universe import PublishedNumber
 
+__all__ = [
+    "PUBLISHED", "DEVIATIONS", "published_mse_difference", "NAME", "TITLE", "DOI", "CITATION", "ROOT_SEED",
+    "HEADLINE_RUNS", "CLOCKS", "P0_SD", "SEGMENTS", "TABLE", "ALGORITHMS", "PAIRS", "AXES", "ITEM", "KEY_EFFECT",
+    "IMM_EFFECT"
+]
+
 NAME = "tseng2011"
 TITLE = "Tseng, Chang & Jwo 2011: fuzzy adaptive IMM-UKF for GPS navigation (a reconstruction)"
 DOI = "10.3390/s110202090"

@@ -15,6 +15,11 @@ from mmlib.experiment import evaluation, metrics
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.papers.zhou2017.setup import build, setup as reading_setup, simulator
 
+__all__ = [
+    "error_norms", "Baseline", "measurement_only_errors", "baselines", "position_rmse", "paired_error",
+    "degenerate_reason", "BASELINE_WHAT"
+]
+
 #: the position and velocity components of the state [x, vx, y, vy]
 POSITION, VELOCITY = (0, 2), (1, 3)
 

@@ -26,6 +26,11 @@ from mmlib.papers.zhou2017.faults import radar_fault
 from mmlib.papers.zhou2017.setup import Setup, build, setup, simulator
 from mmlib.papers.zhou2017.text import MAE_QUANTITIES, TABLE4, TABLE5
 
+__all__ = [
+    "consistency", "alias_positions", "fault_observability", "field_experiment_rows", "GPSAnalogue", "gps_analogue",
+    "gps_analogue_table", "key_effect_across"
+]
+
 
 def consistency(reading: Mapping, mc: MonteCarlo) -> list:
     """NEES and NIS of every algorithm of both cases of ``reading`` on ``mc``'s runs: the ``consistency`` section of

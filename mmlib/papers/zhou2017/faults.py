@@ -15,6 +15,10 @@ from mmlib.core import models
 from mmlib.core.models import radar_drift
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
 
+__all__ = [
+    "radar_fault"
+]
+
 if TYPE_CHECKING:
     import mmlib
 

@@ -18,6 +18,10 @@ from mmlib.experiment import report
 from mmlib.experiment.montecarlo import Stream
 from mmlib.papers.zhou2017.text import EXAMPLE_MEANS, EXAMPLE_SD, EXAMPLE_U, TABLE1
 
+__all__ = [
+    "section23_moments", "section23_parts", "section23_claims", "section23_rows"
+]
+
 
 def section23_moments() -> dict:
     """Closed forms of the Section 2.3 example: the mixture's mean and s.d. (Eqs. 11-12, 'MSE'), and the

@@ -32,6 +32,11 @@ from mmlib.experiment.simulate import ManeuverSchedule
 from mmlib.papers.zhou2017 import text
 from mmlib.papers.zhou2017.faults import radar_fault
 
+__all__ = [
+    "setup", "Setup", "build", "scenario", "batch", "simulator", "make_batch_fn", "Cases", "FAULT_KINDS", "NOISE_GAINS",
+    "ARENA_FAULT_KIND"
+]
+
 FAULT_KINDS = ("constant-drift", "per-step", "constant")
 NOISE_GAINS = ("dwna", "identity")
 

@@ -30,6 +30,12 @@ from mmlib.papers.zhou2017.text import (CASE1_ALGORITHMS, CASE2_ALGORITHMS, KEY_
                                         TABLE2_NAMES, TABLE3, TABLE3_DEVIATIONS, TABLE3_NAMES, TABLE_QUANTITIES,
                                         published_mse_difference)
 
+__all__ = [
+    "universe", "evaluate_reading", "summarise", "judge_claims", "relevant_setup", "evaluate_algorithm",
+    "consistency_entries", "table_stats", "table_rows", "compare", "headline_digest", "Q4", "TRANSIENT_STEPS",
+    "NAUKF_ANALYSIS", "NAUKF_EVIDENCE"
+]
+
 Q4 = (("position", POSITION), ("velocity", VELOCITY))
 #: steps (0-based, step k at t = k + 1 s) of the 10 s after each maneuver switch (20, 40, 60, 80 s): the
 #: transients in which "faster convergence" would show

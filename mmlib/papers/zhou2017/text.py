@@ -14,6 +14,13 @@ import math
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 from mmlib.experiment.universe import PublishedNumber
 
+__all__ = [
+    "PUBLISHED", "SPACE", "FACTORS", "DEVIATIONS", "published_mse_difference", "NAME", "TITLE", "CITATION", "DOI",
+    "ROOT_SEED", "N_RUNS", "TABLE1", "TABLE2", "TABLE3", "TABLE_QUANTITIES", "TABLE4", "TABLE5", "MAE_QUANTITIES",
+    "CASE1_ALGORITHMS", "CASE2_ALGORITHMS", "ALGORITHMS", "TABLE2_NAMES", "TABLE3_NAMES", "TABLE2_DEVIATIONS",
+    "TABLE3_DEVIATIONS", "KEY_EFFECT"
+]
+
 NAME = "zhou2017"
 TITLE = "Cubature-principle-assisted IMM with a new adaptive UKF (CPIMM-NAUKF)"
 CITATION = ("H. Zhou, H. Zhao, H. Huang, X. Zhao, A Cubature-Principle-Assisted IMM-Adaptive UKF Algorithm for "

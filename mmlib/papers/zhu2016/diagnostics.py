@@ -21,6 +21,11 @@ from mmlib.papers.zhu2016.setup import Setup, setup
 from mmlib.papers.zhu2016.study import floor_is_bound
 from mmlib.papers.zhu2016.text import QUANTITIES, SPACE, TABLE1
 
+__all__ = [
+    "consistency", "nees_over_time", "sensor_claims", "cv_steady_state_sd", "floor_summary", "STATE_DIM",
+    "SENSOR_CLAIMS"
+]
+
 #: the state dimension n of ``[x, vx, y, vy]``: the NEES's degrees of freedom
 STATE_DIM = 4
 #: the claims of the abstract judged under each sensor of Z-5 (:func:`sensor_claims`)

@@ -31,6 +31,10 @@ from mmlib.experiment.scenario import Scenario
 from mmlib.experiment.simulate import ManeuverSchedule
 from mmlib.papers.zhu2016 import text
 
+__all__ = [
+    "setup", "Setup", "build", "scenario", "batch", "simulator", "measurement", "MODE_ORDERS", "SENSORS"
+]
+
 #: which turn is model 2 and which is model 3 of Eq. 63 (Z-6)
 MODE_ORDERS = ("right-left", "left-right")
 #: what the sensor of Eq. 62 measures (Z-5): the position (as printed) or range and bearing

@@ -23,6 +23,12 @@ from mmlib.papers.zhu2016 import text
 from mmlib.papers.zhu2016.setup import Setup, batch, build, setup, simulator
 from mmlib.papers.zhu2016.text import MV_ALGORITHMS, QUANTITIES, RMSE_ALGORITHMS, TABLE1
 
+__all__ = [
+    "universe", "evaluate_reading", "summarise", "judge_claims", "position_rmse", "measurement_only_rmse", "degenerate",
+    "rmse_values", "table1_rows", "coincidence", "floor_is_bound", "floor_check", "floor_parts", "accuracy_claim",
+    "effects", "headline_digest", "BASELINE", "FLOOR_CLAIM", "FLOOR_NOT_BOUND", "CLAIM_QUANTITIES", "KEY_EFFECT"
+]
+
 
 def evaluate_reading(reading: Mapping, mc: MonteCarlo, progress: bool = False, consistency: bool = False) -> dict:
     """``{estimator: RunSet}`` for :data:`MV_ALGORITHMS` under ``reading``, on the runs of ``mc``

@@ -13,6 +13,11 @@ import math
 from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 from mmlib.experiment.universe import PublishedNumber
 
+__all__ = [
+    "PUBLISHED", "SPACE", "FACTORS", "DEVIATIONS", "NAME", "TITLE", "DOI", "CITATION", "N_RUNS", "ROOT_SEED",
+    "ALGORITHMS", "QUANTITIES", "TABLE1", "RMSE_ALGORITHMS", "MV_ALGORITHMS"
+]
+
 NAME = "zhu2016"
 TITLE = "Zhu, Wang & Yuan 2016: IMM with the fifth-degree cubature Kalman filter"
 DOI = "10.3390/s16060805"
