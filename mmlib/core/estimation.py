@@ -36,7 +36,7 @@ from mmlib.core._validate import (check_finite, as_float_array, check_applies, c
 __all__ = ["IMM", "SingleModel", "run", "Track", "Estimate", "IMMState", "MomentMixing", "KnownModeSequence",
            "SwitchingState", "FilterDivergence", "summarise_divergence", "normalised_square", "select_runs",
            "batch_size", "Failure", "FAILURE_CAUSES", "FILTER_METHODS", "DYNAMICS_METHODS", "MEASUREMENT_METHODS",
-           "ESTIMATOR_METHODS", "mixing_weights", "combine_covariances", "imm_output"]
+           "ESTIMATOR_METHODS"]
 
 
 class Failure(IntEnum):

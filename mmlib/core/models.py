@@ -28,7 +28,7 @@ from mmlib.core.protocols import Dynamics, MeasurementModel
 __all__ = ["constant_velocity", "constant_acceleration", "coordinated_turn", "CoordinatedTurnRate", "range_bearing",
            "position_measurement", "RangeBearing", "LinearMeasurement", "LinearGaussianDynamics", "from_noise_gain",
            "acceleration_noise_gain", "coordinated_turn_matrix", "StackedDynamics", "position_indices", "SensorFault",
-           "radar_drift", "wrap_angle", "TWO_PI"]
+           "radar_drift", "TWO_PI"]
 
 
 TWO_PI = 2.0 * math.pi

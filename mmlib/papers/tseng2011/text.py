@@ -16,7 +16,7 @@ from mmlib.experiment.universe import PublishedNumber
 __all__ = [
     "PUBLISHED", "DEVIATIONS", "published_mse_difference", "NAME", "TITLE", "DOI", "CITATION", "ROOT_SEED",
     "HEADLINE_RUNS", "CLOCKS", "P0_SD", "SEGMENTS", "TABLE", "ALGORITHMS", "PAIRS", "AXES", "ITEM", "KEY_EFFECT",
-    "IMM_EFFECT"
+    "IMM_EFFECT", "EAST", "NORTH"
 ]
 
 NAME = "tseng2011"

@@ -17,7 +17,7 @@ from mmlib.papers.zhou2017.setup import build, setup as reading_setup, simulator
 
 __all__ = [
     "error_norms", "Baseline", "measurement_only_errors", "baselines", "position_rmse", "paired_error",
-    "degenerate_reason", "BASELINE_WHAT"
+    "degenerate_reason", "BASELINE_WHAT", "POSITION", "VELOCITY"
 ]
 
 #: the position and velocity components of the state [x, vx, y, vy]
