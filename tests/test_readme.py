@@ -45,7 +45,7 @@ FINDINGS_START, FINDINGS_END = "<!-- findings:start -->", "<!-- findings:end -->
 #: the pages the README's material moved to (docs/), besides those of tools/build_site.HOW_IT_IS_DONE
 MOVED_PAGES = ("library", "getting-started")
 #: pages of the site that tools/build_site.py generates (not in docs/): a docs page may link to them
-GENERATED_PAGES = ("index.md", "reading-spaces.md", "api/index.md")
+GENERATED_PAGES = ("index.md", "api/index.md")
 
 
 def _build_site():
