@@ -93,7 +93,7 @@ def test_pip_install_core_only(tmp_path):
     # after the example, say which mmlib it imported
     probe = code + "import sys as _sys\nprint('MMLIB_FILE=' + _sys.modules['mmlib'].__file__)\n"
     t1 = time.perf_counter()
-    proc = run_block(probe, line, str(py), outside, timeout=TIMEOUT_S)
+    proc = run_block(probe, line, str(py), outside, timeout=TIMEOUT_S, env=_env())   # no PYTHONPATH to the checkout
     t_example = time.perf_counter() - t1
     assert proc is not None, f"README.md:{line}: the example did not finish within {TIMEOUT_S} s"
     assert proc.returncode == 0, f"README.md:{line}: the example failed in the fresh venv:\n{proc.stderr}"
@@ -103,7 +103,7 @@ def test_pip_install_core_only(tmp_path):
     print(proc.stdout)
     # the first run compiled the numba kernels (cache=True: into the installed package); a second run loads them
     t2 = time.perf_counter()
-    again = run_block(code, line, str(py), outside, timeout=TIMEOUT_S)
+    again = run_block(code, line, str(py), outside, timeout=TIMEOUT_S, env=_env())
     t_cached = time.perf_counter() - t2
     assert again is not None and again.returncode == 0, again and again.stderr
     assert again.stdout == proc.stdout.split("MMLIB_FILE=")[0], "the example's output changed between two runs"

@@ -261,11 +261,13 @@ RUNNER = ("import sys; exec(compile(sys.stdin.read(), sys.argv[1], 'exec'), "
           "{'__name__': '__main__'})")
 
 
-def run_block(code: str, line: int, python: str, cwd: Path, timeout: float = TIMEOUT_S, path: Path = README):
-    """Run the block that opens at line ``line`` of ``path`` with the interpreter ``python`` in ``cwd``: the
-    finished ``subprocess.CompletedProcess`` (text stdout and stderr), or None on timeout."""
+def run_block(code: str, line: int, python: str, cwd: Path, timeout: float = TIMEOUT_S, path: Path = README,
+              env: dict | None = None):
+    """Run the block that opens at line ``line`` of ``path`` with the interpreter ``python`` in ``cwd`` (environment
+    ``env``, None: this process's): the finished ``subprocess.CompletedProcess`` (text stdout and stderr), or None on
+    timeout."""
     try:
-        return subprocess.run([python, "-c", RUNNER, str(path)], input="\n" * line + code, cwd=cwd,
+        return subprocess.run([python, "-c", RUNNER, str(path)], input="\n" * line + code, cwd=cwd, env=env,
                               capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
         return None
