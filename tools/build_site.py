@@ -14,11 +14,14 @@ pages) and mmlib's docstrings.  The builder assembles the page sources in a work
   appended;
 * ``reading-spaces.md``: every paper's reading-space section, rendered from its results like its report;
 * ``new-paper.md`` (from docs/): replicating a new paper, a walk through the contract with a worked example;
+* the other hand-written pages of docs/: getting started, comparing two filters, the library, and how the
+  replication is done (:data:`HOW_IT_IS_DONE`: the verdict rule, the reading-space method, the arena's design,
+  reruns and scale-out, speed, layout and conventions);
 * ``results-contract.md`` (from docs/): the results contract, showing and linking its JSON Schema,
   mmlib/experiment/results.schema.json (staged as ``_includes/results.schema.json``; the site also serves it as
   ``_static/results.schema.json``, see docs/conf.py);
 * ``api/<module>.md``: one page per public module of mmlib, from its docstrings (autodoc);
-* ``_includes/README.md``: the README, whose end-to-end example the getting-started page includes;
+* ``_includes/README.md``: the README, whose short library example the getting-started page includes;
 
 then runs Sphinx with MyST-NB (docs/conf.py) with warnings as errors.  The site is written to a work folder and
 moved into place only when the build succeeded, so build/site/ is never half old and half new (see :func:`build`).
@@ -164,6 +167,11 @@ def _markdown_cell(text: str) -> dict:
     return {"cell_type": "markdown", "metadata": {}, "source": text}
 
 
+#: the hand-written pages of docs/ on how the replication is done (moved out of the README), in the site's navigation
+#: under "How it is done", in this order (tests/test_readme.py checks each is a page of docs/ and in the navigation)
+HOW_IT_IS_DONE = ("verdict-rule", "reading-space-method", "arena-design", "rerun-and-scale-out", "speed", "conventions")
+
+
 def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
     """The home page: the controls first (in the text and in the navigation), then the papers, the cross-paper
     pages and the library; the summary is :func:`make_report.render_index` with the site's links and chips."""
@@ -190,7 +198,8 @@ def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
         *[f"papers/{notebooks[d['paper']].stem}" for d in sorted(papers, key=lambda d: d["paper"])], "```", "",
         "```{toctree}", ":maxdepth: 1", ":caption: Across the papers", "", "reading-spaces", "arena", "```", "",
         "```{toctree}", ":maxdepth: 1", ":caption: The library", "", "getting-started", "compare-two-filters",
-        "api/index", "results-contract", "new-paper", "```", "",
+        "library", "api/index", "results-contract", "new-paper", "```", "",
+        "```{toctree}", ":maxdepth: 1", ":caption: How it is done", "", *HOW_IT_IS_DONE, "```", "",
         summary])
 
 
