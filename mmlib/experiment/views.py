@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import re
-from typing import TYPE_CHECKING, Any, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -1113,7 +1113,7 @@ def findings_line(doc: dict, link: str | None = None) -> str:
     return f"{name}: " + "; ".join(parts) + "."
 
 
-def findings_lines(docs: Sequence[dict], link=None) -> list[str]:
+def findings_lines(docs: Sequence[dict], link: Callable[[str], str] | None = None) -> list[str]:
     """:func:`findings_line` of each results document, the controls first, then the papers by name, the arena
     last; ``link(paper)`` the Markdown link to a paper's page (default: its name in bold)."""
     if isinstance(docs, (str, bytes, dict)) or not hasattr(docs, "__iter__"):
