@@ -209,3 +209,24 @@ def test_site_pages_open_with_the_verdict(tmp_path):
     assert "## What we found" in index and index.index("## What we found") < index.index("## What holds")
     for paper in REGISTRY:
         assert summary(paper, by_name[paper]) in index
+
+
+def test_detail_folds_and_deviation_links(tmp_path):
+    """The comparison rows and claim detail of every paper page fold into <details class="detail-fold">, every
+    deviation code in them links to an anchor the page defines, and every deviation of the results is anchored."""
+    import build_site
+    docs, notebooks = build_site.load_inputs("full")
+    by_name = {d["paper"]: d for d in docs}
+    for paper in REGISTRY:
+        out = tmp_path / f"{paper}.ipynb"
+        build_site.fold_notebook(notebooks[paper], out, by_name[paper])
+        texts = [md for _, md in build_site._outputs_markdown(json.loads(out.read_text()))]
+        folded = [t for t in texts if t.startswith('<details class="detail-fold">')]
+        assert any("| item | algorithm | quantity | paper |" in t for t in folded), paper
+        assert not [t for t in texts if t.startswith("| item | algorithm | quantity | paper | replicated")], paper
+        for t in folded:      # the table inside stays Markdown: blank lines around it, closed after it
+            assert "\n\n| " in t and t.rstrip().endswith("\n\n</details>")
+        anchors = set(re.findall(r'id="deviation-([^"]+)"', "".join(texts)))
+        assert anchors == {d["id"] for d in by_name[paper]["deviations"]}, paper
+        links = set(re.findall(r'href="#deviation-([^"]+)"', "".join(texts)))
+        assert links and links <= anchors, paper

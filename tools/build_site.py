@@ -144,6 +144,52 @@ def split_title(nb: dict) -> int:
     return i + 1
 
 
+#: the detail tables of a paper page folded under a summary line: (the start of the table's header, the summary)
+DETAIL_TABLES = (("| item | algorithm | quantity | paper | replicated", "Comparison rows: every published number"),
+                 ("| claim | evidence |", "Claim evidence"),
+                 ("| claim | verdict | decisive |", "Claims: verdict and decisive number"),
+                 ("| claim | verdict | ", "Claim × comparison"))
+#: the start of the deviations table's header (its rows are the deviations' definitions, anchored)
+DEVIATIONS_HEADER = "| id | topic | paper | our choice |"
+
+
+def _outputs_markdown(nb: dict):
+    """Every text/markdown output of the notebook's code cells: (the output's data dict, its text)."""
+    for cell in nb["cells"]:
+        for out in cell.get("outputs", []) if cell["cell_type"] == "code" else []:
+            data = out.get("data") or {}
+            if "text/markdown" in data:
+                md = data["text/markdown"]
+                yield data, "".join(md) if isinstance(md, list) else md
+
+
+def fold_details(nb: dict, deviation_ids: list[str]) -> None:
+    """Fold a paper page's detail and link its deviation codes, in the notebook's stored Markdown outputs: the
+    comparison rows and the claim detail tables (:data:`DETAIL_TABLES`) go into ``<details class="detail-fold">``
+    (closed, a summary line with the rows' count), each row of the deviations table gets the anchor
+    ``deviation-<code>`` and every code of ``deviation_ids`` in the folded tables links to it.  A code links only
+    when the page defines it (its deviations table is among the outputs)."""
+    outputs = list(_outputs_markdown(nb))
+    defined = set()
+    for data, md in outputs:
+        if md.startswith(DEVIATIONS_HEADER):
+            def anchor(m):
+                defined.add(m.group(2))
+                return f'{m.group(1)}<span id="deviation-{m.group(2)}"></span>{m.group(2)} |'
+            data["text/markdown"] = re.sub(r"(?m)^(\| )([A-Z]{1,3}-\d+) \|", anchor, md)
+    codes = sorted((c for c in deviation_ids if c in defined), key=len, reverse=True)
+    pattern = re.compile(r"(?<![\w-])(" + "|".join(map(re.escape, codes)) + r")(?![\w-])") if codes else None
+    for data, md in outputs:
+        label = next((label for start, label in DETAIL_TABLES if md.startswith(start)), None)
+        if label is None:
+            continue
+        if pattern is not None:
+            md = pattern.sub(lambda m: f'<a href="#deviation-{m.group(1)}">{m.group(1)}</a>', md)
+        n = sum(1 for line in md.splitlines() if line.startswith("|")) - 2
+        data["text/markdown"] = (f'<details class="detail-fold">\n<summary>{label} ({n} rows)</summary>\n\n{md.strip()}'
+                                 "\n\n</details>\n")
+
+
 def verdict_section(doc: dict) -> str:
     """What a paper's page opens with, right after its title (and qualifier chip): the paper's one-paragraph summary
     (:func:`mmlib.papers.summary`, when its package has one) and the verdict box
@@ -179,6 +225,8 @@ def fold_notebook(src: Path, dst: Path, doc: dict | None = None) -> None:
         if extra:
             nb["cells"].append(_markdown_cell("\n".join(
                 [f"## Forensic checks (from `data/results/{doc['paper']}.json`)"] + extra)))
+    if doc is not None and doc.get("kind") != "arena":
+        fold_details(nb, [d["id"] for d in doc.get("deviations") or []])
     for cell in nb["cells"]:
         if cell["cell_type"] != "code":
             continue
