@@ -187,7 +187,7 @@ def test_cell_table_rows():
     assert all(list(r) == list(views.CELL_TABLE_KEYS) for r in rows)
     na = rows[2]
     assert any(REASON in str(v) for v in na.values())
-    assert rows[0]["RMSE position (m)"] == "4.00 ± 0.08"
+    assert rows[0]["RMSE position (m)"] == "4.000 ± 0.080"  # the s.e. to two significant figures (format_pm)
     assert "inside" in rows[0]["ANEES (95 % band)"] and "outside" in rows[1]["ANEES (95 % band)"]
     assert rows[0]["rank"] == "1" and rows[0]["versus best, or why it does not apply"] == "best"
     text = markdown_table(list(rows[0]), [list(r.values()) for r in rows])

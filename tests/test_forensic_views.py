@@ -429,10 +429,13 @@ def test_site_paper_page_gains_the_chip_and_the_forensic_sections(tmp_path):
                     "### Sensitivity curves (tuning swept, not readings) (results file)",
                     "### Run-count stability (results file)", "### Degenerate universes (results file)"):
         assert heading in last.splitlines(), heading
-    assert cells[2]["metadata"]["tags"] == ["hide-input"]
+    # after the chip, the verdict box (tests/test_findings.py checks its content), then the folded code cell
+    assert '<div class="verdict-box">' in cells[2]["source"]
+    assert cells[3]["metadata"]["tags"] == ["hide-input"]
     old = paper_doc("alpha2001", ["reproduced"], ["contradicted"], new_keys=False)
     site.fold_notebook(src, dst, old)
-    assert len(json.loads(dst.read_text())["cells"]) == 2
+    cells = json.loads(dst.read_text())["cells"]
+    assert len(cells) == 3 and '<div class="verdict-box">' in cells[1]["source"]     # no chip, no forensic sections
 
 
 def test_site_home_page_lists_the_controls_first(tmp_path):

@@ -132,25 +132,104 @@ def controls_of(docs: list[dict]) -> frozenset:
     return frozenset(d["paper"] for d in docs if d.get("kind") != "arena" and make_report.is_control(d))
 
 
+def split_title(nb: dict) -> int:
+    """Split a notebook's first Markdown cell after its title line (``# ...``), so that what the page opens with can
+    be inserted between the title and the rest of that cell; returns the index where to insert (after the title's
+    cell; 0 without a Markdown cell)."""
+    i = next((i for i, c in enumerate(nb["cells"]) if c["cell_type"] == "markdown"), None)
+    if i is None:
+        return 0
+    text = "".join(nb["cells"][i]["source"]) if isinstance(nb["cells"][i]["source"], list) else nb["cells"][i]["source"]
+    title, sep, rest = text.partition("\n")
+    if title.startswith("# ") and rest.strip():
+        nb["cells"][i]["source"] = title
+        nb["cells"].insert(i + 1, _markdown_cell(rest.lstrip("\n")))
+    return i + 1
+
+
+#: the detail tables of a paper page folded under a summary line: (the start of the table's header, the summary)
+DETAIL_TABLES = (("| item | algorithm | quantity | paper | replicated", "Comparison rows: every published number"),
+                 ("| claim | evidence |", "Claim evidence"),
+                 ("| claim | verdict | decisive |", "Claims: verdict and decisive number"),
+                 ("| claim | verdict | ", "Claim × comparison"))
+#: the start of the deviations table's header (its rows are the deviations' definitions, anchored)
+DEVIATIONS_HEADER = "| id | topic | paper | our choice |"
+
+
+def _outputs_markdown(nb: dict):
+    """Every text/markdown output of the notebook's code cells: (the output's data dict, its text)."""
+    for cell in nb["cells"]:
+        for out in cell.get("outputs", []) if cell["cell_type"] == "code" else []:
+            data = out.get("data") or {}
+            if "text/markdown" in data:
+                md = data["text/markdown"]
+                yield data, "".join(md) if isinstance(md, list) else md
+
+
+def fold_details(nb: dict, deviation_ids: list[str]) -> None:
+    """Fold a paper page's detail and link its deviation codes, in the notebook's stored Markdown outputs: the
+    comparison rows and the claim detail tables (:data:`DETAIL_TABLES`) go into ``<details class="detail-fold">``
+    (closed, a summary line with the rows' count), each row of the deviations table gets the anchor
+    ``deviation-<code>`` and every code of ``deviation_ids`` in the folded tables links to it.  A code links only
+    when the page defines it (its deviations table is among the outputs)."""
+    outputs = list(_outputs_markdown(nb))
+    defined = set()
+    for data, md in outputs:
+        if md.startswith(DEVIATIONS_HEADER):
+            def anchor(m):
+                defined.add(m.group(2))
+                return f'{m.group(1)}<span id="deviation-{m.group(2)}"></span>{m.group(2)} |'
+            data["text/markdown"] = re.sub(r"(?m)^(\| )([A-Z]{1,3}-\d+) \|", anchor, md)
+    codes = sorted((c for c in deviation_ids if c in defined), key=len, reverse=True)
+    pattern = re.compile(r"(?<![\w-])(" + "|".join(map(re.escape, codes)) + r")(?![\w-])") if codes else None
+    for data, md in outputs:
+        label = next((label for start, label in DETAIL_TABLES if md.startswith(start)), None)
+        if label is None:
+            continue
+        if pattern is not None:
+            md = pattern.sub(lambda m: f'<a href="#deviation-{m.group(1)}">{m.group(1)}</a>', md)
+        n = sum(1 for line in md.splitlines() if line.startswith("|")) - 2
+        data["text/markdown"] = (f'<details class="detail-fold">\n<summary>{label} ({n} rows)</summary>\n\n{md.strip()}'
+                                 "\n\n</details>\n")
+
+
+def verdict_section(doc: dict) -> str:
+    """What a paper's page opens with, right after its title (and qualifier chip): the paper's one-paragraph summary
+    (:func:`mmlib.papers.summary`, when its package has one) and the verdict box
+    (:func:`mmlib.experiment.views.verdict_box_html`), both from its results ``doc``."""
+    from mmlib.experiment import views
+    from mmlib.papers import summary
+    try:
+        text = summary(doc["paper"], doc)
+    except ValueError:              # a paper without a summary.md (a user's own): the box alone
+        text = ""
+    return "\n\n".join(x for x in (text, views.verdict_box_html(doc)) if x)
+
+
 def fold_notebook(src: Path, dst: Path, doc: dict | None = None) -> None:
     """Copy an executed notebook as a page: papermill's parameter cells removed, every other code cell folded
-    (``hide-input``: the source behind a toggle, the outputs shown).  With the paper's results ``doc``: a chip after
-    the title when its verdicts carry a qualifier (a reconstructed set-up), and at the end the forensic sections the
+    (``hide-input``: the source behind a toggle, the outputs shown).  With the paper's results ``doc``: right after
+    the title, a chip when its verdicts carry a qualifier (a reconstructed set-up), then the paper's summary and its
+    verdict box (:func:`verdict_section`); at the end the forensic sections the
     results carry (controls, consistency, sensitivity curves, planted-reading recovery, run-count stability,
     degenerate universes; :func:`make_report.render_forensic_sections`)."""
     nb = json.loads(src.read_text())
     if doc is not None and doc.get("kind") != "arena":
         import make_report
+        at = split_title(nb)
         q = make_report.qualifier_of(doc)
         if q:
-            at = next((i + 1 for i, c in enumerate(nb["cells"]) if c["cell_type"] == "markdown"), 0)
             nb["cells"].insert(at, _markdown_cell(
                 f"{chip(q)} The set-up of this paper is a {q} (the paper does not give it): every claim verdict here "
                 "judges the reconstruction, not the paper, and is kept out of the pooled tallies."))
+            at += 1
+        nb["cells"].insert(at, _markdown_cell(verdict_section(doc)))
         extra = make_report.render_forensic_sections(doc, level=3, suffix=" (results file)")
         if extra:
             nb["cells"].append(_markdown_cell("\n".join(
                 [f"## Forensic checks (from `data/results/{doc['paper']}.json`)"] + extra)))
+    if doc is not None and doc.get("kind") != "arena":
+        fold_details(nb, [d["id"] for d in doc.get("deviations") or []])
     for cell in nb["cells"]:
         if cell["cell_type"] != "code":
             continue
@@ -193,6 +272,7 @@ def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
         f"Generated from the results of commit{'s' if len(commits) > 1 else ''} {', '.join(f'`{c}`' for c in commits)} "
         f"({len(papers)} papers{f', {len(controls)} control' + ('s' if len(controls) > 1 else '') if controls else ''}"
         " and the arena).", "",
+        *what_we_found(docs, notebooks, controls),
         *nav_controls,
         "```{toctree}", ":maxdepth: 1", ":caption: Papers", "",
         *[f"papers/{notebooks[d['paper']].stem}" for d in sorted(papers, key=lambda d: d["paper"])], "```", "",
@@ -201,6 +281,23 @@ def index_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
         "library", "api/index", "results-contract", "new-paper", "```", "",
         "```{toctree}", ":maxdepth: 1", ":caption: How it is done", "", *HOW_IT_IS_DONE, "```", "",
         summary])
+
+
+def what_we_found(docs: list[dict], notebooks: dict[str, Path], controls: frozenset = frozenset()) -> list[str]:
+    """The home page's "What we found" section (Markdown lines), above the counts: per paper (the controls first),
+    its one-paragraph summary (:func:`mmlib.papers.summary`) after a link to its page, or its one-line findings
+    (:func:`mmlib.experiment.views.findings_line`) when its package has no summary; the arena's line last."""
+    from mmlib.experiment import views
+    from mmlib.papers import summary
+    lines = ["## What we found", ""]
+    for d in sorted(docs, key=lambda d: (d["paper"] not in controls, d.get("kind") == "arena", d["paper"])):
+        link = f"**{page_link(d['paper'], notebooks, controls)}**"
+        try:
+            text = f"{link}: {summary(d['paper'], d)}"
+        except ValueError:          # the arena, or a paper without a summary.md
+            text = views.findings_line(d, link)
+        lines += [text, ""]
+    return lines
 
 
 def reading_spaces_page(docs: list[dict], notebooks: dict[str, Path]) -> str:

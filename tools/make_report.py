@@ -147,7 +147,7 @@ def render_arena(doc: dict, root: Path, out_dir: Path) -> str:
              markdown_table(["idea", "A − B", "scenario", "Δ position MSE (m²) ± s.e.", "verdict"],
                             [[i["idea"], f"{i['a']} − {i['b']}", c["scenario"],
                               "--" if c["difference_m2"] is None
-                              else f"{c['difference_m2']:.4g} ± {c['stderr_m2']:.2g}",
+                              else views.format_pm(c['difference_m2'], c['stderr_m2']),
                               c["verdict"]] for i in doc["ideas"] for c in i["comparisons"]]),
              "", "## The papers' accuracy claims across the arena", "",
              markdown_table(["paper", "claim", "pair", "scenario: verdict"],
@@ -385,6 +385,47 @@ def render_index(docs, link=None, title: str = "# All papers: what holds", chip=
     return "\n".join(lines) + "\n"
 
 
+#: the markers of the README's generated "What we found" block (exactly one of each, start before end)
+FINDINGS_START, FINDINGS_END = "<!-- findings:start -->", "<!-- findings:end -->"
+
+
+def findings_block(docs: list[dict]) -> str:
+    """The README's "What we found" block (between the markers, exclusive): one line per paper, the controls first
+    and the arena last (:func:`mmlib.experiment.views.findings_lines`), each linking to its report."""
+    lines = views.findings_lines(docs, link=lambda p: f"**[{p}](reports/{p}.md)**")
+    return "\n".join(["## What we found", "",
+                      "One line per paper, generated from `data/results/*.json` by `tools/make_report.py` (do not "
+                      "edit by hand): the tables' cells reproduced under the headline reading with the whole-table "
+                      "joint test, the claim verdicts, the first claim's decisive number and its share of the reading "
+                      "space (95 % interval).", "", *[f"- {x}" for x in lines]])
+
+
+def readme_with_findings(readme_text: str, docs: list[dict]) -> str:
+    """``readme_text`` with the block between ``<!-- findings:start -->`` and ``<!-- findings:end -->`` replaced by
+    :func:`findings_block` of ``docs`` (the markers kept).  ValueError naming ``readme_text`` when a marker is
+    missing, repeated or the end comes before the start."""
+    if not isinstance(readme_text, str):
+        raise ValueError(f"readme_text: expected the README's text, got {type(readme_text).__name__}")
+    for marker in (FINDINGS_START, FINDINGS_END):
+        n = readme_text.count(marker)
+        if n != 1:
+            raise ValueError(f"readme_text: expected exactly one {marker!r}, found {n}")
+    start = readme_text.index(FINDINGS_START) + len(FINDINGS_START)
+    end = readme_text.index(FINDINGS_END)
+    if end < start:
+        raise ValueError(f"readme_text: {FINDINGS_END!r} comes before {FINDINGS_START!r}")
+    return readme_text[:start] + "\n" + findings_block(docs) + "\n" + readme_text[end:]
+
+
+def write_readme_findings(readme: Path, docs: list[dict]) -> bool:
+    """Rewrite the findings block of the README at ``readme`` from ``docs`` (atomically); True when it changed."""
+    old = readme.read_text()
+    new = readme_with_findings(old, docs)
+    if new != old:
+        atomic_write_text(readme, new)
+    return new != old
+
+
 def shown(path: Path) -> str:
     """``path`` relative to the repository when inside it (as messages name files), else as it is."""
     return str(path.relative_to(REPO)) if path.is_relative_to(REPO) else str(path)
@@ -424,6 +465,13 @@ def main(argv=None) -> int:
         print(f"report: {target.relative_to(REPO) if target.is_relative_to(REPO) else target}")
     if docs:
         atomic_write_text(out_dir / "README.md", render_index(docs))
+        if root == REPO:           # the committed results: the front page's findings follow them
+            try:
+                if write_readme_findings(REPO / "README.md", docs):
+                    print("README.md: findings block rewritten")
+            except ValueError as exc:
+                print(f"make_report.py: error: README.md: {exc}", file=sys.stderr)
+                return 2
     return 0
 
 

@@ -357,7 +357,8 @@ def better_claim(results: dict, a: str, b: str, quantities: Iterable[tuple[str, 
         ref = float((results[b].errors[results[b].valid][..., idx] ** 2).sum(axis=-1).mean())
         parts.append(part(f"{a} − {b}", f"{label} MSE", float(d.value), float(d.stderr), -1, reference=ref,
                           unit=unit, ops=ops))
-    evidence = "; ".join(f"{p.quantity}: Δ = {p.difference:.3g} ± {p.stderr:.2g}"
+    from mmlib.experiment.views import format_pm       # here: views imports this module's users
+    evidence = "; ".join(f"{p.quantity}: Δ = {format_pm(p.difference, p.stderr)}"
                          f"{' ' + p.unit if p.unit else ''} "
                          f"({f'{100 * p.difference / p.reference:+.2g} %' if p.reference else 'reference 0'}; "
                          f"{p.verdict})" for p in parts)
@@ -502,8 +503,9 @@ def degenerate_reason(errors: Mapping[str, Any], baseline: Any, *, what: str) ->
                 e - b, math.sqrt(se * se + sb * sb), -1, reference=b) == verdicts.PartVerdict.HOLDS:
             return ""
     best = min(vals, key=lambda k: (vals[k][0] if math.isfinite(vals[k][0]) else math.inf, k))
-    return (f"no estimator is detectably better than {what} ({b:.4g} ± {sb:.2g}; the best, {best}'s, is "
-            f"{vals[best][0]:.4g} ± {vals[best][1]:.2g})")
+    from mmlib.experiment.views import format_pm       # here: views imports this module's users
+    return (f"no estimator is detectably better than {what} ({format_pm(b, sb)}; the best, {best}'s, is "
+            f"{format_pm(*vals[best])})")
 
 
 def time_algorithms(estimators: dict, init: dict, measurements: ArrayLike, *, repeats: int = 3,

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import re
-from typing import TYPE_CHECKING, Any, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -22,6 +22,7 @@ from mmlib.experiment.multiverse import PRECISION, ROBUST_FRACTION, Multiverse
 from mmlib.experiment.readings import ReadingSpace
 
 __all__ = [
+    "paper_verdicts", "verdict_box_html", "findings_line", "findings_lines", "format_pm", "claim_class",
     "markdown_table", "value_pm", "summary_line", "claims_table", "claim_option_table", "numbers_table",
     "table_match_table", "table_match_sentence", "table_match_figure", "specification_curve", "one_factor_table",
     "factors_table", "options_table", "consistency_table", "sensitivity_table", "recovery_table", "recovery_text",
@@ -65,8 +66,9 @@ def markdown_table(header: Sequence[Any], rows: Iterable[Sequence[Any]]) -> str:
 
 
 def value_pm(value: float | None, stderr: float | None, digits: int = 3) -> str:
-    """``"value ± stderr"`` with ``digits`` decimals; the value alone when ``stderr`` is None or not finite, "--"
-    when ``value`` is None.  ``digits`` an integer >= 0."""
+    """``"value ± stderr"`` as :func:`format_pm` writes it (the s.e. to two significant figures, the value to the
+    same decimal); the value alone with ``digits`` decimals when ``stderr`` is None or not finite, "--" when
+    ``value`` is None.  ``digits`` an integer >= 0."""
     verdicts._real(value, "value")
     verdicts._real(stderr, "stderr")
     check_positive_int(digits, "digits", minimum=0)
@@ -74,7 +76,7 @@ def value_pm(value: float | None, stderr: float | None, digits: int = 3) -> str:
         return "--"
     if stderr is None or not np.isfinite(stderr):
         return f"{value:.{digits}f}"
-    return f"{value:.{digits}f} ± {stderr:.{digits}f}"
+    return format_pm(value, stderr)
 
 
 def _positive(x, name: str) -> float:
@@ -656,20 +658,12 @@ def _section(mv, key: str):
 
 
 def _pm_sig(value, stderr) -> str:
-    """``"4.02 ± 0.05"``: the value to the decimals of two significant digits of its standard error (4 significant
-    digits without one), "--" for None."""
+    """``"4.02 ± 0.05"``: :func:`format_pm` (the value to the decimals of two significant digits of its standard
+    error; 4 significant digits without one), "--" for None."""
     if value is None:
         return "--"
     verdicts._real(value, "value", none=False)
-    verdicts._real(stderr, "stderr")
-    if not math.isfinite(value):
-        return "nan" if math.isnan(value) else str(value)
-    if stderr is None or not math.isfinite(stderr) or stderr <= 0:
-        return f"{value:.4g}"
-    if abs(value) >= 1e6:
-        return f"{value:.3e} ± {stderr:.2g}"
-    d = min(8, max(0, 1 - math.floor(math.log10(stderr))))
-    return f"{value:.{d}f} ± {stderr:.{d}f}"
+    return format_pm(value, stderr)
 
 
 def _consistency_cells(stat, where: str) -> list:
@@ -924,3 +918,206 @@ def controls_text(controls: dict) -> str:
         text += f", power {_rate(power)}"
     searched = controls.get("searched")
     return text + (f". A published third control: {searched}" if searched else "")
+
+
+# -- findings first (issue 26): the verdict box of a paper's page and the one-line findings ---------------------
+
+def _se_decimals(stderr: float) -> int:
+    """The decimals that show ``stderr`` (> 0, finite) to two significant figures, after rounding (0.0995 -> 0.10:
+    2 decimals, not 3); negative for s.e. >= 100 (rounded to tens, hundreds, ...)."""
+    d = 1 - math.floor(math.log10(stderr))
+    rounded = round(stderr, d)
+    if rounded > 0 and 1 - math.floor(math.log10(rounded)) != d:      # rounding carried to the next power of ten
+        d = 1 - math.floor(math.log10(rounded))
+    return d
+
+
+def format_pm(value: float | None, stderr: float | None) -> str:
+    """``"value ± s.e."`` with the standard error to two significant figures and the value rounded to the same
+    decimal: ``format_pm(0.0263, 0.00041) == "0.02630 ± 0.00041"``, ``format_pm(1234.5, 56.0) == "1234 ± 56"``,
+    ``format_pm(12345.0, 678.0) == "12340 ± 680"``.  Without a usable standard error (None, not finite or <= 0:
+    an exact value) the value alone to 4 significant digits; "--" when ``value`` is None; "nan"/"inf" as such.
+    Values of 1e6 and more (or below 1e-4 with a smaller s.e.) in exponent form with the same rule on the mantissa.
+    The one ± formatting of the reports, the site and the notebooks: ``"0.026 ± 0.000"`` never appears."""
+    verdicts._real(value, "value")
+    verdicts._real(stderr, "stderr")
+    if value is None:
+        return "--"
+    value = float(value)
+    if not math.isfinite(value):
+        return "nan" if math.isnan(value) else str(value)
+    if stderr is None or not math.isfinite(stderr) or stderr <= 0:
+        return f"{value:.4g}"
+    stderr = float(stderr)
+    if abs(value) >= 1e6 or (0 < abs(value) < 1e-4 and stderr < 1e-4):
+        e = math.floor(math.log10(abs(value)))
+        m, s = value / 10 ** e, stderr / 10 ** e
+        d = max(0, _se_decimals(s)) if s > 0 else 0
+        return f"{m:.{d}f}e{e:+03d} ± {s:.{d}f}e{e:+03d}" if d <= 8 else f"{value:.4g} ± {stderr:.2g}"
+    d = _se_decimals(stderr)
+    if d >= 0:
+        return f"{value:.{d}f} ± {stderr:.{d}f}"
+    step = 10 ** (-d)
+    return f"{round(value / step) * step:.0f} ± {round(stderr / step) * step:.0f}"
+
+
+def _is_control(doc: dict) -> bool:
+    return doc.get("kind") == "control" or "controls" in doc
+
+
+def _doc(doc, name: str = "doc") -> dict:
+    if not isinstance(doc, dict) or not isinstance(doc.get("paper"), str) or not isinstance(doc.get("rows"), list):
+        raise ValueError(f"{name}: expected a results document (read_results: paper, rows, claims, ...), got "
+                         f"{type(doc).__name__}")
+    return doc
+
+
+def claim_class(verdict: str) -> str:
+    """The CSS class of a claim verdict's chip, ``"claim-not-supported"``, from the claim vocabulary
+    (:class:`mmlib.experiment.verdicts.ClaimVerdict`; a verdict text is reduced to its category first)."""
+    return "claim-" + str(verdicts.claim_category(verdict)).replace(" ", "-")
+
+
+def paper_verdicts(doc: dict) -> dict:
+    """What a paper's replication found, from its results document (:func:`mmlib.experiment.results.read_results`):
+    ``{"paper", "control", "tables": [...], "claims": [...]}``.
+
+    Each table: ``table`` (its name), ``n_cells``, ``n_reproduced`` (under the headline reading; an isolated
+    coincidence not counted) and ``joint`` (True/False: the whole-table joint test passes; None without one) with
+    ``joint_dof``.  The tables are the items with a whole-table joint test, in their order (counted by the reading
+    space's table match, ``multiverse.table_match``, when it has the table, else from the rows), then the table
+    match's other tables; a control of the pipeline lists only its table match (its controls).  Each claim:
+    ``claim`` (its text), ``verdict`` (the category of the claim vocabulary), ``words`` (the
+    verdict as stated, :func:`claim_words`), ``decisive`` (the number that decided it), and across the reading space
+    ``share`` of that verdict (a fraction, None without a sampled space), ``interval`` ((lo, hi) or None) and
+    ``robust`` (bool or None)."""
+    _doc(doc)
+    mv = doc.get("multiverse") or {}
+    matched = {t["table"]: t for t in mv.get("table_match") or []}
+
+    def from_match(t):
+        jt = t.get("joint_test")
+        return {"table": t["table"], "n_cells": int(t["n_cells"]), "n_reproduced": int(t["headline_n_reproduced"]),
+                "joint": None if jt is None else bool(jt["passes"]),
+                "joint_dof": None if jt is None else int(jt["dof"])}
+
+    tables, seen = [], set()
+    for jt in [] if _is_control(doc) else doc.get("joint_tests") or []:
+        if jt.get("algorithm") is not None or jt["item"] in seen:
+            continue
+        seen.add(jt["item"])
+        if jt["item"] in matched:
+            tables.append(from_match(matched[jt["item"]]))
+            continue
+        rows = [r for r in doc["rows"] if r["item"] == jt["item"]
+                and verdicts.verdict_category(r["verdict"]) != verdicts.NOT_REPLICABLE]
+        tables.append({"table": jt["item"], "n_cells": len(rows),
+                       "n_reproduced": sum(verdicts.is_reproduced(r["verdict"]) for r in rows),
+                       "joint": bool(jt["passes"]), "joint_dof": int(jt["dof"])})
+    tables += [from_match(t) for name, t in matched.items() if name not in seen]
+    across = {c["claim"]: c for c in mv.get("claims_summary") or []}
+    claims = []
+    for c in doc.get("claims") or []:
+        category = str(verdicts.claim_category(c["verdict"]))
+        a = across.get(c["claim"])
+        share = interval = robust = None
+        if a is not None and a.get("share") is not None and category in a["share"]:
+            share = float(a["share"][category])
+            iv = (a.get("interval") or {}).get(category)
+            interval = None if iv is None else (float(iv[0]), float(iv[1]))
+            robust = bool(a.get("robust"))
+        claims.append({"claim": c["claim"], "verdict": category, "words": claim_words(c),
+                       "decisive": c.get("decisive") or "", "share": share, "interval": interval, "robust": robust})
+    return {"paper": doc["paper"], "control": _is_control(doc), "tables": tables, "claims": claims}
+
+
+def _share_words(claim: dict) -> str:
+    """``"92 % [85, 96] of the reading space"`` (robust or not said), "" without a share."""
+    if claim["share"] is None:
+        return ""
+    lo, hi = claim["interval"] if claim["interval"] is not None else (claim["share"], claim["share"])
+    band = "" if lo == hi == claim["share"] else f" [{percent(lo)}, {percent(hi)}]"
+    robust = "robust" if claim["robust"] else "depends on the reading"
+    return f"{percent(claim['share'])} %{band} of the reading space ({robust})"
+
+
+def _table_words(t: dict) -> str:
+    joint = "" if t["joint"] is None else f", joint test {'passes' if t['joint'] else 'fails'}"
+    return f"{t['table']}: {t['n_reproduced']}/{t['n_cells']} cells reproduced{joint}"
+
+
+def verdict_box_html(doc: dict) -> str:
+    """The verdict box that opens a paper's page (HTML, styled by docs/_static/site.css): ``<div
+    class="verdict-box">`` with the tables (cells reproduced x/y under the headline reading, the whole-table joint
+    test) and each claim as a chip ``<span class="claim-chip claim-<verdict>">`` with its one-line verdict, the
+    decisive number and its share of the reading space with the 95 % interval (:func:`paper_verdicts`)."""
+    import html
+    v = paper_verdicts(doc)
+    out = ['<div class="verdict-box">']
+    if v["tables"]:
+        what = "Controls" if v["control"] else "Tables"
+        out.append(f'<p class="verdict-tables"><strong>{what}</strong> (headline reading):</p>')
+        out.append("<ul>")
+        for t in v["tables"]:
+            cls = "" if t["joint"] is None else (' class="joint-pass"' if t["joint"] else ' class="joint-fail"')
+            out.append(f"<li{cls}>{html.escape(_table_words(t))}</li>")
+        out.append("</ul>")
+    if v["claims"]:
+        out.append('<p class="verdict-claims"><strong>Claims</strong> (headline verdict — decisive number — share '
+                   'of the reading space with that verdict):</p>')
+        out.append('<ul class="claim-list">')
+        for c in v["claims"]:
+            share = _share_words(c)
+            out.append(f'<li><span class="claim-chip {claim_class(c["verdict"])}">{html.escape(c["words"])}</span> '
+                       f'{html.escape(c["claim"])}'
+                       + (f' — <span class="claim-number">{html.escape(c["decisive"])}</span>' if c["decisive"] else "")
+                       + (f' — <span class="claim-share">{html.escape(share)}</span>' if share else "") + "</li>")
+        out.append("</ul>")
+    out.append("</div>")
+    return "\n".join(out)
+
+
+def findings_line(doc: dict, link: str | None = None) -> str:
+    """One Markdown line of what a paper's replication found (the README's "What we found" and the site's home
+    page): its tables (cells reproduced x/y, joint test), its claim verdicts counted, its first claim's verdict with
+    the decisive number and its share of the reading space, and how many claim verdicts are robust.  ``link`` the
+    Markdown link to the paper's page or report (default: the paper's name in bold).  The arena's document
+    (``kind == "arena"``) gives its cells and its first finding."""
+    _doc(doc)
+    name = link or f"**{doc['paper']}**"
+    if doc.get("kind") == "arena":
+        cells = doc.get("cells") or []
+        first = next((f for f in doc.get("findings") or [] if "Kept out" not in f), "")
+        first = re.sub(r"^[-*]\s*", "", first)
+        return (f"{name}: {len(cells)} algorithm × scenario cells ({sum('reason' not in c for c in cells)} "
+                f"applicable), {doc['provenance']['n_runs']} runs each" + (f"; {first}" if first else "."))
+    v = paper_verdicts(doc)
+    parts = [", ".join(f"{t['table']} {t['n_reproduced']}/{t['n_cells']} cells"
+                       + ("" if t["joint"] is None else f" (joint test {'passes' if t['joint'] else 'fails'})")
+                       for t in v["tables"])] if v["tables"] else []
+    if v["claims"]:
+        counts: dict = {}
+        for c in v["claims"]:
+            counts[c["verdict"]] = counts.get(c["verdict"], 0) + 1
+        parts.append(f"claims: {', '.join(f'{n} {k}' for k, n in counts.items())}")
+        first = v["claims"][0]
+        share = _share_words(first)
+        claim = re.split(r" \(|: ", first["claim"], maxsplit=1)[0]
+        decisive = re.sub(r" \((\d+ parts|weakest of \d+)\)$", "", first["decisive"])
+        parts.append(f"\"{claim}\" {first['words']}" + (f" ({decisive})" if decisive else "")
+                     + (f" in {share}" if share else ""))
+        with_share = [c for c in v["claims"] if c["robust"] is not None]
+        if with_share:
+            parts.append(f"{sum(c['robust'] for c in with_share)} of {len(with_share)} claim verdicts robust "
+                         "across the reading space")
+    return f"{name}: " + "; ".join(parts) + "."
+
+
+def findings_lines(docs: Sequence[dict], link: Callable[[str], str] | None = None) -> list[str]:
+    """:func:`findings_line` of each results document, the controls first, then the papers by name, the arena
+    last; ``link(paper)`` the Markdown link to a paper's page (default: its name in bold)."""
+    if isinstance(docs, (str, bytes, dict)) or not hasattr(docs, "__iter__"):
+        raise ValueError(f"docs: expected a sequence of results documents, got {type(docs).__name__}")
+    docs = [_doc(d, f"docs[{i}]") for i, d in enumerate(docs)]
+    order = sorted(docs, key=lambda d: (0 if _is_control(d) else 2 if d.get("kind") == "arena" else 1, d["paper"]))
+    return [findings_line(d, None if link is None else link(d["paper"])) for d in order]

@@ -8,12 +8,14 @@ elsewhere (a user's sixth paper, the worked example of ``docs/new-paper.md``) jo
 from __future__ import annotations
 
 import importlib
-from typing import Iterator, Mapping
+import importlib.resources
+from pathlib import Path
+from typing import Any, Iterator, Mapping
 
 from mmlib.experiment.paper import Paper
 
 __all__ = [
-    "REGISTRY", "Registry", "PACKAGES"
+    "REGISTRY", "Registry", "summary", "summary_values", "summary_template", "PACKAGES"
 ]
 
 #: the packages of the replicated papers, in the order of the README's table; the controls of the pipeline
@@ -70,3 +72,80 @@ class Registry(Mapping):
 
 
 REGISTRY = Registry(PACKAGES)
+
+
+# -- the one-paragraph summaries (issue 26: findings first) -------------------------------------------------------
+
+#: where the committed results live when mmlib runs from its checkout (``data/results/<paper>.json``)
+_RESULTS = Path(__file__).resolve().parent.parent.parent / "data" / "results"
+
+
+def summary_template(name: str) -> str:
+    """The text of ``mmlib/papers/<name>/summary.md``: one paragraph saying what the replication of paper ``name``
+    found, with its numbers as placeholders (``{n_universes}``, ``{c1_share}``, ...; :func:`summary_values`) filled
+    from the results by :func:`summary`.  ValueError naming ``name`` for a name that is not a registered paper or a
+    paper without a summary."""
+    if not isinstance(name, str) or name not in REGISTRY:
+        raise ValueError(f"name: expected a registered paper ({', '.join(REGISTRY)}), got {name!r}")
+    try:
+        return importlib.resources.files(f"{__name__}.{name}").joinpath("summary.md").read_text(encoding="utf-8")
+    except (FileNotFoundError, ModuleNotFoundError, OSError):
+        raise ValueError(f"name: the paper {name!r} has no summary.md in its package") from None
+
+
+def summary_values(doc: Mapping[str, Any]) -> dict:
+    """The values a summary's placeholders name, from a paper's results document
+    (:func:`mmlib.experiment.results.read_results`): ``n_runs`` (the headline's Monte Carlo runs), and of the reading
+    space ``multiverse_runs`` (runs per universe), ``n_universes`` (run), ``n_counted`` (counted in the shares),
+    ``n_simulations`` (distinct), ``full_factorial_size``, ``n_degenerate``, ``n_factors``; per table ``i`` (from 1,
+    in the order of :func:`mmlib.experiment.views.paper_verdicts`) ``t<i>_name``, ``t<i>_cells``, ``t<i>_reproduced``
+    (headline) and ``t<i>_joint`` ("passes"/"fails"/"--"), and ``tm<i>_most`` (the most cells any reading reproduces,
+    table match order); per claim ``c<i>_verdict`` (its words), ``c<i>_decisive``, ``c<i>_share`` ("92 % [85, 96]"
+    or "--") and ``c<i>_robust`` ("robust"/"depends on the reading"/"--"); ``n_claims``, ``n_robust``; and ``doc``
+    itself for any other number (``{doc[rows][0][paper]}``).  Counts are integers, the rest strings."""
+    from mmlib.experiment import views
+    v = views.paper_verdicts(dict(doc))
+    mv = doc.get("multiverse") or {}
+    out: dict = {"doc": doc, "n_runs": doc["provenance"]["n_runs"], "multiverse_runs": mv.get("n_runs", "--"),
+                 "n_factors": len(mv.get("factors") or [])}
+    for key in ("n_universes", "n_counted", "n_simulations", "full_factorial_size", "n_degenerate"):
+        out[key] = mv.get(key, "--")
+    for i, t in enumerate(v["tables"], 1):
+        out.update({f"t{i}_name": t["table"], f"t{i}_cells": t["n_cells"], f"t{i}_reproduced": t["n_reproduced"],
+                    f"t{i}_joint": "--" if t["joint"] is None else ("passes" if t["joint"] else "fails")})
+    for i, t in enumerate(mv.get("table_match") or [], 1):
+        out[f"tm{i}_most"] = t["most_n_reproduced"]
+    for i, c in enumerate(v["claims"], 1):
+        share = "--"
+        if c["share"] is not None:
+            lo, hi = c["interval"] or (c["share"], c["share"])
+            band = "" if lo == hi == c["share"] else f" [{views.percent(lo)}, {views.percent(hi)}]"
+            share = f"{views.percent(c['share'])} %{band}"
+        out.update({f"c{i}_verdict": c["words"], f"c{i}_decisive": c["decisive"], f"c{i}_share": share,
+                    f"c{i}_robust": "--" if c["robust"] is None else
+                    ("robust" if c["robust"] else "depends on the reading")})
+    out["n_claims"] = len(v["claims"])
+    out["n_robust"] = sum(bool(c["robust"]) for c in v["claims"])
+    return out
+
+
+def summary(name: str, doc: Mapping[str, Any] | None = None) -> str:
+    """What the replication of paper ``name`` found, in one paragraph (Markdown): its ``summary.md``
+    (:func:`summary_template`) with the placeholders filled from its results ``doc`` (default: the committed
+    ``data/results/<name>.json`` of this checkout, read by :func:`mmlib.experiment.results.read_results`).
+    ValueError naming ``name`` for an unknown paper or one without a summary, naming ``doc`` when the results lack a
+    value the summary needs or belong to another paper."""
+    template = summary_template(name)
+    if doc is None:
+        path = _RESULTS / f"{name}.json"
+        if not path.is_file():
+            raise ValueError(f"doc: no results given and no {path} (run `make figures PAPER={name}`)")
+        from mmlib.experiment.results import read_results
+        doc = read_results(path)
+    if not isinstance(doc, Mapping) or doc.get("paper") != name:
+        raise ValueError(f"doc: expected the results document of {name!r}, got "
+                         f"{doc.get('paper') if isinstance(doc, Mapping) else type(doc).__name__!r}")
+    try:
+        return template.strip().format_map(summary_values(doc))
+    except (KeyError, IndexError, AttributeError) as exc:
+        raise ValueError(f"doc: the summary of {name!r} needs {exc} from the results, which lack it") from None

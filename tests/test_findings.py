@@ -1,0 +1,232 @@
+"""Findings first (issue 26): the papers' one-paragraph summaries, the verdict box of the paper pages, the ± format
+and the README's generated "What we found" block, all from the committed results (data/results/*.json)."""
+from __future__ import annotations
+
+import copy
+import json
+import re
+import sys
+from pathlib import Path
+
+import pytest
+
+from mmlib.experiment import views
+from mmlib.experiment.results import read_results
+from mmlib.experiment.verdicts import CLAIM_VERDICTS, claim_category
+from mmlib.papers import REGISTRY, summary, summary_template, summary_values
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO / "tools"))
+RESULTS = REPO / "data" / "results"
+
+
+def committed(name: str) -> dict:
+    return read_results(RESULTS / f"{name}.json")
+
+
+def all_docs() -> list[dict]:
+    return [read_results(p) for p in sorted(RESULTS.glob("*.json"))]
+
+
+# -- summaries ---------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_summary_exists_and_is_one_filled_paragraph(name):
+    text = summary(name)
+    assert text == summary(name, committed(name))          # the default is the committed results
+    assert len(text.split()) >= 40, "a summary says what was found, in a paragraph"
+    assert "\n\n" not in text and "{" not in text and "}" not in text, "one paragraph, every placeholder filled"
+
+
+def _literal_numbers(template: str) -> list[str]:
+    """The numbers written in a summary's text itself, outside its placeholders."""
+    return re.findall(r"\d+(?:\.\d+)?", re.sub(r"\{[^{}]*\}", " ", template))
+
+
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_summary_has_no_stale_number(name):
+    """Every number a summary writes itself (not filled from the results) appears in the paper's results document,
+    so a summary cannot carry a count or value of an older run; the rest are placeholders (checked live below)."""
+    doc_text = json.dumps(committed(name), ensure_ascii=False)
+    missing = [n for n in _literal_numbers(summary_template(name)) if n not in doc_text]
+    assert not missing, f"{name}: numbers in summary.md that the results do not contain: {missing}"
+
+
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_summary_placeholders_follow_the_results(name):
+    """Change the results the placeholders read (the headline runs and the first claim's verdict): the summary
+    changes with them; a summary without any placeholder would not."""
+    doc = committed(name)
+    template = summary_template(name)
+    assert re.search(r"\{\w+\}", template), "a summary's numbers come from the results"
+    mutated = copy.deepcopy(doc)
+    mutated["provenance"]["n_runs"] = 987654321
+    if doc.get("multiverse"):
+        mutated["multiverse"]["n_universes"] = 987654322
+        mutated["multiverse"]["n_runs"] = 987654323
+    mutated["claims"][0]["verdict"] = "not assessable" if claim_category(doc["claims"][0]["verdict"]) != \
+        "not assessable" else "holds"
+    assert summary(name, mutated) != summary(name, doc)
+    values = summary_values(mutated)
+    used = set(re.findall(r"\{(\w+)", template))
+    assert {"n_runs", "n_universes", "multiverse_runs"} & used, "a summary states how much was run"
+    for key in used & {"n_runs", "n_universes", "multiverse_runs"}:
+        assert str(values[key]) in summary(name, mutated)
+
+
+def test_summary_bad_input():
+    with pytest.raises(ValueError, match="name"):
+        summary("nosuchpaper2099")
+    with pytest.raises(ValueError, match="name"):
+        summary_template(None)
+    with pytest.raises(ValueError, match="doc"):
+        summary("zhu2016", committed("hu2017"))      # another paper's results
+
+
+# -- the verdict box ---------------------------------------------------------------------------------------------
+
+def _chips(html: str) -> list[str]:
+    return re.findall(r'<span class="claim-chip (claim-[a-z-]+)">', html)
+
+
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_verdict_box_from_results(name):
+    doc = committed(name)
+    box = views.verdict_box_html(doc)
+    assert box.startswith('<div class="verdict-box">') and box.endswith("</div>")
+    # one chip per claim, coloured by its verdict's category (the claim vocabulary)
+    assert _chips(box) == ["claim-" + str(claim_category(c["verdict"])).replace(" ", "-") for c in doc["claims"]]
+    assert {c.removeprefix("claim-").replace("-", " ") for c in _chips(box)} <= {str(v) for v in CLAIM_VERDICTS}
+    v = views.paper_verdicts(doc)
+    assert v["tables"], "every paper and control has at least one table with a joint test"
+    for t in v["tables"]:
+        assert 0 <= t["n_reproduced"] <= t["n_cells"]
+        assert f"{t['table']}: {t['n_reproduced']}/{t['n_cells']} cells reproduced" in box
+    # the robustness share of the first claim is the reading space's share of its headline verdict
+    first, across = v["claims"][0], doc["multiverse"]["claims_summary"]
+    entry = next(c for c in across if c["claim"] == first["claim"])
+    assert first["share"] == pytest.approx(entry["share"][first["verdict"]])
+    assert f"{views.percent(first['share'])} %" in box
+
+
+def test_verdict_box_follows_a_changed_verdict():
+    doc = committed("hu2017")
+    before = _chips(views.verdict_box_html(doc))
+    mutated = copy.deepcopy(doc)
+    old = claim_category(mutated["claims"][0]["verdict"])
+    new = "holds" if old != "holds" else "contradicted"
+    mutated["claims"][0]["verdict"] = new
+    after = _chips(views.verdict_box_html(mutated))
+    assert after[0] == "claim-" + new and after[1:] == before[1:] and before[0] != after[0]
+    # a table's count follows the table match
+    t = mutated["multiverse"]["table_match"][0]
+    t["headline_n_reproduced"] = t["n_cells"] - 1
+    assert f"{t['table']}: {t['n_cells'] - 1}/{t['n_cells']} cells reproduced" in views.verdict_box_html(mutated)
+
+
+def test_verdict_box_bad_input():
+    with pytest.raises(ValueError, match="doc"):
+        views.paper_verdicts({"rows": []})
+    with pytest.raises(ValueError, match="docs"):
+        views.findings_lines(committed("zhu2016"))         # one document, not a sequence of them
+
+
+# -- the ± format --------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("value, se, expected", [
+    (0.0263, 0.00041, "0.02630 ± 0.00041"),    # s.e. to 2 significant figures, the value to the same decimal
+    (0.026, 0.0001, "0.02600 ± 0.00010"),      # never "0.026 ± 0.000"
+    (-3.14159, 0.0995, "-3.14 ± 0.10"),        # 0.0995 rounds up to 0.10: two decimals, not three
+    (-0.5, 0.12, "-0.50 ± 0.12"),
+    (4.02, 0.05, "4.020 ± 0.050"),
+    (1234.4, 56.0, "1234 ± 56"),
+    (12344.0, 678.0, "12340 ± 680"),           # s.e. >= 100: rounded to tens
+    (159375.6, 64401.4, "159000 ± 64000"),
+    (2.5, 0.0, "2.5"),                         # zero s.e. (an exact value): the value alone
+    (2.5, None, "2.5"),
+    (None, 0.1, "--"),
+])
+def test_format_pm(value, se, expected):
+    assert views.format_pm(value, se) == expected
+
+
+def test_format_pm_large_and_tiny_keep_two_significant_figures_of_the_se():
+    big = views.format_pm(3.2e7, 4.1e5)
+    mantissa, se = re.match(r"([\d.]+)e\+07 ± ([\d.]+)e\+07", big).groups()
+    assert float(mantissa) * 1e7 == pytest.approx(3.2e7) and float(se) * 1e7 == pytest.approx(4.1e5)
+    assert len(se.replace("0.", "", 1).lstrip("0")) == 2
+    # value_pm goes through format_pm: its s.e. is never shown as zero
+    assert not re.search(r"± 0\.0*$", views.value_pm(0.026, 0.0001, 3))
+    with pytest.raises(ValueError, match="stderr"):
+        views.format_pm(1.0, "x")
+
+
+# -- the README's findings block ----------------------------------------------------------------------------------
+
+def test_readme_findings_block_is_current():
+    """The committed README's "What we found" block is what make_report renders from the committed results: a
+    stale README (results rerun, block not rewritten) fails here."""
+    import make_report
+    text = (REPO / "README.md").read_text()
+    assert make_report.readme_with_findings(text, all_docs()) == text
+    block = text.split(make_report.FINDINGS_START)[1].split(make_report.FINDINGS_END)[0]
+    for doc in all_docs():
+        assert f"[{doc['paper']}](reports/{doc['paper']}.md)" in block
+
+
+def test_readme_findings_rewrites_only_the_block_and_checks_markers():
+    import make_report
+    docs = all_docs()
+    text = f"# title\n\n{make_report.FINDINGS_START}\nstale block text\n{make_report.FINDINGS_END}\n\nrest\n"
+    new = make_report.readme_with_findings(text, docs)
+    assert new.startswith(f"# title\n\n{make_report.FINDINGS_START}\n") and new.endswith(
+        f"{make_report.FINDINGS_END}\n\nrest\n")
+    assert "stale block text" not in new and "## What we found" in new
+    assert make_report.readme_with_findings(new, docs) == new          # idempotent
+    for bad in (text.replace(make_report.FINDINGS_START, ""), text + make_report.FINDINGS_END,
+                f"{make_report.FINDINGS_END}\n{make_report.FINDINGS_START}\n"):
+        with pytest.raises(ValueError, match="readme_text"):
+            make_report.readme_with_findings(bad, docs)
+
+
+# -- the site: the box opens every paper page, the home page opens with the findings --------------------------------
+
+def test_site_pages_open_with_the_verdict(tmp_path):
+    import build_site
+    docs, notebooks = build_site.load_inputs("full")
+    by_name = {d["paper"]: d for d in docs}
+    for paper, nb in notebooks.items():
+        if paper == "arena":
+            continue
+        out = tmp_path / f"{paper}.ipynb"
+        build_site.fold_notebook(nb, out, by_name[paper])
+        cells = json.loads(out.read_text())["cells"]
+        assert cells[0]["source"].startswith("# ") and "\n" not in cells[0]["source"].strip()
+        k = 2 if "verdict-chip" in cells[1]["source"] else 1
+        assert '<div class="verdict-box">' in cells[k]["source"], paper
+        assert cells[k]["source"].startswith(summary(paper, by_name[paper])), paper
+    index = build_site.index_page(docs, notebooks)
+    assert "## What we found" in index and index.index("## What we found") < index.index("## What holds")
+    for paper in REGISTRY:
+        assert summary(paper, by_name[paper]) in index
+
+
+def test_detail_folds_and_deviation_links(tmp_path):
+    """The comparison rows and claim detail of every paper page fold into <details class="detail-fold">, every
+    deviation code in them links to an anchor the page defines, and every deviation of the results is anchored."""
+    import build_site
+    docs, notebooks = build_site.load_inputs("full")
+    by_name = {d["paper"]: d for d in docs}
+    for paper in REGISTRY:
+        out = tmp_path / f"{paper}.ipynb"
+        build_site.fold_notebook(notebooks[paper], out, by_name[paper])
+        texts = [md for _, md in build_site._outputs_markdown(json.loads(out.read_text()))]
+        folded = [t for t in texts if t.startswith('<details class="detail-fold">')]
+        assert any("| item | algorithm | quantity | paper |" in t for t in folded), paper
+        assert not [t for t in texts if t.startswith("| item | algorithm | quantity | paper | replicated")], paper
+        for t in folded:      # the table inside stays Markdown: blank lines around it, closed after it
+            assert "\n\n| " in t and t.rstrip().endswith("\n\n</details>")
+        anchors = set(re.findall(r'id="deviation-([^"]+)"', "".join(texts)))
+        assert anchors == {d["id"] for d in by_name[paper]["deviations"]}, paper
+        links = set(re.findall(r'href="#deviation-([^"]+)"', "".join(texts)))
+        assert links and links <= anchors, paper
