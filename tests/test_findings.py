@@ -13,7 +13,7 @@ import pytest
 from mmlib.experiment import views
 from mmlib.experiment.results import read_results
 from mmlib.experiment.verdicts import CLAIM_VERDICTS, claim_category
-from mmlib.papers import REGISTRY, summary, summary_template, summary_values
+from mmlib.papers import REGISTRY, finding, summary, summary_template, summary_values
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tools"))
@@ -43,13 +43,43 @@ def _literal_numbers(template: str) -> list[str]:
     return re.findall(r"\d+(?:\.\d+)?", re.sub(r"\{[^{}]*\}", " ", template))
 
 
+@pytest.mark.parametrize("kind", ["summary", "finding"])
 @pytest.mark.parametrize("name", list(REGISTRY))
-def test_summary_has_no_stale_number(name):
-    """Every number a summary writes itself (not filled from the results) appears in the paper's results document,
-    so a summary cannot carry a count or value of an older run; the rest are placeholders (checked live below)."""
+def test_summary_has_no_stale_number(name, kind):
+    """Every number a summary or one-line finding writes itself (not filled from the results) appears in the paper's
+    results document, so neither can carry a count or value of an older run; the rest are placeholders (checked live
+    below)."""
     doc_text = json.dumps(committed(name), ensure_ascii=False)
-    missing = [n for n in _literal_numbers(summary_template(name)) if n not in doc_text]
-    assert not missing, f"{name}: numbers in summary.md that the results do not contain: {missing}"
+    missing = [n for n in _literal_numbers(summary_template(name, kind)) if n not in doc_text]
+    assert not missing, f"{name}: numbers in {kind}.md that the results do not contain: {missing}"
+
+
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_finding_is_one_filled_line(name):
+    """The README's line of a paper: one line, every placeholder filled, each with the value the results give."""
+    doc = committed(name)
+    text = finding(name)
+    assert text == finding(name, doc) and "\n" not in text and "{" not in text and "}" not in text
+    used = set(re.findall(r"\{(\w+)\}", summary_template(name, "finding")))
+    assert used, "a finding's numbers come from the results"
+    values = summary_values(doc)
+    for key in used:
+        assert str(values[key]) in text, key
+    with pytest.raises(ValueError, match="kind"):
+        summary_template(name, "abstract")
+
+
+def test_citation_labels_name_the_first_author_and_the_year():
+    import make_report
+    for name in REGISTRY:
+        label = make_report.citation_label(REGISTRY[name].citation)
+        assert re.fullmatch(r"[A-Z][\w'-]+( et al\.| & [A-Z][\w'-]+)? (19|20)\d\d", label), label
+        if name[-4:].isdigit():
+            assert label.endswith(name[-4:]) and label.split()[0].lower() == re.sub(r"\d", "", name), (name, label)
+    assert make_report.citation_label("A. One, B. Two, Title, J. 12(3), 100-120, 2001, doi:x") == "One & Two 2001"
+    assert make_report.citation_label("A. One, B. Two, C. Three, T, 1999") == "One et al. 1999"
+    with pytest.raises(ValueError, match="citation"):
+        make_report.citation_label("Anonymous report, no year")
 
 
 @pytest.mark.parametrize("name", list(REGISTRY))
@@ -171,7 +201,7 @@ def test_readme_findings_block_is_current():
     assert make_report.readme_with_findings(text, all_docs()) == text
     block = text.split(make_report.FINDINGS_START)[1].split(make_report.FINDINGS_END)[0]
     for doc in all_docs():
-        assert f"[{doc['paper']}](reports/{doc['paper']}.md)" in block
+        assert f"](reports/{doc['paper']}.md)" in block
 
 
 def test_readme_findings_rewrites_only_the_block_and_checks_markers():
@@ -181,7 +211,7 @@ def test_readme_findings_rewrites_only_the_block_and_checks_markers():
     new = make_report.readme_with_findings(text, docs)
     assert new.startswith(f"# title\n\n{make_report.FINDINGS_START}\n") and new.endswith(
         f"{make_report.FINDINGS_END}\n\nrest\n")
-    assert "stale block text" not in new and "## What we found" in new
+    assert "stale block text" not in new and "(reports/zhu2016.md)" in new
     assert make_report.readme_with_findings(new, docs) == new          # idempotent
     for bad in (text.replace(make_report.FINDINGS_START, ""), text + make_report.FINDINGS_END,
                 f"{make_report.FINDINGS_END}\n{make_report.FINDINGS_START}\n"):

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -389,15 +390,59 @@ def render_index(docs, link=None, title: str = "# All papers: what holds", chip=
 FINDINGS_START, FINDINGS_END = "<!-- findings:start -->", "<!-- findings:end -->"
 
 
+def citation_label(citation: str) -> str:
+    """A paper's short name from its citation ("W. Zhu, W. Wang, G. Yuan, An Improved ..., Sensors 16(6):805, 2016"
+    -> "Zhu et al. 2016"; two authors "Liu & Wu 2017"): the leading initial-and-surname authors and the first year."""
+    authors = []
+    for part in citation.split(", "):
+        m = re.fullmatch(r"(?:[A-Z]\.(?:-[A-Z]\.)?\s?)+([A-Z][\w'-]+)", part.strip())
+        if not m:
+            break
+        authors.append(m.group(1))
+    year = re.search(r"(?<=, )(?:19|20)\d\d(?=[,;( ]|$)", citation)       # a year, not a page range
+    if not authors or not year:
+        raise ValueError(f"citation: no leading authors or year in {citation!r}")
+    who = authors[0] if len(authors) == 1 else " & ".join(authors) if len(authors) == 2 else f"{authors[0]} et al."
+    return f"{who} {year.group(0)}"
+
+
+def arena_line(doc: dict) -> str:
+    """The arena in a few words for the README: algorithms × scenarios and runs, and its first pooled finding with
+    the scenario lists and the kept-out scenarios left out (the report has them)."""
+    first = next((f for f in (re.sub(r"^[-*]\s*", "", f) for f in doc.get("findings") or [])
+                  if f.startswith("**") and "where both apply" in f), "")
+    first = re.sub(r"^\*\*(.+?)\*\* \([^)]*\):", r"\1:", first)           # the algorithms compared
+    first = re.sub(r" \((?:[a-z][a-z0-9-]*(?:, )?)+\)", "", first)            # the scenario lists
+    first = re.sub(r"; kept out: .*$", "", first).rstrip(". ")
+    n_alg, n_scen = len(doc.get("algorithms") or []), len(doc.get("scenarios") or [])
+    return (f"{n_alg} algorithms × {n_scen} scenarios, {doc['provenance']['n_runs']} runs each"
+            + (f"; {first}" if first else ""))
+
+
 def findings_block(docs: list[dict]) -> str:
-    """The README's "What we found" block (between the markers, exclusive): one line per paper, the controls first
-    and the arena last (:func:`mmlib.experiment.views.findings_lines`), each linking to its report."""
-    lines = views.findings_lines(docs, link=lambda p: f"**[{p}](reports/{p}.md)**")
-    return "\n".join(["## What we found", "",
-                      "One line per paper, generated from `data/results/*.json` by `tools/make_report.py` (do not "
-                      "edit by hand): the tables' cells reproduced under the headline reading with the whole-table "
-                      "joint test, the claim verdicts, the first claim's decisive number and its share of the reading "
-                      "space (95 % interval).", "", *[f"- {x}" for x in lines]])
+    """The README's "What we found" lines (between the markers, exclusive): one per paper of the registry in its
+    order, "**[Zhu et al. 2016](reports/zhu2016.md)** (IMM with ...): ..." (its one-line finding,
+    :func:`mmlib.papers.finding`, filled from its results, or :func:`mmlib.experiment.views.findings_line` when its
+    package has none), then one line on the controls and the arena together."""
+    from mmlib import papers
+    by_name = {d["paper"]: d for d in docs}
+    lines, last = [], []
+    for name in papers.REGISTRY:
+        if name not in by_name:
+            continue
+        paper, doc = papers.REGISTRY[name], by_name[name]
+        if paper.kind == "control":
+            last.append(f"[Controls](reports/{name}.md): " + papers.finding(name, doc))
+            continue
+        link = f"**[{citation_label(paper.citation)}](reports/{name}.md)**"
+        try:
+            lines.append(f"- {link} {papers.finding(name, doc)}")
+        except ValueError:
+            lines.append(f"- {views.findings_line(doc, link)}")
+    last += [f"[the arena](reports/{d['paper']}.md): " + arena_line(d) for d in docs if d.get("kind") == "arena"]
+    if last:
+        lines.append("- " + "; ".join(last) + ".")
+    return "\n".join(lines)
 
 
 def readme_with_findings(readme_text: str, docs: list[dict]) -> str:

@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import importlib
 import importlib.resources
+import re
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
 from mmlib.experiment.paper import Paper
 
 __all__ = [
-    "REGISTRY", "Registry", "summary", "summary_values", "summary_template", "PACKAGES"
+    "REGISTRY", "Registry", "summary", "finding", "summary_values", "summary_template", "PACKAGES"
 ]
 
 #: the packages of the replicated papers, in the order of the README's table; the controls of the pipeline
@@ -76,21 +77,27 @@ REGISTRY = Registry(PACKAGES)
 
 # -- the one-paragraph summaries (issue 26: findings first) -------------------------------------------------------
 
+#: the texts a paper package may carry, filled from its results (:func:`summary_template`)
+_TEXTS = ("summary", "finding")
+
 #: where the committed results live when mmlib runs from its checkout (``data/results/<paper>.json``)
 _RESULTS = Path(__file__).resolve().parent.parent.parent / "data" / "results"
 
 
-def summary_template(name: str) -> str:
-    """The text of ``mmlib/papers/<name>/summary.md``: one paragraph saying what the replication of paper ``name``
-    found, with its numbers as placeholders (``{n_universes}``, ``{c1_share}``, ...; :func:`summary_values`) filled
-    from the results by :func:`summary`.  ValueError naming ``name`` for a name that is not a registered paper or a
-    paper without a summary."""
+def summary_template(name: str, kind: str = "summary") -> str:
+    """The text of ``mmlib/papers/<name>/<kind>.md``: ``kind`` "summary" (one paragraph saying what the replication
+    of paper ``name`` found) or "finding" (the same in one line, the README's "What we found"), with its numbers as
+    placeholders (``{n_universes}``, ``{c1_share}``, ...; :func:`summary_values`) filled from the results by
+    :func:`summary` and :func:`finding`.  ValueError naming ``name`` for a name that is not a registered paper or a
+    paper without that text, naming ``kind`` for another kind."""
+    if kind not in _TEXTS:
+        raise ValueError(f"kind: expected one of {', '.join(_TEXTS)}, got {kind!r}")
     if not isinstance(name, str) or name not in REGISTRY:
         raise ValueError(f"name: expected a registered paper ({', '.join(REGISTRY)}), got {name!r}")
     try:
-        return importlib.resources.files(f"{__name__}.{name}").joinpath("summary.md").read_text(encoding="utf-8")
+        return importlib.resources.files(f"{__name__}.{name}").joinpath(f"{kind}.md").read_text(encoding="utf-8")
     except (FileNotFoundError, ModuleNotFoundError, OSError):
-        raise ValueError(f"name: the paper {name!r} has no summary.md in its package") from None
+        raise ValueError(f"name: the paper {name!r} has no {kind}.md in its package") from None
 
 
 def summary_values(doc: Mapping[str, Any]) -> dict:
@@ -122,6 +129,7 @@ def summary_values(doc: Mapping[str, Any]) -> dict:
             band = "" if lo == hi == c["share"] else f" [{views.percent(lo)}, {views.percent(hi)}]"
             share = f"{views.percent(c['share'])} %{band}"
         out.update({f"c{i}_verdict": c["words"], f"c{i}_decisive": c["decisive"], f"c{i}_share": share,
+                    f"c{i}_short": re.sub(r" \((\d+ parts|weakest of \d+)\)$", "", c["decisive"]),
                     f"c{i}_robust": "--" if c["robust"] is None else
                     ("robust" if c["robust"] else "depends on the reading")})
     out["n_claims"] = len(v["claims"])
@@ -135,7 +143,18 @@ def summary(name: str, doc: Mapping[str, Any] | None = None) -> str:
     ``data/results/<name>.json`` of this checkout, read by :func:`mmlib.experiment.results.read_results`).
     ValueError naming ``name`` for an unknown paper or one without a summary, naming ``doc`` when the results lack a
     value the summary needs or belong to another paper."""
-    template = summary_template(name)
+    return _filled(name, "summary", doc)
+
+
+def finding(name: str, doc: Mapping[str, Any] | None = None) -> str:
+    """What the replication of paper ``name`` found, in one line (Markdown, the README's "What we found"; it starts
+    after the paper's name, e.g. "(IMM with a fifth-degree CKF): 0 of Table 1's 16 cells ..."): its ``finding.md``
+    filled from its results ``doc`` as :func:`summary` fills the paragraph; the same errors."""
+    return _filled(name, "finding", doc)
+
+
+def _filled(name: str, kind: str, doc: Mapping[str, Any] | None) -> str:
+    template = summary_template(name, kind)
     if doc is None:
         path = _RESULTS / f"{name}.json"
         if not path.is_file():
@@ -148,4 +167,4 @@ def summary(name: str, doc: Mapping[str, Any] | None = None) -> str:
     try:
         return template.strip().format_map(summary_values(doc))
     except (KeyError, IndexError, AttributeError) as exc:
-        raise ValueError(f"doc: the summary of {name!r} needs {exc} from the results, which lack it") from None
+        raise ValueError(f"doc: the {kind} of {name!r} needs {exc} from the results, which lack it") from None
