@@ -590,7 +590,7 @@ def _every(total: int, progress, lines: int = 20):
     k = max(1, math.ceil(total / lines))
 
     def throttled(line: str):
-        m = re.search(r" cell (\d+)/(\d+) done", line)
+        m = re.search(r" cell (\d+)/(\d+)\b", line)
         if m is None or int(m.group(1)) % k == 0 or m.group(1) == m.group(2):
             say(line)
 
