@@ -7,6 +7,7 @@ import re
 
 import pytest
 
+from mmlib.core import linalg
 from mmlib.experiment import grid
 from mmlib.experiment.grid import GridProgress, format_duration, progress_line
 
@@ -101,3 +102,41 @@ def test_bad_arguments_are_named(kw, name):
     args = {**dict(tag="p", unit="universe", total=2, say=print), **kw}
     with pytest.raises(ValueError, match=name):
         GridProgress(**args)
+
+
+# ----------------------------------------------------------------------------------- the numba compile notice
+def test_cache_is_cold_without_an_index_file_as_new_as_the_source(tmp_path, monkeypatch):
+    import os
+    monkeypatch.setattr(linalg, "_kernel_cache_dirs", lambda: [tmp_path / "missing", tmp_path])
+    assert linalg._kernel_cache_cold() is True                   # empty cache folder
+    index = tmp_path / "_kernels._chol-95.py311.nbi"
+    index.write_text("")
+    assert linalg._kernel_cache_cold() is False
+    source = os.stat(os.path.join(os.path.dirname(linalg.__file__), "_kernels.py")).st_mtime
+    os.utime(index, (source - 10, source - 10))                  # older than the source: numba drops it
+    assert linalg._kernel_cache_cold() is True
+
+
+def test_compile_notice_once_per_process_only_when_cold(monkeypatch, capsys, tmp_path):
+    monkeypatch.delenv("MMLIB_PROGRESS_LOG", raising=False)
+    monkeypatch.setattr(linalg, "_NOTICE_GIVEN", [])
+    monkeypatch.setattr(linalg, "_kernel_cache_cold", lambda: True)
+    linalg.set_kernel(linalg.kernel())                         # importing the kernels compiles nothing: no notice
+    assert capsys.readouterr().err == ""
+    linalg._compiled_module()
+    linalg._compiled_module()
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("mmlib: compiling the filter kernels (first use only, about ")
+    assert linalg.COMPILE_TIME in err[0]
+    # warm: nothing
+    monkeypatch.setattr(linalg, "_NOTICE_GIVEN", [])
+    monkeypatch.setattr(linalg, "_kernel_cache_cold", lambda: False)
+    linalg._compiled_module()
+    assert capsys.readouterr().err == ""
+    # under the notebook runner: into its progress log, never into the notebook's stderr
+    log = tmp_path / "progress.log"
+    monkeypatch.setenv("MMLIB_PROGRESS_LOG", str(log))
+    monkeypatch.setattr(linalg, "_NOTICE_GIVEN", [])
+    monkeypatch.setattr(linalg, "_kernel_cache_cold", lambda: True)
+    linalg._compiled_module()
+    assert capsys.readouterr().err == "" and log.read_text().startswith("mmlib: compiling the filter kernels")
