@@ -6,12 +6,13 @@
 #   (PAPER: one or more paper names; N_RUNS: the headline's Monte Carlo runs, SEED: the root seed, MULTIVERSE_RUNS:
 #    the reading space's runs per universe (N_RUNS leaves it alone); any of the three sends the outputs to
 #    build/custom/<profile>-<settings>/, never over the committed ones)
-# Where it runs (outputs unchanged): make figures WORKERS=1, make figures SCHEDULER=tcp://host:8786 (Dask)
+# Where it runs (outputs unchanged): make figures WORKERS=1, make figures SCHEDULER=tcp://host:8786 (Dask);
+#   VERBOSE=1 prints every universe of a reading space with its levels
 # make recover finishes an interrupted promotion and removes leftovers.  An upper-case variable on the command line
 # that is not one of ACCEPTED_VARIABLES below (a misspelt NRUNS=200, say) is refused before anything runs.
 
 # The command-line variables this Makefile and the scripts it runs read (bench/: BENCH_*; mmlib: MMLIB_*)
-ACCEPTED_VARIABLES := PAPER N_RUNS SEED MULTIVERSE_RUNS PROFILE WORKERS SCHEDULER TEST_WORKERS PYTHON \
+ACCEPTED_VARIABLES := PAPER N_RUNS SEED MULTIVERSE_RUNS PROFILE WORKERS SCHEDULER VERBOSE TEST_WORKERS PYTHON \
 	BENCH_THREADS BENCH_REPEATS BENCH_MAX_RUNS BENCH_COST_REPEATS BENCH_COST_STEPS BENCH_COST_WORK \
 	BENCH_PAPER_REPEATS BENCH_PAPER_RUNS BENCH_PAPER_STEPS MMLIB_SCHEDULER MMLIB_CACHE MMLIB_KERNEL MMLIB_FUSED
 # make's own (set on the command line only by hand); lower-case names are left alone (make's and the user's own)
@@ -41,8 +42,10 @@ RUN_ARGS = $(if $(N_RUNS),-p N_RUNS=$(N_RUNS)) $(if $(SEED),-p SEED=$(SEED)) \
 	$(if $(MULTIVERSE_RUNS),-p MULTIVERSE_RUNS=$(MULTIVERSE_RUNS)) $(PAPER)
 # execution settings (never change a result, so never send the outputs to build/custom/): WORKERS=n worker
 # processes in all (a WORKERS environment variable is read by the runner itself), SCHEDULER=tcp://host:8786 a Dask
-# scheduler receiving the Monte Carlo chunks and universes (the kernels see it as MMLIB_SCHEDULER)
-EXEC_ARGS = $(if $(filter command line,$(origin WORKERS)),--workers $(WORKERS)) $(if $(SCHEDULER),--scheduler $(SCHEDULER))
+# scheduler receiving the Monte Carlo chunks and universes (the kernels see it as MMLIB_SCHEDULER); VERBOSE=1 the
+# progress of every universe with its levels (default: universe k/N and the time left)
+EXEC_ARGS = $(if $(filter command line,$(origin WORKERS)),--workers $(WORKERS)) $(if $(SCHEDULER),--scheduler $(SCHEDULER)) \
+	$(if $(VERBOSE),-v)
 
 .PHONY: figures test unit smoke site bench clean venv recover
 

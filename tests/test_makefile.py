@@ -58,6 +58,11 @@ def test_accepted_variables_pass():
     assert "run_notebooks.py" in proc.stdout
 
 
+def test_verbose_is_the_runners_v():
+    assert runner_line(make("figures", "PAPER=hu2017", "VERBOSE=1").stdout) == ["--profile", "full", "-v", "hu2017"]
+    assert "-v" not in runner_line(make("figures", "PAPER=hu2017").stdout)
+
+
 def test_environment_and_lower_case_variables_are_not_refused():
     """Only the command line is checked: the environment holds many upper-case names make does not read."""
     proc = make("figures", "PAPER=zhu2016", "verbose=1", env={"NRUNS": "200", "SOME_TOOL_HOME": "/opt"})
