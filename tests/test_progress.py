@@ -140,3 +140,30 @@ def test_compile_notice_once_per_process_only_when_cold(monkeypatch, capsys, tmp
     monkeypatch.setattr(linalg, "_kernel_cache_cold", lambda: True)
     linalg._compiled_module()
     assert capsys.readouterr().err == "" and log.read_text().startswith("mmlib: compiling the filter kernels")
+
+
+# ------------------------------------------------------------------------------------------ make site, per page
+@pytest.fixture(scope="module")
+def build_site():
+    """tools/build_site.py as a module."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+    path = Path(__file__).resolve().parents[1] / "tools" / "build_site.py"
+    spec = importlib.util.spec_from_file_location("build_site_for_progress", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault(spec.name, module)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize("line, shown", [
+    ("reading sources... [ 12%] papers/hu2017\n", "site: reading  12 % papers/hu2017"),
+    ("writing output... [100%] index", "site: writing 100 % index"),
+    ("reading sources... [  1%] api/mmlib.core.linalg", "site: reading   1 % api/mmlib.core.linalg"),
+    ("Running Sphinx v8.1.3", None),
+    ("build succeeded.", None),
+    ("/tmp/x/src/index.md:3: WARNING: undefined label", None),
+])
+def test_sphinx_page_lines_become_short_progress_lines(build_site, line, shown):
+    assert build_site.page_progress(line) == shown
