@@ -759,10 +759,13 @@ def notebook_settings(src: Path, profile: str, params: dict) -> str:
     def origin(name: str, default: str) -> str:
         return "-p" if name in params else default
 
+    own_seed = "the paper's root seed"
+    # the profile's mv_runs, else the headline's runs (NotebookRun's rule): whether N_RUNS moves them
+    follows = "N_RUNS leaves it alone" if "mv_runs" in paper.profiles[profile] else "else it follows N_RUNS"
     return (f"  {src.stem}: N_RUNS={run.n_runs} ({origin('N_RUNS', 'profile ' + profile)}), SEED={run.seed} "
-            f"({origin('SEED', 'the paper' + chr(39) + 's root seed')}); reading space: {run.mv_runs} runs per "
-            f"universe ({origin('MULTIVERSE_RUNS', 'profile ' + profile)}; change with MULTIVERSE_RUNS=, which "
-            f"N_RUNS leaves alone), design {run.mv_design}")
+            f"({origin('SEED', own_seed)}); reading space: {run.mv_runs} runs per universe "
+            f"({origin('MULTIVERSE_RUNS', 'profile ' + profile)}; change with MULTIVERSE_RUNS=, {follows}), "
+            f"design {run.mv_design}")
 
 
 def settings_header(sources: list[Path], profile: str, params: dict, layout: Layout, workers: int, scheduler: str,
