@@ -46,7 +46,8 @@ __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused"
            "log_det_from_cholesky", "tril_inverse", "symmetrize", "trace", "wrap_angle", "range_bearing", "matmul_rows",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
-           "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES"]
+           "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES",
+           "COMPILE_TIME"]
 
 #: The implementations of the kernels below: ``"numba"`` (compiled loops, :mod:`mmlib.core._kernels`) and
 #: ``"numpy"`` (the reference path).  They compute the same mathematics and agree to round-off
