@@ -429,6 +429,8 @@ def test_reading_space_parameter_leaves_out_notebooks_without_one_and_verbose_re
     assert re.search(r"^settings: profile=full; notebooks: alpha2001_fake; overrides: MULTIVERSE_RUNS=3",
                      proc.stdout, re.M), proc.stdout
     assert not list(repo.glob("build/**/staging"))
+    assert "without encryption" not in proc.stderr               # the kernels get CurveZMQ keys: no warning
+    assert str(repo) not in proc.stdout + proc.stderr               # relative paths only
     named = run(repo, "-p", "MULTIVERSE_RUNS=3", "beta2002", check=2)
     assert "-p MULTIVERSE_RUNS: not a parameter of this notebook" in named.stderr
     quiet = run(repo, "alpha2001", check=0)

@@ -440,6 +440,27 @@ class PrefixedLines:
             self.write("\n")
 
 
+class RelativePaths:
+    """A text stream that writes to ``target`` with machine-local paths made relative: the staging folder becomes the
+    folder its outputs are promoted to, and the repository root's paths become relative to it (a kernel printing
+    where it wrote a file would otherwise show the absolute staging path, which is gone once promoted)."""
+
+    def __init__(self, target, staging: Path, layout: Layout):
+        out = layout.show(layout.out)
+        self.target = target
+        self.subs = [(str(staging), out), (str(layout.root) + os.sep, ""),
+                     (str(layout.root), ".")]
+
+    def write(self, text: str) -> int:
+        for old, new in self.subs:
+            text = text.replace(old, new)
+        self.target.write(text)
+        return len(text)
+
+    def flush(self) -> None:
+        self.target.flush()
+
+
 def execute(src: Path, staging: Path, layout: Layout, profile: str, params: dict, timeout: int,
             stdout=None, stderr=None) -> Path:
     """Run the notebook with its outputs directed to ``staging``; returns the executed notebook (in ``staging``,
@@ -461,8 +482,10 @@ def execute(src: Path, staging: Path, layout: Layout, profile: str, params: dict
         pm.execute_notebook(str(nb_in), str(executed), kernel_name=KERNEL,
                             parameters={**params, "PROFILE": profile, "OUTPUT_ROOT": str(staging)},
                             cwd=str(layout.root / "notebooks"), execution_timeout=timeout,
-                            progress_bar=False, log_output=False, stdout_file=stdout or sys.stdout,
-                            stderr_file=stderr or sys.stderr, kernel_manager_class=kernel_manager_with_env(
+                            progress_bar=False, log_output=False,
+                            stdout_file=RelativePaths(stdout or sys.stdout, staging, layout),
+                            stderr_file=RelativePaths(stderr or sys.stderr, staging, layout),
+                            kernel_manager_class=kernel_manager_with_env(
                                 {PROGRESS_LOG_ENV: str(log.resolve())}))
     except PapermillExecutionError as exc:
         raise NotebookFailed(f"cell {exc.cell_index} (execution count {exc.exec_count}): {exc.ename}: "
