@@ -308,8 +308,9 @@ print(f"{mv.design.kind} design, {len(mv.universes)} universes of {nb.mv_runs} r
 sims = mv.simulations()                  # universe indices per distinct simulation (ValueError if H-11 moved a claim)
 print(f"{len(sims)} distinct simulations: {len(mv.universes) - len(sims)} universes repeat another's simulation "
       f"under a different H-11 (Table 1 metric) reading")
-same_as_headline = nb.mv_runs == nb.n_runs and digests.same_numbers(mv.headline, headline)
-print("headline universe identical to the headline above:", same_as_headline)
+headline_match = mv.headline_match(headline, nb.n_runs)    # "yes: ..." or "no: <the reason>"
+same_as_headline = headline_match.startswith("yes")
+print("headline universe identical to the headline above:", headline_match)
 
 # %% [markdown]
 # **Influence.** How far each factor's one-factor universes move the results from the headline: the largest change

@@ -181,11 +181,21 @@ def test_grid_bad_input(tmp_path):
                  cache_dir=tmp_path, progress=False, workers=1)
 
 
-def test_progress_line_per_universe(tmp_path):
+def test_progress_line_per_universe_when_verbose(tmp_path, monkeypatch):
+    """Verbose ($MMLIB_PROGRESS_VERBOSE=1): a line per universe with its reading; else the first and the last (the
+    toy grid takes well under PROGRESS_INTERVAL), the last counting the universes with diverged runs."""
+    monkeypatch.setenv(grid.VERBOSE_ENV, "1")
     lines = []
     _grid(tmp_path, workers=1, progress=lines.append)
     assert len(lines) == toy.SPACE.size and all("universe" in ln for ln in lines)
+    assert all('"A": ' in ln for ln in lines)                  # the reading's levels
     assert any("diverged runs" in ln for ln in lines)           # option c2 reports one diverged run
+    monkeypatch.delenv(grid.VERBOSE_ENV)
+    lines.clear()
+    _grid(tmp_path / "quiet", workers=1, progress=lines.append)
+    n = toy.SPACE.size
+    assert [ln.split("] ", 1)[1].split(",")[0] for ln in lines] == [f"universe 1/{n}", f"universe {n}/{n}"]
+    assert f"({n // 2} universe(s) with diverged runs)" in lines[-1] and '"A"' not in "".join(lines)
     lines.clear()
     _grid(tmp_path, workers=1, progress=lines.append)
     assert len(lines) == 1 and "from the cache" in lines[0]

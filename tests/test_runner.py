@@ -128,6 +128,7 @@ def assert_no_leftovers(root: Path) -> None:
     files = [p.relative_to(root).as_posix() for p in root.rglob("*") if p.is_file()]
     assert [f for f in files if not ALLOWED.fullmatch(f)] == []
     assert [p for p in root.glob("build/**/staging/*")] == []
+    assert [p for p in root.glob("build/**/staging")] == []          # not even an empty staging folder
     for nb in (root / "notebooks" / "executed").glob("*.ipynb"):
         assert str(root) not in nb.read_text() and "/staging/" not in nb.read_text(), nb
 
@@ -225,7 +226,7 @@ def test_overridden_run_goes_to_its_own_folder_never_over_committed_outputs(repo
         assert "alpha2001-new" in (custom / rel).read_text(), rel
     index = (custom / "reports" / "README.md").read_text()
     assert "alpha2001-new" in index and "beta2002" not in index      # the folder's own papers only
-    assert [p.name for p in (custom / "staging").iterdir()] == []
+    assert not (custom / "staging").exists()
 
 
 def test_progress_goes_to_the_runners_log_not_into_the_executed_notebook(repo):
@@ -393,3 +394,44 @@ def test_recovery_removes_leftover_temporary_files(repo):
     assert not (repo / "figures" / ".alpha2001.old").exists()
     assert {k: v for k, v in snapshot(repo).items()} == \
         {k: v for k, v in kept.items() if not any(k == str(p.relative_to(repo)) for p in leftovers)}
+
+
+# ------------------------------------------------------------------------------------------------ what a run says
+def test_header_states_every_setting_and_the_reading_space_runs(runner):
+    """A registered paper's line: the headline's runs and seed and the reading space's runs per universe, each with
+    its origin, and how to change the latter (N_RUNS does not)."""
+    from mmlib.papers import REGISTRY
+    src = REPO / "notebooks" / "hu2017_immcdkf_obs.py"
+    profile = REGISTRY["hu2017"].profiles["full"]
+    line = runner.notebook_settings(src, "full", {"N_RUNS": 7})
+    assert "N_RUNS=7 (-p)" in line
+    assert f"reading space: {profile['mv_runs']} runs per universe (profile full;" in line
+    assert "MULTIVERSE_RUNS=" in line
+    line = runner.notebook_settings(src, "full", {"MULTIVERSE_RUNS": 9})
+    assert f"N_RUNS={profile['n_runs']} (profile full)" in line and "9 runs per universe (-p;" in line
+    layout = runner.layout_for(REPO, "full", {"N_RUNS": 7})
+    head = runner.settings_header([src], "full", {"N_RUNS": 7}, layout, 3, "", False)
+    assert head[0].startswith("settings: profile=full; notebooks: hu2017_immcdkf_obs; overrides: N_RUNS=7")
+    assert "workers: 3" in head[0] and "scheduler: none" in head[0] and "build/custom/" in head[0]
+    assert str(REPO) not in "".join(head)                           # no machine-local path
+
+
+def test_reading_space_parameter_leaves_out_notebooks_without_one_and_verbose_reaches_the_kernels(repo):
+    """-p MULTIVERSE_RUNS over every notebook: one without a reading space is left out with a note (named, it is an
+    error); -v sets MMLIB_PROGRESS_VERBOSE=1 for the kernels; the run leaves no staging folder."""
+    src = repo / "notebooks" / "beta2002_fake.py"
+    src.write_text(src.read_text().replace("MULTIVERSE_RUNS = None\n", ""))
+    alpha = repo / "notebooks" / "alpha2001_fake.py"
+    alpha.write_text(alpha.read_text() + '\nprint("verbose=" + os.environ.get("MMLIB_PROGRESS_VERBOSE", ""))\n')
+    proc = run(repo, "-v", "-p", "MULTIVERSE_RUNS=3", check=0)
+    assert "beta2002_fake left out: it has no reading space (MULTIVERSE_RUNS do not apply)" in proc.stdout
+    assert "verbose=1" in proc.stdout and "beta2002" not in proc.stdout.split("left out")[1]
+    assert re.search(r"^settings: profile=full; notebooks: alpha2001_fake; overrides: MULTIVERSE_RUNS=3",
+                     proc.stdout, re.M), proc.stdout
+    assert not list(repo.glob("build/**/staging"))
+    assert "without encryption" not in proc.stderr               # the kernels get CurveZMQ keys: no warning
+    assert str(repo) not in proc.stdout + proc.stderr               # relative paths only
+    named = run(repo, "-p", "MULTIVERSE_RUNS=3", "beta2002", check=2)
+    assert "-p MULTIVERSE_RUNS: not a parameter of this notebook" in named.stderr
+    quiet = run(repo, "alpha2001", check=0)
+    assert "verbose=0" in quiet.stdout

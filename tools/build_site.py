@@ -47,6 +47,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -381,22 +382,46 @@ def explain(line: str, stage: Path) -> str:
     return line
 
 
+#: a line of Sphinx's per-page progress: "reading sources... [ 12%] papers/hu2017" (also "writing output...")
+SPHINX_PAGE = re.compile(r"^(?P<phase>reading sources|writing output)\.\.\. \[\s*(?P<pct>\d+)%\] (?P<page>\S+)")
+
+
+def page_progress(line: str) -> str | None:
+    """Sphinx's progress line of one page as a short one, ``"site: reading  12 % papers/hu2017"``; None for any
+    other line (Sphinx's banner, its phase summaries, a warning: the warnings are reported from their file)."""
+    m = SPHINX_PAGE.match(line.strip())
+    if m is None:
+        return None
+    return f"site: {m['phase'].split()[0]:<7} {int(m['pct']):3d} % {m['page']}"
+
+
 def sphinx(stage: Path, html: Path, quiet: bool = True) -> None:
     """Run Sphinx on the staged sources into ``html`` (warnings are errors); a SiteError lists the failures, each
-    naming its page (and, in a notebook, its cell), and leaves no ``html`` folder."""
+    naming its page (and, in a notebook, its cell), and leaves no ``html`` folder.  ``quiet=False`` prints one line
+    per page as Sphinx reads it and as it writes it (:func:`page_progress`; ``make site`` takes minutes)."""
     shutil.rmtree(html, ignore_errors=True)
     warnings = stage.parent / f"{stage.name}-warnings.txt"
     # doctrees (Sphinx's cache) beside the HTML, never inside it; MyST-NB puts its jupyter_execute/ there too
     cmd = [sys.executable, "-m", "sphinx", "-b", "html", "-c", str(REPO / "docs"), "-W", "--keep-going",
-           "-w", str(warnings), "-d", str(html.parent / "doctrees"), *(["-q"] if quiet else []), str(stage), str(html)]
+           "-w", str(warnings), "-d", str(html.parent / "doctrees"), *(["-q"] if quiet else ["-N"]), str(stage),
+           str(html)]
     env = {**os.environ, "MMLIB_SITE_REPO": str(REPO), "MMLIB_SITE_MATHJAX": str(stage / "_mathjax"),
            "PYTHONHASHSEED": "0"}
-    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
-    if proc.returncode != 0:
+    with tempfile.TemporaryFile("w+") as err:
+        proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=err, text=True)
+        for line in proc.stdout:
+            shown = None if quiet else page_progress(line)
+            if shown:
+                print(shown, flush=True)
+        proc.stdout.close()
+        returncode = proc.wait()
+        err.seek(0)
+        stderr = err.read()
+    if returncode != 0:
         lines = [explain(x, stage) for x in (warnings.read_text() if warnings.exists() else "").splitlines() if x]
-        detail = "\n  ".join(dict.fromkeys(lines[:40]) or proc.stderr.strip().splitlines()[-20:])
+        detail = "\n  ".join(dict.fromkeys(lines[:40]) or stderr.strip().splitlines()[-20:])
         shutil.rmtree(html, ignore_errors=True)
-        raise SiteError(f"the site did not build (Sphinx exit status {proc.returncode}):\n  {detail}")
+        raise SiteError(f"the site did not build (Sphinx exit status {returncode}):\n  {detail}")
 
 
 def build(profile: str = "full", out: Path | None = None, quiet: bool = True) -> Path:
@@ -439,7 +464,9 @@ def main(argv=None) -> int:
         except SiteError:
             pass
     try:
-        out = build(args.profile, Path(args.out) if args.out else None)
+        print(f"site: building the {args.profile} profile's site (a few minutes: a line per page)", flush=True)
+        # absolute: Sphinx reads the staged MathJax folder relative to docs/, where a relative --out would miss it
+        out = build(args.profile, Path(args.out).resolve() if args.out else None, quiet=False)
     except SiteError as exc:
         print(f"build_site.py: error: {exc}", file=sys.stderr)
         return 2

@@ -28,6 +28,13 @@ notebook is kept for inspection under <build folder>/failed/.  So is a notebook 
 contract (mmlib/experiment/results.schema.json, checked by ``mmlib.experiment.results.read_results``): the file and the
 JSON path of the first violation are named.
 
+A run opens with a header of every setting in force: the profile, the notebooks, the overrides and where the
+outputs go, the workers and the scheduler, and per notebook its headline's runs and seed and its reading space's runs
+per universe (``-p MULTIVERSE_RUNS=N`` changes them; ``N_RUNS`` does not), each with where it comes from.  A
+reading-space parameter (``MULTIVERSE_*``) given without notebook names leaves out the notebooks that have no reading
+space (the arena).  Progress: ``universe k/N, ~T left`` per reading space, at most every 15 s; ``-v`` prints every
+universe with its levels.
+
 Execution settings change where the work runs, never a result, so they never send the outputs to build/custom/:
 ``--workers N`` (default ``$WORKERS``, else every core; ``-p WORKERS=N`` is the same setting) and ``--scheduler
 ADDRESS`` (default ``$MMLIB_SCHEDULER``: a Dask scheduler that receives the notebooks' Monte Carlo chunks and
@@ -98,6 +105,16 @@ class Layout:
         return "the committed outputs" if self.out == self.root else f"{self.show(self.out)}/"
 
 
+def show(path: Path, root: Path) -> str:
+    """``path`` relative to ``root`` (or to the current folder) when it lies inside it, for messages: no
+    machine-local path in a log."""
+    path = Path(path).resolve()
+    for base in (Path(root).resolve(), Path.cwd().resolve()):
+        if path.is_relative_to(base):
+            return str(path.relative_to(base)) or "."
+    return str(path)
+
+
 def custom_name(profile: str, params: dict) -> str:
     """Folder name of a run with overridden parameters: the profile and every NAME=VALUE, sorted, file-name safe."""
     name = "-".join([profile, *(f"{k}={params[k]}" for k in sorted(params))])
@@ -152,7 +169,7 @@ def resolve_notebooks(root: Path, names: list[str]) -> list[Path]:
     if not names:
         sources = sorted({src for srcs in known.values() for src in srcs})
         if not sources:
-            raise UsageError(f"no notebook sources (*.py) under {root / 'notebooks'}")
+            raise UsageError(f"no notebook sources (*.py) under {show(root / 'notebooks', root)}")
         return sources
     sources = []
     for name in names:
@@ -164,7 +181,7 @@ def resolve_notebooks(root: Path, names: list[str]) -> list[Path]:
                 # its outputs are named after its paper, its executed notebook after its file: a source from
                 # elsewhere could replace one paper's results beside another notebook's executed copy
                 raise UsageError(f"notebook {name!r}: not a notebook source of this repository "
-                                 f"({root / 'notebooks'}/*.py); copy it there to run it")
+                                 f"({show(root / 'notebooks', root)}/*.py); copy it there to run it")
         elif len(known.get(name, [])) == 1:
             src = known[name][0]
         elif name in known:
@@ -216,9 +233,10 @@ def check_values(params: dict, declared: dict[str, str], profile: str) -> None:
             raise UsageError(f"-p {key}: expected True or False, got {value!r}")
 
 
-def check_notebook(src: Path, params: dict, profile: str, layout: Layout) -> None:
-    """The notebook declares the parameters the runner sets and every ``-p`` one, and accepts their values."""
-    declared = declared_parameters(src)
+def check_notebook(src: Path, params: dict, profile: str, layout: Layout, declared: dict | None = None) -> None:
+    """The notebook declares the parameters the runner sets and every ``-p`` one, and accepts their values
+    (``declared``: its parameters, when already read)."""
+    declared = declared_parameters(src) if declared is None else declared
     where = layout.show(src)
     missing = [k for k in RUNNER_SET if k not in declared]
     if missing:
@@ -353,12 +371,22 @@ def recover(root: Path) -> list[str]:
         else:
             shutil.rmtree(staging)
             done.append(f"removed the leftover staging folder {staging.relative_to(root)}")
+    remove_empty_staging(root)
     for out in output_roots(root):
         for pattern in STALE:
             for path in out.glob(pattern):
                 shutil.rmtree(path) if path.is_dir() and not path.is_symlink() else path.unlink()
                 done.append(f"removed the leftover temporary {path.relative_to(root)}")
     return done
+
+
+def remove_empty_staging(root: Path) -> None:
+    """Remove the staging folders under ``root``/build that hold nothing (every paper's folder in them is removed
+    when its promotion ends, and an empty ``staging/`` left behind looks like an interrupted run)."""
+    build = root / "build"
+    for staging in [*build.glob("*/staging"), *build.glob("custom/*/staging")]:
+        with contextlib.suppress(OSError):          # not empty (another paper's promotion): kept
+            staging.rmdir()
 
 
 @contextlib.contextmanager
@@ -371,7 +399,7 @@ def runner_lock(root: Path):
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            print(f"waiting for another run_notebooks.py to finish ({path})", flush=True)
+            print(f"waiting for another run_notebooks.py to finish ({show(path, root)})", flush=True)
             fcntl.flock(fh, fcntl.LOCK_EX)
         yield
 
@@ -412,6 +440,27 @@ class PrefixedLines:
             self.write("\n")
 
 
+class RelativePaths:
+    """A text stream that writes to ``target`` with machine-local paths made relative: the staging folder becomes the
+    folder its outputs are promoted to, and the repository root's paths become relative to it (a kernel printing
+    where it wrote a file would otherwise show the absolute staging path, which is gone once promoted)."""
+
+    def __init__(self, target, staging: Path, layout: Layout):
+        out = layout.show(layout.out)
+        self.target = target
+        self.subs = [(str(staging), out), (str(layout.root) + os.sep, ""),
+                     (str(layout.root), ".")]
+
+    def write(self, text: str) -> int:
+        for old, new in self.subs:
+            text = text.replace(old, new)
+        self.target.write(text)
+        return len(text)
+
+    def flush(self) -> None:
+        self.target.flush()
+
+
 def execute(src: Path, staging: Path, layout: Layout, profile: str, params: dict, timeout: int,
             stdout=None, stderr=None) -> Path:
     """Run the notebook with its outputs directed to ``staging``; returns the executed notebook (in ``staging``,
@@ -433,8 +482,10 @@ def execute(src: Path, staging: Path, layout: Layout, profile: str, params: dict
         pm.execute_notebook(str(nb_in), str(executed), kernel_name=KERNEL,
                             parameters={**params, "PROFILE": profile, "OUTPUT_ROOT": str(staging)},
                             cwd=str(layout.root / "notebooks"), execution_timeout=timeout,
-                            progress_bar=False, log_output=False, stdout_file=stdout or sys.stdout,
-                            stderr_file=stderr or sys.stderr, kernel_manager_class=kernel_manager_with_env(
+                            progress_bar=False, log_output=False,
+                            stdout_file=RelativePaths(stdout or sys.stdout, staging, layout),
+                            stderr_file=RelativePaths(stderr or sys.stderr, staging, layout),
+                            kernel_manager_class=kernel_manager_with_env(
                                 {PROGRESS_LOG_ENV: str(log.resolve())}))
     except PapermillExecutionError as exc:
         raise NotebookFailed(f"cell {exc.cell_index} (execution count {exc.exec_count}): {exc.ename}: "
@@ -449,12 +500,18 @@ def execute(src: Path, staging: Path, layout: Layout, profile: str, params: dict
 
 def kernel_manager_with_env(extra: dict):
     """A jupyter_client kernel manager class whose kernels start with ``extra`` added to this process's
-    environment.  Per notebook, because notebooks execute in threads of one process, whose os.environ they share."""
+    environment.  Per notebook, because notebooks execute in threads of one process, whose os.environ they share.
+    Its kernels get CurveZMQ keys when their kernelspec declares support (``transport_encryption="auto"``; the
+    ``mmlib`` kernel does), so that the kernel does not warn that it runs over TCP without encryption."""
+    import zmq
     from jupyter_client.manager import AsyncKernelManager
+    curve = zmq.has("curve")
 
     class KernelManagerWithEnv(AsyncKernelManager):
         async def _async_pre_start_kernel(self, **kw):
             kw["env"] = {**kw.get("env", os.environ), **extra}
+            if curve and "transport_encryption" in inspect.signature(super()._async_pre_start_kernel).parameters:
+                kw.setdefault("transport_encryption", "auto")        # jupyter_client >= 8.9
             return await super()._async_pre_start_kernel(**kw)
 
     return KernelManagerWithEnv
@@ -703,6 +760,49 @@ def execution_workers(option: str | None, parameter) -> int:
         raise UsageError(str(exc)) from None
 
 
+#: the notebook parameters of the reading space: a notebook without one (the arena) declares none of them, and is
+#: left out of a run of every notebook that sets one (named on the command line, it is an error)
+READING_SPACE_PARAMS = ("MULTIVERSE_RUNS", "MULTIVERSE_DESIGN", "MULTIVERSE_UNIVERSES")
+
+
+def notebook_settings(src: Path, profile: str, params: dict) -> str:
+    """One line of the settings a notebook runs with: its headline's Monte Carlo runs and seed, and its reading
+    space's runs per universe, each with where it comes from and how to change it (the paper of the registry
+    ``mmlib.papers`` the notebook's name starts with; a notebook of no registered paper shows the overrides only)."""
+    from mmlib.experiment.notebook import NotebookRun
+    from mmlib.experiment.paper import Paper
+    from mmlib.papers import REGISTRY
+    paper = REGISTRY.get(src.stem.split("_")[0])
+    if not isinstance(paper, Paper) or profile not in paper.profiles:
+        given = ", ".join(f"{k}={v}" for k, v in params.items())
+        return f"  {src.stem}: {given or 'the notebook defaults'} (no reading space of a registered paper)"
+    accepted = inspect.signature(NotebookRun).parameters
+    run = NotebookRun(paper, PROFILE=profile, **{k: v for k, v in params.items() if k in accepted})
+
+    def origin(name: str, default: str) -> str:
+        return "-p" if name in params else default
+
+    own_seed = "the paper's root seed"
+    # the profile's mv_runs, else the headline's runs (NotebookRun's rule): whether N_RUNS moves them
+    follows = "N_RUNS leaves it alone" if "mv_runs" in paper.profiles[profile] else "else it follows N_RUNS"
+    return (f"  {src.stem}: N_RUNS={run.n_runs} ({origin('N_RUNS', 'profile ' + profile)}), SEED={run.seed} "
+            f"({origin('SEED', own_seed)}); reading space: {run.mv_runs} runs per universe "
+            f"({origin('MULTIVERSE_RUNS', 'profile ' + profile)}; change with MULTIVERSE_RUNS=, {follows}), "
+            f"design {run.mv_design}")
+
+
+def settings_header(sources: list[Path], profile: str, params: dict, layout: Layout, workers: int, scheduler: str,
+                    verbose: bool) -> list[str]:
+    """The header of a run: every setting in force (profile, notebooks, overrides and where the outputs go,
+    workers, scheduler, progress detail), then one line per notebook (:func:`notebook_settings`)."""
+    overrides = ", ".join(f"{k}={v}" for k, v in params.items()) or "none"
+    lines = [f"settings: profile={profile}; notebooks: {', '.join(s.stem for s in sources) or 'none'}; "
+             f"overrides: {overrides} (outputs: {layout.destination}); workers: {workers}; scheduler: "
+             f"{scheduler or 'none (local processes)'}; progress: "
+             + ("every universe with its levels (-v)" if verbose else "universe k/N and time left (-v: the levels)")]
+    return lines + [notebook_settings(src, profile, params) for src in sources]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--profile", default="full", choices=PROFILES)
@@ -719,6 +819,9 @@ def main(argv=None) -> int:
     ap.add_argument("--scheduler", default=None, metavar="ADDRESS",
                     help="Dask scheduler (tcp://host:8786) receiving the Monte Carlo chunks and universes (default "
                          "$MMLIB_SCHEDULER); an execution setting")
+    ap.add_argument("-v", "--verbose", action="store_true",
+                    help="progress: every universe of a reading space with its levels (default: universe k/N and the "
+                         "time left, at most every 15 s)")
     ap.add_argument("--recover", action="store_true",
                     help="only finish an interrupted promotion and remove leftovers (every run does this first)")
     ap.add_argument("notebooks", nargs="*", help="paper names (zhu2016), notebook names or paths (default: all)")
@@ -735,9 +838,15 @@ def main(argv=None) -> int:
         # execution settings are checked with the notebook's rules, then taken out of the results-changing ones
         settings = {k: params.pop(k) for k in list(params) if k in EXECUTION_PARAMS}
         layout = layout_for(root, args.profile, params)
-        sources = [] if args.recover else resolve_notebooks(root, args.notebooks)
-        for src in sources:
-            check_notebook(src, {**params, **settings}, args.profile, layout)
+        sources, left_out = [], []
+        for src in [] if args.recover else resolve_notebooks(root, args.notebooks):
+            declared = declared_parameters(src)
+            no_space = [k for k in params if k in READING_SPACE_PARAMS and k not in declared]
+            if no_space and not args.notebooks:
+                left_out.append(f"{src.stem} left out: it has no reading space ({', '.join(no_space)} do not apply)")
+                continue
+            check_notebook(src, {**params, **settings}, args.profile, layout, declared)
+            sources.append(src)
         workers = execution_workers(args.workers, settings.get("WORKERS"))
         scheduler = (args.scheduler if args.scheduler is not None else os.environ.get("MMLIB_SCHEDULER", "")).strip()
         if scheduler and sources:
@@ -751,6 +860,9 @@ def main(argv=None) -> int:
             print(f"recovery: {note}", flush=True)
         if args.recover:
             return 0
+        for line in settings_header(sources, args.profile, params, layout, workers, scheduler, args.verbose) \
+                + left_out:
+            print(line, flush=True)
         if params:
             print(f"parameters {params} override the profile: outputs go to {layout.destination} "
                   f"(never over the committed or smoke outputs)", flush=True)
@@ -763,13 +875,18 @@ def main(argv=None) -> int:
             os.environ["MMLIB_SCHEDULER"] = scheduler
         else:
             os.environ.pop("MMLIB_SCHEDULER", None)
+        from mmlib.experiment.grid import VERBOSE_ENV
+        os.environ[VERBOSE_ENV] = "1" if args.verbose else "0"
         print(f"execution: {workers} worker(s): "
               + (f"{jobs} notebook(s) at a time, WORKERS={kernel_workers} in each" if sources else "")
               + ("; then " if sources and alone else "")
               + (f"{', '.join(s.stem for s in alone)} alone, WORKERS={workers}" if alone else "")
               + (f"; Monte Carlo chunks and universes on the Dask scheduler at {scheduler}" if scheduler else ""),
               flush=True)
-        return run_all(sources, layout, args.profile, params, args.timeout, jobs, alone, workers)
+        try:
+            return run_all(sources, layout, args.profile, params, args.timeout, jobs, alone, workers)
+        finally:
+            remove_empty_staging(root)
 
 
 if __name__ == "__main__":

@@ -9,7 +9,8 @@ are computed afterwards (:func:`rank_scenario`).  An algorithm that cannot apply
 scenario gets a cell with the reason instead of metrics.
 
 Cells run through :func:`mmlib.experiment.grid.run_grid`: in parallel worker processes (or on a Dask cluster), cached
-on disk by scenario, algorithm, runs, seed and mmlib's source, with a progress line per cell.
+on disk by scenario, algorithm, runs, seed and mmlib's source, with a progress line (``cell k/N, ~T left``)
+at most every 15 s.
 
 Metrics per cell (units: m, m/s; Bar-Shalom, Li & Kirubarajan 2001, Sec. 5.4.2 for the consistency tests):
 
@@ -66,7 +67,6 @@ from __future__ import annotations
 import functools
 import math
 import os
-import re
 import concurrent.futures as cf
 import enum
 from pathlib import Path
@@ -554,7 +554,7 @@ def run_arena(n_runs: int, *, scenarios: Iterable[str] | None = None, algorithms
     # the algorithm is part of each reading, so the cache key needs no list of them: a subset reuses the cells
     results = run_grid(cell, readings, paper=PAPER, algorithms=[], n_runs=int(n_runs),
                        seed=ladder.ROOT_SEED if seed is None else int(seed), workers=workers, executor=executor,
-                       progress=_every(len(readings), progress), use_cache=use_cache, cache_dir=cache_dir,
+                       progress=_progress(progress), use_cache=use_cache, cache_dir=cache_dir,
                        label="arena", result_keys=RESULT_KEYS, unit="cell", result_type=None)
     cells, per_run, details, ops = [], {}, {}, {}
     for s in scenarios:
@@ -578,23 +578,15 @@ def run_arena(n_runs: int, *, scenarios: Iterable[str] | None = None, algorithms
                        exclusions(cells, baselines, per_run, base_runs))
 
 
-def _every(total: int, progress, lines: int = 20):
-    """``run_grid``'s progress for many short jobs: about ``lines`` lines in all (every k-th finished cell and the
-    last; other lines, e.g. the cache's, pass through); ``progress`` True prints to stderr, a callable receives the
-    lines, False is silent."""
+def _progress(progress):
+    """``run_grid``'s progress for the arena's cells, checked: ``progress`` True prints to stderr, a callable receives
+    the lines, False is silent (``run_grid`` throttles them itself: :class:`mmlib.experiment.grid.GridProgress`,
+    ``cell k/N, ~T left`` at most every 15 s)."""
     if not (isinstance(progress, bool) or callable(progress)):
         raise ValueError(f"progress: expected True, False or a function of one line, got {progress!r}")
     if not progress:
         return False
-    say = say_progress if progress is True else progress
-    k = max(1, math.ceil(total / lines))
-
-    def throttled(line: str):
-        m = re.search(r" cell (\d+)/(\d+) done", line)
-        if m is None or int(m.group(1)) % k == 0 or m.group(1) == m.group(2):
-            say(line)
-
-    return throttled
+    return say_progress if progress is True else progress
 
 
 #: The arena's own ideas as paired comparisons "A against B" (A adds the idea to B), on every scenario: (idea, A, B);

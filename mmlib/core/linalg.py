@@ -46,7 +46,8 @@ __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused"
            "log_det_from_cholesky", "tril_inverse", "symmetrize", "trace", "wrap_angle", "range_bearing", "matmul_rows",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
-           "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES"]
+           "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES",
+           "COMPILE_TIME"]
 
 #: The implementations of the kernels below: ``"numba"`` (compiled loops, :mod:`mmlib.core._kernels`) and
 #: ``"numpy"`` (the reference path).  They compute the same mathematics and agree to round-off
@@ -83,7 +84,7 @@ def set_kernel(name: str) -> None:
     if name not in KERNELS:
         raise ValueError(f"name: expected one of {KERNELS}, got {name!r}")
     if name == "numba":
-        _compiled_module()
+        _compiled_module(notice=False)          # numba must import; nothing is compiled yet
     _KERNEL[0] = name
 
 
@@ -124,13 +125,70 @@ def _operation(numpy_body: Callable) -> Callable:
 _KERNELS_MODULE: list = []
 
 
-def _compiled_module():
+def _compiled_module(notice: bool = True):
     """:mod:`mmlib.core._kernels` (imported when this module loads, unless ``MMLIB_KERNEL=numpy``; it imports
-    numba)."""
+    numba).  ``notice``: the caller is about to call a kernel, which numba compiles on its first call: the first
+    such caller of a process prints :func:`_compile_notice` when the kernels' cache is cold."""
     if not _KERNELS_MODULE:
         from mmlib.core import _kernels
         _KERNELS_MODULE.append(_kernels)
+    if notice and not _NOTICE_GIVEN:
+        _NOTICE_GIVEN.append(True)
+        if _kernel_cache_cold():
+            _compile_notice()
     return _KERNELS_MODULE[0]
+
+
+#: The wall time of compiling the kernels on a cold cache (every kernel a filter study uses; measured on the
+#: reference machine, 2 cores; once per install: numba caches the machine code beside the package)
+COMPILE_TIME = "1–2 min"
+
+_NOTICE_GIVEN: list = []
+
+
+def _kernel_cache_dirs() -> list:
+    """Where numba may cache :mod:`mmlib.core._kernels`: ``$NUMBA_CACHE_DIR`` alone when set, else the
+    ``__pycache__`` beside the module and numba's user-wide cache (``~/.cache/numba``)."""
+    from pathlib import Path
+    here = Path(__file__).resolve().parent
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        # numba uses it alone, mirroring the source's absolute path under it
+        return [Path(os.environ["NUMBA_CACHE_DIR"]) / here.relative_to(here.anchor)]
+    # beside the package when it can be written there, else numba's user-wide cache
+    return [here / "__pycache__", Path.home() / ".cache" / "numba" / here.relative_to(here.anchor)]
+
+
+def _kernel_cache_cold() -> bool:
+    """Whether numba's on-disk cache of :mod:`mmlib.core._kernels` is cold: no index file (``_kernels.*.nbi``) as
+    new as the module's source in any of :func:`_kernel_cache_dirs` (numba drops the entries of an older source).
+    A cheap look at file dates, not numba's own check: a warm cache of another Python version counts as warm."""
+    from pathlib import Path
+    source = Path(__file__).resolve().parent / "_kernels.py"
+    try:
+        stamp = source.stat().st_mtime
+    except OSError:
+        return False
+    for folder in _kernel_cache_dirs():
+        try:
+            if any(p.stat().st_mtime >= stamp for p in folder.glob("_kernels.*.nbi")):
+                return False
+        except OSError:
+            continue
+    return True
+
+
+def _compile_notice() -> None:
+    """Say, once, that the filter kernels are being compiled: to the file ``$MMLIB_PROGRESS_LOG`` names when set
+    (the notebook runner's log: never into an executed notebook), else to stderr."""
+    import sys
+    line = (f"mmlib: compiling the filter kernels (first use only, about {COMPILE_TIME}: numba then caches them "
+            f"on disk; MMLIB_KERNEL=numpy skips it)...")
+    path = os.environ.get("MMLIB_PROGRESS_LOG")   # mmlib.experiment.montecarlo.PROGRESS_LOG_ENV (core imports none)
+    if path:
+        with open(path, "a", encoding="utf-8") as log:
+            log.write(line + "\n")
+    else:
+        print(line, file=sys.stderr, flush=True)
 
 
 #: Runs per compiled-kernel call for large stacks: a kernel's batch-innermost temporaries for this many runs

@@ -55,9 +55,95 @@ from mmlib.experiment.source import PRESENTATION_MODULES, source_hash  # noqa: F
 from mmlib.experiment.writing import atomic_write_text
 
 __all__ = [
-    "run_grid", "CacheWarning", "default_cache_dir", "key_document", "result_checksum", "job_name", "job_code",
-    "check_paper", "PAPER_NAME", "RESULT_KEYS"
+    "run_grid", "CacheWarning", "GridProgress", "default_cache_dir", "key_document", "result_checksum", "job_name",
+    "job_code", "check_paper", "progress_line", "format_duration", "verbose_progress", "PAPER_NAME", "RESULT_KEYS",
+    "PROGRESS_INTERVAL", "VERBOSE_ENV"
 ]
+
+#: least seconds between two progress lines of a grid (the first and the last finished job are always reported)
+PROGRESS_INTERVAL = 15.0
+
+#: environment variable: "1" makes every grid report each finished job with its reading (the factors' levels);
+#: ``tools/run_notebooks.py -v`` sets it for the kernels it starts
+VERBOSE_ENV = "MMLIB_PROGRESS_VERBOSE"
+
+
+def verbose_progress() -> bool:
+    """Whether ``$MMLIB_PROGRESS_VERBOSE`` asks for a line per finished job with its reading ("1", "true", "yes")."""
+    return os.environ.get(VERBOSE_ENV, "").strip().lower() in ("1", "true", "yes")
+
+
+def format_duration(seconds: float) -> str:
+    """A wall time in seconds as a person reads it: ``"40 s"``, ``"3.5 min"``, ``"1.2 h"`` (two significant figures
+    at most; a negative or non-finite value is a ValueError)."""
+    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not np.isfinite(seconds) \
+            or seconds < 0:
+        raise ValueError(f"seconds: expected a finite number >= 0, got {seconds!r}")
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 90 * 60:
+        minutes = seconds / 60
+        return f"{minutes:.1f} min" if minutes < 10 else f"{minutes:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def progress_line(tag: str, unit: str, done: int, total: int, elapsed: float) -> str:
+    """The progress line of a grid: ``"  [tag] universe k/N, ~T left"`` while jobs remain, the time left estimated
+    from the mean wall time per finished job so far (``elapsed`` seconds for ``done`` jobs, whatever the number of
+    workers: it is their throughput), and ``"  [tag] universe N/N, done in T"`` for the last one."""
+    done, total = check_positive_int(done, "done"), check_positive_int(total, "total")
+    if done > total:
+        raise ValueError(f"done: expected at most total ({total}), got {done}")
+    if done == total:
+        return f"  [{tag}] {unit} {done}/{total}, done in {format_duration(elapsed)}"
+    return f"  [{tag}] {unit} {done}/{total}, ~{format_duration(elapsed / done * (total - done))} left"
+
+
+class GridProgress:
+    """The progress of a grid's jobs as they finish: :func:`progress_line` through ``say`` for the first and the last
+    job, and otherwise at most one line every ``interval`` seconds; ``verbose`` (default:
+    :func:`verbose_progress`) reports every job, followed by its reading (the levels of its factors) and its
+    diverged runs.  Without ``verbose``, the last line counts the jobs with diverged runs.  ``clock``: the wall
+    clock in seconds (a test's fake one)."""
+
+    def __init__(self, tag: str, unit: str, total: int, say: Callable[[str], None],
+                 interval: float = PROGRESS_INTERVAL, verbose: bool | None = None,
+                 clock: Callable[[], float] = time.perf_counter):
+        if not callable(say):
+            raise ValueError(f"say: expected a callable receiving each line, got {say!r}")
+        if isinstance(interval, bool) or not isinstance(interval, (int, float)) or not interval >= 0:
+            raise ValueError(f"interval: expected a number of seconds >= 0, got {interval!r}")
+        self.tag, self.unit, self.say, self.interval, self.clock = tag, unit, say, float(interval), clock
+        self.total = check_positive_int(total, "total")
+        self.verbose = verbose_progress() if verbose is None else check_bool(verbose, "verbose")
+        self.done, self.with_diverged = 0, 0
+        self.t0 = self.last = clock()
+
+    def finished(self, reading: Mapping | None = None, diverged: Mapping | None = None) -> None:
+        """Count one more finished job (its ``reading`` and ``{algorithm: diverged runs}``, for the verbose line and
+        the count of jobs with diverged runs) and report it if it is due."""
+        self.done += 1
+        ndiv = sum(v for v in (diverged or {}).values() if isinstance(v, (int, float)))
+        self.with_diverged += bool(ndiv)
+        now = self.clock()
+        last = self.done == self.total
+        if not (self.verbose or last or self.done == 1 or now - self.last >= self.interval):
+            return
+        self.last = now
+        line = progress_line(self.tag, self.unit, min(self.done, self.total), self.total, now - self.t0)
+        if self.verbose:
+            line += (f": {json.dumps(dict(reading or {}), sort_keys=False)}"
+                     + (f"; diverged runs {dict(diverged)}" if ndiv else ""))
+        elif last and self.with_diverged:
+            line += f" ({self.with_diverged} {self.unit}(s) with diverged runs)"
+        self.say(line)
+
+
+def _shown(path: Path) -> str:
+    """``path`` relative to the repository holding mmlib when it lies inside it (no machine-local path in a log)."""
+    repo = Path(__file__).resolve().parents[2]
+    path = Path(path).resolve()
+    return str(path.relative_to(repo)) if path.is_relative_to(repo) else str(path)
 
 
 def default_cache_dir() -> Path:
@@ -391,10 +477,13 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
     local processes (integer >= 1; default ``$WORKERS``, else every core), or this process
     when ``workers == 1`` or one universe is to be computed (:func:`executors.run_tasks`);
     the results do not depend on where the jobs ran.  ``cache_dir``: where results are kept
-    (``default_cache_dir()``); ``use_cache=False`` neither reads nor writes it.  ``progress``: True prints one line per
-    universe to stderr, a callable receives that line, False is silent.  ``result_keys``: the keys every job result
-    must have in JSON (default: a universe result's, :class:`mmlib.experiment.universe.UniverseResult`); ``unit``: what
-    a job is called in the progress lines ("universe", "cell").  ``result_type``: a class with ``as_json()`` and
+    (``default_cache_dir()``); ``use_cache=False`` neither reads nor writes it.  ``progress``: True prints the
+    progress lines (:class:`GridProgress`: ``universe k/N, ~T left``, at most one every :data:`PROGRESS_INTERVAL`
+    seconds; with ``$MMLIB_PROGRESS_VERBOSE=1`` one per universe with its reading) through
+    :func:`~mmlib.experiment.montecarlo.say_progress`, a callable receives them, False is silent.
+    ``result_keys``: the keys every job result must have in JSON (default: a universe result's,
+    :class:`mmlib.experiment.universe.UniverseResult`); ``unit``: what a job is called in the progress lines
+    ("universe", "cell").  ``result_type``: a class with ``as_json()`` and
     ``from_json(doc)`` that every job returns (default :class:`~mmlib.experiment.universe.UniverseResult`): results
     are JSON only in the cache and are returned as ``result_type`` objects; None: jobs return plain JSON dicts
     (the arena's cells), returned as such.
@@ -438,18 +527,15 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
         todo.append(i)
     n_cached = len(readings) - len(todo)
     if say and n_cached:
-        say(f"  [{tag}] {n_cached}/{len(readings)} {unit}s from the cache ({cache / paper})")
+        say(f"  [{tag}] {n_cached}/{len(readings)} {unit}s from the cache ({_shown(cache / paper)})")
     if result_type is not None:
         results = [None if r is None else result_type.from_json(r) for r in results]
     if not todo:
         return results
-    t0 = time.perf_counter()
-    done = 0
-
+    bar = GridProgress(tag, unit, len(todo), say) if say else None
     writable = [use_cache]
 
     def finished(k, out):
-        nonlocal done
         i = todo[k]
         res, machine = out["result"], out["machine"]
         if result_type is not None:
@@ -481,11 +567,8 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
         div = results[i].get("diverged") or {}
         if result_type is not None:
             results[i] = result_type.from_json(results[i])
-        done += 1
-        if say:
-            ndiv = sum(div.values()) if isinstance(div, dict) else 0
-            say(f"  [{tag}] {unit} {done}/{len(todo)} done ({time.perf_counter() - t0:.1f} s): "
-                f"{json.dumps(readings[i], sort_keys=False)}" + (f"; diverged runs {div}" if ndiv else ""))
+        if bar is not None:
+            bar.finished(readings[i], div if isinstance(div, dict) else None)
 
     run_tasks(_run_job, [(readings[i], n_runs, seed) for i in todo], shared=(job,), workers=workers,
               executor=executor, on_result=finished)

@@ -152,6 +152,25 @@ class Multiverse:
         """The headline universe's result (``universes[0]``)."""
         return self.universes[0]
 
+    def headline_match(self, headline: UniverseResult, n_runs: int) -> str:
+        """Whether the headline universe (``universes[0]``) reproduces ``headline``, the paper's headline evaluation
+        at ``n_runs`` Monte Carlo runs, and why not: ``"yes: ..."`` when the numbers are the same
+        (:func:`mmlib.experiment.digests.same_numbers`: bit for bit, or to round-off for a universe computed on another
+        machine), ``"no: ..."`` with the reason otherwise -- above all a reading space run at another count than the
+        headline's (its runs per universe are set by the notebooks' ``MULTIVERSE_RUNS``, not by ``N_RUNS``)."""
+        from mmlib.experiment import digests
+        if not isinstance(headline, UniverseResult):
+            raise ValueError(f"headline: expected a UniverseResult (the paper's summarised headline evaluation), got "
+                             f"{type(headline).__name__}")
+        n_runs = check_positive_int(n_runs, "n_runs")
+        if n_runs != self.n_runs:
+            return (f"no: the reading space runs {self.n_runs} runs per universe, the headline {n_runs} "
+                    f"(MULTIVERSE_RUNS= sets the reading space's; N_RUNS= only the headline's)")
+        if digests.same_numbers(self.headline, headline):
+            return f"yes: the same numbers at {n_runs} runs"
+        return (f"no: both run {n_runs} runs, but the numbers differ (a reading of the headline universe differs "
+                f"from the headline evaluation's, or the code changed between them)")
+
     def value(self, universe: UniverseResult, key: tuple) -> Value | None:
         """The universe's :class:`~mmlib.experiment.universe.Value` whose ``(item, algorithm, quantity)`` is ``key``
         (:attr:`PublishedNumber.key`), or None when the universe does not compute it."""
