@@ -65,6 +65,9 @@ $(STAMP): requirements.lock pyproject.toml
 
 figures: $(STAMP)
 	$(PY) tools/run_notebooks.py --profile $(PROFILE) $(EXEC_ARGS) $(RUN_ARGS)
+	@# the README's 'What we found' lines from the results just promoted (tools/make_report.py, which also re-renders
+	@# reports/ from data/results/ as the runner did)
+	$(if $(CUSTOM),,$(if $(filter full,$(PROFILE)),$(PY) tools/make_report.py))
 	@# wall time per notebook and universes per minute per paper, from the run just promoted (data/bench/notebooks.json)
 	$(if $(CUSTOM),,$(if $(filter full,$(PROFILE)),$(PY) -m bench.notebooks))
 	@# the site of what was just promoted (a run with N_RUNS, SEED or MULTIVERSE_RUNS went to build/custom/: no site of it; after
