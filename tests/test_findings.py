@@ -233,8 +233,9 @@ def test_site_pages_open_with_the_verdict(tmp_path):
         cells = json.loads(out.read_text())["cells"]
         assert cells[0]["source"].startswith("# ") and "\n" not in cells[0]["source"].strip()
         k = 2 if "verdict-chip" in cells[1]["source"] else 1
-        assert '<div class="verdict-box">' in cells[k]["source"], paper
-        assert cells[k]["source"].startswith(summary(paper, by_name[paper])), paper
+        # the box first (it must start on a phone's first screen: tests/test_site.py), then the summary
+        assert cells[k]["source"].startswith('<div class="verdict-box">'), paper
+        assert cells[k]["source"].endswith(summary(paper, by_name[paper])), paper
     index = build_site.index_page(docs, notebooks)
     assert "## What we found" in index and index.index("## What we found") < index.index("## What holds")
     for paper in REGISTRY:

@@ -12,7 +12,17 @@ page, served from 127.0.0.1, and checks:
   verdict column);
 * every internal link resolves to a page of the site and, with a fragment, to an element of that page.
 
-A screenshot of the top of each paper page is written under build/site-check/ for a person to look at.  The site is
+and, at a desktop's and a phone's width (1280 x 800 and 390 x 844 CSS px), on every paper, control, reading-space
+page, the arena and the home page (:func:`layout_problems`):
+
+* no table's verdict column (the first column whose header ends in "verdict": "verdict", "headline verdict")
+  lies outside the screen sideways;
+* no figure is shown narrower than its legible minimum unless it links to its full size;
+* no page scrolls sideways;
+* each paper page shows its verdict box (``.verdict-box``) within the first screen.
+
+A screenshot of the top of each paper page is written under build/site-check/ for a person to look at, and one of
+the first screens of each paper and control page at both widths (``<page>-<width>.png``).  The site is
 built from the committed outputs (data/results/, notebooks/executed/) into a temporary folder, so the test also
 checks that they build (warnings are errors).
 """
@@ -205,6 +215,159 @@ class PageChecker:
         self.context.close()
 
 
+#: the two screens of the layout checks, (width, height) in CSS px: a laptop's and a phone's (iPhone 12 to 15, the
+#: commonest phone width in 2024; 390 is also under the site's 600 px phone breakpoint, docs/_static/site.css)
+SCREENS = ((1280, 800), (390, 844))
+#: a figure's legible minimum, as a fraction of its natural width: the figures are saved at 150 dpi with 10 pt text and
+#: 8 pt legends (mmlib.experiment.writing, notebook.py's rcParams), i.e. 21 and 17 px glyphs at natural size; at half
+#: size the legends are 8 px, the smallest a screen's text stays readable at.  An image narrower than LEGIBLE_FLOOR px
+#: at natural size (an icon, a badge) must be shown at its natural width.
+LEGIBLE_FRACTION = 0.5
+LEGIBLE_FLOOR = 300
+
+# the layout of the page as shown (scrolled to the top) on a screen of W x H CSS px: verdict columns out of the screen
+# sideways, figures shown below their legible minimum without a link to full size, the page's own width and the
+# verdict box's top.  The screen's size is given, not read from window.innerWidth: a mobile browser widens its layout
+# viewport to a page wider than the screen (zoomed out), so innerWidth would hide the very overflow looked for.
+LAYOUT = r"""([fraction, floor, W, H]) => {
+  const root = document.querySelector('article') || document.body;
+  const offscreen = [], small = [];
+  root.querySelectorAll('table').forEach((t, i) => {
+    const head = t.querySelector('tr');
+    if (!head) return;
+    const cells = Array.from(head.children);
+    const col = cells.findIndex(c => /\bverdict$/i.test(c.textContent.trim()));
+    if (col < 0) return;
+    for (const row of Array.from(t.querySelectorAll('tr')).slice(0, 2)) {    // the header and the first row
+      const c = row.children[col];
+      if (!c) continue;
+      const r = c.getBoundingClientRect();
+      if (r.width === 0) continue;                                          // not shown (a closed fold)
+      if (r.right > W + 1 || r.left < -1)
+      { offscreen.push(`table ${i + 1} (${cells[col].textContent.trim().slice(0, 30)}): its left..right ` +
+                       `${Math.round(r.left)}..${Math.round(r.right)} px, screen 0..${W}`);
+        break; }
+    }
+  });
+  root.querySelectorAll('img').forEach(img => {
+    const w = img.getBoundingClientRect().width, n = img.naturalWidth;
+    if (w === 0 || !n) return;
+    const minimum = Math.min(n, Math.max(floor, fraction * n));
+    if (w < minimum - 1 && !img.closest('a[href]'))
+      small.push(`${img.getAttribute('src').slice(-60)} shown ${Math.round(w)} px wide, legible from ` +
+                 `${Math.round(minimum)} px (natural ${n}), and no link to full size`);
+  });
+  const box = document.querySelector('.verdict-box');
+  return {offscreen: offscreen, small: small, page_width: document.documentElement.scrollWidth, width: W, height: H,
+          box_top: box ? box.getBoundingClientRect().top + window.scrollY : null};
+}"""
+
+
+def layout_problems(page, rel: str, require_box: bool) -> list[str]:
+    """The layout problems of the page open in ``page`` (site path ``rel``, its context's viewport the screen),
+    scrolled to the top, each a sentence naming the page and the screen's width; ``require_box``: the page must have
+    a verdict box."""
+    page.evaluate("() => window.scrollTo(0, 0)")
+    screen = page.viewport_size
+    got = page.evaluate(LAYOUT, [LEGIBLE_FRACTION, LEGIBLE_FLOOR, screen["width"], screen["height"]])
+    at = f"{rel} at {got['width']} px"
+    problems = [f"{at}: verdict column off-screen: {t}" for t in got["offscreen"]]
+    problems += [f"{at}: figure too small: {t}" for t in got["small"]]
+    if got["page_width"] > got["width"] + 1:
+        problems.append(f"{at}: the page scrolls sideways ({got['page_width']} px wide)")
+    if got["box_top"] is None:
+        if require_box:
+            problems.append(f"{at}: no verdict box (.verdict-box)")
+    elif got["box_top"] >= got["height"]:
+        problems.append(f"{at}: verdict box below the first screen (its top at {got['box_top']:.0f} px, "
+                        f"screen {got['height']} px high)")
+    return problems
+
+
+def open_for_layout(page, url: str) -> None:
+    """Open ``url`` and wait for what moves the layout: the images (load) and the mathematics (MathJax's queue)."""
+    page.goto(url, wait_until="load", timeout=60_000)
+    if page.evaluate("() => document.querySelectorAll('.math.notranslate').length"):
+        try:
+            page.wait_for_function("() => window.MathJax && window.MathJax.Hub && MathJax.isReady", timeout=60_000)
+            page.evaluate("() => new Promise(done => MathJax.Hub.Queue(() => done(true)))")
+        except Exception:  # noqa: BLE001 -- the browser test reports MathJax; the layout is checked as it is
+            pass
+
+
+def layout_context(browser, width: int, height: int):
+    """A browser context of one screen; a phone's (``width`` < 600) emulates a mobile browser (meta viewport, touch)."""
+    phone = width < 600
+    return browser.new_context(viewport={"width": width, "height": height}, is_mobile=phone, has_touch=phone)
+
+
+def test_layout_at_desktop_and_phone_widths(site, browser):
+    """Every paper, control and reading-space page, the arena and the home page at a desktop's and a phone's width:
+    verdict columns on screen, figures legible or linked to full size, no sideways scrolling, each paper page's
+    verdict box within the first screen; screenshots of the paper and control pages' first screens at both widths."""
+    out, base = site
+    rels = [r for r in pages(out) if r.startswith(("papers/", "controls/", "reading-spaces"))
+            or r in ("arena.html", "index.html")]
+    assert any(r.startswith("papers/") for r in rels) and any(r.startswith("reading-spaces/") for r in rels)
+    CHECK_DIR.mkdir(parents=True, exist_ok=True)
+    problems, shots = [], []
+    for width, height in SCREENS:
+        context = layout_context(browser, width, height)
+        page = context.new_page()
+        for rel in rels:
+            open_for_layout(page, base + rel)
+            problems += layout_problems(page, rel, require_box=rel.startswith("papers/"))
+            if rel.startswith(("papers/", "controls/")):
+                shot = CHECK_DIR / f"{Path(rel).stem}-{width}.png"
+                page.screenshot(path=str(shot))          # the first screen: what a reader sees before scrolling
+                shots.append(shot)
+        context.close()
+    assert not problems, f"{len(problems)} problem(s):\n" + "\n".join(problems[:60])
+    assert shots and all(s.is_file() and s.stat().st_size > 0 for s in shots)
+
+
+def test_the_layout_checks_catch_what_they_look_for(site, browser):
+    """The layout checks can fail: a real paper page with its verdict box removed, a wide table whose verdict column
+    is not kept on screen, a figure shrunk with no link and a block wider than the screen; the same page with a box
+    far down; and they pass the same page with a box at its top, at both widths."""
+    out, base = site
+    rel = next(r for r in pages(out) if r.startswith("papers/"))
+    real = (out / rel).read_text()
+    assert real.count("</article>") == 1 and "<h1" in real
+    real = real.replace('class="verdict-box', 'class="was-verdict-box')     # whatever box it has: ours below
+    fig = next((out / "_static" / "figures").rglob("*.png")).relative_to(out).as_posix()
+    cols = "".join(f"<th>column {i}</th>" for i in range(12))
+    wide = (f'<table class="docutils"><thead><tr>{cols}<th>verdict</th></tr></thead>'
+            f'<tbody><tr>{"<td>1234567890.123456789</td>" * 12}<td>contradicted</td></tr></tbody></table>')
+    shrunk = f'<img src="../{fig}" style="width: 120px">'
+    box = '<div class="verdict-box">the verdicts</div>'
+    cases = {"none": real.replace("</article>", wide + shrunk + "</article>").replace(
+                 "</body>", '<div style="width: 2000px">wide</div></body>'),
+             "far": real.replace("</article>", '<div style="height: 3000px"></div>' + box + "</article>"),
+             "top": re.sub(r"(</h1>)", r"\1" + box, real, count=1)}
+    found = {}
+    try:
+        for name, html in cases.items():
+            (out / "papers" / f"zz-{name}.html").write_text(html)
+        for width, height in SCREENS:
+            context = layout_context(browser, width, height)
+            page = context.new_page()
+            for name in cases:
+                open_for_layout(page, f"{base}papers/zz-{name}.html")
+                found[name, width] = "\n".join(layout_problems(page, f"papers/zz-{name}.html", require_box=True))
+            context.close()
+    finally:
+        for name in cases:
+            (out / "papers" / f"zz-{name}.html").unlink(missing_ok=True)
+    for width, _ in SCREENS:
+        assert "no verdict box (.verdict-box)" in found["none", width], found["none", width]
+        assert "verdict column off-screen: table" in found["none", width], found["none", width]
+        assert "figure too small:" in found["none", width] and "no link to full size" in found["none", width]
+        assert "the page scrolls sideways" in found["none", width], found["none", width]
+        assert "verdict box below the first screen" in found["far", width], found["far", width]
+        assert "verdict box" not in found["top", width], found["top", width]
+
+
 def check_page(browser, base: str, out: Path, rel: str) -> list[str]:
     """Every problem of one page, each a sentence naming the page, in a context of its own."""
     checker = PageChecker(browser, base, out)
@@ -241,6 +404,9 @@ def test_every_page_in_a_real_browser(site, browser):
     out, base = site
     rels = pages(out)
     assert {"index.html", "getting-started.html", "reading-spaces.html", "arena.html", "api/index.html"} <= set(rels)
+    # one reading-space page per paper with a reading space, each linked from the index of reading spaces
+    spaces = sorted(r for r in rels if r.startswith("reading-spaces/"))
+    assert spaces and all(f'href="{r}"' in (out / "reading-spaces.html").read_text() for r in spaces)
     builder = load_builder()
     docs, notebooks = builder.load_inputs("full")
     controls = builder.controls_of(docs)
@@ -253,7 +419,8 @@ def test_every_page_in_a_real_browser(site, browser):
     problems = [p for rel in rels for p in checker.check(rel)]
     checker.close()
     assert not problems, f"{len(problems)} problem(s):\n" + "\n".join(problems[:60])
-    assert sorted(p.name for p in CHECK_DIR.glob("*.png")) == sorted(
+    # (the layout test's screenshots, <page>-<width>.png, share the folder)
+    assert sorted(p.name for p in CHECK_DIR.glob("*.png") if not re.search(r"-\d+\.png$", p.name)) == sorted(
         f"{Path(r).stem}.png" for r in rels if r.startswith(("papers/", "controls/")))
     # the controls come first: in the navigation and in the home page's text
     home = (out / "index.html").read_text()

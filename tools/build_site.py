@@ -12,7 +12,8 @@ pages) and mmlib's docstrings.  The builder assembles the page sources in a work
   papermill parameter cells removed, a paper's qualifier shown as a chip under its title and the forensic sections of
   its results (consistency, sensitivity curves, planted-reading recovery, run-count stability, degenerate universes)
   appended;
-* ``reading-spaces.md``: every paper's reading-space section, rendered from its results like its report;
+* ``reading-spaces.md`` and ``reading-spaces/<paper>.md``: an index and one page per paper's reading space, rendered
+  from its results like its report, opening with its claims across the reading space;
 * ``new-paper.md`` (from docs/): replicating a new paper, a walk through the contract with a worked example;
 * the other hand-written pages of docs/: getting started, comparing two filters, the library, and how the
   replication is done (:data:`HOW_IT_IS_DONE`: the verdict rule, the reading-space method, the arena's design,
@@ -23,7 +24,9 @@ pages) and mmlib's docstrings.  The builder assembles the page sources in a work
 * ``api/<module>.md``: one page per public module of mmlib, from its docstrings (autodoc);
 * ``_includes/README.md``: the README, whose short library example the getting-started page includes;
 
-then runs Sphinx with MyST-NB (docs/conf.py) with warnings as errors.  The site is written to a work folder and
+then runs Sphinx with MyST-NB (docs/conf.py) with warnings as errors, and finishes the HTML
+(:func:`postprocess_html`: the figures' files copied under ``_static/figures/``, each figure a link to its SVG; every
+table's verdict column marked, kept on screen by docs/_static/site.css).  The site is written to a work folder and
 moved into place only when the build succeeded, so build/site/ is never half old and half new (see :func:`build`).
 
 Why Sphinx with MyST-NB, not Jupyter Book 2: both are maintained tools of the Jupyter ecosystem, but Jupyter Book 2
@@ -195,16 +198,18 @@ def fold_details(nb: dict, deviation_ids: list[str]) -> None:
 
 
 def verdict_section(doc: dict) -> str:
-    """What a paper's page opens with, right after its title (and qualifier chip): the paper's one-paragraph summary
-    (:func:`mmlib.papers.summary`, when its package has one) and the verdict box
-    (:func:`mmlib.experiment.views.verdict_box_html`), both from its results ``doc``."""
+    """What a paper's page opens with, right after its title (and qualifier chip): the verdict box
+    (:func:`mmlib.experiment.views.verdict_box_html`), then the paper's one-paragraph summary
+    (:func:`mmlib.papers.summary`, when its package has one), both from its results ``doc``.  The box comes first so
+    that it starts on the first screen of a phone too (a summary is about 900 px tall at 390 px; tests/test_site.py
+    checks the box's position at both widths)."""
     from mmlib.experiment import views
     from mmlib.papers import summary
     try:
         text = summary(doc["paper"], doc)
     except ValueError:              # a paper without a summary.md (a user's own): the box alone
         text = ""
-    return "\n\n".join(x for x in (text, views.verdict_box_html(doc)) if x)
+    return "\n\n".join(x for x in (views.verdict_box_html(doc), text) if x)
 
 
 def fold_notebook(src: Path, dst: Path, doc: dict | None = None) -> None:
@@ -301,22 +306,151 @@ def what_we_found(docs: list[dict], notebooks: dict[str, Path], controls: frozen
     return lines
 
 
-def reading_spaces_page(docs: list[dict], notebooks: dict[str, Path]) -> str:
+def citation_name(paper: str) -> str:
+    """A paper's name as a reader cites it, "author year" (``Hu et al. 2017``, ``Liu & Wu 2017``), from the first
+    reference of its registry citation (:data:`mmlib.papers.REGISTRY`, :func:`make_report.citation_label`); the
+    registry name when it has none."""
     import make_report
-    lines = ["# Reading spaces", "",
+    from mmlib.papers import REGISTRY
+    try:
+        return make_report.citation_label(getattr(REGISTRY.get(paper), "citation", "") or "")
+    except ValueError:
+        return paper
+
+
+#: the section of a paper's reading space that opens its page: the claims' shares, each verdict's robustness
+CLAIMS_SECTION = "Claims across the reading space"
+
+
+def reading_spaces_pages(docs: list[dict], notebooks: dict[str, Path]) -> dict[str, str]:
+    """The reading-space pages, ``{page path in the site's sources: Markdown}``: ``reading-spaces.md``, an index
+    linking one page per paper with a reading space, ``reading-spaces/<paper>.md``, titled with the paper's citation
+    name (:func:`citation_name`) and opening with its robust-claims table (each claim's share of the reading space and
+    whether it is robust), then the design, the factors and the forensic sections (:func:`make_report.render_multiverse`
+    with its headings one level up).  The controls come first, as in the navigation."""
+    controls = controls_of(docs)
+    spaces = sorted((d for d in docs if d.get("multiverse")), key=lambda d: (d["paper"] not in controls, d["paper"]))
+    pages = {f"reading-spaces/{d['paper']}.md": reading_spaces_page(d, notebooks, controls) for d in spaces}
+    index = ["# Reading spaces", "",
              "Where a paper is missing, contradictory or wrong, its defensible readings are declared as factors, "
              "numbered, and all of them run (a multiverse, as in specification curves): each verdict is reported "
-             "across every reading, and the readings that reproduce the published tables are named. Each section "
-             "below is rendered from the paper's results; the paper's page shows the figures.", ""]
-    controls = controls_of(docs)
-    for doc in sorted((d for d in docs if d.get("multiverse")), key=lambda d: (d["paper"] not in controls, d["paper"])):
-        q = make_report.qualifier_of(doc)
-        section = "\n".join(make_report.render_multiverse(doc["multiverse"], q)).replace(
-            "## Reading space (multiverse)", f"## {doc['paper']} ({page_link(doc['paper'], notebooks, controls)})"
-            + (" — control of the pipeline" if doc["paper"] in controls else "")
-            + (f"\n\n{chip(q)} verdicts on a {q} of the set-up" if q else ""))
-        lines += [section, ""]
-    return "\n".join(lines)
+             "across every reading, and the readings that reproduce the published tables are named. One page per "
+             "paper, rendered from its results, opens with its claims across the reading space (which verdicts are "
+             "robust); the paper's own page shows the figures.", "",
+             *[f"- [{citation_name(d['paper'])}](reading-spaces/{d['paper']}.md) (`{d['paper']}`"
+               + (", control of the pipeline" if d["paper"] in controls else "") + ")" for d in spaces], "",
+             "```{toctree}", ":hidden:", ":maxdepth: 1", "", *[f"reading-spaces/{d['paper']}" for d in spaces],
+             "```", ""]
+    return {"reading-spaces.md": "\n".join(index), **pages}
+
+
+def reading_spaces_page(doc: dict, notebooks: dict[str, Path], controls: frozenset = frozenset()) -> str:
+    """One paper's reading-space page (``reading-spaces/<paper>.md``): its citation name as the title, a link to the
+    paper's page, its claims across the reading space first, then the rest of its reading-space section."""
+    import make_report
+    paper = doc["paper"]
+    q = make_report.qualifier_of(doc)
+    body = "\n".join(make_report.render_multiverse(doc["multiverse"], q)).split("\n")
+    body = [re.sub(r"^#(#+) ", r"\1 ", line) for line in body if line.strip() != "## Reading space (multiverse)"]
+    # sections at "## ": the lines before the first are the design paragraph
+    starts = [i for i, line in enumerate(body) if line.startswith("## ")] + [len(body)]
+    head = body[:starts[0]]
+    sections = [body[a:b] for a, b in zip(starts, starts[1:])]
+    sections.sort(key=lambda sec: sec[0] != f"## {CLAIMS_SECTION}")      # stable: the others keep their order
+    link = f"../{page_path(paper, notebooks, controls)}"
+    lines = [f"# {citation_name(paper)}", "",
+             f"The reading space of `{paper}` ([its page]({link})"
+             + (", a control of the pipeline" if paper in controls else "") + ")."
+             + (f"\n\n{chip(q)} verdicts on a {q} of the set-up" if q else ""), ""]
+    for i, sec in enumerate(sections):
+        lines += sec
+        if i == 0:
+            lines += ["", "## Design", *head]
+    return "\n".join(lines) + "\n"
+
+
+FIGURE_LINK = ('<a class="figure-link" href="{svg}" title="the full-size figure (SVG)">'
+               '<img class="figure-img" src="{png}" alt="{alt}"></a>')
+
+
+def link_figures(page: Path, doc: dict | None, rel: str) -> dict[str, str]:
+    """Make each figure of the staged notebook ``page`` (site path ``rel``) a link to its full-size SVG: every image
+    output followed by the Markdown output "**Paper:** ... **Ours:** ..." of a figure of the results ``doc``
+    (``NotebookRun.show``) gets an HTML form, preferred by MyST-NB, showing the figure's PNG in a link to its SVG.
+    Returns ``{path in the built site: path of the figure file relative to the outputs' root}`` for
+    :func:`postprocess_html` to copy (the site shows and links files of figures/, offline)."""
+    if not doc or not doc.get("figures"):
+        return {}
+    by_caption: dict[str, list] = {}          # two figures may share a caption: then their order tells them apart
+    for stem, f in doc["figures"].items():
+        by_caption.setdefault(f"**Paper:** {f['paper_claim']}  \n**Ours:** {f['ours']}", []).append((stem, f))
+    up = "../" * rel.count("/")
+    nb = json.loads(page.read_text())
+    copies = {}
+    for cell in nb["cells"]:
+        outs = cell.get("outputs", [])
+        for out, nxt in zip(outs, outs[1:]):
+            text = "".join(nxt.get("data", {}).get("text/markdown", ""))
+            if "image/png" not in out.get("data", {}) or not by_caption.get(text):
+                continue
+            stem, fig = by_caption[text].pop(0)
+            files = {Path(f).suffix: f for f in fig["files"]}
+            if not {".png", ".svg"} <= set(files):
+                continue
+            site = {k: f"_static/{files[k]}" for k in (".png", ".svg")}
+            copies.update({site[k]: files[k] for k in site})
+            alt = f"{stem}: {fig['ours']}".replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;")
+            out["data"]["text/html"] = FIGURE_LINK.format(svg=up + site[".svg"], png=up + site[".png"], alt=alt)
+    page.write_text(json.dumps(nb))
+    return copies
+
+
+#: a verdict column's cells (its header ends in "verdict"; the first such column of a table) get this class, made
+#: sticky by docs/_static/site.css so that the verdict stays on screen when a wide table scrolls sideways
+VERDICT_COLUMN = "verdict-col"
+
+
+def postprocess_html(html_dir: Path, copies: dict[str, Path] | None = None) -> None:
+    """The built site's finishing pass: copy the figure files (``{site path: source file}``, :func:`link_figures`)
+    and mark every table's verdict column (:data:`VERDICT_COLUMN`) in every page."""
+    for site, src in (copies or {}).items():
+        (html_dir / site).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(src, html_dir / site)
+    for page in html_dir.rglob("*.html"):
+        text = page.read_text()
+        if "<table" not in text or "erdict" not in text:
+            continue
+        new = re.sub(r"<table\b.*?</table>", _mark_verdict_column, text, flags=re.S)
+        if new != text:
+            page.write_text(new)
+
+
+def _mark_verdict_column(match: re.Match) -> str:
+    """A table (docutils HTML: no colspan or rowspan in these tables) with its first verdict column's cells marked."""
+    table = match.group(0)
+    if "colspan" in table or "rowspan" in table:
+        return table
+    rows = re.findall(r"<tr\b.*?</tr>", table, flags=re.S)
+    if not rows:
+        return table
+    heads = [re.sub(r"<[^>]+>", "", h) for h in re.findall(r"<th\b.*?</th>", rows[0], flags=re.S)]
+    col = next((i for i, h in enumerate(heads) if re.search(r"\bverdict$", h.strip(), re.I)), None)
+    if col is None:
+        return table
+
+    def mark(row: re.Match) -> str:
+        cells = list(re.finditer(r"<(t[hd])\b([^>]*)>", row.group(0)))
+        if len(cells) <= col:
+            return row.group(0)
+        c = cells[col]
+        attrs = c.group(2)
+        if 'class="' in attrs:
+            attrs = attrs.replace('class="', f'class="{VERDICT_COLUMN} ', 1)
+        else:
+            attrs += f' class="{VERDICT_COLUMN}"'
+        return row.group(0)[:c.start()] + f"<{c.group(1)}{attrs}>" + row.group(0)[c.end():]
+
+    return re.sub(r"<tr\b.*?</tr>", mark, table, flags=re.S)
 
 
 def public_modules() -> list[str]:
@@ -350,7 +484,9 @@ def api_pages(stage: Path) -> None:
             f"# `{m}`\n\n```{{eval-rst}}\n.. automodule:: {m}\n{'   :no-members:' + chr(10) if package else ''}```\n")
 
 
-def assemble(stage: Path, docs: list[dict], notebooks: dict[str, Path]) -> None:
+def assemble(stage: Path, docs: list[dict], notebooks: dict[str, Path], root: Path = REPO) -> dict[str, Path]:
+    """Stage the site's sources in ``stage``; returns the files :func:`postprocess_html` copies into the built site
+    (``{site path: file}``: the figures, from the outputs under ``root``)."""
     if stage.exists():
         shutil.rmtree(stage)
     stage.mkdir(parents=True)
@@ -361,15 +497,21 @@ def assemble(stage: Path, docs: list[dict], notebooks: dict[str, Path]) -> None:
     # the results contract's JSON Schema, shown by results-contract.md
     shutil.copy2(REPO / "mmlib" / "experiment" / "results.schema.json", stage / "_includes" / "results.schema.json")
     (stage / "index.md").write_text(index_page(docs, notebooks))
-    (stage / "reading-spaces.md").write_text(reading_spaces_page(docs, notebooks))
+    for rel, text in reading_spaces_pages(docs, notebooks).items():
+        (stage / rel).parent.mkdir(parents=True, exist_ok=True)
+        (stage / rel).write_text(text)
     controls = controls_of(docs)
     by_name = {d["paper"]: d for d in docs}
+    copies: dict[str, Path] = {}
     for paper, nb in notebooks.items():
         fold_notebook(nb, stage / page_path(paper, notebooks, controls), by_name.get(paper))
+        rel = page_path(paper, notebooks, controls)
+        copies.update({k: root / v for k, v in link_figures(stage / rel, by_name.get(paper), rel).items()})
     api_pages(stage)
     # the bundled MathJax (jupyter-server-mathjax's copy of MathJax 2.7), served from _static/mathjax/
     import jupyter_server_mathjax
     shutil.copytree(Path(jupyter_server_mathjax.__file__).parent / "static", stage / "_mathjax" / "mathjax")
+    return copies
 
 
 def explain(line: str, stage: Path) -> str:
@@ -438,8 +580,9 @@ def build(profile: str = "full", out: Path | None = None, quiet: bool = True) ->
     with open(out.parent / f".{out.name}.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         shutil.rmtree(work, ignore_errors=True)
-        assemble(work / "src", docs, notebooks)
+        copies = assemble(work / "src", docs, notebooks, sources(profile)[0])
         sphinx(work / "src", work / "html", quiet)
+        postprocess_html(work / "html", copies)
         if out.exists():
             os.replace(out, work / "old")
         os.replace(work / "html", out)
