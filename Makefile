@@ -45,7 +45,7 @@ RUN_ARGS = $(if $(N_RUNS),-p N_RUNS=$(N_RUNS)) $(if $(SEED),-p SEED=$(SEED)) \
 # scheduler receiving the Monte Carlo chunks and universes (the kernels see it as MMLIB_SCHEDULER); VERBOSE=1 the
 # progress of every universe with its levels (default: universe k/N and the time left)
 EXEC_ARGS = $(if $(filter command line,$(origin WORKERS)),--workers $(WORKERS)) $(if $(SCHEDULER),--scheduler $(SCHEDULER)) \
-	$(if $(VERBOSE),-v)
+	$(if $(filter 1 true yes,$(VERBOSE)),-v)
 
 .PHONY: figures test unit smoke site bench clean venv recover
 

@@ -49,8 +49,8 @@ def test_summary_has_no_stale_number(name, kind):
     """Every number a summary or one-line finding writes itself (not filled from the results) appears in the paper's
     results document, so neither can carry a count or value of an older run; the rest are placeholders (checked live
     below)."""
-    doc_text = json.dumps(committed(name), ensure_ascii=False)
-    missing = [n for n in _literal_numbers(summary_template(name, kind)) if n not in doc_text]
+    tokens = set(re.findall(r"\d+(?:\.\d+)?", json.dumps(committed(name), ensure_ascii=False)))
+    missing = [n for n in _literal_numbers(summary_template(name, kind)) if n not in tokens]
     assert not missing, f"{name}: numbers in {kind}.md that the results do not contain: {missing}"
 
 
@@ -189,6 +189,8 @@ def test_format_pm_large_and_tiny_keep_two_significant_figures_of_the_se():
     assert not re.search(r"± 0\.0*$", views.value_pm(0.026, 0.0001, 3))
     with pytest.raises(ValueError, match="stderr"):
         views.format_pm(1.0, "x")
+    with pytest.raises(ValueError, match="stderr"):
+        views.format_pm(1.0, -0.1)
 
 
 # -- the README's findings block ----------------------------------------------------------------------------------
@@ -261,3 +263,56 @@ def test_detail_folds_and_deviation_links(tmp_path):
         assert anchors == {d["id"] for d in by_name[paper]["deviations"]}, paper
         links = set(re.findall(r'href="#deviation-([^"]+)"', "".join(texts)))
         assert links and links <= anchors, paper
+
+
+@pytest.mark.parametrize("kind", ["summary", "finding"])
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_verdict_words_follow_the_results(name, kind):
+    """Every verdict a summary or finding states comes from the results: flip every claim's verdict and empty every
+    table, and each claim verdict and table status the text uses reads the new value (no verdict is written into the
+    prose around the placeholders)."""
+    doc = committed(name)
+    template = summary_template(name, kind)
+    mutated = copy.deepcopy(doc)
+    for claim in mutated["claims"]:
+        claim["verdict"] = "not assessable" if claim_category(claim["verdict"]) != "not assessable" else "holds"
+        claim.pop("stated", None)           # a qualified verdict's words (tseng2011): stated from the new verdict
+    from mmlib.experiment.verdicts import is_reproduced
+    failed = next(r["verdict"] for d in all_docs() for r in d["rows"] if not is_reproduced(r["verdict"]))
+    for row in mutated["rows"]:
+        row["verdict"] = failed
+    for table in (mutated.get("multiverse") or {}).get("table_match") or []:
+        table["headline_n_reproduced"] = 0
+    before, after = summary_values(doc), summary_values(mutated)
+    text = (summary if kind == "summary" else finding)(name, mutated)
+    used = set(re.findall(r"\{(\w+)\}", template))
+    for key in sorted(k for k in used if re.fullmatch(r"c\d+_verdict|t\d+_status", k)):
+        assert str(after[key]) in text, (key, after[key])
+        if key.endswith("_verdict"):
+            assert after[key] != before[key], key
+    for key in (k for k in used if k.startswith("t") and k.endswith("_status")):
+        assert after[key] == "not reproduced", (key, after[key])
+
+
+@pytest.mark.parametrize("n, cells, joint, words", [(0, 6, False, "not reproduced"), (6, 6, True, "reproduced"),
+                                                    (6, 6, None, "reproduced"), (6, 6, False, "partly reproduced"),
+                                                    (3, 6, False, "partly reproduced")])
+def test_table_status_words(n, cells, joint, words):
+    from mmlib.papers import _table_status
+    assert _table_status(n, cells, joint) == words
+
+
+def test_a_summary_the_results_cannot_fill_is_an_error_not_a_fallback(monkeypatch):
+    """A paper with a summary.md whose placeholders its results lack: the site and the README fail loudly instead of
+    falling back to the generic line (a template broken by a rerun would otherwise vanish unnoticed)."""
+    import build_site
+    import make_report
+
+    import mmlib.papers as papers
+    doc = committed("zhu2016")
+    monkeypatch.setattr(papers, "summary_template", lambda name, kind="summary": "{c99_verdict}")
+    with pytest.raises(ValueError, match="c99_verdict"):
+        build_site.verdict_section(doc)
+    with pytest.raises(ValueError, match="c99_verdict"):
+        make_report.findings_block([doc])
+    assert papers.has_text("zhu2016") and papers.has_text("zhu2016", "finding") and not papers.has_text("nosuch")

@@ -61,6 +61,19 @@ def test_accepted_variables_pass():
 def test_verbose_is_the_runners_v():
     assert runner_line(make("figures", "PAPER=hu2017", "VERBOSE=1").stdout) == ["--profile", "full", "-v", "hu2017"]
     assert "-v" not in runner_line(make("figures", "PAPER=hu2017").stdout)
+    assert "-v" not in runner_line(make("figures", "PAPER=hu2017", "VERBOSE=0").stdout)     # 0 means off
+
+
+def test_the_readme_findings_follow_only_a_run_of_the_committed_outputs():
+    """make figures rewrites the README's findings (tools/make_report.py) after a full run over the committed
+    outputs, never after a custom run (build/custom/) or a smoke run (build/smoke/)."""
+    def runs_report(*args: str) -> bool:
+        return any(li.strip().endswith("python tools/make_report.py") and not li.lstrip().startswith("#")
+                   for li in make("figures", "PAPER=hu2017", *args).stdout.splitlines())
+
+    assert runs_report()
+    for extra in (["N_RUNS=5"], ["SEED=3"], ["MULTIVERSE_RUNS=7"], ["PROFILE=smoke"]):
+        assert not runs_report(*extra), extra
 
 
 def test_environment_and_lower_case_variables_are_not_refused():

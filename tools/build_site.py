@@ -204,11 +204,9 @@ def verdict_section(doc: dict) -> str:
     that it starts on the first screen of a phone too (a summary is about 900 px tall at 390 px; tests/test_site.py
     checks the box's position at both widths)."""
     from mmlib.experiment import views
-    from mmlib.papers import summary
-    try:
-        text = summary(doc["paper"], doc)
-    except ValueError:              # a paper without a summary.md (a user's own): the box alone
-        text = ""
+    from mmlib.papers import has_text, summary
+    # a paper without a summary.md (a user's own): the box alone; a summary its results cannot fill is an error
+    text = summary(doc["paper"], doc) if has_text(doc["paper"]) else ""
     return "\n\n".join(x for x in (views.verdict_box_html(doc), text) if x)
 
 
@@ -294,14 +292,12 @@ def what_we_found(docs: list[dict], notebooks: dict[str, Path], controls: frozen
     its one-paragraph summary (:func:`mmlib.papers.summary`) after a link to its page, or its one-line findings
     (:func:`mmlib.experiment.views.findings_line`) when its package has no summary; the arena's line last."""
     from mmlib.experiment import views
-    from mmlib.papers import summary
+    from mmlib.papers import has_text, summary
     lines = ["## What we found", ""]
     for d in sorted(docs, key=lambda d: (d["paper"] not in controls, d.get("kind") == "arena", d["paper"])):
         link = f"**{page_link(d['paper'], notebooks, controls)}**"
-        try:
-            text = f"{link}: {summary(d['paper'], d)}"
-        except ValueError:          # the arena, or a paper without a summary.md
-            text = views.findings_line(d, link)
+        # the arena, or a paper without a summary.md: its generated line (a summary that cannot be filled: an error)
+        text = f"{link}: {summary(d['paper'], d)}" if has_text(d["paper"]) else views.findings_line(d, link)
         lines += [text, ""]
     return lines
 

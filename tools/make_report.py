@@ -438,10 +438,9 @@ def findings_block(docs: list[dict]) -> str:
             last.append(f"[Controls](reports/{name}.md): " + papers.finding(name, doc))
             continue
         link = f"**[{citation_label(paper.citation)}](reports/{name}.md)**"
-        try:
-            lines.append(f"- {link} {papers.finding(name, doc)}")
-        except ValueError:
-            lines.append(f"- {views.findings_line(doc, link)}")
+        # a paper without a finding.md: its generated line; a finding its results cannot fill is an error
+        lines.append(f"- {link} {papers.finding(name, doc)}" if papers.has_text(name, "finding")
+                     else f"- {views.findings_line(doc, link)}")
     last += [f"[the arena](reports/{d['paper']}.md): " + arena_line(d) for d in docs if d.get("kind") == "arena"]
     if last:
         lines.append("- " + "; ".join(last) + ".")

@@ -452,9 +452,12 @@ class RelativePaths:
                      (str(layout.root), ".")]
 
     def write(self, text: str) -> int:
+        """Write ``text`` with the paths replaced (a kernel writes whole lines, so a path is not split across calls);
+        returns the length of ``text`` as given, as a stream's write does."""
+        shown = text
         for old, new in self.subs:
-            text = text.replace(old, new)
-        self.target.write(text)
+            shown = shown.replace(old, new)
+        self.target.write(shown)
         return len(text)
 
     def flush(self) -> None:
@@ -876,7 +879,8 @@ def main(argv=None) -> int:
         else:
             os.environ.pop("MMLIB_SCHEDULER", None)
         from mmlib.experiment.grid import VERBOSE_ENV
-        os.environ[VERBOSE_ENV] = "1" if args.verbose else "0"
+        if args.verbose:            # -v asks for the levels; without it a user's own MMLIB_PROGRESS_VERBOSE stands
+            os.environ[VERBOSE_ENV] = "1"
         print(f"execution: {workers} worker(s): "
               + (f"{jobs} notebook(s) at a time, WORKERS={kernel_workers} in each" if sources else "")
               + ("; then " if sources and alone else "")

@@ -935,12 +935,15 @@ def _se_decimals(stderr: float) -> int:
 def format_pm(value: float | None, stderr: float | None) -> str:
     """``"value ± s.e."`` with the standard error to two significant figures and the value rounded to the same
     decimal: ``format_pm(0.0263, 0.00041) == "0.02630 ± 0.00041"``, ``format_pm(1234.5, 56.0) == "1234 ± 56"``,
-    ``format_pm(12345.0, 678.0) == "12340 ± 680"``.  Without a usable standard error (None, not finite or <= 0:
-    an exact value) the value alone to 4 significant digits; "--" when ``value`` is None; "nan"/"inf" as such.
+    ``format_pm(12345.0, 678.0) == "12340 ± 680"``.  Without a usable standard error (None, not finite or 0: an
+    exact value) the value alone to 4 significant digits (a negative one is a ValueError naming ``stderr``); "--"
+    when ``value`` is None; "nan"/"inf" as such.
     Values of 1e6 and more (or below 1e-4 with a smaller s.e.) in exponent form with the same rule on the mantissa.
     The one ± formatting of the reports, the site and the notebooks: ``"0.026 ± 0.000"`` never appears."""
     verdicts._real(value, "value")
     verdicts._real(stderr, "stderr")
+    if stderr is not None and stderr < 0:
+        raise ValueError(f"stderr: a standard error is not negative, got {stderr!r}")
     if value is None:
         return "--"
     value = float(value)

@@ -16,7 +16,7 @@ from typing import Any, Iterator, Mapping
 from mmlib.experiment.paper import Paper
 
 __all__ = [
-    "REGISTRY", "Registry", "summary", "finding", "summary_values", "summary_template", "PACKAGES"
+    "REGISTRY", "Registry", "summary", "finding", "has_text", "summary_values", "summary_template", "PACKAGES"
 ]
 
 #: the packages of the replicated papers, in the order of the README's table; the controls of the pipeline
@@ -100,13 +100,23 @@ def summary_template(name: str, kind: str = "summary") -> str:
         raise ValueError(f"name: the paper {name!r} has no {kind}.md in its package") from None
 
 
+def _table_status(n_reproduced: int, n_cells: int, joint: bool | None) -> str:
+    """A table's verdict in words from its cells reproduced under the headline and its whole-table joint test."""
+    if n_reproduced == 0:
+        return "not reproduced"
+    if n_reproduced == n_cells and joint is not False:
+        return "reproduced"
+    return "partly reproduced"
+
+
 def summary_values(doc: Mapping[str, Any]) -> dict:
     """The values a summary's placeholders name, from a paper's results document
     (:func:`mmlib.experiment.results.read_results`): ``n_runs`` (the headline's Monte Carlo runs), and of the reading
     space ``multiverse_runs`` (runs per universe), ``n_universes`` (run), ``n_counted`` (counted in the shares),
     ``n_simulations`` (distinct), ``full_factorial_size``, ``n_degenerate``, ``n_factors``; per table ``i`` (from 1,
     in the order of :func:`mmlib.experiment.views.paper_verdicts`) ``t<i>_name``, ``t<i>_cells``, ``t<i>_reproduced``
-    (headline) and ``t<i>_joint`` ("passes"/"fails"/"--"), and ``tm<i>_most`` (the most cells any reading reproduces,
+    (headline), ``t<i>_status`` ("reproduced": every cell and the joint test; "not reproduced": no cell; else "partly
+    reproduced") and ``t<i>_joint`` ("passes"/"fails"/"--"), and ``tm<i>_most`` (the most cells any reading reproduces,
     table match order); per claim ``c<i>_verdict`` (its words), ``c<i>_decisive``, ``c<i>_share`` ("92 % [85, 96]"
     or "--") and ``c<i>_robust`` ("robust"/"depends on the reading"/"--"); ``n_claims``, ``n_robust``; and ``doc``
     itself for any other number (``{doc[rows][0][paper]}``).  Counts are integers, the rest strings."""
@@ -118,7 +128,8 @@ def summary_values(doc: Mapping[str, Any]) -> dict:
     for key in ("n_universes", "n_counted", "n_simulations", "full_factorial_size", "n_degenerate"):
         out[key] = mv.get(key, "--")
     for i, t in enumerate(v["tables"], 1):
-        out.update({f"t{i}_name": t["table"], f"t{i}_cells": t["n_cells"], f"t{i}_reproduced": t["n_reproduced"],
+        out.update({f"t{i}_status": _table_status(t["n_reproduced"], t["n_cells"], t["joint"]),
+                    f"t{i}_name": t["table"], f"t{i}_cells": t["n_cells"], f"t{i}_reproduced": t["n_reproduced"],
                     f"t{i}_joint": "--" if t["joint"] is None else ("passes" if t["joint"] else "fails")})
     for i, t in enumerate(mv.get("table_match") or [], 1):
         out[f"tm{i}_most"] = t["most_n_reproduced"]
@@ -135,6 +146,19 @@ def summary_values(doc: Mapping[str, Any]) -> dict:
     out["n_claims"] = len(v["claims"])
     out["n_robust"] = sum(bool(c["robust"]) for c in v["claims"])
     return out
+
+
+def has_text(name: str, kind: str = "summary") -> bool:
+    """Whether paper ``name`` is registered and its package carries ``<kind>.md`` (:func:`summary_template`), so that a
+    caller can fall back for a paper without one while a template its results cannot fill stays an error."""
+    if kind not in _TEXTS:
+        raise ValueError(f"kind: expected one of {', '.join(_TEXTS)}, got {kind!r}")
+    if not isinstance(name, str) or name not in REGISTRY:
+        return False
+    try:
+        return importlib.resources.files(f"{__name__}.{name}").joinpath(f"{kind}.md").is_file()
+    except ModuleNotFoundError:
+        return False
 
 
 def summary(name: str, doc: Mapping[str, Any] | None = None) -> str:
