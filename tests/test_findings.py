@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from mmlib.experiment import views
+from mmlib.experiment import verdicts, views
 from mmlib.experiment.results import read_results
 from mmlib.experiment.verdicts import CLAIM_VERDICTS, claim_category
 from mmlib.papers import REGISTRY, finding, summary, summary_template, summary_values
@@ -177,20 +177,20 @@ def test_verdict_box_bad_input():
     (None, 0.1, "--"),
 ])
 def test_format_pm(value, se, expected):
-    assert views.format_pm(value, se) == expected
+    assert verdicts.format_pm(value, se) == expected
 
 
 def test_format_pm_large_and_tiny_keep_two_significant_figures_of_the_se():
-    big = views.format_pm(3.2e7, 4.1e5)
+    big = verdicts.format_pm(3.2e7, 4.1e5)
     mantissa, se = re.match(r"([\d.]+)e\+07 ± ([\d.]+)e\+07", big).groups()
     assert float(mantissa) * 1e7 == pytest.approx(3.2e7) and float(se) * 1e7 == pytest.approx(4.1e5)
     assert len(se.replace("0.", "", 1).lstrip("0")) == 2
     # value_pm goes through format_pm: its s.e. is never shown as zero
     assert not re.search(r"± 0\.0*$", views.value_pm(0.026, 0.0001, 3))
     with pytest.raises(ValueError, match="stderr"):
-        views.format_pm(1.0, "x")
+        verdicts.format_pm(1.0, "x")
     with pytest.raises(ValueError, match="stderr"):
-        views.format_pm(1.0, -0.1)
+        verdicts.format_pm(1.0, -0.1)
 
 
 # -- the README's findings block ----------------------------------------------------------------------------------

@@ -433,5 +433,8 @@ def test_reading_space_parameter_leaves_out_notebooks_without_one_and_verbose_re
     assert str(repo) not in proc.stdout + proc.stderr               # relative paths only
     named = run(repo, "-p", "MULTIVERSE_RUNS=3", "beta2002", check=2)
     assert "-p MULTIVERSE_RUNS: not a parameter of this notebook" in named.stderr
-    quiet = run(repo, "alpha2001", check=0)
-    assert "verbose=0" in quiet.stdout
+    quiet = run(repo, "alpha2001", check=0, env={"MMLIB_PROGRESS_VERBOSE": ""})
+    assert "verbose=\n" in quiet.stdout and "verbose=1" not in quiet.stdout
+    # without -v a user's own MMLIB_PROGRESS_VERBOSE stands (the runner sets it only for -v)
+    own = run(repo, "alpha2001", check=0, env={"MMLIB_PROGRESS_VERBOSE": "1"})
+    assert "verbose=1" in own.stdout

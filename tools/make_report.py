@@ -21,7 +21,7 @@ sys.path.insert(0, str(REPO))
 
 from mmlib.experiment.writing import atomic_write_text  # noqa: E402
 from mmlib.experiment.results import read_results  # noqa: E402
-from mmlib.experiment import views  # noqa: E402
+from mmlib.experiment import verdicts, views  # noqa: E402
 from mmlib.experiment.views import markdown_table, value_pm  # noqa: E402
 
 
@@ -148,7 +148,7 @@ def render_arena(doc: dict, root: Path, out_dir: Path) -> str:
              markdown_table(["idea", "A − B", "scenario", "Δ position MSE (m²) ± s.e.", "verdict"],
                             [[i["idea"], f"{i['a']} − {i['b']}", c["scenario"],
                               "--" if c["difference_m2"] is None
-                              else views.format_pm(c['difference_m2'], c['stderr_m2']),
+                              else verdicts.format_pm(c['difference_m2'], c['stderr_m2']),
                               c["verdict"]] for i in doc["ideas"] for c in i["comparisons"]]),
              "", "## The papers' accuracy claims across the arena", "",
              markdown_table(["paper", "claim", "pair", "scenario: verdict"],

@@ -357,7 +357,7 @@ def better_claim(results: dict, a: str, b: str, quantities: Iterable[tuple[str, 
         ref = float((results[b].errors[results[b].valid][..., idx] ** 2).sum(axis=-1).mean())
         parts.append(part(f"{a} − {b}", f"{label} MSE", float(d.value), float(d.stderr), -1, reference=ref,
                           unit=unit, ops=ops))
-    from mmlib.experiment.views import format_pm       # here: views imports this module's users
+    from mmlib.experiment.verdicts import format_pm
     evidence = "; ".join(f"{p.quantity}: Δ = {format_pm(p.difference, p.stderr)}"
                          f"{' ' + p.unit if p.unit else ''} "
                          f"({f'{100 * p.difference / p.reference:+.2g} %' if p.reference else 'reference 0'}; "
@@ -503,7 +503,7 @@ def degenerate_reason(errors: Mapping[str, Any], baseline: Any, *, what: str) ->
                 e - b, math.sqrt(se * se + sb * sb), -1, reference=b) == verdicts.PartVerdict.HOLDS:
             return ""
     best = min(vals, key=lambda k: (vals[k][0] if math.isfinite(vals[k][0]) else math.inf, k))
-    from mmlib.experiment.views import format_pm       # here: views imports this module's users
+    from mmlib.experiment.verdicts import format_pm
     return (f"no estimator is detectably better than {what} ({format_pm(b, sb)}; the best, {best}'s, is "
             f"{format_pm(*vals[best])})")
 

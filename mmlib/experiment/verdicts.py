@@ -80,7 +80,7 @@ __all__ = [
     "claim_category", "is_reproduced", "qualified", "rule", "REPRODUCED", "REPRODUCED_EXACT", "ISOLATED", "QUALITATIVE",
     "INCONCLUSIVE", "NOT_REPRODUCED", "NOT_REPRODUCED_EXACT", "NOT_REPLICABLE", "VERDICTS", "HOLDS", "PARTLY",
     "CONTRADICTED", "NOT_SUPPORTED", "NOT_ASSESSABLE", "CLAIM_VERDICTS", "RECONSTRUCTION", "PAPER_ERROR_ASSUMPTION",
-    "SIGMA_FACTOR", "RELATIVE_BAND", "NEGLIGIBLE", "ROUNDOFF_OPS", "COST_MARGIN", "JOINT_ALPHA"
+    "SIGMA_FACTOR", "RELATIVE_BAND", "NEGLIGIBLE", "ROUNDOFF_OPS", "COST_MARGIN", "JOINT_ALPHA", "format_pm"
 ]
 
 
@@ -198,6 +198,50 @@ def _printed(text, name: str) -> str:
     except ValueError:
         raise ValueError(f"{name}: expected a number as printed (e.g. '2.48'), got {text!r}") from None
     return text
+
+
+# -- the one ± format of the outputs (below views and evaluation, which both use it) ---------------------------------
+
+def _se_decimals(stderr: float) -> int:
+    """The decimals that show ``stderr`` (> 0, finite) to two significant figures, after rounding (0.0995 -> 0.10:
+    2 decimals, not 3); negative for s.e. >= 100 (rounded to tens, hundreds, ...)."""
+    d = 1 - math.floor(math.log10(stderr))
+    rounded = round(stderr, d)
+    if rounded > 0 and 1 - math.floor(math.log10(rounded)) != d:      # rounding carried to the next power of ten
+        d = 1 - math.floor(math.log10(rounded))
+    return d
+
+
+def format_pm(value: float | None, stderr: float | None) -> str:
+    """``"value ± s.e."`` with the standard error to two significant figures and the value rounded to the same
+    decimal: ``format_pm(0.0263, 0.00041) == "0.02630 ± 0.00041"``, ``format_pm(1234.5, 56.0) == "1234 ± 56"``,
+    ``format_pm(12345.0, 678.0) == "12340 ± 680"``.  Without a usable standard error (None, not finite or 0: an
+    exact value) the value alone to 4 significant digits (a negative one is a ValueError naming ``stderr``); "--"
+    when ``value`` is None; "nan"/"inf" as such.
+    Values of 1e6 and more (or below 1e-4 with a smaller s.e.) in exponent form with the same rule on the mantissa.
+    The one ± formatting of the reports, the site and the notebooks: ``"0.026 ± 0.000"`` never appears."""
+    _real(value, "value")
+    _real(stderr, "stderr")
+    if stderr is not None and stderr < 0:
+        raise ValueError(f"stderr: a standard error is not negative, got {stderr!r}")
+    if value is None:
+        return "--"
+    value = float(value)
+    if not math.isfinite(value):
+        return "nan" if math.isnan(value) else str(value)
+    if stderr is None or not math.isfinite(stderr) or stderr <= 0:
+        return f"{value:.4g}"
+    stderr = float(stderr)
+    if abs(value) >= 1e6 or (0 < abs(value) < 1e-4 and stderr < 1e-4):
+        e = math.floor(math.log10(abs(value)))
+        m, s = value / 10 ** e, stderr / 10 ** e
+        d = max(0, _se_decimals(s)) if s > 0 else 0
+        return f"{m:.{d}f}e{e:+03d} ± {s:.{d}f}e{e:+03d}" if d <= 8 else f"{value:.4g} ± {stderr:.2g}"
+    d = _se_decimals(stderr)
+    if d >= 0:
+        return f"{value:.{d}f} ± {stderr:.{d}f}"
+    step = 10 ** (-d)
+    return f"{round(value / step) * step:.0f} ± {round(stderr / step) * step:.0f}"
 
 
 def _real(x, name: str, *, none: bool = True):

@@ -18,11 +18,12 @@ import numpy as np
 
 from mmlib.core._validate import check_bool, check_positive_int
 from mmlib.experiment import verdicts
+from mmlib.experiment.verdicts import format_pm
 from mmlib.experiment.multiverse import PRECISION, ROBUST_FRACTION, Multiverse
 from mmlib.experiment.readings import ReadingSpace
 
 __all__ = [
-    "paper_verdicts", "verdict_box_html", "findings_line", "findings_lines", "format_pm", "claim_class",
+    "paper_verdicts", "verdict_box_html", "findings_line", "findings_lines", "claim_class",
     "markdown_table", "value_pm", "summary_line", "claims_table", "claim_option_table", "numbers_table",
     "table_match_table", "table_match_sentence", "table_match_figure", "specification_curve", "one_factor_table",
     "factors_table", "options_table", "consistency_table", "sensitivity_table", "recovery_table", "recovery_text",
@@ -921,48 +922,6 @@ def controls_text(controls: dict) -> str:
 
 
 # -- findings first (issue 26): the verdict box of a paper's page and the one-line findings ---------------------
-
-def _se_decimals(stderr: float) -> int:
-    """The decimals that show ``stderr`` (> 0, finite) to two significant figures, after rounding (0.0995 -> 0.10:
-    2 decimals, not 3); negative for s.e. >= 100 (rounded to tens, hundreds, ...)."""
-    d = 1 - math.floor(math.log10(stderr))
-    rounded = round(stderr, d)
-    if rounded > 0 and 1 - math.floor(math.log10(rounded)) != d:      # rounding carried to the next power of ten
-        d = 1 - math.floor(math.log10(rounded))
-    return d
-
-
-def format_pm(value: float | None, stderr: float | None) -> str:
-    """``"value ± s.e."`` with the standard error to two significant figures and the value rounded to the same
-    decimal: ``format_pm(0.0263, 0.00041) == "0.02630 ± 0.00041"``, ``format_pm(1234.5, 56.0) == "1234 ± 56"``,
-    ``format_pm(12345.0, 678.0) == "12340 ± 680"``.  Without a usable standard error (None, not finite or 0: an
-    exact value) the value alone to 4 significant digits (a negative one is a ValueError naming ``stderr``); "--"
-    when ``value`` is None; "nan"/"inf" as such.
-    Values of 1e6 and more (or below 1e-4 with a smaller s.e.) in exponent form with the same rule on the mantissa.
-    The one ± formatting of the reports, the site and the notebooks: ``"0.026 ± 0.000"`` never appears."""
-    verdicts._real(value, "value")
-    verdicts._real(stderr, "stderr")
-    if stderr is not None and stderr < 0:
-        raise ValueError(f"stderr: a standard error is not negative, got {stderr!r}")
-    if value is None:
-        return "--"
-    value = float(value)
-    if not math.isfinite(value):
-        return "nan" if math.isnan(value) else str(value)
-    if stderr is None or not math.isfinite(stderr) or stderr <= 0:
-        return f"{value:.4g}"
-    stderr = float(stderr)
-    if abs(value) >= 1e6 or (0 < abs(value) < 1e-4 and stderr < 1e-4):
-        e = math.floor(math.log10(abs(value)))
-        m, s = value / 10 ** e, stderr / 10 ** e
-        d = max(0, _se_decimals(s)) if s > 0 else 0
-        return f"{m:.{d}f}e{e:+03d} ± {s:.{d}f}e{e:+03d}" if d <= 8 else f"{value:.4g} ± {stderr:.2g}"
-    d = _se_decimals(stderr)
-    if d >= 0:
-        return f"{value:.{d}f} ± {stderr:.{d}f}"
-    step = 10 ** (-d)
-    return f"{round(value / step) * step:.0f} ± {round(stderr / step) * step:.0f}"
-
 
 def _is_control(doc: dict) -> bool:
     return doc.get("kind") == "control" or "controls" in doc
