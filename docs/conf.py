@@ -62,7 +62,7 @@ mathjax2_config = {"tex2jax": {"inlineMath": [["\\(", "\\)"]], "displayMath": [[
                    "MathMenu": {"showFontMenu": False}, "menuSettings": {"zoom": "None"}}
 
 html_theme = "furo"
-html_title = f"mmlib {release}: five tracking papers, replicated"
+html_title = f"mmlib {release}: five tracking papers, re-run and checked"
 # docs/_static, the results contract's JSON Schema (served as _static/results.schema.json: the file of the package,
 # never a copy that could drift) and the folder holding the bundled MathJax that the builder stages (as mathjax/)
 html_static_path = ["_static", str(REPO / "mmlib" / "experiment" / "results.schema.json"),
