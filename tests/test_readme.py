@@ -239,7 +239,8 @@ def test_block_parser():
                                   (13, "print('```')\n```\nc = 3\n", False)]
 
 
-def _check_block(path: Path, line: int, code: str, skipped: bool) -> None:
+def _check_block(path: Path, line: int, code: str, skipped: bool) -> subprocess.CompletedProcess:
+    """Run the block (skipped if marked); fail naming the place when it times out or exits non-zero; the process."""
     if skipped:
         pytest.skip(f"{path.name}:{line} is marked {NOT_EXECUTED}")
     proc = run_block(code, line, sys.executable, ROOT, path=path)
@@ -248,11 +249,12 @@ def _check_block(path: Path, line: int, code: str, skipped: bool) -> None:
     if proc.returncode != 0:
         pytest.fail(f"{path.name}:{line}: the python block failed (exit status {proc.returncode}):\n{proc.stderr}"
                     f"stdout:\n{proc.stdout}", pytrace=False)
+    return proc
 
 
 @pytest.mark.parametrize("line, code, skipped", BLOCKS, ids=[f"README.md:{line}" for line, _, _ in BLOCKS])
 def test_readme_block_runs(line, code, skipped):
-    _check_block(README, line, code, skipped)
+    assert _check_block(README, line, code, skipped).returncode == 0
 
 
 #: Executes the code read from stdin as ``__main__`` of a fresh interpreter, compiled under the document's path, so
@@ -276,7 +278,7 @@ def run_block(code: str, line: int, python: str, cwd: Path, timeout: float = TIM
 NUMBER = r"(\d+(?:\.\d+)?%?)"
 
 
-def check_quoted(path: Path, blocks: list, pairs: dict[str, tuple[str, str]]) -> None:
+def check_quoted(path: Path, blocks: list, pairs: dict[str, tuple[str, str]]) -> dict[str, tuple]:
     """Run the block of ``path`` that calls ``mmlib.run(`` and check that the prose after it quotes each number as
     the block prints it, digit for digit (a run of the same code gives the same bits, so a quoted number that
     differs is out of date): ``pairs`` maps a name to (regex of the printed line, regex of the prose)."""
@@ -285,29 +287,33 @@ def check_quoted(path: Path, blocks: list, pairs: dict[str, tuple[str, str]]) ->
     proc = run_block(code, line, sys.executable, ROOT, path=path)
     assert proc is not None and proc.returncode == 0, proc and proc.stderr
     prose = text[text.index(code) + len(code):]
+    checked = {}
     for key, (printed, quoted) in pairs.items():
         got, said = re.search(printed, proc.stdout), re.search(quoted, prose)
         assert got, f"{key}: the example of {path.name} no longer prints {printed!r}:\n{proc.stdout}"
         assert said, f"{key}: the prose after the example of {path.name} no longer quotes {quoted!r}"
         assert said.groups() == got.groups(), \
             f"{key}: the example of {path.name} prints {got.groups()}, the text says {said.groups()}"
+        checked[key] = got.groups()
+    return checked
 
 
 def test_the_numbers_quoted_after_the_readme_example_are_the_ones_it_prints():
-    check_quoted(README, BLOCKS, {
+    assert set(check_quoted(README, BLOCKS, {
         "RMSE": (rf"position RMSE {NUMBER} \+/- {NUMBER} m over {NUMBER} runs",
-                 rf"position RMSE of {NUMBER} ± {NUMBER} m over {NUMBER} runs")})
+                 rf"position RMSE of {NUMBER} ± {NUMBER} m over {NUMBER} runs")})) == {"RMSE"}
 
 
 @pytest.mark.parametrize("line, code, skipped", PAGE_BLOCKS,
                          ids=[f"library.md:{line}" for line, _, _ in PAGE_BLOCKS])
 def test_library_page_block_runs(line, code, skipped):
-    _check_block(LIBRARY_PAGE, line, code, skipped)
+    assert _check_block(LIBRARY_PAGE, line, code, skipped).returncode == 0
 
 
 def test_the_numbers_quoted_after_the_library_example_are_the_ones_it_prints():
-    check_quoted(LIBRARY_PAGE, PAGE_BLOCKS, {
+    pairs = {
         "RMSE": (rf"position RMSE {NUMBER} \+/- {NUMBER} m", rf"position RMSE of {NUMBER} ± {NUMBER} m"),
         "ANEES": (rf"ANEES {NUMBER} \+/- {NUMBER}", rf"time-averaged NEES is\s+{NUMBER} ± {NUMBER}"),
         "inside": (rf"at {NUMBER} of the", rf"at only {NUMBER} of the"),
-        "peak": (rf"peak {NUMBER}", rf"peak of\s+{NUMBER}")})
+        "peak": (rf"peak {NUMBER}", rf"peak of\s+{NUMBER}")}
+    assert set(check_quoted(LIBRARY_PAGE, PAGE_BLOCKS, pairs)) == set(pairs)
