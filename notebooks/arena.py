@@ -65,6 +65,7 @@ from IPython.display import Markdown, display
 
 from mmlib.arena import ladder, recipes, study, views as arena_views
 from mmlib.experiment.notebook import NotebookRun, claims_table, markdown_table, plot_style
+from mmlib.experiment.verdicts import format_pm
 
 # profiles (study.STUDY): full runs 1000 per cell; smoke the first 20 runs of the same streams, so its digest equals
 # the full study's.
@@ -133,7 +134,7 @@ for c in cells:
         best_rmse[c["scenario"]] = (c["algorithm"], r["value"])
 display(Markdown(markdown_table(
     ["scenario", "measurement-only RMSE (m)", "best cell (m)", "MSE removed by the best", "pooled?"],
-    [[name, "--" if b is None else f"{b['value']:.4g} ± {b['stderr']:.2g}",
+    [[name, "--" if b is None else format_pm(b["value"], b["stderr"]),
       "--" if name not in best_rmse else f"{best_rmse[name][1]:.4g} ({best_rmse[name][0]})",
       "--" if b is None or name not in best_rmse else f"{100 * (1 - (best_rmse[name][1] / b['value']) ** 2):.1f} %",
       "no: " + result.excluded[name] if name in result.excluded else "yes"]
@@ -199,7 +200,7 @@ display(Markdown(markdown_table(
     ["idea", "A − B", "scenario", "Δ position MSE (m²) ± s.e.", "relative", "verdict", "diverged A / B"],
     [[i["idea"], f"{i['a']} − {i['b']}", c["scenario"],
       "--" if c["difference_m2"] is None else f"|Δ| {abs(c['difference_m2']):.0e} (round-off)"
-      if c["verdict"] == identical else f"{c['difference_m2']:.4g} ± {c['stderr_m2']:.2g}",
+      if c["verdict"] == identical else format_pm(c["difference_m2"], c["stderr_m2"], signed=True),
       "--" if c["relative"] is None or c["verdict"] == identical else f"{100 * c['relative']:+.2f} %", c["verdict"],
       f"{c['diverged_a']} / {c['diverged_b']}"] for i in idea_rows for c in i["comparisons"]])))
 counts, apart = {}, {}

@@ -236,7 +236,7 @@ display(Markdown(rows_table([r for r in rows if r.item.startswith("Table 3")])))
 from mmlib.experiment.notebook import claim_matrix, claims_table
 
 claims = judge_claims(headline)
-claims.add(*time_claim)
+claims.add(*time_claim, key=table2.TIME_CLAIM_KEY)
 display(Markdown(claims_table(claims.as_list())))
 display(Markdown(claim_matrix(claims.as_list())))
 

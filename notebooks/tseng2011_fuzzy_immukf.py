@@ -368,7 +368,7 @@ print(f"best oracle ({best['schedule']}): reduction vs IMMUKF East {value_pm(red
 from mmlib.experiment.notebook import claim_matrix, claims_table
 
 claims = study.judge_claims(res, rows, nb.n_runs)
-claims.add("The UKF avoids the EKF's linearisation errors (Sec. 2)", *ekf_verdict)
+claims.add("The UKF avoids the EKF's linearisation errors (Sec. 2)", *ekf_verdict, key="ukf_vs_ekf")
 shown_claims = diagnostics.qualified_claims(claims.as_list(), paper.qualifier)
 display(Markdown(claims_table(shown_claims)))
 display(Markdown(claim_matrix(shown_claims)))

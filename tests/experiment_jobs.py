@@ -32,7 +32,8 @@ def toy_universe(reading, n_runs, seed):
     x = ch["bias"] + ch["scale"] * mc.standard_normal(range(n_runs), Stream.TRUTH, ())
     m = metrics.mean_with_se(x)
     claims = Claims()
-    claims.add("the mean is positive", judge([part("mean − 0", "value", float(m.value), float(m.stderr), +1)]))
+    claims.add("the mean is positive", judge([part("mean − 0", "value", float(m.value), float(m.stderr), +1)]),
+               key="mean_positive")
     sd = float(np.std(x, ddof=1))
     return UniverseResult.build(values=[("T1", "alg", "mean", m.value, m.stderr),
                                         ("T1", "alg", "sd", sd, sd / np.sqrt(2 * n_runs))],

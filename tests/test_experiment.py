@@ -394,25 +394,32 @@ def test_judge_names_the_decisive_part():
 
 def test_claims_collector_rejects_verdicts_outside_the_vocabulary():
     c = report.Claims()
-    c.add("A beats B", "holds", "evidence")
+    c.add("A beats B", "holds", "evidence", key="a_vs_b")
     with pytest.raises(ValueError, match="claim vocabulary"):
-        c.add("C beats D", "depends on the UKF's tuning")
+        c.add("C beats D", "depends on the UKF's tuning", key="c_vs_d")
     with pytest.raises(ValueError, match="claim vocabulary"):
-        c.add("C beats D", "holds, but negligible (< 1 %)")      # a part verdict, not a claim verdict
+        c.add("C beats D", "holds, but negligible (< 1 %)", key="c_vs_d")      # a part verdict, not a claim verdict
     with pytest.raises(ValueError, match="already judged"):
-        c.add("A beats B", "holds")
-    j = c.add("E beats F", report.judge([report.part("E − F", "MSE", -5.0, 1.0, -1, reference=100.0)]))
-    assert c.as_list()[0] == {"claim": "A beats B", "verdict": "holds", "decisive": "", "parts": [],
+        c.add("A beats B", "holds", key="a_vs_b_again")
+    with pytest.raises(ValueError, match="^key: 'a_vs_b' already names the claim 'A beats B'"):
+        c.add("A beats B, reworded", "holds", key="a_vs_b")      # one key names one claim
+    j = c.add("E beats F", report.judge([report.part("E − F", "MSE", -5.0, 1.0, -1, reference=100.0)]), key="e_vs_f")
+    assert c.as_list()[0] == {"key": "a_vs_b", "claim": "A beats B", "verdict": "holds", "decisive": "", "parts": [],
                               "evidence": "evidence"}
     e = c.as_list()[1]
     assert e["verdict"] == "holds" == j.verdict and e["decisive"] == j.decisive and len(e["parts"]) == 1
     assert e["parts"][0]["verdict"] == "holds" and e["parts"][0]["number"] == j.parts[0].number()
     other = report.Claims()
-    other.add("G beats H", report.Judgement.of("not assessable", "G is not specified"))
+    other.add("G beats H", report.Judgement.of("not assessable", "G is not specified"), key="g_vs_h")
     c.extend(other)
     assert [x["claim"] for x in c] == ["A beats B", "E beats F", "G beats H"]
+    assert [x["key"] for x in c] == ["a_vs_b", "e_vs_f", "g_vs_h"]
     with pytest.raises(ValueError, match="already judged"):
         c.extend(other)
+    clash = report.Claims()
+    clash.add("G beats H, another wording", "holds", key="g_vs_h")
+    with pytest.raises(ValueError, match="^other: key 'g_vs_h' already names a claim here"):
+        c.extend(clash)
 
 
 def test_standardized_distance_is_the_verdict_rule():
@@ -625,11 +632,14 @@ def test_as_json_is_the_dict_universe_result_built():
     assert all(list(e) == ["name", "value", "stderr", "published"] for e in doc["effects"])
     assert type(doc["values"][0]["replicated"]) is float and type(doc["diverged"]) is dict
     assert json.loads(json.dumps(doc, allow_nan=False)) == doc
-    # a Claims collector: its evidence stays out of the result, as before
+    # a Claims collector: its evidence stays out of the result, as before; its key goes in (and reads back)
     claims = report.Claims()
-    claims.add("A beats B", "holds", "a paired difference")
-    assert UniverseResult.build(values=[], claims=claims, diverged={}, n_runs=1).as_json() == {
-        "values": [], "claims": [{"claim": "A beats B", "verdict": "holds", "decisive": ""}], "effects": [],
+    claims.add("A beats B", "holds", "a paired difference", key="a_vs_b")
+    keyed = UniverseResult.build(values=[], claims=claims, diverged={}, n_runs=1)
+    assert keyed.claims[0].key == "a_vs_b" and UniverseResult.from_json(keyed.as_json()) == keyed
+    assert keyed.as_json() == {
+        "values": [], "claims": [{"claim": "A beats B", "verdict": "holds", "decisive": "", "key": "a_vs_b"}],
+        "effects": [],
         "diverged": {},
         "n_runs": 1}
 

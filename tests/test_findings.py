@@ -78,6 +78,10 @@ def test_citation_labels_name_the_first_author_and_the_year():
             assert label.endswith(name[-4:]) and label.split()[0].lower() == re.sub(r"\d", "", name), (name, label)
     assert make_report.citation_label("A. One, B. Two, Title, J. 12(3), 100-120, 2001, doi:x") == "One & Two 2001"
     assert make_report.citation_label("A. One, B. Two, C. Three, T, 1999") == "One et al. 1999"
+    # a surname with lower-case particles stays whole; a title word after the authors is no author
+    assert make_report.citation_label("H. L. van Trees, Detection, Estimation, and Modulation Theory, 1968") == \
+        "van Trees 1968"
+    assert make_report.citation_label("J. de la Cruz, K. Lee, T, 2010") == "de la Cruz & Lee 2010"
     with pytest.raises(ValueError, match="citation"):
         make_report.citation_label("Anonymous report, no year")
 
@@ -178,6 +182,36 @@ def test_verdict_box_bad_input():
 ])
 def test_format_pm(value, se, expected):
     assert verdicts.format_pm(value, se) == expected
+
+
+@pytest.mark.parametrize("value, se, expected", [
+    (1.0, 0.0, "+1"),                          # every run diverged in A, none in B: an exact difference, no "± 0"
+    (0.0, 0.0, "+0"),
+    (0.52, 0.031, "+0.520 ± 0.031"),
+    (-0.52, 0.031, "-0.520 ± 0.031"),
+    (-12344.0, 678.0, "-12340 ± 680"),
+    (3.2e7, 4.1e5, "+3.200e+07 ± 0.041e+07"),
+])
+def test_format_pm_signed_shows_the_sign_of_a_difference(value, se, expected):
+    assert verdicts.format_pm(value, se, signed=True) == expected
+    assert verdicts.format_pm(value, se) == expected.removeprefix("+")
+    with pytest.raises(ValueError, match="signed"):
+        verdicts.format_pm(value, se, signed="yes")
+
+
+def test_format_pm_round_off_sized_se_keeps_the_value_readable():
+    """An s.e. of round-off size (below a millionth of the value) does not drag the value to 13 decimals."""
+    assert verdicts.format_pm(15.537, 1e-12) == "15.537 ± 1.0e-12"
+    assert verdicts.format_pm(15.537, 2e-5) == "15.537000 ± 0.000020"
+    assert verdicts.format_pm(-2.5e-6, 1e-21, signed=True) == "-2.5e-06 ± 1.0e-21"
+
+
+def test_part_number_never_prints_a_zero_stderr():
+    """A paired difference with a zero standard error (e.g. a divergence rate 1 against 0) reads "+1", not "+1 ± 0"."""
+    p = verdicts.Part("A − B", "divergence rate", verdicts.PartVerdict.CONTRADICTED, 1.0, 0.0, None, "of the runs")
+    assert p.number() == "A − B: divergence rate +1 of the runs"
+    q = verdicts.Part("A − B", "MSE", verdicts.PartVerdict.HOLDS, -0.52, 0.031, None, "m²")
+    assert q.number() == "A − B: MSE -0.520 ± 0.031 m²"
 
 
 def test_format_pm_large_and_tiny_keep_two_significant_figures_of_the_se():
@@ -286,12 +320,42 @@ def test_verdict_words_follow_the_results(name, kind):
     before, after = summary_values(doc), summary_values(mutated)
     text = (summary if kind == "summary" else finding)(name, mutated)
     used = set(re.findall(r"\{(\w+)\}", template))
-    for key in sorted(k for k in used if re.fullmatch(r"c\d+_verdict|t\d+_status", k)):
+    claim_keys = {c["key"] for c in doc["claims"]}
+    for key in sorted(k for k in used if re.fullmatch(r"t\d+_status", k) or k.removesuffix("_verdict") in claim_keys):
         assert str(after[key]) in text, (key, after[key])
         if key.endswith("_verdict"):
             assert after[key] != before[key], key
     for key in (k for k in used if k.startswith("t") and k.endswith("_status")):
         assert after[key] == "not reproduced", (key, after[key])
+
+
+@pytest.mark.parametrize("kind", ["summary", "finding"])
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_texts_address_claims_by_key_not_position(name, kind):
+    """A summary or finding names each claim by its stable key (``{<key>_verdict}``), never by its position: the
+    claims judged in another order give the same text, and every claim placeholder names a claim of the results."""
+    doc = committed(name)
+    template = summary_template(name, kind)
+    keys = {c["key"] for c in doc["claims"]}
+    fields = ("verdict", "decisive", "short", "share", "robust")
+    named = {m.group(1) for m in re.finditer(r"\{(\w+?)_(?:%s)\}" % "|".join(fields), template)}
+    assert named - {n for n in named if re.fullmatch(r"t\d+|tm\d+", n)} <= keys
+    assert not re.search(r"\{c\d+_", template), "a claim addressed by its position"
+    reordered = copy.deepcopy(doc)
+    reordered["claims"].reverse()
+    text = summary if kind == "summary" else finding
+    assert text(name, reordered) == text(name, doc)
+
+
+def test_claim_keys_fill_their_own_placeholders():
+    """summary_values keys each claim's words by the claim's key; a key that would shadow another value fails."""
+    doc = copy.deepcopy(committed("zhu2016"))
+    first = doc["claims"][0]
+    values = summary_values(doc)
+    assert values[first["key"] + "_decisive"] == first["decisive"]
+    doc["claims"][0]["key"] = "n"             # n_robust would be both a count and this claim's robustness
+    with pytest.raises(ValueError, match="^doc: claim key 'n'"):
+        summary_values(doc)
 
 
 @pytest.mark.parametrize("n, cells, joint, words", [(0, 6, False, "not reproduced"), (6, 6, True, "reproduced"),
@@ -310,9 +374,9 @@ def test_a_summary_the_results_cannot_fill_is_an_error_not_a_fallback(monkeypatc
 
     import mmlib.papers as papers
     doc = committed("zhu2016")
-    monkeypatch.setattr(papers, "summary_template", lambda name, kind="summary": "{c99_verdict}")
-    with pytest.raises(ValueError, match="c99_verdict"):
+    monkeypatch.setattr(papers, "summary_template", lambda name, kind="summary": "{no_such_claim_verdict}")
+    with pytest.raises(ValueError, match="no_such_claim_verdict"):
         build_site.verdict_section(doc)
-    with pytest.raises(ValueError, match="c99_verdict"):
+    with pytest.raises(ValueError, match="no_such_claim_verdict"):
         make_report.findings_block([doc])
     assert papers.has_text("zhu2016") and papers.has_text("zhu2016", "finding") and not papers.has_text("nosuch")

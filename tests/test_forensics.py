@@ -258,7 +258,7 @@ def test_notebook_writes_the_qualified_words_of_a_reconstruction(tmp_path):
     sys.modules[spec.name] = module
     spec.loader.exec_module(module)
     claims = Claims()
-    claims.add("CKF beats KF", "contradicted: 3 % worse", "a paired difference")
+    claims.add("CKF beats KF", "contradicted: 3 % worse", "a paired difference", key="ckf_vs_kf")
     for qualifier, words in (("", None), (verdicts.RECONSTRUCTION, "contradicted by the reconstruction")):
         paper = dataclasses.replace(module.PAPER, qualifier=qualifier)
         doc = NotebookRun(paper, PROFILE="smoke", OUTPUT_ROOT=str(tmp_path), PROGRESS=False).write_results(

@@ -159,7 +159,7 @@ def test_minimal_paper_runs_through_the_registry(minimal, tmp_path, monkeypatch)
             for p in paper.published for v in [mv.headline.value(p.key)]]
     claims = report.Claims()
     for c in mv.headline.claims:
-        claims.add(c.claim, c.verdict, "")
+        claims.add(c.claim, c.verdict, "", key=c.key)
     with pytest.raises(ValueError, match="^provenance: .*git_commit"):
         nb.write_results(rows=rows, provenance={"git_commit": "forged"})
     doc = nb.write_results(rows=rows, digest=digest, claims=claims, multiverse=mv,

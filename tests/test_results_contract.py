@@ -184,7 +184,7 @@ def test_write_results_names_a_non_finite_number(tmp_path, value):
 def test_what_write_results_writes_reads_back(tmp_path):
     claims = report.Claims()
     claims.add("A beats B", report.judge([report.part("A − B", "MSE", -1.0, 0.1, -1, reference=4.0)]),
-               "paired difference")
+               "paired difference", key="a_vs_b")
     rows = [report.make_row("Table 1", "A", "RMSE (m)", "2.0", 2.01, 0.01, n_runs=10, n_runs_paper=10,
                             deviations=["D-1"]),
             report.make_row("Table 1", "B", "RMSE (m)", "3.0", None, None, reason="not published"),
@@ -226,6 +226,9 @@ BROKEN = [
     ("hu2017.json", ("provenance", "n_runs"), 100.5, "provenance.n_runs: expected integer, got number 100.5"),
     ("hu2017.json", ("claims", 1, "verdict"), "reproduced",
      'claims[1].verdict: string "reproduced" is not a verdict of the claim vocabulary'),
+    ("hu2017.json", ("claims", 1, "key"), KeyError, "claims[1].key: missing"),
+    ("hu2017.json", ("claims", 1, "key"), "Obs vs UKF", 'claims[1].key: string "Obs vs UKF" does not match'),
+    ("hu2017.json", ("claims", 1, "key"), "obs_vs_immcdkf", "claims[1].key: 'obs_vs_immcdkf' already names claims[0]"),
     ("hu2017.json", ("deviations", 0, "reason"), KeyError, "deviations[0].reason: missing"),
     ("hu2017.json", ("figures", "fig01_model_probability_immukf", "files"), KeyError,
      "figures.fig01_model_probability_immukf.files: missing"),

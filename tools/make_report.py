@@ -392,13 +392,15 @@ FINDINGS_START, FINDINGS_END = "<!-- findings:start -->", "<!-- findings:end -->
 
 def citation_label(citation: str) -> str:
     """A paper's short name from its citation ("W. Zhu, W. Wang, G. Yuan, An Improved ..., Sensors 16(6):805, 2016"
-    -> "Zhu et al. 2016"; two authors "Liu & Wu 2017"): the leading initial-and-surname authors and the first year."""
+    -> "Zhu et al. 2016"; two authors "Liu & Wu 2017"; "H. L. van Trees, ..., 1968" -> "van Trees 1968"): the leading
+    initial-and-surname authors (a surname with its lower-case particles) and the first year."""
     if not isinstance(citation, str):
         raise ValueError(f"citation: expected a string, got {type(citation).__name__}")
     citation = citation.split(";")[0]                    # the first reference of several
     authors = []
     for part in citation.split(", "):
-        m = re.fullmatch(r"(?:[A-Z]\.(?:-[A-Z]\.)?\s?)+([A-Z][\w'-]+)", part.strip())
+        m = re.fullmatch(r"(?:[A-Z]\.(?:-[A-Z]\.)?\s?)+((?:(?:van|von|der|den|de|del|della|di|da|du|la|le|ter)\s)*"
+                         r"[A-Z][\w'-]+)", part.strip())      # a surname with its particles: "H. L. van Trees"
         if not m:
             break
         authors.append(m.group(1))

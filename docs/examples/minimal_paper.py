@@ -111,7 +111,7 @@ def summarise(results: dict, n_runs: int) -> UniverseResult:
         values.append(("Table 1", alg, "RMSE position (m)", v.value, v.stderr))
     claims = report.Claims()
     claims.add("the CKF is more accurate than the KF",
-               *evaluation.better_claim(results, "CKF", "KF", [("position", (0, 2))]))
+               *evaluation.better_claim(results, "CKF", "KF", [("position", (0, 2))]), key="ckf_vs_kf")
     d = evaluation.paired_mse_difference(results["CKF"], results["KF"], (0, 2))
     published = float(TABLE1["CKF"]) ** 2 - float(TABLE1["KF"]) ** 2
     return UniverseResult.build(values=values, claims=claims, effects=[(KEY_EFFECT, d.value, d.stderr, published)],

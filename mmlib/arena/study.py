@@ -791,7 +791,7 @@ def arena_claims(result: ArenaResult) -> report.Claims:
         if excluded:
             evidence += " | kept out of this verdict: " + "; ".join(f"{s} ({je.verdict} there; {why})"
                                                                     for s, why, je in excluded)
-        claims.add(f"{claim} ({paper}, across the arena)", j, evidence)
+        claims.add(f"{claim} ({paper}, across the arena)", j, evidence, key=paper)
     return claims
 
 

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Iterable, Sequence
 import numpy as np
 
 from mmlib.core._validate import check_names
+from mmlib.experiment.verdicts import format_pm
 from mmlib.experiment.views import value_pm
 
 __all__ = [
@@ -585,7 +586,7 @@ def _versus_text(vb) -> str:
     elif vb.get("verdict") == "identical (to round-off)":        # round-off: its size only, never a z-score
         diff = f" (vs {vb.get('algorithm')}: |Δ MSE| {abs(d):.0e} m²)"
     else:
-        diff = f" (vs {vb.get('algorithm')}: Δ MSE {d:+.3g} ± {(se or 0):.2g} m²)"
+        diff = f" (vs {vb.get('algorithm')}: Δ MSE {format_pm(d, se, signed=True)} m²)"
     return f"{vb.get('verdict')}{diff}"
 
 

@@ -407,7 +407,7 @@ class Multiverse:
             mot_v = [v for _, v in verdicts_of(motivated)]
             out.append({"motivated": {k: mot_v.count(k) for k in report.CLAIM_VERDICTS if k in mot_v},
                         "n_motivated": len(mot_v), "n_degenerate": len(degenerate),
-                        "claim": c.claim, "headline_verdict": c.verdict, "headline_decisive": c.decisive,
+                        "key": c.key, "claim": c.claim, "headline_verdict": c.verdict, "headline_decisive": c.decisive,
                         "verdict_counts": sh["counts"], "n_counted": len(labels),
                         "n_simulations": len({sim_of[i] for i, _ in mine}), "n_universes": len(self.universes),
                         "weighting": self.claims_weighting(), "share": sh["share"], "interval": sh["interval"],

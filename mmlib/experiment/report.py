@@ -21,7 +21,7 @@ from mmlib.experiment.verdicts import (CLAIM_VERDICTS, CONTRADICTED, COST_MARGIN
                                        claim_verdict, exact_part, exact_row, identity_floor,
                                        is_reproduced, joint_test, joint_tests, judge, make_row, part,
                                        printed_half_unit, ratio_part, standardized_distance, verdict,
-                                       verdict_category, RECONSTRUCTION, qualified)
+                                       verdict_category, RECONSTRUCTION, qualified, format_pm)
 # re-exported: writing the outputs
 from mmlib.experiment.writing import (atomic_write_text, git_commit, provenance, save_figure,  # noqa: F401
                                       write_results)

@@ -218,8 +218,8 @@ def _not_json_at(x: Any, path: tuple = ()) -> tuple | None:
 
 def validate_results(doc: Any) -> None:
     """Check a results document (parsed, or about to be written) against the results contract
-    (:func:`results_schema`); ``ValueError`` ``"<JSON path>: <what is wrong>"`` for the first violation, e.g.
-    ``"rows[3].verdict: missing"``, or for the first NaN or infinity (not JSON)."""
+    (:func:`results_schema`, and every claim's ``key`` unique); ``ValueError`` ``"<JSON path>: <what is wrong>"`` for
+    the first violation, e.g. ``"rows[3].verdict: missing"``, or for the first NaN or infinity (not JSON)."""
     bad = _not_json_at(doc)
     if bad is not None:
         value = functools.reduce(lambda node, key: node[key], bad, doc)
@@ -228,6 +228,11 @@ def validate_results(doc: Any) -> None:
     problem = next(_violations(doc, _schema(), ()), None)
     if problem is not None:
         raise ValueError(f"{_json_path(problem[0])}: {problem[1]}")
+    seen: dict = {}
+    for i, c in enumerate(doc.get("claims") or []):     # a claim's key names one claim (summaries address it)
+        if c["key"] in seen:
+            raise ValueError(f"claims[{i}].key: {c['key']!r} already names claims[{seen[c['key']]}]")
+        seen[c["key"]] = i
 
 
 def read_results(path: str | Path, *, name: str | None = None) -> dict:

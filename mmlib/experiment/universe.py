@@ -67,11 +67,13 @@ class Value(NamedTuple):
 class JudgedClaim(NamedTuple):
     """A claim of the paper, its verdict (one term of the claim vocabulary,
     :class:`mmlib.experiment.verdicts.ClaimVerdict`) and the decisive number or reason that produced it
-    (:class:`mmlib.experiment.verdicts.Judgement`)."""
+    (:class:`mmlib.experiment.verdicts.Judgement`), and its stable name ``key``
+    (:meth:`mmlib.experiment.verdicts.Claims.add`; "" when the universe's claims were given without one)."""
 
     claim: str
     verdict: str
     decisive: str = ""
+    key: str = ""
 
 
 class Effect(NamedTuple):
@@ -168,8 +170,11 @@ class UniverseResult:
             text = _text(c["verdict"], f"claims[{i}].verdict")
             cat = verdicts.claim_category(text)
             decisive = c.get("decisive") or (text.split(":", 1)[1].strip() if ":" in text else "")
+            key = c.get("key") or ""
+            if key:
+                verdicts.check_claim_key(key, f"claims[{i}].key")
             cls_.append(JudgedClaim(_text(c["claim"], f"claims[{i}].claim"), str(cat),
-                                    _text(decisive, f"claims[{i}].decisive") if decisive else ""))
+                                    _text(decisive, f"claims[{i}].decisive") if decisive else "", key))
         effs = []
         for i, e in enumerate(items(effects, "effects", "(name, value, stderr[, published])")):
             name, value, se, *pub = _tuple_of(e, f"effects[{i}]", (3, 4), "(name, value, stderr[, published])")
@@ -216,7 +221,7 @@ class UniverseResult:
         doc = {"values": [{"item": v.item, "algorithm": v.algorithm, "quantity": v.quantity,
                            "replicated": v.replicated, "stderr": v.stderr, **({"failed": v.failed} if v.failed else {})}
                           for v in self.values],
-               "claims": [c._asdict() for c in self.claims],
+               "claims": [{k: v for k, v in c._asdict().items() if k != "key" or v} for c in self.claims],
                "effects": [e._asdict() for e in self.effects],
                "diverged": dict(self.diverged), "n_runs": self.n_runs}
         if self.degenerate:

@@ -68,6 +68,7 @@ from __future__ import annotations
 
 import enum
 import math
+import re
 from dataclasses import dataclass, field, replace
 from typing import Iterable, Mapping, NamedTuple
 
@@ -75,7 +76,8 @@ import numpy as np
 
 __all__ = [
     "verdict", "make_row", "Row", "Verdict", "judge", "Judgement", "part", "Part", "claim_verdict", "ClaimVerdict",
-    "PartVerdict", "Claims", "joint_test", "joint_tests", "JointTest", "ratio_part", "exact_part", "exact_row",
+    "PartVerdict", "Claims", "CLAIM_KEY", "check_claim_key", "joint_test", "joint_tests", "JointTest", "ratio_part",
+    "exact_part", "exact_row",
     "analytic_row", "identity_floor", "standardized_distance", "printed_half_unit", "verdict_category",
     "claim_category", "is_reproduced", "qualified", "rule", "REPRODUCED", "REPRODUCED_EXACT", "ISOLATED", "QUALITATIVE",
     "INCONCLUSIVE", "NOT_REPRODUCED", "NOT_REPRODUCED_EXACT", "NOT_REPLICABLE", "VERDICTS", "HOLDS", "PARTLY",
@@ -212,36 +214,46 @@ def _se_decimals(stderr: float) -> int:
     return d
 
 
-def format_pm(value: float | None, stderr: float | None) -> str:
+def format_pm(value: float | None, stderr: float | None, *, signed: bool = False) -> str:
     """``"value ± s.e."`` with the standard error to two significant figures and the value rounded to the same
     decimal: ``format_pm(0.0263, 0.00041) == "0.02630 ± 0.00041"``, ``format_pm(1234.5, 56.0) == "1234 ± 56"``,
     ``format_pm(12345.0, 678.0) == "12340 ± 680"``.  Without a usable standard error (None, not finite or 0: an
     exact value) the value alone to 4 significant digits (a negative one is a ValueError naming ``stderr``); "--"
-    when ``value`` is None; "nan"/"inf" as such.
-    Values of 1e6 and more (or below 1e-4 with a smaller s.e.) in exponent form with the same rule on the mantissa.
+    when ``value`` is None; "nan"/"inf" as such.  ``signed``: a difference, its sign always shown
+    (``format_pm(1.0, 0.0, signed=True) == "+1"``, ``format_pm(0.52, 0.031, signed=True) == "+0.520 ± 0.031"``).
+    Values of 1e6 and more (or below 1e-4 with a smaller s.e.) in exponent form with the same rule on the mantissa;
+    an s.e. below a millionth of the value (a round-off-sized one) as ``"15.537 ± 1.0e-12"``: the value to 6
+    significant digits, not to the s.e.'s 13 decimals.
     The one ± formatting of the reports, the site and the notebooks: ``"0.026 ± 0.000"`` never appears."""
     _real(value, "value")
     _real(stderr, "stderr")
+    if not isinstance(signed, (bool, np.bool_)):
+        raise ValueError(f"signed: expected True or False, got {signed!r}")
     if stderr is not None and stderr < 0:
         raise ValueError(f"stderr: a standard error is not negative, got {stderr!r}")
     if value is None:
         return "--"
     value = float(value)
+    sign = "+" if signed else ""
     if not math.isfinite(value):
-        return "nan" if math.isnan(value) else str(value)
+        return "nan" if math.isnan(value) else f"{value:{sign}}"
     if stderr is None or not math.isfinite(stderr) or stderr <= 0:
-        return f"{value:.4g}"
+        return f"{value:{sign}.4g}"
     stderr = float(stderr)
     if abs(value) >= 1e6 or (0 < abs(value) < 1e-4 and stderr < 1e-4):
         e = math.floor(math.log10(abs(value)))
         m, s = value / 10 ** e, stderr / 10 ** e
         d = max(0, _se_decimals(s)) if s > 0 else 0
-        return f"{m:.{d}f}e{e:+03d} ± {s:.{d}f}e{e:+03d}" if d <= 8 else f"{value:.4g} ± {stderr:.2g}"
+        if d <= 8:
+            return f"{m:{sign}.{d}f}e{e:+03d} ± {s:.{d}f}e{e:+03d}"
+        return f"{value:{sign}.6g} ± {stderr:.1e}"
+    if stderr < 1e-6 * abs(value):
+        return f"{value:{sign}.6g} ± {stderr:.1e}"
     d = _se_decimals(stderr)
     if d >= 0:
-        return f"{value:.{d}f} ± {stderr:.{d}f}"
+        return f"{value:{sign}.{d}f} ± {stderr:.{d}f}"
     step = 10 ** (-d)
-    return f"{round(value / step) * step:.0f} ± {round(stderr / step) * step:.0f}"
+    return f"{round(value / step) * step:{sign}.0f} ± {round(stderr / step) * step:.0f}"
 
 
 def _real(x, name: str, *, none: bool = True):
@@ -322,7 +334,7 @@ def verdict(paper: str | float | None, replicated: float | None, stderr: float |
     diff = abs(diff)
     if diff <= SIGMA_FACTOR * sigma:
         if p != 0.0 and SIGMA_FACTOR * sigma > RELATIVE_BAND * abs(p):
-            return f"{INCONCLUSIVE}: ± {SIGMA_FACTOR * sigma:.3g} (3 s.e.) is wider than 25 % of the printed value"
+            return f"{INCONCLUSIVE}: ± {SIGMA_FACTOR * sigma:.2g} (3 s.e.) is wider than 25 % of the printed value"
         return REPRODUCED
     if diff <= RELATIVE_BAND * abs(p):
         return QUALITATIVE
@@ -455,8 +467,8 @@ class Part:
                 ", negligible < 1 %", PartVerdict.NO_DIFFERENCE: ", not detected"}.get(self.verdict, "")
         if self.reference:
             return f"{head} {100 * self.difference / abs(self.reference):+.2g} % (z = {self.z():+.3g}{note})"
-        se = f" ± {self.stderr:.2g}" if self.stderr is not None else ""
-        return f"{head} {self.difference:+.3g}{se}{unit}" + (f" ({note[2:]})" if note else "")
+        return f"{head} {format_pm(self.difference, self.stderr, signed=True)}{unit}" + (f" ({note[2:]})" if note
+                                                                                           else "")
 
     def as_json(self) -> dict:
         """The fields as a JSON-able dict (the verdict as its string, non-finite numbers as None)."""
@@ -792,6 +804,18 @@ def _judgement(verdict) -> Judgement:
     return Judgement(cat, rest)
 
 
+#: the form of a claim's stable name (:meth:`Claims.add`): a lower-case letter, then lower-case letters, digits, ``_``
+CLAIM_KEY = re.compile(r"[a-z][a-z0-9_]*")
+
+
+def check_claim_key(key, name: str = "key") -> str:
+    """``key`` if it is a claim's stable name of the form :data:`CLAIM_KEY`; ValueError naming ``name`` otherwise."""
+    if not isinstance(key, str) or not CLAIM_KEY.fullmatch(key):
+        raise ValueError(f"{name}: expected a claim key (a lower-case letter, then lower-case letters, digits or "
+                         f"'_', e.g. 'cpimm_vs_imm'), got {key!r}")
+    return key
+
+
 class Claims:
     """The claims of a paper with their verdicts and evidence, in the order they are judged.
 
@@ -801,18 +825,24 @@ class Claims:
     def __init__(self):
         self.items: list = []
 
-    def add(self, claim: str, verdict: Judgement | str, evidence: str = "") -> Judgement:
+    def add(self, claim: str, verdict: Judgement | str, evidence: str = "", *, key: str) -> Judgement:
         """Record ``claim`` with its ``verdict`` (a :class:`Judgement`, or a text ``"<claim verdict>[:
-        <decisive>]"``) and ``evidence``; returns the judgement.  ValueError for an empty claim, a verdict outside
-        the vocabulary or a claim already judged."""
+        <decisive>]"``), ``evidence`` and ``key``, the claim's stable name (:data:`CLAIM_KEY`: lower-case letters,
+        digits and ``_``, e.g. ``"cpimm_vs_imm"``) by which summaries and findings address it whatever its position
+        or wording (:func:`mmlib.papers.summary_values`); returns the judgement.  ValueError for an empty claim, a
+        verdict outside the vocabulary, a malformed key, or a claim or key already judged."""
         if not isinstance(claim, str) or not claim.strip():
             raise ValueError(f"claim: expected a non-empty string, got {claim!r}")
+        check_claim_key(key, "key")
         j = _judgement(verdict)
         if not isinstance(evidence, str):
             raise ValueError(f"evidence: expected a string, got {evidence!r}")
         if any(c["claim"] == claim for c in self.items):
             raise ValueError(f"claim: {claim!r} is already judged")
-        self.items.append({"claim": claim, "verdict": j.verdict, "decisive": j.decisive,
+        if any(c["key"] == key for c in self.items):
+            raise ValueError(f"key: {key!r} already names the claim "
+                             f"{next(c['claim'] for c in self.items if c['key'] == key)!r}")
+        self.items.append({"key": key, "claim": claim, "verdict": j.verdict, "decisive": j.decisive,
                            "parts": [p.as_json() for p in j.parts], "evidence": evidence})
         return j
 
@@ -824,6 +854,8 @@ class Claims:
         for c in other.items:
             if any(mine["claim"] == c["claim"] for mine in self.items):
                 raise ValueError(f"other: claim {c['claim']!r} is already judged")
+            if any(mine["key"] == c["key"] for mine in self.items):
+                raise ValueError(f"other: key {c['key']!r} already names a claim here")
         self.items.extend({**c, "parts": [dict(p) for p in c["parts"]]} for c in other.items)
 
     def __iter__(self):
@@ -833,7 +865,7 @@ class Claims:
         return len(self.items)
 
     def as_list(self) -> list:
-        """Copies of the recorded claims, in order: ``{"claim", "verdict"`` (one term of the claim vocabulary),
-        ``"decisive"`` (the number or reason that produced it), ``"parts"`` (:meth:`Part.as_json` of each) and
-        ``"evidence"}``."""
+        """Copies of the recorded claims, in order: ``{"key"`` (its stable name), ``"claim", "verdict"`` (one term of
+        the claim vocabulary), ``"decisive"`` (the number or reason that produced it), ``"parts"``
+        (:meth:`Part.as_json` of each) and ``"evidence"}``."""
         return [{**c, "parts": [dict(p) for p in c["parts"]]} for c in self.items]

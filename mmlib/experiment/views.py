@@ -988,7 +988,7 @@ def paper_verdicts(doc: dict) -> dict:
             iv = (a.get("interval") or {}).get(category)
             interval = None if iv is None else (float(iv[0]), float(iv[1]))
             robust = bool(a.get("robust"))
-        claims.append({"claim": c["claim"], "verdict": category, "words": claim_words(c),
+        claims.append({"key": c["key"], "claim": c["claim"], "verdict": category, "words": claim_words(c),
                        "decisive": c.get("decisive") or "", "share": share, "interval": interval, "robust": robust})
     return {"paper": doc["paper"], "control": _is_control(doc), "tables": tables, "claims": claims}
 

@@ -87,7 +87,7 @@ _RESULTS = Path(__file__).resolve().parent.parent.parent / "data" / "results"
 def summary_template(name: str, kind: str = "summary") -> str:
     """The text of ``mmlib/papers/<name>/<kind>.md``: ``kind`` "summary" (one paragraph saying what the replication
     of paper ``name`` found) or "finding" (the same in one line, the README's "What we found"), with its numbers as
-    placeholders (``{n_universes}``, ``{c1_share}``, ...; :func:`summary_values`) filled from the results by
+    placeholders (``{n_universes}``, ``{cpimm_vs_imm_share}``, ...; :func:`summary_values`) filled from the results by
     :func:`summary` and :func:`finding`.  ValueError naming ``name`` for a name that is not a registered paper or a
     paper without that text, naming ``kind`` for another kind."""
     if kind not in _TEXTS:
@@ -117,9 +117,12 @@ def summary_values(doc: Mapping[str, Any]) -> dict:
     in the order of :func:`mmlib.experiment.views.paper_verdicts`) ``t<i>_name``, ``t<i>_cells``, ``t<i>_reproduced``
     (headline), ``t<i>_status`` ("reproduced": every cell and the joint test; "not reproduced": no cell; else "partly
     reproduced") and ``t<i>_joint`` ("passes"/"fails"/"--"), and ``tm<i>_most`` (the most cells any reading reproduces,
-    table match order); per claim ``c<i>_verdict`` (its words), ``c<i>_decisive``, ``c<i>_share`` ("92 % [85, 96]"
-    or "--") and ``c<i>_robust`` ("robust"/"depends on the reading"/"--"); ``n_claims``, ``n_robust``; and ``doc``
-    itself for any other number (``{doc[rows][0][paper]}``).  Counts are integers, the rest strings."""
+    table match order); per claim, addressed by its stable ``key`` (:meth:`mmlib.experiment.verdicts.Claims.add`),
+    never by its position, ``<key>_verdict`` (its words), ``<key>_decisive``, ``<key>_short`` (the decisive number
+    without its parts count), ``<key>_share`` ("92 % [85, 96]" or "--") and ``<key>_robust`` ("robust"/"depends on
+    the reading"/"--"); ``n_claims``, ``n_robust``; and ``doc`` itself for any other number
+    (``{doc[rows][0][paper]}``).  Counts are integers, the rest strings.  ValueError naming ``doc`` when a claim's
+    key would shadow another value."""
     from mmlib.experiment import views
     v = views.paper_verdicts(dict(doc))
     mv = doc.get("multiverse") or {}
@@ -133,18 +136,22 @@ def summary_values(doc: Mapping[str, Any]) -> dict:
                     f"t{i}_joint": "--" if t["joint"] is None else ("passes" if t["joint"] else "fails")})
     for i, t in enumerate(mv.get("table_match") or [], 1):
         out[f"tm{i}_most"] = t["most_n_reproduced"]
-    for i, c in enumerate(v["claims"], 1):
+    out["n_claims"] = len(v["claims"])
+    out["n_robust"] = sum(bool(c["robust"]) for c in v["claims"])
+    for c in v["claims"]:
         share = "--"
         if c["share"] is not None:
             lo, hi = c["interval"] or (c["share"], c["share"])
             band = "" if lo == hi == c["share"] else f" [{views.percent(lo)}, {views.percent(hi)}]"
             share = f"{views.percent(c['share'])} %{band}"
-        out.update({f"c{i}_verdict": c["words"], f"c{i}_decisive": c["decisive"], f"c{i}_share": share,
-                    f"c{i}_short": re.sub(r" \((\d+ parts|weakest of \d+)\)$", "", c["decisive"]),
-                    f"c{i}_robust": "--" if c["robust"] is None else
-                    ("robust" if c["robust"] else "depends on the reading")})
-    out["n_claims"] = len(v["claims"])
-    out["n_robust"] = sum(bool(c["robust"]) for c in v["claims"])
+        mine = {"verdict": c["words"], "decisive": c["decisive"], "share": share,
+                "short": re.sub(r" \((\d+ parts|weakest of \d+)\)$", "", c["decisive"]),
+                "robust": "--" if c["robust"] is None else ("robust" if c["robust"] else "depends on the reading")}
+        for field, value in mine.items():
+            name = f"{c['key']}_{field}"
+            if name in out:
+                raise ValueError(f"doc: claim key {c['key']!r} gives {name!r}, which names another value")
+            out[name] = value
     return out
 
 

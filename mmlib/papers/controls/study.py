@@ -9,6 +9,7 @@ the tests recompute, :func:`consistency` the NEES/NIS section.
 """
 from __future__ import annotations
 
+import re
 from typing import Mapping, NamedTuple
 
 import numpy as np
@@ -76,7 +77,8 @@ def claims(results: ControlResults) -> report.Claims:
         window = {k: evaluation.RunSet(**{**rs._asdict(), "errors": rs.errors[:, results.setup.window]})
                   for k, rs in runs.items()}
         out.add(f"the CKF is more accurate than the KF ({label})",
-                *evaluation.better_claim(window, "CKF", "KF", [("position", (0, 2))], unit="m²"))
+                *evaluation.better_claim(window, "CKF", "KF", [("position", (0, 2))], unit="m²"),
+                key="ckf_vs_kf_" + re.sub(r"[^0-9a-z]+", "_", label.split("=")[-1].lower()).strip("_"))
     return out
 
 

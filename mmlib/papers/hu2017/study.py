@@ -142,7 +142,7 @@ def _mode_claim(res: ReadingResult, a: str, others: Iterable[str]) -> tuple:
         d, se, ref = mode_matching_difference(res, a, b)
         parts.append(report.part(f"{a} − {b}", "true-mode probability", d, se, +1, reference=ref, unit="probability",
                                  ops=evaluation.pair_operations(res.runs[a], res.runs[b])))
-        ev.append(f"vs {b}: Δ(true-mode probability) = {d:+.3g} ± {se:.2g} ({b}: {ref:.3f})")
+        ev.append(f"vs {b}: Δ(true-mode probability) = {report.format_pm(d, se, signed=True)} ({b}: {ref:.3f})")
     return report.judge(parts), "; ".join(ev)
 
 
@@ -164,24 +164,26 @@ def judge_claims(res: ReadingResult) -> report.Claims:
     r = res.runs
     cl = report.Claims()
     cl.add("IMMCDKF-OBS is more accurate than IMMCDKF: bootstrapped observations improve precision without new "
-           "sensors (abstract, Sec. 3, conclusions)", *_better(r, "IMMCDKF-OBS", "IMMCDKF"))
+           "sensors (abstract, Sec. 3, conclusions)", *_better(r, "IMMCDKF-OBS", "IMMCDKF"), key="obs_vs_immcdkf")
     for other in ("IMMUKF", "IMMEKF", "IMMCKF"):
-        cl.add(f"IMMCDKF-OBS is more accurate than {other} (Table 1, Figs. 6-7)", *_better(r, "IMMCDKF-OBS", other))
+        cl.add(f"IMMCDKF-OBS is more accurate than {other} (Table 1, Figs. 6-7)", *_better(r, "IMMCDKF-OBS", other),
+               key=f"obs_vs_{other.lower()}")
     for other in ("IMMUKF", "IMMEKF", "IMMCKF"):
-        cl.add(f"IMMCDKF is more accurate than {other} (Table 1)", *_better(r, "IMMCDKF", other))
+        cl.add(f"IMMCDKF is more accurate than {other} (Table 1)", *_better(r, "IMMCDKF", other),
+               key=f"immcdkf_vs_{other.lower()}")
     # one flat list of parts (each comparator on each axis), judged once
     parts, ev = [], []
     for other in EKF_COMPARATORS:
         j, e = _better(r, other, "IMMEKF")
         parts += j.parts
         ev.append(f"{other} − IMMEKF: {e}")
-    cl.add("IMMEKF has the lowest precision (Sec. 3)", report.judge(parts), " | ".join(ev))
+    cl.add("IMMEKF has the lowest precision (Sec. 3)", report.judge(parts), " | ".join(ev), key="immekf_lowest")
     cl.add("The model matching probability of IMMCDKF is superior to IMMUKF, IMMEKF and IMMCKF (Figs. 1-5)",
-           *_mode_claim(res, "IMMCDKF", ("IMMUKF", "IMMEKF", "IMMCKF")))
+           *_mode_claim(res, "IMMCDKF", ("IMMUKF", "IMMEKF", "IMMCKF")), key="immcdkf_mode_probability")
     cl.add("The model matching probability of IMMCDKF-OBS is superior to IMMUKF, IMMEKF and IMMCKF (Figs. 1-5)",
-           *_mode_claim(res, "IMMCDKF-OBS", ("IMMUKF", "IMMEKF", "IMMCKF")))
+           *_mode_claim(res, "IMMCDKF-OBS", ("IMMUKF", "IMMEKF", "IMMCKF")), key="obs_mode_probability")
     cl.add("IMMCDKF-OBS identifies the modes better than IMMCDKF (Figs. 4-5)",
-           *_mode_claim(res, "IMMCDKF-OBS", ("IMMCDKF",)))
+           *_mode_claim(res, "IMMCDKF-OBS", ("IMMCDKF",)), key="obs_identifies_modes")
     return cl
 
 

@@ -112,21 +112,22 @@ def judge_claims(results: ReadingResults) -> report.Claims:
                                  0.0, 0.0))
     claims.add("SSRCKF may decline in accuracy and even diverge after an abrupt maneuver (abstract; Example 1)",
                report.judge(parts),
-               f"position MSE after minus before the onset {decline.value:.4g} ± {decline.stderr:.2g} m²; RMSE peaks "
-               f"at {peak:.0f} m; diverged runs {n_div} of {len(ssr.valid)}")
+               f"position MSE after minus before the onset "
+               f"{report.format_pm(float(decline.value), float(decline.stderr), signed=True)} m²; RMSE peaks "
+               f"at {peak:.0f} m; diverged runs {n_div} of {len(ssr.valid)}", key="ssrckf_declines")
 
     # 2. the SSR rule against the CKF's, without strong tracking; 3. Table 1 ranking; 4. Table 3
     comparisons = [("The SSR rule is more accurate than the CKF's (abstract; Example 1, no strong tracking)",
-                    "Example 1", "SSRCKF", "CKF")]
-    comparisons += [(f"STSSRCKF is more accurate than {other} (Example 1, Table 1)", "Example 1", "STSSRCKF", other)
-                    for other in ("SSRCKF", "STF", "STUKF", "STCKF")]
-    comparisons += [(f"STSSRCKF is more accurate than SSRCKF ({case}, Table 3)", case, "STSSRCKF", "SSRCKF")
-                    for case in ("Case 1", "Case 2")]
+                    "Example 1", "SSRCKF", "CKF", "ssr_vs_ckf_rule")]
+    comparisons += [(f"STSSRCKF is more accurate than {other} (Example 1, Table 1)", "Example 1", "STSSRCKF", other,
+                     f"example1_vs_{other.lower()}") for other in ("SSRCKF", "STF", "STUKF", "STCKF")]
+    comparisons += [(f"STSSRCKF is more accurate than SSRCKF ({case}, Table 3)", case, "STSSRCKF", "SSRCKF",
+                     f"{case.lower().replace(' ', '')}_vs_ssrckf") for case in ("Case 1", "Case 2")]
     comparisons.append(("STSSRCKF is more accurate than STF (weak maneuver, Table 3 Case 2)", "Case 2", "STSSRCKF",
-                        "STF"))
-    for text, case, a, b in comparisons:
+                        "STF", "case2_vs_stf"))
+    for text, case, a, b, key in comparisons:
         parts = accuracy(case, a, b)
-        claims.add(text, report.judge(parts), _evidence(parts))
+        claims.add(text, report.judge(parts), _evidence(parts), key=key)
 
     # 5. normal accuracy for weak maneuvers: ARMSE_ST < (1 + band) ARMSE_SSR  <=>  MSE_ST - (1 + band)^2 MSE_SSR < 0
     c2 = R["Case 2"]
@@ -139,9 +140,10 @@ def judge_claims(results: ReadingResults) -> report.Claims:
                        reference=f2 * float(mse_run["SSRCKF"].mean()), unit="m²")
     claims.add(f"STSSRCKF keeps normal accuracy for weak maneuvers (introduction; Case 2 position ARMSE within "
                f"{100 * report.RELATIVE_BAND:.0f} % of SSRCKF's)", report.judge([band]),
-               f"MSE_STSSRCKF − {f2:.4g} MSE_SSRCKF = {d.value:.4g} ± {d.stderr:.2g} m²; position ARMSE STSSRCKF "
-               f"{arm['STSSRCKF'].value:.1f} ± {arm['STSSRCKF'].stderr:.1f} m, SSRCKF {arm['SSRCKF'].value:.1f} ± "
-               f"{arm['SSRCKF'].stderr:.1f} m")
+               f"MSE_STSSRCKF − {f2:.4g} MSE_SSRCKF = {report.format_pm(float(d.value), float(d.stderr), signed=True)}"
+               " m²; position ARMSE " + ", ".join(f"{a} {report.format_pm(float(arm[a].value), float(arm[a].stderr))} m"
+                                                  for a in ("STSSRCKF", "SSRCKF")),
+               key="weak_maneuver_accuracy")
 
     # 6. robustness (operational definition ROBUSTNESS_DEFINITION)
     def robustness_parts(other):
@@ -155,7 +157,7 @@ def judge_claims(results: ReadingResults) -> report.Claims:
 
     parts = robustness_parts("SSRCKF")
     claims.add("STSSRCKF has greater robustness than SSRCKF (abstract)", report.judge(parts),
-               _evidence(parts) + ". " + ROBUSTNESS_DEFINITION)
+               _evidence(parts) + ". " + ROBUSTNESS_DEFINITION, key="robustness")
 
     # 7. conclusions: higher accuracy and robustness than each of the other four, in every maneuver: one flat list of
     # parts judged once
@@ -167,9 +169,10 @@ def judge_claims(results: ReadingResults) -> report.Claims:
     claims.add("STSSRCKF achieves higher accuracy and robustness than STF, STUKF, STCKF and SSRCKF (conclusions)",
                report.judge(parts),
                "accuracy: paired MSE of position, velocity and acceleration in Example 1 and both cases of Example 2; "
-               "robustness: position MSE after the onset in each (parts in the claim matrix). " + ROBUSTNESS_DEFINITION)
+               "robustness: position MSE after the onset in each (parts in the claim matrix). " + ROBUSTNESS_DEFINITION,
+               key="best_of_five")
 
     claims.add("STSSRCKF has the best balance between computational complexity and estimation accuracy (Sec. 4.2)",
                report.Judgement.of(report.NOT_ASSESSABLE, "the paper defines no measure of the balance"),
-               "accuracy and time are each judged above (Table 1, Table 2 claims)")
+               "accuracy and time are each judged above (Table 1, Table 2 claims)", key="best_balance")
     return claims

@@ -109,7 +109,7 @@ def findings(mv: Multiverse) -> str:
     full_pos = [i for i, u in enumerate(mv.universes)
                 if all(mv.number_verdict(p, u) == report.REPRODUCED for p in pos)]
     text = (f"**Table 1, position column.** Under the headline reading the four strong-tracking filters reach a "
-            f"position ARMSE of {_span([lo, hi])} m (± {max(v.stderr for v in st_head):.1f} m), against the "
+            f"position ARMSE of {_span([lo, hi])} m (s.e. at most {max(v.stderr for v in st_head):.2g} m), against the "
             f"printed {_span(printed_st)} m: not reproduced. ")
     if full_pos:
         descr = []

@@ -19,7 +19,7 @@ from mmlib.experiment.metrics import ratio_spread_text as _spread
 from mmlib.papers.liu2017.text import FILTERS, TABLE2_COMPLEXITY, TABLE2_COUNTS, TABLE2_N, TABLE2_TIME
 
 __all__ = [
-    "printed_complexity_orders", "counted_complexity_orders", "complexity_rows", "table2"
+    "printed_complexity_orders", "counted_complexity_orders", "complexity_rows", "table2", "TIME_CLAIM_KEY"
 ]
 
 
@@ -97,6 +97,10 @@ def complexity_rows(printed: Mapping[str, str] | None = None,
     return rows
 
 
+#: the stable key of the timing claim :func:`table2` judges (:meth:`mmlib.experiment.verdicts.Claims.add`)
+TIME_CLAIM_KEY = "more_time"
+
+
 def table2(estimators: Mapping, per_run: Mapping[str, np.ndarray], batched: Mapping[str, np.ndarray]) -> tuple:
     """Rows, the timing claim and a display table for Table 2.
 
@@ -106,7 +110,8 @@ def table2(estimators: Mapping, per_run: Mapping[str, np.ndarray], batched: Mapp
     ratio part on the flops with the equivalence margin :data:`mmlib.experiment.verdicts.COST_MARGIN` (holds beyond
     +10 %).  ``per_run`` and ``batched`` (name -> seconds per run, one value per repeat, every filter interleaved
     within each repeat) are context: the median ratio with its range over the repeats, in the notes, the evidence and
-    the display table.  Returns ``(rows, (claim, judgement, evidence), display)``."""
+    the display table.  Returns ``(rows, (claim, judgement, evidence), display)``; the claim's key is
+    :data:`TIME_CLAIM_KEY`."""
     ref = float(TABLE2_TIME["SSRCKF"])
     flops = {alg: step_flops(estimators[alg])["total"] for alg in FILTERS}
     repeats = len(per_run["SSRCKF"])

@@ -212,7 +212,7 @@ def judge_claims(results: dict, rows: list, n_runs: int) -> report.Claims:
     claims = report.Claims()
     direction, evidence = direction_parts(results, "IMMUKF", "UKF")
     claims.add("IMMUKF is more accurate than the UKF (conclusions: 'superior navigation accuracy')",
-               report.judge(direction), evidence)
+               report.judge(direction), evidence, key="immukf_vs_ukf")
     for other in ("IMMUKF", "UKF"):
         # "remarkable improvement": more accurate (paired MSE differences) AND by the table's margin (the
         # RMS reductions); one claim verdict from all four parts
@@ -220,21 +220,26 @@ def judge_claims(results: dict, rows: list, n_runs: int) -> report.Claims:
         size = size_parts([red[(f"FUZZY-IMMUKF vs {other}", lab)] for lab, _, _ in AXES])
         claims.add(f"FUZZY-IMMUKF shows remarkable improvement over {other} (abstract)",
                    report.judge(direction + size),
-                   evidence + "; RMS reductions against the table's: " + _evidence(size))
-    for a, b, text in (("IMMUKF", "UKF", "IMMUKF's errors are about 62-64 % below the UKF's (table)"),
-                       ("FUZZY-IMMUKF", "IMMUKF", "FUZZY-IMMUKF's errors are about 66-68 % below IMMUKF's (table)")):
+                   evidence + "; RMS reductions against the table's: " + _evidence(size),
+                   key=f"fuzzy_vs_{other.lower()}")
+    for a, b, text, key in (("IMMUKF", "UKF", "IMMUKF's errors are about 62-64 % below the UKF's (table)",
+                             "immukf_reduction"),
+                            ("FUZZY-IMMUKF", "IMMUKF", "FUZZY-IMMUKF's errors are about 66-68 % below IMMUKF's (table)",
+                             "fuzzy_reduction")):
         size = size_parts([red[(f"{a} vs {b}", lab)] for lab, _, _ in AXES])
-        claims.add(text, report.judge(size), "relative RMS reductions: " + _evidence(size))
+        claims.add(text, report.judge(size), "relative RMS reductions: " + _evidence(size), key=key)
     direction, evidence = direction_parts(results, "FUZZY-IMMUKF", "IMMUKF")
     claims.add("The FLAS determines better lower and upper process-noise bounds online than fixed bounds "
                "(Sec. 3, conclusions)", report.judge(direction),
-               "FUZZY-IMMUKF against IMMUKF with the fixed bounds: " + evidence)
+               "FUZZY-IMMUKF against IMMUKF with the fixed bounds: " + evidence, key="flas_bounds")
     div = diverged(results)
     claims.add("The approach prevents the divergence problem in high dynamic environments (conclusions)",
                divergence_judgement(div, n_runs), "diverged runs: " + ", ".join(f"{a} {d}/{n_runs}"
-                                                                                 for a, d in div.items()))
+                                                                                 for a, d in div.items()),
+               key="prevents_divergence")
     claims.add("A lower-order filter model suffices with less computation (conclusions)",
-               report.Judgement.of(report.NOT_ASSESSABLE, "no filter-order comparison survives in the text"), "")
+               report.Judgement.of(report.NOT_ASSESSABLE, "no filter-order comparison survives in the text"), "",
+               key="lower_order")
     return claims
 
 

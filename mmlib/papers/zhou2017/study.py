@@ -168,8 +168,9 @@ def compare(results: dict, pairs: Iterable[tuple[str, str]],
             parts.append(report.part(f"{a} − {b}", f"{label} MSE", float(d.value), float(d.stderr), -1,
                                      reference=ref, unit=_UNITS.get(tuple(comp), ""),
                                      ops=evaluation.pair_operations(ra, rb)))
-            evidence.append(f"{a} vs {b}, {label}: Δ(mean squared error) = {float(d.value):.3g} ± "
-                            f"{float(d.stderr):.2g} ({100 * float(d.value) / ref:+.2g} %)")
+            evidence.append(f"{a} vs {b}, {label}: Δ(mean squared error) = "
+                            f"{report.format_pm(float(d.value), float(d.stderr), signed=True)} "
+                            f"({100 * float(d.value) / ref:+.2g} %)")
     return report.judge(parts), "; ".join(evidence)
 
 
@@ -193,30 +194,34 @@ def judge_claims(results: dict) -> tuple:
     s23 = section23_claims()
     claims = report.Claims()
     claims.add("MSE overestimates the covariance of the interacted variable; CP is accurate (Sec. 2.3, Table 1)",
-               *s23["overestimates"])
-    claims.add("CPIMM is more accurate than IMM (Case 1, Table 2)", *compare(res1, [("CPIMM-UKF", "IMM-UKF")]))
+               *s23["overestimates"], key="mse_overestimates")
+    claims.add("CPIMM is more accurate than IMM (Case 1, Table 2)", *compare(res1, [("CPIMM-UKF", "IMM-UKF")]),
+               key="cpimm_vs_imm")
     claims.add("CPIMM's interaction solves the non-Gaussian problem with second-order accuracy (Sec. 3.1.3)",
-               *s23["second order"])
+               *s23["second order"], key="cpimm_second_order")
     ukf, ukf_ev = compare(res1, [("IMM-UKF", "IMM-EKF"), ("IMM-UKF", "IMM-CKF")])
     claims.add("UKF has better filtering precision than KF, EKF and CKF (Sec. 4.2.1), on the Sec. 4.1 radar "
                "scenario (Case 1)", ukf, ukf_ev + "; KF is not applicable to the range-bearing radar; on linear "
-               "models EKF, CKF, UKF and KF coincide exactly")
+               "models EKF, CKF, UKF and KF coincide exactly", key="ukf_best_filter")
     claims.add("CPIMM-UKF is more accurate than IMM-UKF under sensor faults (Table 3)",
-               *compare(res2, [("CPIMM-UKF", "IMM-UKF")]))
+               *compare(res2, [("CPIMM-UKF", "IMM-UKF")]), key="cpimm_ukf_faults")
     claims.add("IMM-NAUKF is more accurate than IMM-UKF under sensor faults (Table 3)",
-               *compare(res2, [("IMM-NAUKF", "IMM-UKF")]))
+               *compare(res2, [("IMM-NAUKF", "IMM-UKF")]), key="naukf_faults")
     claims.add("CPIMM-NAUKF is the most accurate of the four under sensor faults (Table 3)",
-               *compare(res2, [("CPIMM-NAUKF", b) for b in ("IMM-UKF", "IMM-NAUKF", "CPIMM-UKF")]))
+               *compare(res2, [("CPIMM-NAUKF", b) for b in ("IMM-UKF", "IMM-NAUKF", "CPIMM-UKF")]),
+               key="cpimm_naukf_best_faults")
     fast, fast_ev = compare(res2, [("CPIMM-NAUKF", "IMM-UKF")],
                             quantities=(("transient position", POSITION), ("transient velocity", VELOCITY)),
                             steps=TRANSIENT_STEPS)
     claims.add("CPIMM-NAUKF converges faster than IMM-UKF (Sec. 4.1.2, conclusions)", fast,
-               "position and velocity MSE over the 10 s after each maneuver switch (20, 40, 60, 80 s): " + fast_ev)
+               "position and velocity MSE over the 10 s after each maneuver switch (20, 40, 60, 80 s): " + fast_ev,
+               key="cpimm_naukf_converges")
     claims.add("NAUKF (Eqs. 27-31) satisfies the third-order precision conditions under faults",
-               report.Judgement.of(report.CONTRADICTED, NAUKF_ANALYSIS), NAUKF_EVIDENCE)
+               report.Judgement.of(report.CONTRADICTED, NAUKF_ANALYSIS), NAUKF_EVIDENCE,
+               key="naukf_third_order")
     claims.add("CPIMM-NAUKF performs best in the vehicle and UAV experiments (Tables 4-5)",
                report.Judgement.of(report.NOT_ASSESSABLE, "data not published (Z-11)"),
-               "the synthetic analogue of the notebook is not evidence either way")
+               "the synthetic analogue of the notebook is not evidence either way", key="field_experiments")
     effects = []
     for name, res, a, b, table in ((KEY_EFFECT, res2, "CPIMM-NAUKF", "IMM-UKF", TABLE3),
                                    ("IMM-NAUKF − IMM-UKF, Case 2 position MSE (m²)", res2, "IMM-NAUKF", "IMM-UKF",

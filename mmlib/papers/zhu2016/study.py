@@ -203,16 +203,17 @@ def judge_claims(results: dict, setup: Setup) -> report.Claims:
     range-bearing sensor (Z-5) they differ and the claims are judged on the differences."""
     claims = report.Claims()
     for other in ("IMMCKF", "IMMUKF", "5CKF"):
-        claims.add(f"IMM5CKF is more accurate than {other}", *accuracy_claim(results, "IMM5CKF", other))
+        claims.add(f"IMM5CKF is more accurate than {other}", *accuracy_claim(results, "IMM5CKF", other),
+                   key=f"imm5ckf_vs_{other.lower()}")
     claims.add("IMM5CKF is more accurate than OMTM-IMM",
                report.Judgement.of(report.NOT_ASSESSABLE, "OMTM-IMM is not specified (Z-14)"),
-               "Zhou et al. 2014 give no equations, initial values or mode filter")
+               "Zhou et al. 2014 give no equations, initial values or mode filter", key="imm5ckf_vs_omtm_imm")
     fl = floor_check(results)
     evidence = "; ".join(f"{f['quantity']}: smallest printed IMM value {f['paper_min_imm']} vs floor "
-                         f"{f['floor']:.3f} ± {f['floor_stderr']:.3f} (z = {f['z']:+.1f})" for f in fl)
+                         f"{report.format_pm(f['floor'], f['floor_stderr'])} (z = {f['z']:+.1f})" for f in fl)
     floor = (report.judge(floor_parts(fl)) if floor_is_bound(setup) else
              report.Judgement.of(report.NOT_ASSESSABLE, FLOOR_NOT_BOUND))
-    claims.add(FLOOR_CLAIM, floor, evidence)
+    claims.add(FLOOR_CLAIM, floor, evidence, key="errors_above_floor")
     true_modes = build(setup)[0].modes()
     parts, ev = [], []
     p5 = _switch_window_probability(results["IMM5CKF"], true_modes)
@@ -223,15 +224,16 @@ def judge_claims(results: dict, setup: Setup) -> report.Claims:
                                  float(d.stderr), +1, reference=float(po.mean()), unit="probability",
                                  ops=evaluation.pair_operations(results["IMM5CKF"], results[other])))
         ev.append(f"vs {other}: Δ(probability of the true mode, 10 steps after each switch) = "
-                  f"{float(d.value):.2g} ± {float(d.stderr):.2g}")
-    claims.add("IMM5CKF switches modes more quickly than IMMCKF/IMMUKF", report.judge(parts), "; ".join(ev))
+                  f"{report.format_pm(float(d.value), float(d.stderr), signed=True)}")
+    claims.add("IMM5CKF switches modes more quickly than IMMCKF/IMMUKF", report.judge(parts), "; ".join(ev),
+               key="switches_faster")
     diverged = {a: int((~results[a].valid).sum()) for a in RMSE_ALGORITHMS}
     n_total = sum(results[a].valid.size for a in RMSE_ALGORITHMS)
     claims.add("No algorithm diverges",
                report.Judgement.of(report.HOLDS, f"0 diverged runs of {n_total}") if not any(diverged.values()) else
                report.Judgement.of(report.CONTRADICTED, f"{sum(diverged.values())} diverged runs of {n_total} ("
                                    + ", ".join(f"{a} {n}" for a, n in diverged.items() if n) + ")"),
-               f"diverged runs: {diverged}")
+               f"diverged runs: {diverged}", key="no_divergence")
     return claims
 
 

@@ -76,5 +76,5 @@ def judge_timing(estimators: Mapping, per_run: Mapping[str, np.ndarray], batched
                f"cost model (mmlib.core.cost): {flops['IMM5CKF']} vs {flops['IMMCKF']} flops per step; measured CPU "
                f"time ratio, context only: {_spread(per_run, 'IMM5CKF', 'IMMCKF')} one run at a time, "
                f"{_spread(batched, 'IMM5CKF', 'IMMCKF')} batched (median [range] over {repeats} repeated "
-               f"timings)")
+               f"timings)", key="imm5ckf_costs_more")
     return rows, table
