@@ -251,7 +251,7 @@ def test_cell_table_reads_round_off_as_an_identity_without_a_z_score():
     ukf["versus_best"] = {"algorithm": "EKF", "difference_m2": 0.3, "stderr_m2": 0.2,
                           "verdict": "no detectable difference"}
     got = views.cell_table(good, "paper")[1]["versus best, or why it does not apply"]
-    assert got == "no detectable difference (vs EKF: Δ MSE +0.3 ± 0.2 m²)"
+    assert got == "no detectable difference (vs EKF: Δ MSE +0.30 ± 0.20 m²)"     # format_pm: s.e. to 2 figures
 
 
 def _part(a, b, scenario, verdict, difference, reference, quantity="position MSE"):

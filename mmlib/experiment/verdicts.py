@@ -808,7 +808,7 @@ def _judgement(verdict) -> Judgement:
 CLAIM_KEY = re.compile(r"[a-z][a-z0-9_]*")
 
 
-def check_claim_key(key, name: str = "key") -> str:
+def check_claim_key(key: object, name: str = "key") -> str:
     """``key`` if it is a claim's stable name of the form :data:`CLAIM_KEY`; ValueError naming ``name`` otherwise."""
     if not isinstance(key, str) or not CLAIM_KEY.fullmatch(key):
         raise ValueError(f"{name}: expected a claim key (a lower-case letter, then lower-case letters, digits or "
