@@ -94,8 +94,9 @@ test: $(STAMP)
 	@# the committed-digest and batch-independence tests again as on an AVX2 and an SSE4.2 machine (x86-64 only)
 	$(PY) tools/emulated_tests.py
 	@# the suite in TEST_WORKERS processes (pytest-xdist; a file's tests stay in one process, so its module fixtures,
-	@# e.g. the site built once, are not built twice)
-	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile tests
+	@# e.g. the site built once, are not built twice; files handed out in collection order, the longest first:
+	@# tests/conftest.py LONGEST_FIRST)
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder tests
 
 # The benchmark report (data/bench/: imm_ukf.json, scaling.json, scaling.png, notebooks.json, cost_model.json (state
 # sizes 2..12 and the papers' timed filters against the cost model), papers.json (every paper's filters against the

@@ -55,3 +55,23 @@ def linear_problem():
     P0 = np.diag([100.0, 25.0, 100.0, 25.0])
     return dyn, meas, x0, P0, zs
 
+
+
+#: the files whose tests take longest (minutes: a site built and driven in a browser, a fresh venv, the runner's
+#: notebooks in subprocesses, the schema mutations), by measured duration on the reference machine.  `make test` runs
+#: the suite with ``-n 2 --dist loadfile --no-loadscope-reorder``: a file's tests stay in one process and files are
+#: handed out in collection order, so these start first and the many short files fill in around them; left to
+#: pytest-xdist's default order (most tests first) the one-test install file and the few-test site file started last
+#: and ran alone at the end.  The order changes no test, only when it starts.
+LONGEST_FIRST = ("test_site.py", "test_install.py", "test_runner.py", "test_results_contract.py",
+                 "test_runner_parallel.py", "test_arena.py", "test_dask.py", "test_tseng2011.py", "test_fused.py",
+                 "tolerance/test_pipeline.py", "test_experiment.py")
+
+
+def _longest_first_rank(item) -> int:
+    path = item.path.as_posix()
+    return next((i for i, name in enumerate(LONGEST_FIRST) if path.endswith("/" + name)), len(LONGEST_FIRST))
+
+
+def pytest_collection_modifyitems(config, items):
+    items.sort(key=_longest_first_rank)            # stable: each file's own order is kept

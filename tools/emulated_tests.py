@@ -11,7 +11,9 @@ outputs reproduced to the stated round-off, and the round-off rule, not the bit-
 and the batch-independence tests (``tests/test_batch_independence.py``: bit for bit in any batch on that
 machine).  Elsewhere than x86-64 it says so and runs nothing.
 
-Usage: ``python tools/emulated_tests.py [pytest options]``; exit status that of the first failing run.
+Usage: ``python tools/emulated_tests.py [pytest options]``; the emulations run at once (each a single-process
+pytest; two on the reference machine's two cores), each one's output printed whole when it ends; exit status that
+of the first failing run in the order of :data:`EMULATIONS`.
 
 ``python tools/emulated_tests.py --measure`` (run by ``make bench``) instead measures how far each paper's
 headline digest moves under each emulated CPU of :data:`MEASURED` and writes ``data/bench/cross_cpu.json``: per
@@ -25,6 +27,7 @@ import os
 import platform
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -112,20 +115,31 @@ def main(argv: list[str]) -> int:
               "nothing to run", flush=True)
         return 0
     native = _fingerprint({})
+    # the emulations are independent single-process pytest runs: they run at once (one per core on the
+    # reference machine's two), each one's output printed whole when it ends, in the order of EMULATIONS
+    runs = {}
     for name, env in EMULATIONS.items():
         shown = " ".join(f'{k}="{v}"' for k, v in env.items())
         if _fingerprint(env) == native:
             print(f"emulated_tests: {name}: this machine already is one ({shown} changes nothing), skipped",
                   flush=True)
             continue
+        log = tempfile.TemporaryFile("w+")
+        proc = subprocess.Popen([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *TESTS, *argv],
+                                cwd=REPO, env={**os.environ, **env, "MMLIB_EXPECT_EMULATED": name},
+                                stdout=log, stderr=subprocess.STDOUT, text=True)
+        runs[name] = (shown, proc, log)
+    first = 0
+    for name, (shown, proc, log) in runs.items():
+        code = proc.wait()
+        log.seek(0)
         print(f"emulated_tests: {name} machine ({shown})", flush=True)
-        code = subprocess.call([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *TESTS, *argv],
-                               cwd=REPO, env={**os.environ, **env, "MMLIB_EXPECT_EMULATED": name})
+        print(log.read(), end="", flush=True)
+        log.close()
         if code:
             print(f"emulated_tests: the {name} emulation failed (exit {code})", file=sys.stderr, flush=True)
-            return code
-    return 0
-
+            first = first or code
+    return first
 
 if __name__ == "__main__":
     sys.exit(main(sys.argv[1:]))
