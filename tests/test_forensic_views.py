@@ -135,7 +135,7 @@ def paper_doc(name: str, verdicts: list[str], claims: list[str], *, qualifier: s
              "stderr": 0.01, "verdict": v, "deviations": [], "distance": 0.0} for i, v in enumerate(verdicts)]
     cl = []
     for i, v in enumerate(claims):
-        c = {"claim": f"claim {i}", "verdict": v, "decisive": f"A − B: {i + 1} %", "evidence": "e"}
+        c = {"key": f"claim_{i}", "claim": f"claim {i}", "verdict": v, "decisive": f"A − B: {i + 1} %", "evidence": "e"}
         if qualifier:
             c["qualifier"] = qualifier
             c["stated"] = f"{v} by the {qualifier}" if v == "contradicted" else f"{v} in the {qualifier}"

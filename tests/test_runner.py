@@ -68,7 +68,8 @@ doc = {{"paper": PAPER,
                       "paper_citation": "test"}},
        "rows": [{{"item": "T1", "algorithm": "A", "quantity": "q", "paper": 1.0, "replicated": 1.0, "stderr": 0.1,
                  "verdict": "reproduced", "deviations": [], "note": tag, "distance": 0.0}}],
-       "claims": [{{"claim": "claim " + tag, "verdict": "holds", "decisive": "", "parts": [], "evidence": "e"}}],
+       "claims": [{{"key": "claim_" + tag.lower().replace("-", "_"), "claim": "claim " + tag, "verdict": "holds",
+                   "decisive": "", "parts": [], "evidence": "e"}}],
        "figures": {{"fig01": {{"paper_claim": "c", "ours": tag, "files": ["figures/" + PAPER + "/fig01.png"]}}}}}}
 (root / "data" / "results").mkdir(parents=True)
 (root / "data" / "results" / (PAPER + ".json")).write_text(json.dumps(doc))

@@ -159,7 +159,7 @@ def test_a_part_reads_as_one_number():
     assert p.number() == "IMMCDKF-OBS − IMMCDKF: position MSE +2.4e+03 % (z = +48)"
     assert p.as_json()["number"] == p.number() and p.as_json()["verdict"] == "contradicted"
     q = report.part("A − B", "NEES", -0.5, 0.1, -1)
-    assert q.number() == "A − B: NEES -0.5 ± 0.1"
+    assert q.number() == "A − B: NEES -0.50 ± 0.10"          # format_pm: the s.e. to two significant figures
     with pytest.raises(ValueError, match="verdict"):
         report.Part("A − B", "q", "maybe", 1.0)
     with pytest.raises(ValueError, match="kind"):
