@@ -295,6 +295,7 @@ REPORT_CASES = {
     "provenance extra a list": (lambda: report.provenance(root_seed=1, n_runs=2, profile="p", extra=[1]), "extra"),
     "save_figure unknown format": (lambda: report.save_figure(plt.figure(), _tmp(), "x", formats=["nope"]), "formats"),
     "save_figure out_dir a number": (lambda: report.save_figure(plt.figure(), 5, "x"), "out_dir"),
+    "save_figure narrow a string": (lambda: report.save_figure(plt.figure(), _tmp(), "x", narrow="yes"), "narrow"),
     "atomic_write_text text a number": (lambda: report.atomic_write_text(f"{_tmp()}/x", 3), "text"),
 }
 

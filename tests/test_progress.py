@@ -142,6 +142,23 @@ def test_compile_notice_once_per_process_only_when_cold(monkeypatch, capsys, tmp
     assert capsys.readouterr().err == "" and log.read_text().startswith("mmlib: compiling the filter kernels")
 
 
+def test_compile_notice_once_in_the_log_whatever_the_worker_processes(tmp_path):
+    """Worker processes compiling at once (the notebook runner's pool, each its own process) leave one line in the
+    progress log, not one per worker; other lines of the log are kept."""
+    import subprocess
+    import sys
+    log = tmp_path / "progress.log"
+    log.write_text("a progress line\n")
+    code = ("from mmlib.core import linalg; linalg._kernel_cache_cold = lambda: True; "
+            "[linalg._compile_notice() for _ in range(3)]")
+    env = {**__import__("os").environ, "MMLIB_PROGRESS_LOG": str(log)}
+    procs = [subprocess.Popen([sys.executable, "-c", code], env=env) for _ in range(4)]
+    assert all(p.wait(timeout=120) == 0 for p in procs)
+    lines = log.read_text().splitlines()
+    assert lines[0] == "a progress line"
+    assert sum(ln.startswith("mmlib: compiling the filter kernels") for ln in lines) == 1, lines
+
+
 # ------------------------------------------------------------------------------------------ make site, per page
 @pytest.fixture(scope="module")
 def build_site():

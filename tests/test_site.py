@@ -224,6 +224,8 @@ SCREENS = ((1280, 800), (390, 844))
 #: at natural size (an icon, a badge) must be shown at its natural width.
 LEGIBLE_FRACTION = 0.5
 LEGIBLE_FLOOR = 300
+#: the widest screen shown a figure's narrow variant (tools/build_site.py, the site's phone layout)
+PHONE_WIDTH = 600
 
 # the layout of the page as shown (scrolled to the top) on a screen of W x H CSS px: verdict columns out of the screen
 # sideways, figures shown below their legible minimum without a link to full size, the page's own width and the
@@ -257,9 +259,19 @@ LAYOUT = r"""([fraction, floor, W, H]) => {
       small.push(`${img.getAttribute('src').slice(-60)} shown ${Math.round(w)} px wide, legible from ` +
                  `${Math.round(minimum)} px (natural ${n}), and no link to full size`);
   });
+  // a figure with panels side by side: its narrow variant (the panels stacked) is what a phone shows, the
+  // figure itself what a wider screen shows
+  const pictures = [];
+  root.querySelectorAll('picture').forEach(p => {
+    const source = p.querySelector('source[media]'), img = p.querySelector('img');
+    if (!source || !img) return;
+    pictures.push({shown: img.currentSrc, narrow: new URL(source.getAttribute('srcset'), document.baseURI).href,
+                   wide: new URL(img.getAttribute('src'), document.baseURI).href,
+                   shown_width: img.getBoundingClientRect().width, natural: img.naturalWidth});
+  });
   const box = document.querySelector('.verdict-box');
-  return {offscreen: offscreen, small: small, page_width: document.documentElement.scrollWidth, width: W, height: H,
-          box_top: box ? box.getBoundingClientRect().top + window.scrollY : null};
+  return {offscreen: offscreen, small: small, pictures: pictures, page_width: document.documentElement.scrollWidth,
+          width: W, height: H, box_top: box ? box.getBoundingClientRect().top + window.scrollY : null};
 }"""
 
 
@@ -273,6 +285,11 @@ def layout_problems(page, rel: str, require_box: bool) -> list[str]:
     at = f"{rel} at {got['width']} px"
     problems = [f"{at}: verdict column off-screen: {t}" for t in got["offscreen"]]
     problems += [f"{at}: figure too small: {t}" for t in got["small"]]
+    for pic in got["pictures"]:
+        want = "narrow" if got["width"] <= PHONE_WIDTH else "wide"
+        if pic["shown"] != pic[want]:
+            problems.append(f"{at}: a figure with panels side by side shows {pic['shown'][-60:]}, not its {want} "
+                            f"variant {pic[want][-60:]}")
     if got["page_width"] > got["width"] + 1:
         problems.append(f"{at}: the page scrolls sideways ({got['page_width']} px wide)")
     if got["box_top"] is None:
@@ -310,13 +327,14 @@ def test_layout_at_desktop_and_phone_widths(site, browser):
             or r in ("arena.html", "index.html")]
     assert any(r.startswith("papers/") for r in rels) and any(r.startswith("reading-spaces/") for r in rels)
     CHECK_DIR.mkdir(parents=True, exist_ok=True)
-    problems, shots = [], []
+    problems, shots, pictures = [], [], {}
     for width, height in SCREENS:
         context = layout_context(browser, width, height)
         page = context.new_page()
         for rel in rels:
             open_for_layout(page, base + rel)
             problems += layout_problems(page, rel, require_box=rel.startswith("papers/"))
+            pictures[rel, width] = page.evaluate("() => document.querySelectorAll('article picture').length")
             if rel.startswith(("papers/", "controls/")):
                 shot = CHECK_DIR / f"{Path(rel).stem}-{width}.png"
                 page.screenshot(path=str(shot))          # the first screen: what a reader sees before scrolling
@@ -324,6 +342,9 @@ def test_layout_at_desktop_and_phone_widths(site, browser):
         context.close()
     assert not problems, f"{len(problems)} problem(s):\n" + "\n".join(problems[:60])
     assert shots and all(s.is_file() and s.stat().st_size > 0 for s in shots)
+    # the narrow variants were there to check: the controls' two panels and the arena's ladder, at both widths
+    assert all(pictures[rel, w] for rel in rels if rel.startswith("controls/") or rel == "arena.html"
+               for w, _ in SCREENS), pictures
 
 
 def test_the_layout_checks_catch_what_they_look_for(site, browser):
@@ -340,8 +361,11 @@ def test_the_layout_checks_catch_what_they_look_for(site, browser):
     wide = (f'<table class="docutils"><thead><tr>{cols}<th>verdict</th></tr></thead>'
             f'<tbody><tr>{"<td>1234567890.123456789</td>" * 12}<td>contradicted</td></tr></tbody></table>')
     shrunk = f'<img src="../{fig}" style="width: 120px">'
+    # a figure whose narrow variant is never shown (its media query matches no screen) and one always shown
+    never = f'<picture><source media="(max-width: 10px)" srcset="../{fig}?narrow"><img src="../{fig}"></picture>'
+    always = f'<picture><source media="(min-width: 1px)" srcset="../{fig}?narrow"><img src="../{fig}"></picture>'
     box = '<div class="verdict-box">the verdicts</div>'
-    cases = {"none": real.replace("</article>", wide + shrunk + "</article>").replace(
+    cases = {"none": real.replace("</article>", wide + shrunk + never + always + "</article>").replace(
                  "</body>", '<div style="width: 2000px">wide</div></body>'),
              "far": real.replace("</article>", '<div style="height: 3000px"></div>' + box + "</article>"),
              "top": re.sub(r"(</h1>)", r"\1" + box, real, count=1)}
@@ -364,6 +388,9 @@ def test_the_layout_checks_catch_what_they_look_for(site, browser):
         assert "verdict column off-screen: table" in found["none", width], found["none", width]
         assert "figure too small:" in found["none", width] and "no link to full size" in found["none", width]
         assert "the page scrolls sideways" in found["none", width], found["none", width]
+        # at a phone's width the one never narrow is found, at a desktop's the one always narrow
+        assert f"not its {'narrow' if width <= PHONE_WIDTH else 'wide'} variant" in found["none", width]
+        assert "panels side by side" not in found["top", width]
         assert "verdict box below the first screen" in found["far", width], found["far", width]
         assert "verdict box" not in found["top", width], found["top", width]
 

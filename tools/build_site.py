@@ -57,6 +57,8 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "tools"))
 
+from mmlib.experiment.writing import NARROW_SUFFIX  # noqa: E402
+
 #: the cell-line encoding of MyST-NB's warnings: "line" = (cell index + 1) * 10000 + a line within the cell (the
 #: first line of cell 0 is reported as 10002; checked by tests/test_site.py on a real build)
 CELL_LINE = 10000
@@ -367,12 +369,21 @@ def reading_spaces_page(doc: dict, notebooks: dict[str, Path], controls: frozens
 
 FIGURE_LINK = ('<a class="figure-link" href="{svg}" title="the full-size figure (SVG)">'
                '<img class="figure-img" src="{png}" alt="{alt}"></a>')
+#: a figure with panels side by side: on a screen up to PHONE_WIDTH CSS px wide its narrow variant (the panels
+#: stacked, :func:`mmlib.experiment.writing.narrow_image`) is shown instead, in the same link to the full-size SVG
+FIGURE_LINK_NARROW = ('<a class="figure-link" href="{svg}" title="the full-size figure (SVG)"><picture>'
+                      '<source media="(max-width: {phone}px)" srcset="{narrow}">'
+                      '<img class="figure-img" src="{png}" alt="{alt}"></picture></a>')
+#: the widest screen shown a figure's narrow variant (CSS px; the site's phone layout, docs/_static/site.css)
+PHONE_WIDTH = 600
 
 
 def link_figures(page: Path, doc: dict | None, rel: str) -> dict[str, str]:
     """Make each figure of the staged notebook ``page`` (site path ``rel``) a link to its full-size SVG: every image
     output followed by the Markdown output "**Paper:** ... **Ours:** ..." of a figure of the results ``doc``
-    (``NotebookRun.show``) gets an HTML form, preferred by MyST-NB, showing the figure's PNG in a link to its SVG.
+    (``NotebookRun.show``) gets an HTML form, preferred by MyST-NB, showing the figure's PNG in a link to its SVG
+    (:data:`FIGURE_LINK`); a figure with a narrow variant (its panels stacked) shows that on a phone
+    (:data:`FIGURE_LINK_NARROW`).
     Returns ``{path in the built site: path of the figure file relative to the outputs' root}`` for
     :func:`postprocess_html` to copy (the site shows and links files of figures/, offline)."""
     if not doc or not doc.get("figures"):
@@ -390,13 +401,19 @@ def link_figures(page: Path, doc: dict | None, rel: str) -> dict[str, str]:
             if "image/png" not in out.get("data", {}) or not by_caption.get(text):
                 continue
             stem, fig = by_caption[text].pop(0)
-            files = {Path(f).suffix: f for f in fig["files"]}
+            files = {Path(f).suffix: f for f in fig["files"] if not f.endswith(NARROW_SUFFIX)}
+            files.update({NARROW_SUFFIX: f for f in fig["files"] if f.endswith(NARROW_SUFFIX)})
             if not {".png", ".svg"} <= set(files):
                 continue
-            site = {k: f"_static/{files[k]}" for k in (".png", ".svg")}
+            site = {k: f"_static/{v}" for k, v in files.items() if k in (".png", ".svg", NARROW_SUFFIX)}
             copies.update({site[k]: files[k] for k in site})
             alt = f"{stem}: {fig['ours']}".replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;")
-            out["data"]["text/html"] = FIGURE_LINK.format(svg=up + site[".svg"], png=up + site[".png"], alt=alt)
+            if NARROW_SUFFIX in site:
+                html = FIGURE_LINK_NARROW.format(svg=up + site[".svg"], png=up + site[".png"], alt=alt,
+                                                 narrow=up + site[NARROW_SUFFIX], phone=PHONE_WIDTH)
+            else:
+                html = FIGURE_LINK.format(svg=up + site[".svg"], png=up + site[".png"], alt=alt)
+            out["data"]["text/html"] = html
     page.write_text(json.dumps(nb))
     return copies
 

@@ -19,7 +19,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from mmlib.experiment.writing import atomic_write_text  # noqa: E402
+from mmlib.experiment.writing import NARROW_SUFFIX, atomic_write_text  # noqa: E402
 from mmlib.experiment.results import read_results  # noqa: E402
 from mmlib.experiment import verdicts, views  # noqa: E402
 from mmlib.experiment.views import markdown_table, value_pm  # noqa: E402
@@ -126,7 +126,7 @@ def render_multiverse(mv: dict, qualifier: str = "") -> list:
 def render_figures(doc: dict, root: Path, out_dir: Path) -> list:
     lines = []
     for stem, fig in doc.get("figures", {}).items():
-        png = next((f for f in fig["files"] if f.endswith(".png")), None)
+        png = next((f for f in fig["files"] if f.endswith(".png") and not f.endswith(NARROW_SUFFIX)), None)
         lines += [f"### {stem}", "", f"**Paper:** {fig['paper_claim']}  ", f"**Ours:** {fig['ours']}", ""]
         if png:
             lines += [f"![{stem}]({os.path.relpath(root / png, out_dir)})", ""]

@@ -179,14 +179,23 @@ def _kernel_cache_cold() -> bool:
 
 def _compile_notice() -> None:
     """Say, once, that the filter kernels are being compiled: to the file ``$MMLIB_PROGRESS_LOG`` names when set
-    (the notebook runner's log: never into an executed notebook), else to stderr."""
+    (the notebook runner's log: never into an executed notebook; once in the log, whatever the number of worker
+    processes compiling at once: the line is written under a file lock only when the log does not hold it yet),
+    else to stderr (once per process)."""
     import sys
     line = (f"mmlib: compiling the filter kernels (first use only, about {COMPILE_TIME}: numba then caches them "
             f"on disk; MMLIB_KERNEL=numpy skips it)...")
     path = os.environ.get("MMLIB_PROGRESS_LOG")   # mmlib.experiment.montecarlo.PROGRESS_LOG_ENV (core imports none)
     if path:
-        with open(path, "a", encoding="utf-8") as log:
-            log.write(line + "\n")
+        with open(path, "a+", encoding="utf-8") as log:
+            try:
+                import fcntl
+                fcntl.flock(log, fcntl.LOCK_EX)    # released when the file closes
+            except (ImportError, OSError):         # no POSIX locks (Windows, some network file systems)
+                pass
+            log.seek(0)
+            if line not in log.read():
+                log.write(line + "\n")
     else:
         print(line, file=sys.stderr, flush=True)
 

@@ -230,7 +230,9 @@ class NotebookRun:
         return mv
 
     def show(self, fig: matplotlib.figure.Figure, stem: str, claim: str, ours: str) -> None:
-        """Save ``fig`` as figures/<paper>/<stem>.{png,svg}, display it with the paper's claim and ours."""
+        """Save ``fig`` as figures/<paper>/<stem>.{png,svg} (with panels side by side also <stem>.narrow.png, the
+        panels stacked for a phone: :func:`mmlib.experiment.writing.save_figure`), display it with the paper's claim
+        and ours."""
         import os
         import matplotlib.pyplot as plt
         from IPython.display import Markdown, display

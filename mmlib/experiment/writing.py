@@ -4,7 +4,8 @@
 (:mod:`mmlib.experiment.results`, whose :func:`~mmlib.experiment.results.read_results` is the one reader);
 :func:`provenance` is that file's ``provenance`` object; :func:`atomic_write_text` writes any text file so that it is
 never half-written (the grid cache, the reports, the notebook runner's journal); :func:`save_figure` writes a figure
-as deterministic PNG and SVG.  The rows written are the verdict rule's (:mod:`mmlib.experiment.verdicts`).
+as deterministic PNG and SVG (and a figure with panels side by side as a narrow PNG, its panels stacked:
+:func:`narrow_image`).  The rows written are the verdict rule's (:mod:`mmlib.experiment.verdicts`).
 """
 from __future__ import annotations
 
@@ -23,7 +24,8 @@ from mmlib.experiment import results, verdicts
 from mmlib.experiment.verdicts import Row
 
 __all__ = [
-    "write_results", "save_figure", "provenance", "git_commit", "atomic_write_text"
+    "write_results", "save_figure", "narrow_image", "NARROW_SUFFIX", "FIGURE_DPI", "provenance", "git_commit",
+    "atomic_write_text"
 ]
 
 if TYPE_CHECKING:
@@ -161,12 +163,22 @@ def write_results(path: str | Path, *, paper: str, provenance: dict, rows: Itera
     return doc
 
 
+#: the file name ending of a figure's narrow variant (:func:`narrow_image`), shown on a phone's screen by the site
+NARROW_SUFFIX = ".narrow.png"
+#: the resolution of the saved PNG figures and of their narrow variants (dots per inch)
+FIGURE_DPI = 150
+
+
 def save_figure(fig: matplotlib.figure.Figure, out_dir: str | Path, stem: str,
-                formats: Sequence[str] = ("png", "svg")) -> list[str]:
+                formats: Sequence[str] = ("png", "svg"), narrow: bool = True) -> list[str]:
     """Save a figure as PNG and SVG (deterministic SVG ids, no date), atomically per file.  ``formats``: a sequence
-    of matplotlib format names (a bare string is refused, never split into letters)."""
+    of matplotlib format names (a bare string is refused, never split into letters).  ``narrow``: a figure with
+    panels side by side also gets ``<stem>.narrow.png`` (:data:`NARROW_SUFFIX`), its panels stacked in one column
+    (:func:`narrow_image`), for a phone's screen; a figure in one column gets none (an older one is removed).
+    Returns the paths written, the narrow variant last."""
     import matplotlib
     import matplotlib.figure
+    import matplotlib.image
     if not isinstance(fig, matplotlib.figure.Figure):
         raise ValueError(f"fig: expected a matplotlib Figure, got {type(fig).__name__}")
     if not isinstance(out_dir, (str, os.PathLike)):
@@ -175,6 +187,8 @@ def save_figure(fig: matplotlib.figure.Figure, out_dir: str | Path, stem: str,
         raise ValueError(f"stem: expected a file name without folder or extension, got {stem!r}")
     if isinstance(formats, (str, bytes)) or not hasattr(formats, "__iter__"):
         raise ValueError(f"formats: expected a sequence of format names such as ('png', 'svg'), got {formats!r}")
+    if not isinstance(narrow, bool):
+        raise ValueError(f"narrow: expected True or False, got {narrow!r}")
     formats = list(formats)
     supported = fig.canvas.get_supported_filetypes()
     for fmt in formats:
@@ -185,15 +199,135 @@ def save_figure(fig: matplotlib.figure.Figure, out_dir: str | Path, stem: str,
     written = []
     with matplotlib.rc_context({"svg.hashsalt": "mmlib", "svg.fonttype": "none"}):
         for fmt in formats:
-            target = out_dir / f"{stem}.{fmt}"
-            fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=f".{stem}.", suffix=f".{fmt}")
-            os.close(fd)
-            try:
-                fig.savefig(tmp, format=fmt, dpi=150, bbox_inches="tight",
-                            metadata={"Date": None} if fmt == "svg" else {"Software": None})
-                os.replace(tmp, target)
-            except BaseException:
-                os.unlink(tmp)
-                raise
-            written.append(str(target))
+            written.append(_atomic_save(out_dir, f"{stem}.{fmt}", lambda tmp, fmt=fmt: fig.savefig(
+                tmp, format=fmt, dpi=FIGURE_DPI, bbox_inches="tight",
+                metadata={"Date": None} if fmt == "svg" else {"Software": None})))
+    image = narrow_image(fig) if narrow else None
+    if image is not None:
+        written.append(_atomic_save(out_dir, stem + NARROW_SUFFIX, lambda tmp: matplotlib.image.imsave(
+            tmp, image, format="png", metadata={"Software": None})))
+    elif narrow:
+        (out_dir / (stem + NARROW_SUFFIX)).unlink(missing_ok=True)
     return written
+
+
+
+def _atomic_save(out_dir: Path, name: str, save) -> str:
+    """``save(tmp)`` writes a temporary file beside ``out_dir / name``, then moved onto it (never half-written)."""
+    target = out_dir / name
+    fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=f".{name}.", suffix=target.suffix)
+    os.close(fd)
+    try:
+        save(tmp)
+        os.replace(tmp, target)
+    except BaseException:
+        os.unlink(tmp)
+        raise
+    return str(target)
+
+
+def narrow_image(fig: matplotlib.figure.Figure, dpi: float = FIGURE_DPI) -> np.ndarray | None:
+    """The figure's panels stacked in one column, for a screen narrower than the figure: an RGBA image
+    (``(height, width, 4)`` uint8, ``dpi`` dots per inch), or None when the panels already are in one column (or the
+    figure holds what cannot be moved: subfigures, figure-level artists other than texts and legends).
+
+    A panel is every axes in one cell of the figure's topmost grid (a colorbar or a twin goes with its axes, an axes
+    placed by hand with the panel nearest to it), cut out of the figure drawn at ``dpi`` with everything it draws
+    (labels, titles, legends, secondary axes); the panels are stacked row by row, left to right.  The figure-level
+    texts (a suptitle) and legends are drawn again at the widest panel's width (text wrapped, the legend in as many
+    columns as fit) above or below the panels, where they were.  ``fig`` itself is not changed (a copy is drawn)."""
+    import pickle
+    import matplotlib.legend
+    import matplotlib.text
+    from matplotlib.colors import to_rgba
+    from matplotlib.transforms import Bbox
+    if fig.subfigs:
+        return None
+    fig = pickle.loads(pickle.dumps(fig))          # a copy: the caller's figure, its canvas and dpi stay as they are
+    cells: dict[tuple[float, float], list] = {}
+    loose = []
+    for ax in fig.axes:
+        if not ax.get_visible():
+            continue
+        spec = ax.get_subplotspec()
+        if spec is None:
+            loose.append(ax)
+            continue
+        top = spec.get_topmost_subplotspec()
+        nrows, ncols = top.get_geometry()[:2]
+        cells.setdefault((top.rowspan.start / nrows, top.colspan.start / ncols), []).append(ax)
+    if len({col for _, col in cells}) < 2:
+        return None
+    others = [a for a in fig.get_children() if a is not fig.patch and a not in fig.axes and a.get_visible()]
+    if any(not isinstance(a, (matplotlib.text.Text, matplotlib.legend.Legend)) for a in others):
+        return None
+    renderer, image = _draw(fig, dpi)
+    frames = {k: Bbox.union([a.get_window_extent(renderer) for a in axs]) for k, axs in cells.items()}
+    for ax in loose:
+        box = ax.get_window_extent(renderer)
+        cells[min(frames, key=lambda k: _distance(frames[k], box))].append(ax)
+    panels = [_cut(image, Bbox.union([a.get_tightbbox(renderer) for a in cells[k]]), 0.06 * dpi)
+              for k in sorted(cells)]
+    width_in = max(p.shape[1] for p in panels) / dpi
+    middle = float(np.mean([(b.y0 + b.y1) / 2 for b in frames.values()]))
+    head, foot = [], []
+    for a in sorted(others, key=lambda a: -a.get_window_extent(renderer).y0):
+        if isinstance(a, matplotlib.text.Text) and not a.get_text().strip():
+            continue
+        part = _redraw(a, width_in, dpi, fig.get_facecolor())
+        box = a.get_window_extent(renderer)
+        (head if (box.y0 + box.y1) / 2 > middle else foot).append(part)
+    parts = head + panels + foot
+    width = max(p.shape[1] for p in parts)
+    out = np.empty((sum(p.shape[0] for p in parts), width, 4), np.uint8)
+    out[:] = np.round(255 * np.array(to_rgba(fig.get_facecolor()))).astype(np.uint8)
+    y = 0
+    for p in parts:                                # each centred
+        x = (width - p.shape[1]) // 2
+        out[y:y + p.shape[0], x:x + p.shape[1]] = p
+        y += p.shape[0]
+    return out
+
+
+def _draw(fig, dpi: float):
+    """Draw ``fig`` (taken over: a copy) at ``dpi`` on an Agg canvas: its renderer and its RGBA pixels."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    canvas = FigureCanvasAgg(fig)
+    fig.set_dpi(dpi)
+    canvas.draw()
+    return canvas.get_renderer(), np.asarray(canvas.buffer_rgba()).copy()
+
+
+def _distance(a, b) -> float:
+    """The distance between the centres of two boxes."""
+    return float(np.hypot((a.x0 + a.x1 - b.x0 - b.x1) / 2, (a.y0 + a.y1 - b.y0 - b.y1) / 2))
+
+
+def _cut(image: np.ndarray, box, pad: float) -> np.ndarray:
+    """The pixels of ``image`` (rows from the top) inside ``box`` (display coordinates, from the bottom) and ``pad``
+    pixels around it, within the image."""
+    height, width = image.shape[:2]
+    x0, y0 = max(0, int(np.floor(box.x0 - pad))), max(0, int(np.floor(box.y0 - pad)))
+    x1, y1 = min(width, int(np.ceil(box.x1 + pad))), min(height, int(np.ceil(box.y1 + pad)))
+    return image[height - y1:height - y0, x0:x1]
+
+
+def _redraw(artist, width_in: float, dpi: float, facecolor) -> np.ndarray:
+    """A figure-level text (wrapped) or legend (in as many columns as fit) drawn alone ``width_in`` inches wide."""
+    import matplotlib.figure
+    import matplotlib.text
+    pad = 0.04 * dpi                               # pixels kept around it: the whole cut within width_in
+    columns = getattr(artist, "_ncols", 1)
+    for ncols in range(max(1, columns), 0, -1):
+        f = matplotlib.figure.Figure(figsize=(width_in - 2 * pad / dpi, 8), facecolor=facecolor)
+        if isinstance(artist, matplotlib.text.Text):
+            drawn = f.text(0.5, 0.5, artist.get_text(), ha="center", va="center", wrap=True,
+                           fontproperties=artist.get_fontproperties(), color=artist.get_color())
+        else:
+            drawn = f.legend(artist.legend_handles, [t.get_text() for t in artist.get_texts()], loc="center",
+                             ncols=ncols, prop=artist.prop, frameon=artist.get_frame_on())
+        renderer, image = _draw(f, dpi)
+        box = drawn.get_window_extent(renderer)
+        if box.width + 2 * pad <= width_in * dpi:
+            break
+    return _cut(image, box, pad)
