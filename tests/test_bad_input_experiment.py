@@ -296,6 +296,11 @@ REPORT_CASES = {
     "save_figure unknown format": (lambda: report.save_figure(plt.figure(), _tmp(), "x", formats=["nope"]), "formats"),
     "save_figure out_dir a number": (lambda: report.save_figure(plt.figure(), 5, "x"), "out_dir"),
     "save_figure narrow a string": (lambda: report.save_figure(plt.figure(), _tmp(), "x", narrow="yes"), "narrow"),
+    "save_figure stem with a space": (lambda: report.save_figure(plt.figure(), _tmp(), "fig 1"), "stem"),
+    "narrow_image fig a string": (lambda: __import__("mmlib.experiment.writing").experiment.writing.narrow_image("x"),
+                                  "fig"),
+    "narrow_image dpi 0": (lambda: __import__("mmlib.experiment.writing").experiment.writing.narrow_image(
+        plt.figure(), dpi=0), "dpi"),
     "atomic_write_text text a number": (lambda: report.atomic_write_text(f"{_tmp()}/x", 3), "text"),
 }
 

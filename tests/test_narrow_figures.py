@@ -24,7 +24,7 @@ COLOURS = [(255, 0, 0), (0, 160, 0), (0, 0, 255), (255, 0, 255)]
 
 
 def _panels(nrows: int, ncols: int, *, suptitle: str = "", legend_entries: int = 0, colorbar: bool = False,
-            polar_last: bool = False):
+            polar_last: bool = False, secondary: bool = False):
     """A figure of nrows x ncols panels, panel i filled with COLOURS[i] (row by row), labelled, with options."""
     fig, axes = plt.subplots(nrows, ncols, figsize=(4.5 * ncols, 3.2 * nrows), squeeze=False)
     axes = list(axes.ravel())
@@ -34,6 +34,8 @@ def _panels(nrows: int, ncols: int, *, suptitle: str = "", legend_entries: int =
     for i, ax in enumerate(axes):
         ax.axvspan(0.2, 0.8, color=np.array(COLOURS[i]) / 255)
         ax.set(xlim=(0, 1), xlabel="time (s)", ylabel="error (m)", title=f"panel {i}")
+    if secondary:                       # as the arena's ladder: a second x axis on top, by functions (not picklable)
+        axes[0].secondary_xaxis("top", functions=(lambda x: 2 * x, lambda x: x / 2)).set_xlabel("other (m)")
     if colorbar:
         im = axes[0].imshow(np.arange(4.0).reshape(2, 2), extent=(0, 0.1, 0, 0.1), cmap="Greys")
         fig.colorbar(im, ax=axes[0], label="bound (m)")
@@ -58,7 +60,7 @@ def _ink_rows(image: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("shape", [(1, 2), (1, 3), (2, 2)])
 def test_panels_side_by_side_are_stacked_row_by_row(shape):
-    fig = _panels(*shape, colorbar=True, polar_last=shape == (1, 3))
+    fig = _panels(*shape, colorbar=True, polar_last=shape == (1, 3), secondary=shape == (1, 2))
     wide = fig.get_size_inches() * FIGURE_DPI
     image = narrow_image(fig)
     n = shape[0] * shape[1]
@@ -96,8 +98,62 @@ def test_suptitle_and_legend_are_redrawn_at_a_panels_width():
     plt.close(fig)
 
 
+ORANGE, CYAN = (255, 128, 0), (0, 200, 200)
+
+
+@pytest.mark.parametrize("width_in", [6.56, 13.62])
+def test_any_figure_width_and_the_users_savefig_settings(width_in):
+    """Widths where matplotlib's pixel rounding differs from int(width x dpi), under a style that saves tight and
+    transparent: the same panels, in order."""
+    with matplotlib.rc_context({"savefig.bbox": "tight", "savefig.transparent": True}):
+        fig = _panels(1, 2)
+        fig.set_size_inches(width_in, 3.5)
+        image = narrow_image(fig)
+    rows = [_rows_of(image, COLOURS[i]) for i in range(2)]
+    assert rows[0].size and rows[1].size and rows[0].max() < rows[1].min()
+    assert (image[..., 3] == 255).all()                       # opaque: the page's background never shows through
+    plt.close(fig)
+
+
+def test_what_reaches_out_of_the_figure_is_kept():
+    """A legend placed outside the last panel (no layout engine to pull it in) is in the narrow image, as it is in
+    the saved PNG (tight box)."""
+    from matplotlib.patches import Patch
+    fig = _panels(1, 2)
+    fig.axes[1].legend(handles=[Patch(facecolor=np.array(ORANGE) / 255, label="outside")],
+                       bbox_to_anchor=(1.02, 1.0), loc="upper left", handlelength=4, handleheight=3)
+    assert _rows_of(narrow_image(fig), ORANGE).size
+    plt.close(fig)
+
+
+def test_figure_level_texts_are_drawn_once_outside_the_panels():
+    """Under a constrained layout, a supxlabel (large, in a colour of its own) appears once, below the panels, and
+    never inside a panel's cut; the figure's layout engine is left as it was."""
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.5), layout="constrained")
+    for i, ax in enumerate(axes):
+        ax.axvspan(0.2, 0.8, color=np.array(COLOURS[i]) / 255)
+        ax.set(xlim=(0, 1), title=f"panel {i}")
+    fig.supxlabel("COMMON", fontsize=40, fontweight="bold", color=np.array(CYAN) / 255)
+    engine = fig.get_layout_engine()
+    image = narrow_image(fig)
+    cyan, last = _rows_of(image, CYAN), _rows_of(image, COLOURS[1]).max()
+    assert cyan.size and cyan.min() > last, "the supxlabel inside a panel's cut, or missing"
+    assert fig.get_layout_engine() is engine and fig.texts[0].get_visible()
+    plt.close(fig)
+
+
+def test_a_legend_title_is_kept():
+    fig = _panels(1, 2, legend_entries=2)
+    fig.legends[0].set_title("TITLE")
+    titled = narrow_image(fig)
+    fig.legends[0].set_title("")
+    assert titled.shape[0] > narrow_image(fig).shape[0] + 0.1 * FIGURE_DPI
+    plt.close(fig)
+
+
 def test_the_callers_figure_is_left_alone_and_the_bits_repeat(tmp_path):
     fig = _panels(1, 2, suptitle="title", legend_entries=2)
+    figures = plt.get_fignums()
     dpi, canvas, size = fig.dpi, fig.canvas, tuple(fig.get_size_inches())
     before = tmp_path / "before.png"
     fig.savefig(before, dpi=FIGURE_DPI, metadata={"Software": None})
@@ -105,6 +161,7 @@ def test_the_callers_figure_is_left_alone_and_the_bits_repeat(tmp_path):
     after = tmp_path / "after.png"
     fig.savefig(after, dpi=FIGURE_DPI, metadata={"Software": None})
     assert fig.dpi == dpi and fig.canvas is canvas and tuple(fig.get_size_inches()) == size
+    assert plt.get_fignums() == figures                       # no second figure for pyplot (or Jupyter) to show
     assert before.read_bytes() == after.read_bytes()
     assert np.array_equal(first, second)
     plt.close(fig)

@@ -224,8 +224,8 @@ SCREENS = ((1280, 800), (390, 844))
 #: at natural size (an icon, a badge) must be shown at its natural width.
 LEGIBLE_FRACTION = 0.5
 LEGIBLE_FLOOR = 300
-#: the widest screen shown a figure's narrow variant (tools/build_site.py, the site's phone layout)
-PHONE_WIDTH = 600
+#: the widest screen shown a figure's narrow variant (the site's phone layout)
+PHONE_WIDTH = load_builder().PHONE_WIDTH
 
 # the layout of the page as shown (scrolled to the top) on a screen of W x H CSS px: verdict columns out of the screen
 # sideways, figures shown below their legible minimum without a link to full size, the page's own width and the

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
+from mmlib.core._validate import check_scalar
 from mmlib.experiment import results, verdicts
 from mmlib.experiment.verdicts import Row
 
@@ -183,8 +184,8 @@ def save_figure(fig: matplotlib.figure.Figure, out_dir: str | Path, stem: str,
         raise ValueError(f"fig: expected a matplotlib Figure, got {type(fig).__name__}")
     if not isinstance(out_dir, (str, os.PathLike)):
         raise ValueError(f"out_dir: expected a folder path, got {out_dir!r}")
-    if not isinstance(stem, str) or not stem or "/" in stem:
-        raise ValueError(f"stem: expected a file name without folder or extension, got {stem!r}")
+    if not isinstance(stem, str) or not stem or "/" in stem or any(c.isspace() for c in stem):
+        raise ValueError(f"stem: expected a file name without folder, extension or spaces, got {stem!r}")
     if isinstance(formats, (str, bytes)) or not hasattr(formats, "__iter__"):
         raise ValueError(f"formats: expected a sequence of format names such as ('png', 'svg'), got {formats!r}")
     if not isinstance(narrow, bool):
@@ -231,19 +232,27 @@ def narrow_image(fig: matplotlib.figure.Figure, dpi: float = FIGURE_DPI) -> np.n
     (``(height, width, 4)`` uint8, ``dpi`` dots per inch), or None when the panels already are in one column (or the
     figure holds what cannot be moved: subfigures, figure-level artists other than texts and legends).
 
-    A panel is every axes in one cell of the figure's topmost grid (a colorbar or a twin goes with its axes, an axes
-    placed by hand with the panel nearest to it), cut out of the figure drawn at ``dpi`` with everything it draws
-    (labels, titles, legends, secondary axes); the panels are stacked row by row, left to right.  The figure-level
-    texts (a suptitle) and legends are drawn again at the widest panel's width (text wrapped, the legend in as many
-    columns as fit) above or below the panels, where they were.  ``fig`` itself is not changed (a copy is drawn)."""
-    import pickle
+    A panel is every axes in one cell of the figure's topmost grid (a colorbar or a twin goes with its axes; an axes
+    placed by hand, or a colorbar shared by several panels, with the panel nearest to it), cut out of the figure
+    drawn at ``dpi`` with everything it draws (labels, titles, legends, secondary axes, also where they reach out of
+    the figure); the panels are stacked row by row, left to right.  The figure-level texts (a suptitle, a
+    supxlabel) and legends are left out of that drawing and drawn again at the widest panel's width (text wrapped
+    and horizontal, the legend in as many columns as fit) above the panels, or below them when they were in the
+    figure's lower half.  ``fig`` is drawn as it is (its layout engine, if any, runs) and left as it was: the
+    figure-level artists are hidden only while it is drawn.  ValueError naming ``fig`` or ``dpi`` when it is not a
+    matplotlib Figure or not a positive number."""
+    import io
+    import matplotlib.figure
+    import matplotlib.image
     import matplotlib.legend
     import matplotlib.text
     from matplotlib.colors import to_rgba
-    from matplotlib.transforms import Bbox
+    from matplotlib.transforms import Affine2D, Bbox
+    if not isinstance(fig, matplotlib.figure.Figure):
+        raise ValueError(f"fig: expected a matplotlib Figure, got {type(fig).__name__}")
+    dpi = check_scalar(dpi, "dpi", positive=True)
     if fig.subfigs:
         return None
-    fig = pickle.loads(pickle.dumps(fig))          # a copy: the caller's figure, its canvas and dpi stay as they are
     cells: dict[tuple[float, float], list] = {}
     loose = []
     for ax in fig.axes:
@@ -261,22 +270,39 @@ def narrow_image(fig: matplotlib.figure.Figure, dpi: float = FIGURE_DPI) -> np.n
     others = [a for a in fig.get_children() if a is not fig.patch and a not in fig.axes and a.get_visible()]
     if any(not isinstance(a, (matplotlib.text.Text, matplotlib.legend.Legend)) for a in others):
         return None
-    renderer, image = _draw(fig, dpi)
-    frames = {k: Bbox.union([a.get_window_extent(renderer) for a in axs]) for k, axs in cells.items()}
-    for ax in loose:
-        box = ax.get_window_extent(renderer)
-        cells[min(frames, key=lambda k: _distance(frames[k], box))].append(ax)
-    panels = [_cut(image, Bbox.union([a.get_tightbbox(renderer) for a in cells[k]]), 0.06 * dpi)
-              for k in sorted(cells)]
+    others = [a for a in others if not (isinstance(a, matplotlib.text.Text) and not a.get_text().strip())]
+    height_in = fig.get_figheight()
+    lower = {id(a): (lambda b: (b.y0 + b.y1) / 2 < 0.5 * height_in * fig.dpi)(a.get_window_extent()) for a in others}
+    buf = io.BytesIO()
+    try:
+        for a in others:                         # drawn again below, at a panel's width: not in the panels' cuts
+            a.set_visible(False)
+        # everything the figure draws, also out of its frame (as the saved PNG's tight box), at dpi, as PNG: its
+        # exact size in pixels is read back, whatever matplotlib's rounding; the user's savefig settings do not apply
+        area = Bbox.union([fig.bbox_inches, fig.get_tightbbox()])
+        fig.savefig(buf, format="png", dpi=dpi, bbox_inches=area, pad_inches=0, transparent=False,
+                    metadata={"Software": None})
+        # display coordinates (the figure's dpi, from its lower left corner) -> the drawing's pixels
+        to_pixels = Affine2D().scale(1 / fig.dpi).translate(-area.x0, -area.y0).scale(dpi)
+        frames = {k: Bbox.union([a.get_window_extent() for a in axs]).transformed(to_pixels)
+                  for k, axs in cells.items()}
+        for ax in loose:
+            box = ax.get_window_extent().transformed(to_pixels)
+            cells[min(frames, key=lambda k: _distance(frames[k], box))].append(ax)
+        boxes = [Bbox.union([a.get_tightbbox() for a in cells[k]]).transformed(to_pixels) for k in sorted(cells)]
+    finally:
+        for a in others:
+            a.set_visible(True)
+    buf.seek(0)
+    image = np.round(255 * matplotlib.image.imread(buf, format="png")).astype(np.uint8)
+    if image.shape[2] == 3:
+        image = np.concatenate([image, np.full(image.shape[:2] + (1,), 255, np.uint8)], axis=2)
+    panels = [_cut(image, box, 0.06 * dpi) for box in boxes]
+    if any(0 in p.shape[:2] for p in panels):        # a panel outside the drawing: nothing sensible to stack
+        return None
     width_in = max(p.shape[1] for p in panels) / dpi
-    middle = float(np.mean([(b.y0 + b.y1) / 2 for b in frames.values()]))
-    head, foot = [], []
-    for a in sorted(others, key=lambda a: -a.get_window_extent(renderer).y0):
-        if isinstance(a, matplotlib.text.Text) and not a.get_text().strip():
-            continue
-        part = _redraw(a, width_in, dpi, fig.get_facecolor())
-        box = a.get_window_extent(renderer)
-        (head if (box.y0 + box.y1) / 2 > middle else foot).append(part)
+    head = [_redraw(a, width_in, dpi, fig.get_facecolor()) for a in others if not lower[id(a)]]
+    foot = [_redraw(a, width_in, dpi, fig.get_facecolor()) for a in others if lower[id(a)]]
     parts = head + panels + foot
     width = max(p.shape[1] for p in parts)
     out = np.empty((sum(p.shape[0] for p in parts), width, 4), np.uint8)
@@ -290,7 +316,7 @@ def narrow_image(fig: matplotlib.figure.Figure, dpi: float = FIGURE_DPI) -> np.n
 
 
 def _draw(fig, dpi: float):
-    """Draw ``fig`` (taken over: a copy) at ``dpi`` on an Agg canvas: its renderer and its RGBA pixels."""
+    """Draw ``fig`` (one of ours: its canvas is replaced) at ``dpi`` on an Agg canvas: its renderer and pixels."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     canvas = FigureCanvasAgg(fig)
     fig.set_dpi(dpi)
@@ -317,15 +343,17 @@ def _redraw(artist, width_in: float, dpi: float, facecolor) -> np.ndarray:
     import matplotlib.figure
     import matplotlib.text
     pad = 0.04 * dpi                               # pixels kept around it: the whole cut within width_in
-    columns = getattr(artist, "_ncols", 1)
+    columns = getattr(artist, "_ncols", 1)          # matplotlib keeps a legend's column count unexposed
     for ncols in range(max(1, columns), 0, -1):
         f = matplotlib.figure.Figure(figsize=(width_in - 2 * pad / dpi, 8), facecolor=facecolor)
-        if isinstance(artist, matplotlib.text.Text):
+        if isinstance(artist, matplotlib.text.Text):          # horizontal (a supylabel too), wrapped
             drawn = f.text(0.5, 0.5, artist.get_text(), ha="center", va="center", wrap=True,
                            fontproperties=artist.get_fontproperties(), color=artist.get_color())
         else:
             drawn = f.legend(artist.legend_handles, [t.get_text() for t in artist.get_texts()], loc="center",
-                             ncols=ncols, prop=artist.prop, frameon=artist.get_frame_on())
+                             ncols=ncols, prop=artist.prop, frameon=artist.get_frame_on(),
+                             title=artist.get_title().get_text() or None,
+                             title_fontproperties=artist.get_title().get_fontproperties())
         renderer, image = _draw(f, dpi)
         box = drawn.get_window_extent(renderer)
         if box.width + 2 * pad <= width_in * dpi:
