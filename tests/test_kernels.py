@@ -101,6 +101,20 @@ def test_every_kernel_matches_the_numpy_path_on_random_operands():
     c, _ = mixing_weights(mu, T)
     for got, ref in zip(*_both(imm_output, loglik, c, mean, P, nu, S, True)):
         _close(got, ref, RTOL_ONE_CALL, "imm_output")
+    # NIS and NEES: positive definite, indefinite (a broken filter's covariance: its value, in both paths),
+    # singular and not finite (NaN in both), and a vector broadcast against a stack of matrices
+    _close(*_both(linalg.normalised_square, nu, S), RTOL_ONE_CALL, "normalised_square (NIS)")
+    _close(*_both(linalg.normalised_square, mean, P), RTOL_ONE_CALL, "normalised_square (NEES)")
+    odd = P.copy()
+    odd[0, 0] = np.diag([1.0, -2.0, 3.0, 0.5])                 # indefinite
+    odd[0, 1] = np.outer(np.ones(n), np.ones(n))               # singular (rank one): an exactly zero pivot
+    odd[1, 2, 0, 0] = np.nan
+    vec = mean.copy()
+    vec[0, 0] = [0.0, 1.0, 0.0, 0.0]                           # along the negative eigenvalue: v^T S^-1 v = -0.5
+    got, ref = _both(linalg.normalised_square, vec, odd)
+    _close(got, ref, RTOL_ONE_CALL, "normalised_square (odd matrices)")
+    assert got[0, 0] == -0.5 and np.isnan(got[0, 1]) and np.isnan(got[1, 2]) and np.isfinite(got[2:]).all()
+    _close(*_both(linalg.normalised_square, mean[0, 0], P), RTOL_ONE_CALL, "normalised_square (broadcast)")
 
 
 def test_fused_steps_agree_across_kernels():
@@ -203,7 +217,7 @@ def test_every_operation_has_a_numpy_body_and_a_compiled_twin():
     ops = {name: obj for name, obj in vars(linalg).items() if hasattr(obj, "implementations")}
     assert {"cholesky", "matmul_rows", "sigma_points", "weighted_mean", "weighted_covariances", "kalman_moments",
             "combine_covariances", "congruence", "range_bearing", "linear_predict", "sigma_point_predict_linear",
-            "measurement_moments", "imm_mix", "imm_output"} <= set(ops)
+            "measurement_moments", "imm_mix", "imm_output", "normalised_square"} <= set(ops)
     for name, op in ops.items():
         assert set(op.implementations) == set(linalg.KERNELS), name
         assert op.implementations["numba"].__name__ == f"_{name}_compiled", name

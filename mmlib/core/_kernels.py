@@ -182,6 +182,59 @@ def cholesky(a):
 
 
 @njit(**_OPTS)
+def normalised_square(v, S):
+    r""":math:`v^T S^{-1} v` per run, v (N, d), S (N, d, d): NaN where an operand is not finite or S is singular
+    (an exactly zero pivot, as LAPACK's ``gesv``).  LU with partial pivoting, the row exchanges applied to v, then
+    back substitution and the dot product with v.  Run by run, not batch innermost: the pivoting differs between
+    runs, and at d <= 9 one run's elimination is a few hundred operations (the numpy path pays a LAPACK call's
+    overhead per matrix)."""
+    N, d = v.shape
+    out = np.empty(N)
+    A = np.empty((d, d))
+    x = np.empty(d)
+    for b in range(N):
+        ok = True
+        for i in range(d):
+            x[i] = v[b, i]
+            ok = ok and math.isfinite(x[i])
+            for j in range(d):
+                A[i, j] = S[b, i, j]
+                ok = ok and math.isfinite(A[i, j])
+        for k in range(d):
+            if not ok:
+                break
+            p, big = k, abs(A[k, k])
+            for i in range(k + 1, d):
+                if abs(A[i, k]) > big:
+                    p, big = i, abs(A[i, k])
+            if big == 0.0:                 # singular
+                ok = False
+                break
+            if p != k:
+                for j in range(d):
+                    A[k, j], A[p, j] = A[p, j], A[k, j]
+                x[k], x[p] = x[p], x[k]
+            for i in range(k + 1, d):
+                f = A[i, k] / A[k, k]
+                for j in range(k + 1, d):
+                    A[i, j] -= f * A[k, j]
+                x[i] -= f * x[k]
+        if not ok:
+            out[b] = np.nan
+            continue
+        for i in range(d - 1, -1, -1):
+            t = x[i]
+            for j in range(i + 1, d):
+                t -= A[i, j] * x[j]
+            x[i] = t / A[i, i]
+        t = 0.0
+        for i in range(d):
+            t += v[b, i] * x[i]
+        out[b] = t
+    return out
+
+
+@njit(**_OPTS)
 def sigma_points(mean, cov, xi):
     r"""Sigma points :math:`X_{bp} = m_b + L_b \xi_p` with :math:`L_b L_b^T = P_b`: mean (N, n),
     cov (N, n, n), unit points xi (M, n) -> ``(X (N, M, n), failed (N,))``; a failed run's points are NaN."""

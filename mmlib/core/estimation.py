@@ -25,7 +25,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mmlib.core import linalg, protocols
-from mmlib.core.linalg import combine_covariances, imm_output, mixing_weights  # noqa: F401  (public here too)
+from mmlib.core.linalg import (combine_covariances, imm_output, mixing_weights,  # noqa: F401  (public here too)
+                               normalised_square)
 from mmlib.core.filters import LOG_2PI, GaussianState, SigmaPointFilter
 from mmlib.core.gnss import CLOCK_INDEX, POSITION_INDEX, Pseudoranges
 from mmlib.core.models import LinearMeasurement, RangeBearing, StackedDynamics
@@ -34,7 +35,7 @@ from mmlib.core._validate import (check_finite, as_float_array, check_applies, c
                                   check_transition_matrix)
 
 __all__ = ["IMM", "SingleModel", "run", "Track", "Estimate", "IMMState", "MomentMixing", "KnownModeSequence",
-           "SwitchingState", "FilterDivergence", "summarise_divergence", "normalised_square", "select_runs",
+           "SwitchingState", "FilterDivergence", "summarise_divergence", "select_runs",
            "batch_size", "Failure", "FAILURE_CAUSES", "FILTER_METHODS", "DYNAMICS_METHODS", "MEASUREMENT_METHODS",
            "ESTIMATOR_METHODS"]
 
@@ -664,29 +665,6 @@ def _per_step_measurements(measurements, measurement_models):
     if not out:
         raise ValueError("measurements: no steps (K = 0)")
     return out
-
-
-def normalised_square(v: np.ndarray, S: np.ndarray) -> np.ndarray:
-    r""":math:`v^T S^{-1} v` per leading index for vectors ``v`` (..., d) and covariances ``S`` (..., d, d); NaN where
-    either is not finite or S is singular (a diverged run).  Each matrix is solved on its own (LAPACK per matrix),
-    so a run's value does not depend on the rest of its batch."""
-    v = np.asarray(v, dtype=float)
-    S = np.asarray(S, dtype=float)
-    ok = np.isfinite(v).all(axis=-1) & np.isfinite(S).all(axis=(-2, -1))
-    out = np.full(v.shape[:-1], np.nan)
-    if ok.any():
-        vo, So = v[ok], S[ok]
-        try:
-            sol = np.linalg.solve(So, vo[..., None])[..., 0]
-        except np.linalg.LinAlgError:        # a singular matrix: solve them one by one, NaN for the singular ones
-            sol = np.full(vo.shape, np.nan)
-            for i in range(vo.shape[0]):
-                try:
-                    sol[i] = np.linalg.solve(So[i], vo[i])
-                except np.linalg.LinAlgError:
-                    pass
-        out[ok] = (vo * sol).sum(axis=-1)    # the same reduction on either path: a run's bits do not depend on
-    return out                               # whether another run of its batch is singular
 
 
 def run(estimator: protocols.Estimator, state: tuple, measurements: ArrayLike | Sequence[ArrayLike], *,

@@ -43,7 +43,8 @@ from numpy.typing import ArrayLike
 
 __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused", "sigma_points", "offset_points",
            "weighted_mean", "weighted_covariances", "kalman_moments", "measurement_moments", "congruence", "cholesky",
-           "log_det_from_cholesky", "tril_inverse", "symmetrize", "trace", "wrap_angle", "range_bearing", "matmul_rows",
+           "log_det_from_cholesky", "normalised_square", "tril_inverse", "symmetrize", "trace", "wrap_angle",
+           "range_bearing", "matmul_rows",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
            "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES",
@@ -214,6 +215,7 @@ BLOCK = 1024
 #: is a ValueError, never a silent read out of bounds.
 _SHAPES = {
     "cholesky": ("N n n",),
+    "normalised_square": ("N d", "N d d"),
     "matmul_rows": ("N k", "k d"),
     "sigma_points": ("N n", "N n n", "M n"),
     "weighted_mean": ("N M d", "M"),
@@ -404,6 +406,45 @@ def _cholesky_compiled(a):
     flat = _stack(a, 2)
     L, failed = _call("cholesky", flat.shape[0], flat)
     return L.reshape(a.shape), failed.reshape(a.shape[:-2])
+
+
+@_operation
+def normalised_square(v: np.ndarray, S: np.ndarray) -> np.ndarray:
+    r""":math:`v^T S^{-1} v` per leading index (the two leading shapes broadcast) for vectors ``v`` (..., d) and
+    matrices ``S`` (..., d, d): the NIS of an innovation and its covariance, the NEES of an estimation error and
+    the state covariance (dimensionless: the units cancel).  NaN where either is not finite or S is singular (a
+    diverged run).  Any nonsingular S is solved (LU with partial pivoting, as LAPACK's ``gesv``), not only positive
+    definite ones: a broken filter's indefinite covariance gives its (meaningless, possibly negative) value, never
+    a silent NaN.  Each matrix is solved on its own (LAPACK per matrix here, a loop per run in the compiled twin),
+    so a run's value does not depend on the rest of its batch."""
+    v = np.asarray(v, dtype=float)
+    S = np.asarray(S, dtype=float)
+    lead = np.broadcast_shapes(v.shape[:-1], S.shape[:-2])      # the leading axes broadcast against each other
+    v, S = np.broadcast_to(v, lead + v.shape[-1:]), np.broadcast_to(S, lead + S.shape[-2:])
+    ok = np.isfinite(v).all(axis=-1) & np.isfinite(S).all(axis=(-2, -1))
+    out = np.full(lead, np.nan)
+    if ok.any():
+        vo, So = v[ok], S[ok]
+        try:
+            sol = np.linalg.solve(So, vo[..., None])[..., 0]
+        except np.linalg.LinAlgError:        # a singular matrix: solve them one by one, NaN for the singular ones
+            sol = np.full(vo.shape, np.nan)
+            for i in range(vo.shape[0]):
+                try:
+                    sol[i] = np.linalg.solve(So[i], vo[i])
+                except np.linalg.LinAlgError:
+                    pass
+        out[ok] = (vo * sol).sum(axis=-1)    # the same reduction on either path: a run's bits do not depend on
+    return out                               # whether another run of its batch is singular
+
+
+@normalised_square.compiled
+def _normalised_square_compiled(v, S):
+    v = np.asarray(v, dtype=np.float64)
+    lead = np.broadcast_shapes(v.shape[:-1], np.shape(S)[:-2])
+    flat_v = _stack(v, 1, lead)
+    flat_S = _stack(S, 2, lead)
+    return _call("normalised_square", flat_v.shape[0], flat_v, flat_S).reshape(lead)
 
 
 def _nonfinite_diagonal(L):

@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import stats
 
-from mmlib.core.estimation import normalised_square
+from mmlib.core.linalg import normalised_square
 
 from mmlib.core._validate import (as_float_array, check_covariance, check_finite, check_finite_runs, check_index,
                                   check_mask, check_positive_int, check_scalar)
