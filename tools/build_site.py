@@ -25,8 +25,9 @@ pages) and mmlib's docstrings.  The builder assembles the page sources in a work
 * ``_includes/README.md``: the README, whose short library example the getting-started page includes;
 
 then runs Sphinx with MyST-NB (docs/conf.py) with warnings as errors, and finishes the HTML
-(:func:`postprocess_html`: the figures' files copied under ``_static/figures/``, each figure a link to its SVG; every
-table's verdict column marked, kept on screen by docs/_static/site.css).  The site is written to a work folder and
+(:func:`postprocess_html`: the figures' files copied under ``_static/figures/``, each figure a link to its SVG, a
+figure with panels side by side shown on a phone as its narrow variant, the panels stacked; every table's verdict
+column marked, kept on screen by docs/_static/site.css).  The site is written to a work folder and
 moved into place only when the build succeeded, so build/site/ is never half old and half new (see :func:`build`).
 
 Why Sphinx with MyST-NB, not Jupyter Book 2: both are maintained tools of the Jupyter ecosystem, but Jupyter Book 2
