@@ -69,6 +69,7 @@ import math
 import os
 import concurrent.futures as cf
 import enum
+from collections import OrderedDict
 from pathlib import Path
 from typing import Callable, Iterable, Mapping, NamedTuple, Sequence
 
@@ -88,11 +89,12 @@ from mmlib.papers import REGISTRY
 
 __all__ = [
     "run_arena", "ArenaResult", "findings", "compare", "arena_claims", "paper_claims", "paper_claim_list",
-    "idea_summary", "ideas", "all_ideas", "ARENA_IDEAS", "scenario_table", "evaluate_cell", "cell", "cell_metrics",
+    "idea_summary", "ideas", "all_ideas", "ARENA_IDEAS", "scenario_table", "evaluate_cell", "simulated", "cell",
+    "cell_metrics",
     "per_run_values", "rank_scenario", "cost_per_run_step", "scenario", "known_scenarios", "seed_of",
     "measurement_only_errors", "measurement_only_mse", "measurement_only_rmse", "degenerate_reason", "exclusions",
     "digest", "paper_names", "ArenaVerdict", "ARENA_READING", "VERSUS_BEST", "BASELINE_WHAT", "PAPER", "STUDY",
-    "SCENARIOS", "ALGORITHMS", "CHUNK_SIZE", "COST_RUNS", "RESULT_KEYS"
+    "SCENARIOS", "ALGORITHMS", "CHUNK_SIZE", "COST_RUNS", "RESULT_KEYS", "SIMULATION_MEMO", "SIMULATION_MEMO_BYTES"
 ]
 
 
@@ -114,6 +116,13 @@ ALGORITHMS = recipes.ALGORITHMS
 CHUNK_SIZE = 250
 COST_RUNS = 100           #: runs of the batched run that measures a cell's cost (the same batch for every algorithm)
 RESULT_KEYS = ("metrics", "reason", "n_runs", "diverged", "per_run")
+#: the simulated batches a process keeps (:func:`simulated`), the most recently used: a cell asks for its chunks and
+#: its cost batch (n_runs / CHUNK_SIZE + 1 = 5 batches at 1000 runs), and the cells of a scenario run one after the
+#: other (run_arena orders them by scenario), so the next algorithm of the scenario finds them all
+SIMULATION_MEMO = 5
+#: and at most this many bytes of them (a batch larger than that is not kept): Tseng et al. 2011's 250 runs of 1800
+#: epochs are about 58 MB
+SIMULATION_MEMO_BYTES = 512 * 2**20
 
 
 class ArenaVerdict(enum.StrEnum):
@@ -185,6 +194,80 @@ def seed_of(s: Scenario, seed: int | None) -> int:
     return s.root_seed if seed is None else check_positive_int(seed, "seed", minimum=0)
 
 
+#: (id of the scenario, mc, runs) -> (the scenario, its read-only batch, bytes); the scenario is held so that its id
+#: cannot be reused by another while the entry lives
+_SIMULATIONS: OrderedDict = OrderedDict()
+
+
+def _runs_key(runs) -> tuple | None:
+    """The run indices of ``runs`` as a tuple of ints, or None for anything but a range, list, tuple or 1-D integer
+    array of them (left to the simulator to use or refuse)."""
+    if isinstance(runs, range):
+        return tuple(runs)
+    if isinstance(runs, np.ndarray):
+        if runs.ndim != 1 or runs.dtype.kind not in "iu":
+            return None
+        return tuple(int(r) for r in runs)
+    if not isinstance(runs, (list, tuple)) or \
+            not all(isinstance(r, (int, np.integer)) and not isinstance(r, bool) for r in runs):
+        return None
+    return tuple(int(r) for r in runs)
+
+
+def _read_only(value):
+    """``value`` (an array, or a list or tuple of them, as a simulator returns) with its arrays made read-only, and its
+    size in bytes."""
+    if isinstance(value, np.ndarray):
+        value.setflags(write=False)
+        return value, value.nbytes
+    if isinstance(value, (list, tuple)):
+        parts = [_read_only(v) for v in value]
+        return type(value)(p for p, _ in parts), sum(n for _, n in parts)
+    return value, 0
+
+
+def _handed_out(value):
+    """A memoised ``value`` as handed to a caller: a list is a new list (a caller may append to its own), every array
+    the same read-only one."""
+    if isinstance(value, list):
+        return [_handed_out(v) for v in value]
+    if isinstance(value, tuple):
+        return tuple(_handed_out(v) for v in value)
+    return value
+
+
+def simulated(s: Scenario, mc: MonteCarlo) -> Callable:
+    """``s.simulator(mc)``, ``runs -> (truth, measurements, start means)``, remembering the last
+    :data:`SIMULATION_MEMO` batches of this process (at most :data:`SIMULATION_MEMO_BYTES`): every algorithm of a
+    scenario is evaluated on the same runs, which are simulated once per process instead of once per cell.  A batch is
+    keyed by everything that determines it -- the scenario (the object: its simulator), the root seed and run count
+    of ``mc`` and the run indices -- and is the simulator's own output, so a remembered batch is the one a fresh
+    simulation gives, bit for bit; its arrays are read-only (shared by every caller: ValueError on a write)."""
+    recipes._check_scenario(s, "s")
+    if not isinstance(mc, MonteCarlo):
+        raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
+    simulate_runs = s.simulator(mc)
+
+    def memoised(runs):
+        runs_key = _runs_key(runs)
+        if runs_key is None:
+            return simulate_runs(runs)
+        key = (id(s), mc, runs_key)
+        hit = _SIMULATIONS.get(key)
+        if hit is not None and hit[0] is s:
+            _SIMULATIONS.move_to_end(key)
+            return _handed_out(hit[1])
+        batch, size = _read_only(simulate_runs(runs))
+        if size <= SIMULATION_MEMO_BYTES:
+            _SIMULATIONS[key] = (s, batch, size)
+            while len(_SIMULATIONS) > SIMULATION_MEMO or \
+                    sum(entry[2] for entry in _SIMULATIONS.values()) > SIMULATION_MEMO_BYTES:
+                _SIMULATIONS.popitem(last=False)
+        return _handed_out(batch)
+
+    return memoised
+
+
 def evaluate_cell(algorithm: str, s: Scenario, mc: MonteCarlo, consistency: bool = True) -> tuple:
     """``(RunSet, CPU seconds per run-step)`` of ``algorithm`` on ``s`` over the runs of ``mc`` (chunks of
     :data:`CHUNK_SIZE`; with NEES and NIS when ``consistency``); :class:`recipes.NotApplicable` where it cannot
@@ -194,7 +277,7 @@ def evaluate_cell(algorithm: str, s: Scenario, mc: MonteCarlo, consistency: bool
         raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
     check_bool(consistency, "consistency")
     est = recipes.build(algorithm, s)
-    make_batch = evaluation.with_initial_states(s.simulator(mc), {algorithm: est},
+    make_batch = evaluation.with_initial_states(simulated(s, mc), {algorithm: est},
                                                 lambda e, start, runs: recipes.initial_state(e, s, start, runs, mc))
     runs = evaluation.evaluate({algorithm: est}, make_batch, mc, chunk_size=CHUNK_SIZE, progress=False,
                                measurement_models=s.measurement_models, consistency=consistency, workers=1)
@@ -428,7 +511,7 @@ def measurement_only_mse(s: Scenario, n_runs: int, seed: int | None = None) -> n
     n_runs = check_positive_int(n_runs, "n_runs")
     if s.measurement is None:
         return None
-    truth, z, _ = s.simulator(MonteCarlo(seed_of(s, seed), n_runs))(range(n_runs))
+    truth, z, _ = simulated(s, MonteCarlo(seed_of(s, seed), n_runs))(range(n_runs))
     e = measurement_only_errors(s, truth, z)
     return None if e is None else (e ** 2).mean(axis=1)
 

@@ -12,8 +12,6 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from mmlib.core.linalg import cholesky
-
 #: Relative tolerance for symmetry and row-sum checks (floating-point scale:
 #: a few hundred ulps of the largest entry).
 RTOL = 1e-9
@@ -164,7 +162,8 @@ def check_covariance(value, name: str, dim: int | None = None, *, batch: bool = 
     if semidefinite:
         test = flat.copy()
         test.reshape(N, -1)[:, ::n + 1] += (RTOL * scale)[:, None]
-    _, failed = cholesky(test)
+    from mmlib.core.linalg import cholesky   # here, not at the top: the modules that need no covariance check (the
+    _, failed = cholesky(test)               # Monte Carlo streams of a notebook kernel) do not import numba with it
     if not failed.any():
         return arr
     eig_min = np.linalg.eigvalsh(flat)[:, 0]

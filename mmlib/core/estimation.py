@@ -17,6 +17,7 @@ With :math:`\mu_i` the mode probabilities at k-1:
 """
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 from enum import IntEnum
 from typing import Any, NamedTuple, Sequence
@@ -76,13 +77,26 @@ def _check_dynamics(d, name: str = "dynamics"):
     return check_has(d, name, "a dynamics model (protocols.Dynamics)", DYNAMICS_METHODS)
 
 
+#: the measurement models of this library, frozen dataclasses with read-only arrays compared by identity: what a check
+#: of one finds cannot change, so it is checked once per process (:data:`_FITTING`), not at every step that uses it
+_IMMUTABLE_MODELS = (LinearMeasurement, RangeBearing, Pseudoranges)
+#: such a model -> the state dimensions it was found to measure (None: found to be a measurement model); a per-step
+#: model (Tseng et al. 2011: 1800 of them) is checked by every run() and, inside a layer, by the IMM at every step
+_FITTING: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def _check_measurement_model(m, name: str = "measurement", n: int | None = None):
     """A measurement model (or None); with ``n``, one that measures states of dimension ``n``."""
     if m is None:
         return None
+    immutable = type(m) in _IMMUTABLE_MODELS
+    if immutable and n in _FITTING.get(m, ()):
+        return m
     check_has(m, name, "a measurement model (protocols.MeasurementModel)", MEASUREMENT_METHODS)
     if n is not None:
         check_applies(m, name, n)
+    if immutable:
+        _FITTING.setdefault(m, set()).update((None, n))
     return m
 
 

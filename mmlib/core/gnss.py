@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mmlib.core._validate import as_float_array, check_covariance, check_finite, check_scalar
-from mmlib.core.models import LinearGaussianDynamics, _psd_factor
+from mmlib.core.models import LinearGaussianDynamics, _cholesky_of_R, _psd_factor
 
 __all__ = ["Pseudoranges", "nominal_gps24", "CircularOrbitConstellation", "LocalFrame", "elevation", "clock_dynamics",
            "clock_process_noise", "PVClockNoise", "STATE_DIM", "POSITION_INDEX", "VELOCITY_INDEX", "CLOCK_INDEX",
@@ -228,8 +228,9 @@ class Pseudoranges:
 
     @property
     def noise_factor(self) -> np.ndarray:
-        """Lower Cholesky factor L (m, m) of ``R`` (metres), :math:`L L^T = R`, used to draw the noise."""
-        return np.linalg.cholesky(self.R)
+        """Lower Cholesky factor L (m, m) of ``R`` (metres), :math:`L L^T = R`, used to draw the noise (computed once,
+        read-only)."""
+        return _cholesky_of_R(self)
 
     @property
     def angular(self) -> tuple:

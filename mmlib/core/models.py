@@ -58,6 +58,18 @@ def _freeze(obj, **arrays) -> None:
         object.__setattr__(obj, attr, arr)
 
 
+def _cholesky_of_R(obj) -> np.ndarray:
+    """The lower Cholesky factor of the read-only ``obj.R`` of a frozen measurement model, computed on its first use and
+    kept on ``obj`` (read-only, shared by every caller): a pure function of ``R``, asked for at every step of the
+    observation bootstrap and by every protocol check of the model (``hasattr`` evaluates the property)."""
+    L = obj.__dict__.get("_noise_factor")
+    if L is None:
+        L = np.linalg.cholesky(obj.R)
+        L.setflags(write=False)
+        object.__setattr__(obj, "_noise_factor", L)
+    return L
+
+
 def _check_period(T) -> float:
     return check_scalar(T, "T", positive=True)
 
@@ -417,8 +429,8 @@ class LinearMeasurement:
     @property
     def noise_factor(self) -> np.ndarray:
         """Lower Cholesky factor L (m, m) of ``R``, :math:`L L^T = R` (measurement units), used to draw the
-        measurement noise ``v = L e``, ``e ~ N(0, I)``."""
-        return np.linalg.cholesky(self.R)
+        measurement noise ``v = L e``, ``e ~ N(0, I)`` (computed once, read-only)."""
+        return _cholesky_of_R(self)
 
     def h(self, x: np.ndarray) -> np.ndarray:
         """:math:`H x` for states or sigma points ``x`` (..., n), e.g. (N, n) or (N, p, n); returns (..., m)
@@ -528,8 +540,9 @@ class RangeBearing:
 
     @property
     def noise_factor(self) -> np.ndarray:
-        """Lower Cholesky factor L (2, 2) of ``R`` (m, rad), :math:`L L^T = R`, used to draw the noise."""
-        return np.linalg.cholesky(self.R)
+        """Lower Cholesky factor L (2, 2) of ``R`` (m, rad), :math:`L L^T = R`, used to draw the noise (computed
+        once, read-only)."""
+        return _cholesky_of_R(self)
 
     def h(self, x: np.ndarray) -> np.ndarray:
         r"""Range and bearing :math:`[\sqrt{\Delta x^2+\Delta y^2},\ \mathrm{atan2}(\Delta y, \Delta x)]` of

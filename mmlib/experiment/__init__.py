@@ -9,13 +9,49 @@ every notebook shares (``notebook``).
 It depends only on the estimation core (``mmlib.core``); the paper set-ups (``mmlib.papers``) and the arena
 (``mmlib.arena``) depend on it.
 """
-from mmlib.experiment import evaluation, grid, multiverse, readings  # noqa: F401  (modules: attributes, not in __all__)
-from mmlib.experiment.grid import run_grid
-from mmlib.experiment.multiverse import Multiverse, run_multiverse
-from mmlib.experiment.universe import PublishedNumber, UniverseResult
-from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
+from typing import TYPE_CHECKING
 
 __all__ = [
     "run_grid", "run_multiverse", "Multiverse", "ReadingSpace", "Factor", "Option", "Deviation", "UniverseResult",
     "PublishedNumber"
 ]
+
+# Imported on first use (PEP 562), as in ``mmlib/__init__.py``: importing one module of this layer (a notebook
+# kernel's ``mmlib.experiment.montecarlo``) does not import evaluation, metrics and scipy.stats with it.
+
+#: the modules the eager imports bound here (attributes, not in __all__; every module of the layer is reachable as
+#: mmlib.experiment.evaluation ..., imported on first access)
+_MODULES = ("evaluation", "grid", "multiverse", "readings")
+#: the API objects of __all__, by the module that defines them
+_OBJECTS = {
+    "mmlib.experiment.grid": ("run_grid",),
+    "mmlib.experiment.multiverse": ("Multiverse", "run_multiverse"),
+    "mmlib.experiment.universe": ("PublishedNumber", "UniverseResult"),
+    "mmlib.experiment.readings": ("Deviation", "Factor", "Option", "ReadingSpace"),
+}
+_OBJECT_MODULE = {name: module for module, names in _OBJECTS.items() for name in names}
+
+if TYPE_CHECKING:
+    from mmlib.experiment import evaluation, grid, multiverse, readings  # noqa: F401
+    from mmlib.experiment.grid import run_grid
+    from mmlib.experiment.multiverse import Multiverse, run_multiverse
+    from mmlib.experiment.universe import PublishedNumber, UniverseResult
+    from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
+
+
+def __getattr__(name: str) -> object:
+    """A re-exported API object or a module of this layer, imported on first access and then bound here."""
+    import importlib
+    import importlib.util
+    if name in _OBJECT_MODULE:
+        value = getattr(importlib.import_module(_OBJECT_MODULE[name]), name)
+    elif name.isidentifier() and not name.startswith("__") and importlib.util.find_spec(f"{__name__}.{name}"):
+        value = importlib.import_module(f"{__name__}.{name}")     # a module (evaluation, metrics ...)
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_MODULES) | set(_OBJECT_MODULE))
