@@ -19,6 +19,8 @@ The most used names are re-exported here (``mmlib.IMM``, ``mmlib.SigmaPointFilte
 """
 from typing import TYPE_CHECKING
 
+from mmlib.core._lazy import lazy_attributes
+
 __version__ = "0.1.0"
 
 __all__ = [
@@ -76,21 +78,4 @@ if TYPE_CHECKING:
                                   Unscented, rule_by_name)
 
 
-def __getattr__(name: str) -> object:
-    """A re-exported module or API object, imported on first access and then bound in this module; a submodule."""
-    import importlib
-    import importlib.util
-    if name in _MODULES:
-        value = importlib.import_module(_MODULES[name])
-    elif name in _OBJECT_MODULE:
-        value = getattr(importlib.import_module(_OBJECT_MODULE[name]), name)
-    elif name.isidentifier() and not name.startswith("__") and importlib.util.find_spec(f"{__name__}.{name}"):
-        return importlib.import_module(f"{__name__}.{name}")    # a subpackage (mmlib.core ...): bound by the import
-    else:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_MODULES) | set(_OBJECT_MODULE))
+__getattr__, __dir__ = lazy_attributes(__name__, globals(), _MODULES, _OBJECTS)

@@ -6,14 +6,9 @@ and the batched driver (``estimation``, with pluggable ``mixing``), dynamics and
 
 Nothing here imports the experiment layer (``mmlib.experiment``) or the paper set-ups (``mmlib.papers``).
 """
+from mmlib.core._lazy import lazy_attributes
+
 __all__: list[str] = []      # a package: its modules are the API
 
 
-def __getattr__(name: str) -> object:
-    """A submodule, imported on first access: ``import mmlib.core; mmlib.core.models`` works as it did when
-    ``mmlib/__init__.py`` imported the library eagerly (issue 25), whatever was imported before."""
-    import importlib
-    import importlib.util
-    if name.isidentifier() and not name.startswith("__") and importlib.util.find_spec(f"{__name__}.{name}"):
-        return importlib.import_module(f"{__name__}.{name}")
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__, __dir__ = lazy_attributes(__name__, globals())     # its submodules, on access

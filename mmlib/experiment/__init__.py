@@ -11,6 +11,8 @@ It depends only on the estimation core (``mmlib.core``); the paper set-ups (``mm
 """
 from typing import TYPE_CHECKING
 
+from mmlib.core._lazy import lazy_attributes
+
 __all__ = [
     "run_grid", "run_multiverse", "Multiverse", "ReadingSpace", "Factor", "Option", "Deviation", "UniverseResult",
     "PublishedNumber"
@@ -39,19 +41,4 @@ if TYPE_CHECKING:
     from mmlib.experiment.readings import Deviation, Factor, Option, ReadingSpace
 
 
-def __getattr__(name: str) -> object:
-    """A re-exported API object or a module of this layer, imported on first access and then bound here."""
-    import importlib
-    import importlib.util
-    if name in _OBJECT_MODULE:
-        value = getattr(importlib.import_module(_OBJECT_MODULE[name]), name)
-    elif name.isidentifier() and not name.startswith("__") and importlib.util.find_spec(f"{__name__}.{name}"):
-        value = importlib.import_module(f"{__name__}.{name}")     # a module (evaluation, metrics ...)
-    else:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_MODULES) | set(_OBJECT_MODULE))
+__getattr__, __dir__ = lazy_attributes(__name__, globals(), _MODULES, _OBJECTS)
