@@ -142,6 +142,39 @@ def test_figure_level_texts_are_drawn_once_outside_the_panels():
     plt.close(fig)
 
 
+def test_a_neighbours_label_reaching_into_a_panel_stays_with_its_own_panel():
+    """As the arena's ladder: the left panel's long x label (in a colour of its own) reaches under the right panel;
+    it is in the first panel's cut only."""
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.5))
+    for i, ax in enumerate(axes):
+        ax.axvspan(0.2, 0.8, color=np.array(COLOURS[i]) / 255)
+        ax.set(xlim=(0, 1))
+    axes[0].set_xlabel("a long label " * 6, fontsize=16, fontweight="bold", color=np.array(CYAN) / 255)
+    fig.subplots_adjust(wspace=0.3)
+    image = narrow_image(fig)
+    assert _rows_of(image, CYAN).size
+    assert _rows_of(image, CYAN).max() < _rows_of(image, COLOURS[1]).min()     # none in the second panel's cut
+    plt.close(fig)
+
+
+def test_a_figure_legend_keeps_its_markers():
+    """A figure legend of errorbars redrawn with the axes' own artists: their markers (a colour of their own) are
+    in the legend under the panels, not only lines."""
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.5))
+    for ax in axes:
+        ax.errorbar([0.1, 0.5], [0.1, 0.5], yerr=0.05, marker="s", ms=14, mfc=np.array(ORANGE) / 255,
+                    mec=np.array(ORANGE) / 255, color="k", label="algorithm")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=1)
+    fig.tight_layout(rect=(0, 0.15, 1, 1))
+    image = narrow_image(fig)
+    fig.legends[0].set_visible(False)
+    bare = narrow_image(fig)                                  # the same panels, no foot
+    assert np.array_equal(image[:bare.shape[0]], bare)
+    assert _rows_of(image[bare.shape[0]:], ORANGE).size, "no marker in the legend"
+    plt.close(fig)
+
+
 def test_a_legend_title_is_kept():
     fig = _panels(1, 2, legend_entries=2)
     fig.legends[0].set_title("TITLE")

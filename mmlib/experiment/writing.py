@@ -233,17 +233,17 @@ def narrow_image(fig: matplotlib.figure.Figure, dpi: float = FIGURE_DPI) -> np.n
     figure holds what cannot be moved: subfigures, figure-level artists other than texts and legends).
 
     A panel is every axes in one cell of the figure's topmost grid (a colorbar or a twin goes with its axes; an axes
-    placed by hand, or a colorbar shared by several panels, with the panel nearest to it), cut out of the figure
-    drawn at ``dpi`` with everything it draws (labels, titles, legends, secondary axes, also where they reach out of
-    the figure); the panels are stacked row by row, left to right.  The figure-level texts (a suptitle, a
+    placed by hand, or a colorbar shared by several panels, with the panel nearest to it), drawn alone at ``dpi``
+    (the other panels hidden, the layout held: a neighbour's label reaching into its box is not cut with it) with
+    everything it draws (labels, titles, legends, secondary axes, also where they reach out of the figure) and cut
+    out; the panels are stacked row by row, left to right.  The figure-level texts (a suptitle, a
     supxlabel) and legends are left out of that drawing and drawn again at the widest panel's width (text wrapped
-    and horizontal, the legend in as many columns as fit) above the panels, or below them when they were in the
+    and horizontal, the legend in as many columns as fit, its entries drawn with the axes' artists of their labels)
+    above the panels, or below them when they were in the
     figure's lower half.  ``fig`` is drawn as it is (its layout engine, if any, runs) and left as it was: the
     figure-level artists are hidden only while it is drawn.  ValueError naming ``fig`` or ``dpi`` when it is not a
     matplotlib Figure or not a positive number."""
-    import io
     import matplotlib.figure
-    import matplotlib.image
     import matplotlib.legend
     import matplotlib.text
     from matplotlib.colors import to_rgba
@@ -273,15 +273,14 @@ def narrow_image(fig: matplotlib.figure.Figure, dpi: float = FIGURE_DPI) -> np.n
     others = [a for a in others if not (isinstance(a, matplotlib.text.Text) and not a.get_text().strip())]
     height_in = fig.get_figheight()
     lower = {id(a): (lambda b: (b.y0 + b.y1) / 2 < 0.5 * height_in * fig.dpi)(a.get_window_extent()) for a in others}
-    buf = io.BytesIO()
+    engine = fig.get_layout_engine()
+    hidden = []
     try:
         for a in others:                         # drawn again below, at a panel's width: not in the panels' cuts
             a.set_visible(False)
-        # everything the figure draws, also out of its frame (as the saved PNG's tight box), at dpi, as PNG: its
-        # exact size in pixels is read back, whatever matplotlib's rounding; the user's savefig settings do not apply
+        fig.draw_without_rendering()             # the layout engine, if any, places the axes without them
+        # everything the figure draws, also out of its frame (as the saved PNG's tight box), at dpi
         area = Bbox.union([fig.bbox_inches, fig.get_tightbbox()])
-        fig.savefig(buf, format="png", dpi=dpi, bbox_inches=area, pad_inches=0, transparent=False,
-                    metadata={"Software": None})
         # display coordinates (the figure's dpi, from its lower left corner) -> the drawing's pixels
         to_pixels = Affine2D().scale(1 / fig.dpi).translate(-area.x0, -area.y0).scale(dpi)
         frames = {k: Bbox.union([a.get_window_extent() for a in axs]).transformed(to_pixels)
@@ -289,20 +288,34 @@ def narrow_image(fig: matplotlib.figure.Figure, dpi: float = FIGURE_DPI) -> np.n
         for ax in loose:
             box = ax.get_window_extent().transformed(to_pixels)
             cells[min(frames, key=lambda k: _distance(frames[k], box))].append(ax)
-        boxes = [Bbox.union([a.get_tightbbox() for a in cells[k]]).transformed(to_pixels) for k in sorted(cells)]
+        if engine is not None:                   # the axes stay where they are while the others are hidden
+            fig.set_layout_engine("none")
+        panels = []
+        for k in sorted(cells):
+            # each panel drawn alone (the others hidden): a neighbour's label reaching into its box is not in its cut
+            box = Bbox.union([a.get_tightbbox() for a in cells[k]]).transformed(to_pixels)
+            hidden = [a for j in cells if j != k for a in cells[j]]
+            for a in hidden:
+                a.set_visible(False)
+            panels.append(_cut(_png_pixels(fig, dpi, area), box, 0.06 * dpi))
+            for a in hidden:
+                a.set_visible(True)
+            hidden = []
     finally:
-        for a in others:
+        for a in (*others, *hidden):
             a.set_visible(True)
-    buf.seek(0)
-    image = np.round(255 * matplotlib.image.imread(buf, format="png")).astype(np.uint8)
-    if image.shape[2] == 3:
-        image = np.concatenate([image, np.full(image.shape[:2] + (1,), 255, np.uint8)], axis=2)
-    panels = [_cut(image, box, 0.06 * dpi) for box in boxes]
+        if engine is not None:
+            fig.set_layout_engine(engine)
     if any(0 in p.shape[:2] for p in panels):        # a panel outside the drawing: nothing sensible to stack
         return None
+    # a legend's entries drawn with the axes' own artists (an errorbar's markers and line style), by label
+    known: dict[str, Any] = {}
+    for ax in fig.axes:
+        for handle, label in zip(*ax.get_legend_handles_labels()):
+            known.setdefault(label, handle)
     width_in = max(p.shape[1] for p in panels) / dpi
-    head = [_redraw(a, width_in, dpi, fig.get_facecolor()) for a in others if not lower[id(a)]]
-    foot = [_redraw(a, width_in, dpi, fig.get_facecolor()) for a in others if lower[id(a)]]
+    head = [_redraw(a, width_in, dpi, fig.get_facecolor(), known) for a in others if not lower[id(a)]]
+    foot = [_redraw(a, width_in, dpi, fig.get_facecolor(), known) for a in others if lower[id(a)]]
     parts = head + panels + foot
     width = max(p.shape[1] for p in parts)
     out = np.empty((sum(p.shape[0] for p in parts), width, 4), np.uint8)
@@ -338,8 +351,24 @@ def _cut(image: np.ndarray, box, pad: float) -> np.ndarray:
     return image[height - y1:height - y0, x0:x1]
 
 
-def _redraw(artist, width_in: float, dpi: float, facecolor) -> np.ndarray:
-    """A figure-level text (wrapped) or legend (in as many columns as fit) drawn alone ``width_in`` inches wide."""
+def _png_pixels(fig, dpi: float, area) -> np.ndarray:
+    """``fig`` drawn at ``dpi`` over ``area`` (a Bbox in inches) as PNG and read back: its RGBA pixels (uint8), of
+    the exact size matplotlib draws (whatever its rounding); the user's savefig settings do not apply."""
+    import io
+    import matplotlib.image
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches=area, pad_inches=0, transparent=False,
+                metadata={"Software": None})
+    buf.seek(0)
+    image = np.round(255 * matplotlib.image.imread(buf, format="png")).astype(np.uint8)
+    if image.shape[2] == 3:
+        image = np.concatenate([image, np.full(image.shape[:2] + (1,), 255, np.uint8)], axis=2)
+    return image
+
+
+def _redraw(artist, width_in: float, dpi: float, facecolor, known: Mapping[str, Any]) -> np.ndarray:
+    """A figure-level text (wrapped) or legend (in as many columns as fit; an entry drawn with ``known[label]``, the
+    axes' own artist of that label, where there is one) drawn alone ``width_in`` inches wide."""
     import matplotlib.figure
     import matplotlib.text
     pad = 0.04 * dpi                               # pixels kept around it: the whole cut within width_in
@@ -350,7 +379,9 @@ def _redraw(artist, width_in: float, dpi: float, facecolor) -> np.ndarray:
             drawn = f.text(0.5, 0.5, artist.get_text(), ha="center", va="center", wrap=True,
                            fontproperties=artist.get_fontproperties(), color=artist.get_color())
         else:
-            drawn = f.legend(artist.legend_handles, [t.get_text() for t in artist.get_texts()], loc="center",
+            labels = [t.get_text() for t in artist.get_texts()]
+            handles = [known.get(label, proxy) for label, proxy in zip(labels, artist.legend_handles)]
+            drawn = f.legend(handles, labels, loc="center",
                              ncols=ncols, prop=artist.prop, frameon=artist.get_frame_on(),
                              title=artist.get_title().get_text() or None,
                              title_fontproperties=artist.get_title().get_fontproperties())
