@@ -137,6 +137,63 @@ def test_pv_clock_noise_levels_are_bit_identical_to_single_models():
         noise.Q(np.array([-1.0]))
 
 
+def test_pv_clock_noise_is_psd_by_construction_as_marked():
+    """The mark that lets a noise-adaptive IMM skip its per-step check must be true: every Q the family returns for
+    levels it accepts passes the full check (zero, tiny, huge and random levels, per run and mode)."""
+    from mmlib.core._validate import check_covariance
+    from mmlib.core.models import is_psd_by_construction
+    noise = gnss.PVClockNoise(1.0, gnss.clock_process_noise(1.0, 2e-19, 2e-20))
+    assert is_psd_by_construction(noise.Q)
+    rng = np.random.default_rng(3)
+    levels = np.concatenate([[0.0, 5e-324, 1e-300, 1e-12, 1.0, 1e12, 1e300], 10.0 ** rng.uniform(-20, 20, 993)])
+    check_covariance(noise.Q(levels.reshape(500, 2)), "Q", 8, stack=True, semidefinite=True)
+    assert not is_psd_by_construction(lambda levels: noise.Q(levels))      # an unmarked callable is checked
+
+
+def test_noise_adaptive_imm_checks_an_unmarked_noise_every_step_and_skips_a_marked_one(monkeypatch):
+    ex = experiment(SHORT, names=("FUZZY-IMMUKF",))
+    base = ex.estimators["FUZZY-IMMUKF"]
+    mc = MonteCarlo(ROOT_SEED, 2)
+    truth, z, init = make_batch_fn(ex, mc)(range(2))
+    from mmlib.core import models
+    calls = []
+    real = models.check_covariance
+    monkeypatch.setattr(models, "check_covariance", lambda *a, **k: calls.append(k) or real(*a, **k))
+    traces = {}
+    for label, noise in (("marked", base.noise), ("unmarked", lambda levels: base.noise(levels))):
+        layer = NoiseAdaptiveIMM(base.imm, noise, base.controller, tuple(base.initial_levels))
+        calls.clear()
+        st = layer.init(truth[:, 0], np.diag(np.square(SHORT.p0_sd)), SHORT.mu0)
+        traces[label] = run(layer, st, z[:5], measurement_models=ex.measurement_models[:5])
+        assert len(calls) == (0 if label == "marked" else 5), label
+    assert np.array_equal(traces["marked"].mean, traces["unmarked"].mean)   # the same bits either way
+    # an unmarked family returning an indefinite Q is refused at the step, naming Q
+    bad = NoiseAdaptiveIMM(base.imm, lambda levels: -base.noise(levels), base.controller, tuple(base.initial_levels))
+    with pytest.raises(ValueError, match="^Q: "):
+        run(bad, bad.init(truth[:, 0], np.diag(np.square(SHORT.p0_sd)), SHORT.mu0), z[:2],
+            measurement_models=ex.measurement_models[:2])
+    with pytest.raises(ValueError, match="^Q: "):                    # the unchecked path still checks the shape
+        base.imm.stacked.with_noise(np.zeros((2, 3, 8, 8)), check=False)
+    with pytest.raises(ValueError, match="^check: "):
+        base.imm.stacked.with_noise(base.noise(np.ones(2)), check="no")
+
+
+def test_pseudoranges_are_the_bits_of_the_vector_formula():
+    """h and the Jacobian, computed component by component, equal bit for bit the formula on (..., m, 3) lines of
+    sight (the sum of the three squares along the last axis)."""
+    rng = np.random.default_rng(5)
+    sats = rng.standard_normal((7, 3)) * 2e7
+    pr = gnss.Pseudoranges(sats, 25.0 * np.eye(7))
+    x = rng.standard_normal((40, 3, 17, 8)) * 1e3
+    d = sats - x[..., None, [0, 2, 4]]
+    r = np.sqrt((d * d).sum(axis=-1))
+    assert np.array_equal(pr.h(x), r + x[..., 6, None])
+    jac = np.zeros(x.shape[:-1] + (7, 8))
+    jac[..., [0, 2, 4]] = -d / r[..., None]
+    jac[..., 6] = 1.0
+    assert np.array_equal(pr.jacobian(x), jac)
+
+
 def test_pseudoranges_validate():
     with pytest.raises(ValueError, match="satellites"):
         gnss.Pseudoranges(np.zeros((2, 2)), np.eye(2))
@@ -158,6 +215,28 @@ def test_trapezoid_and_partition_of_unity():
         Trapezoid("bad", 2.0, 1.0, 3.0, 4.0)
     with pytest.raises(ValueError, match="breakpoints"):
         ramp_sets(("N", "M"), (2.0, 1.0))
+
+
+def test_trapezoids_evaluated_at_once_are_the_bits_of_each_set():
+    """TakagiSugeno evaluates an input's trapezoids in one call: the same bits as each set's own call, at the
+    breakpoints, between them, far out, at -0.0, for shoulders, triangles, a step (a = b) and a plateau."""
+    from mmlib.core.fuzzy import _trapezoid_memberships
+    sets = ramp_sets(("N", "M", "L"), (0.5, 1.0, 3.0)) + (Trapezoid("step", 1.0, 1.0, 2.0, 2.0),
+                                                          Trapezoid("tri", 0.2, 0.7, 0.7, 1.5))
+    x = np.concatenate([np.random.default_rng(2).standard_normal(2000) * 3,
+                        [0.5, 1.0, 3.0, 2.0, 0.2, 0.7, 1.5, -1e300, 1e300, 0.0, -0.0]])
+    bounds = np.array([[t.a, t.b, t.c, t.d] for t in sets]).T
+    got, ref = _trapezoid_memberships(bounds, x), np.stack([t(x) for t in sets], axis=-1)
+    assert got.tobytes() == ref.tobytes()
+    # and the system uses it, with the same output as through the sets one by one
+    ts = two_input_system()
+    assert all(b is not None for b in ts._bounds)
+    xy = np.random.default_rng(4).uniform(-1, 6, (300, 2))
+    w = np.ones((300, 1, 1))
+    for i, sets_i in enumerate(ts.inputs):
+        mu = np.stack([t(xy[:, i]) for t in sets_i], axis=-1)
+        w = w * mu.reshape((300, 3, 1) if i == 0 else (300, 1, 3))
+    assert ts.firing_strengths(xy).tobytes() == w.tobytes()
 
 
 def two_input_system(cons=None):

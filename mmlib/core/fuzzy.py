@@ -71,6 +71,18 @@ class Trapezoid:
         return np.clip(np.minimum(up, down), 0.0, 1.0)
 
 
+def _trapezoid_memberships(bounds: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The memberships (B, k) of ``x`` (B,) in k trapezoids at once, ``bounds`` (4, k) their ``a, b, c, d``: the
+    arithmetic of :meth:`Trapezoid.__call__` per element (each entry one IEEE operation on the same operands, so the
+    same bits), without k calls."""
+    a, b, c, d = bounds
+    X = x[:, None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        up = np.where(a == -math.inf, 1.0, np.where(b == a, (X >= b).astype(float), (X - a) / (b - a)))
+        down = np.where(d == math.inf, 1.0, np.where(d == c, (X <= c).astype(float), (d - X) / (d - c)))
+    return np.clip(np.minimum(up, down), 0.0, 1.0)
+
+
 def ramp_sets(names: Iterable[str], breakpoints: np.ndarray) -> tuple:
     """Sets forming a partition of unity on the real line -- a left shoulder, triangles, a right
     shoulder -- with ``breakpoints[i]`` the point where set i reaches 1 (the end of the left
@@ -145,6 +157,10 @@ class TakagiSugeno:
         cons.setflags(write=False)
         object.__setattr__(self, "inputs", sets)
         object.__setattr__(self, "consequents", cons)
+        # an input whose sets are all trapezoids is evaluated in one call (_trapezoid_memberships), same bits
+        object.__setattr__(self, "_bounds", tuple(
+            np.array([[t.a, t.b, t.c, t.d] for t in s]).T if all(type(t) is Trapezoid for t in s) else None
+            for s in sets))
 
     @property
     def n_inputs(self) -> int:
@@ -160,7 +176,9 @@ class TakagiSugeno:
             raise ValueError(f"x: expected shape (B, {self.n_inputs}), got {x.shape}")
         w = np.ones((x.shape[0],) + (1,) * self.n_inputs)
         for i, sets in enumerate(self.inputs):
-            mu = np.stack([s(x[:, i]) for s in sets], axis=-1)        # (B, n_i)
+            bounds = self._bounds[i]
+            mu = (np.stack([s(x[:, i]) for s in sets], axis=-1) if bounds is None
+                  else _trapezoid_memberships(bounds, x[:, i]))        # (B, n_i)
             shape = [x.shape[0]] + [1] * self.n_inputs
             shape[1 + i] = len(sets)
             w = w * mu.reshape(shape)

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mmlib.core._validate import as_float_array, check_covariance, check_finite, check_scalar
-from mmlib.core.models import LinearGaussianDynamics, _cholesky_of_R, _psd_factor
+from mmlib.core.models import LinearGaussianDynamics, _cholesky_of_R, _psd_factor, psd_by_construction
 
 __all__ = ["Pseudoranges", "nominal_gps24", "CircularOrbitConstellation", "LocalFrame", "elevation", "clock_dynamics",
            "clock_process_noise", "PVClockNoise", "STATE_DIM", "POSITION_INDEX", "VELOCITY_INDEX", "CLOCK_INDEX",
@@ -219,6 +219,10 @@ class Pseudoranges:
         sats.setflags(write=False)
         R.setflags(write=False)
         object.__setattr__(self, "satellites", sats)
+        # the satellites' E, N and U coordinates as three contiguous rows (_line_of_sight)
+        enu = np.ascontiguousarray(sats.T)
+        enu.setflags(write=False)
+        object.__setattr__(self, "_satellites_enu", enu)
         object.__setattr__(self, "R", R)
 
     @property
@@ -238,9 +242,12 @@ class Pseudoranges:
         return (False,) * self.dim
 
     def _line_of_sight(self, x):
-        p = x[..., list(POSITION_INDEX)]                               # (..., 3)
-        d = self.satellites - p[..., None, :]                          # (..., m, 3)
-        return d, np.sqrt((d * d).sum(axis=-1))
+        r"""``(d, r)``: the lines of sight :math:`s_i - p` as their three ENU components, each (..., m), and their
+        lengths :math:`\sqrt{d_E^2 + d_N^2 + d_U^2}` (..., m), in m.  Component by component (contiguous arrays,
+        no (..., m, 3) copy): the bits of summing the squares along a last axis of three, in the same order."""
+        d = tuple(self._satellites_enu[k] - x[..., i, None] for k, i in enumerate(POSITION_INDEX))
+        sq = [dk * dk for dk in d]
+        return d, np.sqrt(sq[0] + sq[1] + sq[2])
 
     def h(self, x: np.ndarray) -> np.ndarray:
         r"""Pseudoranges :math:`\lVert s_i - p\rVert + b` (..., m) in m for states or sigma points ``x`` (..., 8)
@@ -254,7 +261,8 @@ class Pseudoranges:
         the velocities and the clock drift (dimensionless)."""
         d, r = self._line_of_sight(x)
         jac = np.zeros(x.shape[:-1] + (self.dim, x.shape[-1]))
-        jac[..., list(POSITION_INDEX)] = -d / r[..., None]
+        for dk, i in zip(d, POSITION_INDEX):
+            jac[..., i] = -dk / r
         jac[..., CLOCK_INDEX[0]] = 1.0
         return jac
 
@@ -329,10 +337,18 @@ class PVClockNoise:
         object.__setattr__(self, "unit", unit)
         object.__setattr__(self, "base", base)
 
+    @psd_by_construction
     def Q(self, levels: np.ndarray | float) -> np.ndarray:
-        """:math:`Q(S_p)` (..., 8, 8) for acceleration spectral densities ``levels`` (any shape (...), e.g. (r,)
+        r""":math:`Q(S_p)` (..., 8, 8) for acceleration spectral densities ``levels`` (any shape (...), e.g. (r,)
         for an IMM's modes or (B, r) per run; m^2/s^3, finite, >= 0, else a ValueError naming ``levels``);
-        units m^2, m^2/s, m^2/s^2 by entry."""
+        units m^2, m^2/s, m^2/s^2 by entry.
+
+        Finite, symmetric and positive semi-definite by construction (:func:`mmlib.core.models.psd_by_construction`):
+        Q is block diagonal, :math:`S_p Q_1` three times and the clock's block, so its eigenvalues are the blocks'.
+        Every entry of :math:`S_p Q_1` is one rounded product of the level and a symmetric :math:`Q_1`, so the block is
+        exactly symmetric, and :math:`\det Q_1 = T^4/12`, a quarter of the product of its diagonal, so the rounding of
+        the products (relative 1e-16) cannot make it indefinite; the clock's block was checked (symmetric, PSD) on
+        construction and is added to zeros."""
         levels = as_float_array(levels, "levels")
         if np.any(~np.isfinite(levels)) or np.any(levels < 0):
             raise ValueError("levels: acceleration spectral densities must be finite and >= 0")

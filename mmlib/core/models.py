@@ -19,8 +19,8 @@ from typing import Callable, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mmlib.core._validate import (RTOL, as_float_array, check_covariance, check_finite, check_has, check_index,
-                                  check_matrix, check_positive_int, check_scalar)
+from mmlib.core._validate import (RTOL, as_float_array, check_bool, check_covariance, check_finite, check_has,
+                                  check_index, check_matrix, check_positive_int, check_scalar)
 from mmlib.core import linalg
 from mmlib.core.linalg import linear_transition, matmul_rows, wrap_angle
 from mmlib.core.protocols import Dynamics, MeasurementModel
@@ -28,10 +28,27 @@ from mmlib.core.protocols import Dynamics, MeasurementModel
 __all__ = ["constant_velocity", "constant_acceleration", "coordinated_turn", "CoordinatedTurnRate", "range_bearing",
            "position_measurement", "RangeBearing", "LinearMeasurement", "LinearGaussianDynamics", "from_noise_gain",
            "acceleration_noise_gain", "coordinated_turn_matrix", "StackedDynamics", "position_indices", "SensorFault",
-           "radar_drift", "TWO_PI"]
+           "radar_drift", "TWO_PI", "psd_by_construction", "is_psd_by_construction"]
 
 
 TWO_PI = 2.0 * math.pi
+
+
+def psd_by_construction(fn: Callable) -> Callable:
+    """Mark ``fn``, a process-noise family's ``levels -> Q`` (..., n, n), as returning for every level it accepts (it
+    raises a ValueError for the others) a finite, symmetric, positive semi-definite Q by construction, proved in its
+    docstring (e.g. :meth:`mmlib.core.gnss.PVClockNoise.Q`).  A :class:`mmlib.core.layers.adaptive_imm.NoiseAdaptiveIMM`
+    over a marked family builds each step's dynamics without re-checking Q (:meth:`StackedDynamics.with_noise` with
+    ``check=False``); an unmarked callable is checked at every step.  Returns ``fn`` itself, marked."""
+    if not callable(fn):
+        raise ValueError(f"fn: expected a function levels -> Q, got {type(fn).__name__}")
+    fn.psd_by_construction = True
+    return fn
+
+
+def is_psd_by_construction(noise: Callable) -> bool:
+    """Whether ``noise`` (a function, or a bound method) is marked by :func:`psd_by_construction`."""
+    return getattr(noise, "psd_by_construction", False) is True
 
 
 def _psd_factor(q: np.ndarray) -> np.ndarray:
@@ -668,10 +685,21 @@ class StackedDynamics:
             return np.broadcast_to(self.F, mean.shape[:-1] + self.F.shape[-2:])
         return np.stack([m.jacobian(mean[..., j, :]) for j, m in enumerate(self.models)], axis=-3)
 
-    def with_noise(self, Q: np.ndarray) -> "StackedDynamics":
+    def with_noise(self, Q: np.ndarray, *, check: bool = True) -> "StackedDynamics":
         """The same modes with process noise ``Q`` ((r, n, n) or (..., r, n, n), e.g. per run and
-        per step); a NaN, asymmetric or indefinite ``Q`` is a ValueError naming ``Q``."""
-        return StackedDynamics(self.models, Q, self.F)
+        per step); a NaN, asymmetric or indefinite ``Q`` is a ValueError naming ``Q``.  ``check=False``: ``Q``
+        comes from a family marked :func:`psd_by_construction` and only its shape is checked (the per-step path of
+        a noise-adaptive IMM: the full check costs a Cholesky of every matrix, every step)."""
+        if check_bool(check, "check"):
+            return StackedDynamics(self.models, Q, self.F)
+        Q, r, n = np.asarray(Q), len(self.models), self.dim
+        if Q.dtype != float or Q.ndim < 2 or Q.shape[-2:] != (n, n) or (Q.ndim >= 3 and Q.shape[-3] not in (1, r)):
+            raise ValueError(f"Q: expected a float array of shape (..., {r}, {n}, {n}) from a noise family marked "
+                             f"psd_by_construction, got {Q.dtype} {Q.shape}")
+        new = object.__new__(StackedDynamics)
+        for name, value in (("models", self.models), ("Q", Q), ("F", self.F)):
+            object.__setattr__(new, name, value)
+        return new
 
 
 def range_bearing(R: np.ndarray, state_dim: int = 4,

@@ -31,6 +31,7 @@ import numpy as np
 
 from mmlib.core._validate import as_float_array, check_bool, check_has, check_name, check_positive_int
 from mmlib.core.estimation import IMM, IMMState
+from mmlib.core.models import is_psd_by_construction
 from mmlib.core.protocols import MeasurementModel
 
 __all__ = ["NoiseAdaptiveIMM", "WindowedNoiseAdaptiveIMM", "NoiseAdaptiveState", "WindowedNoiseAdaptiveState",
@@ -90,6 +91,8 @@ class NoiseAdaptiveIMM:
             raise ValueError(f"initial_levels: expected {self.imm.n_modes} finite levels >= 0, "
                              f"got {self.initial_levels!r}")
         object.__setattr__(self, "initial_levels", lv)
+        # a family marked psd_by_construction (e.g. PVClockNoise.Q) is not re-checked every step
+        object.__setattr__(self, "_check_noise", not is_psd_by_construction(self.noise))
         if not self.frozen and not callable(self.controller):
             raise ValueError(f"controller: expected a callable (estimate, measurement) -> levels, "
                              f"got {type(self.controller).__name__}")
@@ -122,7 +125,7 @@ class NoiseAdaptiveIMM:
         # a diverged run has NaN levels (kept, and recorded in the diagnostics); its state is NaN already, so
         # any finite placeholder lets the other runs of the batch go on while run() reports this one
         levels_now = np.where(np.isfinite(state.levels), state.levels, self.initial_levels)
-        dynamics = self.imm.stacked.with_noise(self.noise(levels_now))
+        dynamics = self.imm.stacked.with_noise(self.noise(levels_now), check=self._check_noise)
         imm_state, est = self.imm.step(state.imm, z, with_cov=with_cov, measurement=measurement, dynamics=dynamics)
         if self.frozen:
             levels = state.levels
@@ -196,7 +199,7 @@ class WindowedNoiseAdaptiveIMM(NoiseAdaptiveIMM):
                              f"got {type(state).__name__}")
         measurement = self.imm.measurement if measurement is None else measurement
         levels_now = np.where(np.isfinite(state.levels), state.levels, self.initial_levels)
-        dynamics = self.imm.stacked.with_noise(self.noise(levels_now))
+        dynamics = self.imm.stacked.with_noise(self.noise(levels_now), check=self._check_noise)
         imm_state, est = self.imm.step(state.imm, z, with_cov=with_cov, measurement=measurement, dynamics=dynamics)
         if self.frozen:
             return (WindowedNoiseAdaptiveState(imm_state, state.levels, state.dod, state.filled),
