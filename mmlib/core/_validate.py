@@ -8,6 +8,7 @@ positive definite is rejected, never projected.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 
 import numpy as np
@@ -218,6 +219,14 @@ def check_finite_runs(arr: np.ndarray, name: str, valid: np.ndarray) -> np.ndarr
         raise ValueError(f"{name}: contains NaN or infinite values in a run marked valid "
                          f"(first at index {at}); mark diverged runs invalid instead")
     return arr
+
+
+def check_pattern(value, name: str, pattern: re.Pattern, description: str) -> str:
+    """``value`` if it is a string that ``pattern`` matches whole; else a ValueError naming ``name``, saying it
+    expected ``description`` (e.g. "a paper name of letters, digits, ...")."""
+    if not isinstance(value, str) or not pattern.fullmatch(value):
+        raise ValueError(f"{name}: expected {description}, got {value!r}")
+    return value
 
 
 def check_bool(value, name: str) -> bool:

@@ -44,7 +44,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from mmlib.core._validate import as_plain_json, check_bool, check_names, check_positive_int
+from mmlib.core._validate import as_plain_json, check_bool, check_names, check_pattern, check_positive_int
 # default_workers lived here: kept importable from this module
 from mmlib.experiment.executors import default_workers, run_tasks, worker_count  # noqa: F401
 from mmlib.experiment.machine import fingerprint, fingerprint_id
@@ -168,10 +168,8 @@ PAPER_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
 
 def check_paper(paper: str, name: str = "paper") -> str:
     """``paper`` if it is a valid paper name (:data:`PAPER_NAME`: no path separator, no ``..``), else ValueError."""
-    if not isinstance(paper, str) or not PAPER_NAME.fullmatch(paper):
-        raise ValueError(f"{name}: expected a paper name of letters, digits, '_', '.' and '-' (no path separator, "
-                         f"not starting with '.'), got {paper!r}")
-    return paper
+    return check_pattern(paper, name, PAPER_NAME, "a paper name of letters, digits, '_', '.' and '-' (no path "
+                         "separator, not starting with '.')")
 
 
 @functools.lru_cache(maxsize=1)

@@ -74,6 +74,8 @@ from typing import Iterable, Mapping, NamedTuple
 
 import numpy as np
 
+from mmlib.core._validate import check_pattern
+
 __all__ = [
     "verdict", "make_row", "Row", "Verdict", "judge", "Judgement", "part", "Part", "claim_verdict", "ClaimVerdict",
     "PartVerdict", "Claims", "CLAIM_KEY", "check_claim_key", "joint_test", "joint_tests", "JointTest", "ratio_part",
@@ -810,10 +812,8 @@ CLAIM_KEY = re.compile(r"[a-z][a-z0-9_]*")
 
 def check_claim_key(key: object, name: str = "key") -> str:
     """``key`` if it is a claim's stable name of the form :data:`CLAIM_KEY`; ValueError naming ``name`` otherwise."""
-    if not isinstance(key, str) or not CLAIM_KEY.fullmatch(key):
-        raise ValueError(f"{name}: expected a claim key (a lower-case letter, then lower-case letters, digits or "
-                         f"'_', e.g. 'cpimm_vs_imm'), got {key!r}")
-    return key
+    return check_pattern(key, name, CLAIM_KEY, "a claim key (a lower-case letter, then lower-case letters, digits "
+                         "or '_', e.g. 'cpimm_vs_imm')")
 
 
 class Claims:
