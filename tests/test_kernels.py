@@ -115,6 +115,24 @@ def test_every_kernel_matches_the_numpy_path_on_random_operands():
     _close(got, ref, RTOL_ONE_CALL, "normalised_square (odd matrices)")
     assert got[0, 0] == -0.5 and np.isnan(got[0, 1]) and np.isnan(got[1, 2]) and np.isfinite(got[2:]).all()
     _close(*_both(linalg.normalised_square, mean[0, 0], P), RTOL_ONE_CALL, "normalised_square (broadcast)")
+    # information fusion of three members per run and mode (the bootstrap layer's Eqs. 22-24), and its failures:
+    # a member not finite (NaN in both), a total information that is not positive definite (cov in both, mean NaN)
+    members = np.stack([P, P * 2.0, P + 0.5 * np.eye(n)]), np.stack([mean, mean + 1.0, mean * 0.5])
+    for got, ref, what in zip(*_both(linalg.information_fusion, members[1], members[0]), ("mean", "cov", "ok")):
+        _close(got, ref, RTOL_ONE_CALL, f"information_fusion {what}")
+    covs = members[0].copy()
+    covs[1, 0, 0, 1, 1] = np.nan
+    covs[:, 0, 1] = np.diag([1.0, -2.0, 3.0, 0.5])            # every member indefinite: so is the total
+    got, ref = _both(linalg.information_fusion, members[1], covs)
+    for g, r_, what in zip(got, ref, ("mean", "cov", "ok")):
+        _close(g, r_, RTOL_ONE_CALL, f"information_fusion {what} (odd matrices)")
+    assert not got[2][0, 0] and not got[2][0, 1] and got[2][1:].all() and np.isfinite(got[1][0, 1]).all()
+    assert np.isnan(got[0][0, :2]).all() and np.isnan(got[1][0, 0]).all()
+    with linalg.use_kernel("numba"):                            # an exactly singular member: NaN, not an exception
+        sing = members[0].copy()
+        sing[2, 2, 0] = np.outer(np.ones(n), np.ones(n))
+        m_, c_, ok_ = linalg.information_fusion(members[1], sing)
+        assert not ok_[2, 0] and np.isnan(m_[2, 0]).all() and np.isnan(c_[2, 0]).all() and ok_.sum() == ok_.size - 1
 
 
 def test_fused_steps_agree_across_kernels():
@@ -217,7 +235,7 @@ def test_every_operation_has_a_numpy_body_and_a_compiled_twin():
     ops = {name: obj for name, obj in vars(linalg).items() if hasattr(obj, "implementations")}
     assert {"cholesky", "matmul_rows", "sigma_points", "weighted_mean", "weighted_covariances", "kalman_moments",
             "combine_covariances", "congruence", "range_bearing", "linear_predict", "sigma_point_predict_linear",
-            "measurement_moments", "imm_mix", "imm_output", "normalised_square"} <= set(ops)
+            "measurement_moments", "imm_mix", "imm_output", "normalised_square", "information_fusion"} <= set(ops)
     for name, op in ops.items():
         assert set(op.implementations) == set(linalg.KERNELS), name
         assert op.implementations["numba"].__name__ == f"_{name}_compiled", name

@@ -182,6 +182,105 @@ def cholesky(a):
 
 
 @njit(**_OPTS)
+def _lu_inverse(A, out, col):
+    """``out`` = A^{-1} for one matrix ``A`` (d, d), overwritten by its LU factors (partial pivoting, as LAPACK's
+    ``gesv`` on the identity); False (``out`` unspecified) where an entry is not finite or a pivot is exactly zero.
+    ``col`` (d,): scratch."""
+    d = A.shape[0]
+    for i in range(d):
+        for j in range(d):
+            if not math.isfinite(A[i, j]):
+                return False
+            out[i, j] = 1.0 if i == j else 0.0
+    for k in range(d):
+        p, big = k, abs(A[k, k])
+        for i in range(k + 1, d):
+            if abs(A[i, k]) > big:
+                p, big = i, abs(A[i, k])
+        if big == 0.0:
+            return False
+        if p != k:
+            for j in range(d):
+                A[k, j], A[p, j] = A[p, j], A[k, j]
+                out[k, j], out[p, j] = out[p, j], out[k, j]
+        for i in range(k + 1, d):
+            f = A[i, k] / A[k, k]
+            for j in range(k + 1, d):
+                A[i, j] -= f * A[k, j]
+            for j in range(d):
+                out[i, j] -= f * out[k, j]
+    for c in range(d):                      # back substitution, one column of the inverse at a time
+        for i in range(d - 1, -1, -1):
+            t = out[i, c]
+            for j in range(i + 1, d):
+                t -= A[i, j] * col[j]
+            col[i] = t / A[i, i]
+        for i in range(d):
+            out[i, c] = col[i]
+    return True
+
+
+@njit(**_OPTS)
+def information_fusion(means, covs):
+    r"""Information-weighted fusion of M estimates per run: ``means`` (N, M, n), ``covs`` (N, M, n, n) ->
+    ``(mean (N, n), cov (N, n, n), ok (N,))``, :math:`P = (\sum_p P_p^{-1})^{-1}` symmetrised,
+    :math:`\hat x = P \sum_p P_p^{-1}\hat x_p` (Hu et al. 2017, Eqs. 22-24); ``ok`` where the symmetrised total
+    information passes the Cholesky test of :func:`cholesky`.  A run whose member covariance or total information
+    is not finite or exactly singular gets NaN and ``ok`` False; a run that is not ``ok`` has a NaN mean.  Run by
+    run (the pivoting differs between runs), the members summed in order."""
+    N, M, n = means.shape
+    total = np.zeros((N, n, n))
+    weighted = np.zeros((N, n))
+    good = np.ones(N, dtype=np.bool_)
+    A = np.empty((n, n))
+    Y = np.empty((n, n))
+    col = np.empty(n)
+    for b in range(N):
+        for p in range(M):
+            for i in range(n):
+                for j in range(n):
+                    A[i, j] = covs[b, p, i, j]
+            if not _lu_inverse(A, Y, col):
+                good[b] = False
+                break
+            for i in range(n):
+                t = 0.0
+                for j in range(n):
+                    total[b, i, j] += Y[i, j]
+                    t += Y[i, j] * means[b, p, j]
+                weighted[b, i] += t
+    sym = np.empty((N, n, n))
+    for b in range(N):
+        for i in range(n):
+            for j in range(n):
+                sym[b, i, j] = 0.5 * (total[b, i, j] + total[b, j, i])
+    _, failed = cholesky(sym)
+    mean = np.full((N, n), np.nan)
+    cov = np.full((N, n, n), np.nan)
+    ok = np.zeros(N, dtype=np.bool_)
+    for b in range(N):
+        if not good[b]:
+            continue
+        for i in range(n):
+            for j in range(n):
+                A[i, j] = total[b, i, j]
+        if not _lu_inverse(A, Y, col):
+            continue
+        for i in range(n):
+            for j in range(n):
+                cov[b, i, j] = 0.5 * (Y[i, j] + Y[j, i])
+        if failed[b]:
+            continue
+        ok[b] = True
+        for i in range(n):
+            t = 0.0
+            for j in range(n):
+                t += cov[b, i, j] * weighted[b, j]
+            mean[b, i] = t
+    return mean, cov, ok
+
+
+@njit(**_OPTS)
 def normalised_square(v, S):
     r""":math:`v^T S^{-1} v` per run, v (N, d), S (N, d, d): NaN where an operand is not finite or S is singular
     (an exactly zero pivot, as LAPACK's ``gesv``).  LU with partial pivoting, the row exchanges applied to v, then

@@ -43,8 +43,8 @@ from numpy.typing import ArrayLike
 
 __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused", "sigma_points", "offset_points",
            "weighted_mean", "weighted_covariances", "kalman_moments", "measurement_moments", "congruence", "cholesky",
-           "log_det_from_cholesky", "normalised_square", "tril_inverse", "symmetrize", "trace", "wrap_angle",
-           "range_bearing", "matmul_rows",
+           "log_det_from_cholesky", "normalised_square", "information_fusion", "tril_inverse", "symmetrize", "trace",
+           "wrap_angle", "range_bearing", "matmul_rows",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
            "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES",
@@ -216,6 +216,7 @@ BLOCK = 1024
 _SHAPES = {
     "cholesky": ("N n n",),
     "normalised_square": ("N d", "N d d"),
+    "information_fusion": ("N M n", "N M n n"),
     "matmul_rows": ("N k", "k d"),
     "sigma_points": ("N n", "N n n", "M n"),
     "weighted_mean": ("N M d", "M"),
@@ -445,6 +446,39 @@ def _normalised_square_compiled(v, S):
     flat_v = _stack(v, 1, lead)
     flat_S = _stack(S, 2, lead)
     return _call("normalised_square", flat_v.shape[0], flat_v, flat_S).reshape(lead)
+
+
+@_operation
+def information_fusion(means: np.ndarray, covs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""Fuse M estimates as if independent, in information form (Hu et al. 2017, Eqs. 22-24):
+
+    .. math:: P = \Big[\sum_p P_p^{-1}\Big]^{-1}, \qquad \hat x = P \sum_p P_p^{-1} \hat x_p .
+
+    ``means`` (M, ..., n) and ``covs`` (M, ..., n, n), the M members along the first axis (any leading axes after
+    it, e.g. runs and modes).  Returns ``(mean (..., n), cov (..., n, n), ok (...))``: ``cov`` symmetrised, ``ok``
+    where the symmetrised total information passes the Cholesky test (:func:`cholesky`), ``mean`` NaN where it does
+    not (a failed run, reported by the caller).  A member covariance that is not finite gives NaN.  Each run on its
+    own (LAPACK per matrix here; a loop per run in the compiled twin, where an exactly singular matrix also gives NaN,
+    not numpy's LinAlgError), so a run's values do not depend on the rest of its batch."""
+    infos = [np.linalg.inv(c) for c in covs]
+    total = sum(infos)
+    chol, _ = cholesky(symmetrize(total))
+    cov = symmetrize(np.linalg.inv(total))
+    weighted = sum(Y @ m[..., None] for Y, m in zip(infos, means))[..., 0]
+    mean = (cov @ weighted[..., None])[..., 0]
+    ok = np.isfinite(chol).all(axis=(-2, -1))
+    return np.where(ok[..., None], mean, np.nan), cov, ok
+
+
+@information_fusion.compiled
+def _information_fusion_compiled(means, covs):
+    means = np.asarray(means, dtype=np.float64)
+    covs = np.asarray(covs, dtype=np.float64)
+    M, lead, n = means.shape[0], means.shape[1:-1], means.shape[-1]
+    flat_m = np.ascontiguousarray(np.moveaxis(means.reshape((M, -1, n)), 0, 1))            # (N, M, n)
+    flat_c = np.ascontiguousarray(np.moveaxis(covs.reshape((M, -1, n, n)), 0, 1))          # (N, M, n, n)
+    mean, cov, ok = _call("information_fusion", flat_m.shape[0], flat_m, flat_c)
+    return mean.reshape(lead + (n,)), cov.reshape(lead + (n, n)), ok.reshape(lead)
 
 
 def _nonfinite_diagonal(L):

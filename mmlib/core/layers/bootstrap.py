@@ -149,14 +149,8 @@ class ObservationBootstrap(FilterLayer):
             posts.append(post)
             infos.append(info)
         # Eqs. 22-24: information-weighted fusion of the N + 1 posteriors
-        infos_mat = [np.linalg.inv(p.cov) for p in posts]
-        total = sum(infos_mat)
-        chol, _ = linalg.cholesky(linalg.symmetrize(total))
-        cov = linalg.symmetrize(np.linalg.inv(total))
-        weighted = sum(Y @ p.mean[..., None] for Y, p in zip(infos_mat, posts))[..., 0]
-        mean = (cov @ weighted[..., None])[..., 0]
-        fused_ok = np.isfinite(chol).all(axis=(-2, -1))
-        mean = np.where(fused_ok[..., None], mean, np.nan)
+        mean, cov, fused_ok = linalg.information_fusion(np.stack([p.mean for p in posts]),
+                                                        np.stack([p.cov for p in posts]))
         failed = ~fused_ok
         for i in infos:
             failed = failed | i.failed
