@@ -182,41 +182,42 @@ def cholesky(a):
 
 
 @njit(**_OPTS)
-def _lu_inverse(A, out, col):
-    """``out`` = A^{-1} for one matrix ``A`` (d, d), overwritten by its LU factors (partial pivoting, as LAPACK's
-    ``gesv`` on the identity); False (``out`` unspecified) where an entry is not finite or a pivot is exactly zero.
-    ``col`` (d,): scratch."""
-    d = A.shape[0]
+def _lu_solve(A, X):
+    """Solve A Y = X in place for one matrix ``A`` (d, d) and right-hand sides ``X`` (d, k): ``A`` overwritten by
+    its LU factors (partial pivoting, the row exchanges applied to ``X``, as LAPACK's ``gesv``), ``X`` by Y.  False
+    (``X`` unspecified) where an entry of ``A`` or ``X`` is not finite or a pivot is exactly zero."""
+    d, k = X.shape
     for i in range(d):
         for j in range(d):
             if not math.isfinite(A[i, j]):
                 return False
-            out[i, j] = 1.0 if i == j else 0.0
-    for k in range(d):
-        p, big = k, abs(A[k, k])
-        for i in range(k + 1, d):
-            if abs(A[i, k]) > big:
-                p, big = i, abs(A[i, k])
-        if big == 0.0:
+        for c in range(k):
+            if not math.isfinite(X[i, c]):
+                return False
+    for q in range(d):
+        p, big = q, abs(A[q, q])
+        for i in range(q + 1, d):
+            if abs(A[i, q]) > big:
+                p, big = i, abs(A[i, q])
+        if big == 0.0:                     # singular
             return False
-        if p != k:
+        if p != q:
             for j in range(d):
-                A[k, j], A[p, j] = A[p, j], A[k, j]
-                out[k, j], out[p, j] = out[p, j], out[k, j]
-        for i in range(k + 1, d):
-            f = A[i, k] / A[k, k]
-            for j in range(k + 1, d):
-                A[i, j] -= f * A[k, j]
-            for j in range(d):
-                out[i, j] -= f * out[k, j]
-    for c in range(d):                      # back substitution, one column of the inverse at a time
+                A[q, j], A[p, j] = A[p, j], A[q, j]
+            for c in range(k):
+                X[q, c], X[p, c] = X[p, c], X[q, c]
+        for i in range(q + 1, d):
+            f = A[i, q] / A[q, q]
+            for j in range(q + 1, d):
+                A[i, j] -= f * A[q, j]
+            for c in range(k):
+                X[i, c] -= f * X[q, c]
+    for c in range(k):                     # back substitution, column by column
         for i in range(d - 1, -1, -1):
-            t = out[i, c]
+            t = X[i, c]
             for j in range(i + 1, d):
-                t -= A[i, j] * col[j]
-            col[i] = t / A[i, i]
-        for i in range(d):
-            out[i, c] = col[i]
+                t -= A[i, j] * X[j, c]
+            X[i, c] = t / A[i, i]
     return True
 
 
@@ -234,13 +235,13 @@ def information_fusion(means, covs):
     good = np.ones(N, dtype=np.bool_)
     A = np.empty((n, n))
     Y = np.empty((n, n))
-    col = np.empty(n)
     for b in range(N):
         for p in range(M):
             for i in range(n):
                 for j in range(n):
                     A[i, j] = covs[b, p, i, j]
-            if not _lu_inverse(A, Y, col):
+                    Y[i, j] = 1.0 if i == j else 0.0
+            if not _lu_solve(A, Y):
                 good[b] = False
                 break
             for i in range(n):
@@ -264,7 +265,8 @@ def information_fusion(means, covs):
         for i in range(n):
             for j in range(n):
                 A[i, j] = total[b, i, j]
-        if not _lu_inverse(A, Y, col):
+                Y[i, j] = 1.0 if i == j else 0.0
+        if not _lu_solve(A, Y):
             continue
         for i in range(n):
             for j in range(n):
@@ -284,51 +286,24 @@ def information_fusion(means, covs):
 def normalised_square(v, S):
     r""":math:`v^T S^{-1} v` per run, v (N, d), S (N, d, d): NaN where an operand is not finite or S is singular
     (an exactly zero pivot, as LAPACK's ``gesv``).  LU with partial pivoting, the row exchanges applied to v, then
-    back substitution and the dot product with v.  Run by run, not batch innermost: the pivoting differs between
-    runs, and at d <= 9 one run's elimination is a few hundred operations (the numpy path pays a LAPACK call's
-    overhead per matrix)."""
+    back substitution (:func:`_lu_solve`) and the dot product with v.  Run by run, not batch innermost: the pivoting
+    differs between runs, and at d <= 9 one run's elimination is a few hundred operations (the numpy path pays a
+    LAPACK call's overhead per matrix)."""
     N, d = v.shape
     out = np.empty(N)
     A = np.empty((d, d))
-    x = np.empty(d)
+    x = np.empty((d, 1))
     for b in range(N):
-        ok = True
         for i in range(d):
-            x[i] = v[b, i]
-            ok = ok and math.isfinite(x[i])
+            x[i, 0] = v[b, i]
             for j in range(d):
                 A[i, j] = S[b, i, j]
-                ok = ok and math.isfinite(A[i, j])
-        for k in range(d):
-            if not ok:
-                break
-            p, big = k, abs(A[k, k])
-            for i in range(k + 1, d):
-                if abs(A[i, k]) > big:
-                    p, big = i, abs(A[i, k])
-            if big == 0.0:                 # singular
-                ok = False
-                break
-            if p != k:
-                for j in range(d):
-                    A[k, j], A[p, j] = A[p, j], A[k, j]
-                x[k], x[p] = x[p], x[k]
-            for i in range(k + 1, d):
-                f = A[i, k] / A[k, k]
-                for j in range(k + 1, d):
-                    A[i, j] -= f * A[k, j]
-                x[i] -= f * x[k]
-        if not ok:
+        if not _lu_solve(A, x):
             out[b] = np.nan
             continue
-        for i in range(d - 1, -1, -1):
-            t = x[i]
-            for j in range(i + 1, d):
-                t -= A[i, j] * x[j]
-            x[i] = t / A[i, i]
         t = 0.0
         for i in range(d):
-            t += v[b, i] * x[i]
+            t += v[b, i] * x[i, 0]
         out[b] = t
     return out
 
