@@ -128,6 +128,15 @@ def test_every_kernel_matches_the_numpy_path_on_random_operands():
         _close(g, r_, RTOL_ONE_CALL, f"information_fusion {what} (odd matrices)")
     assert not got[2][0, 0] and not got[2][0, 1] and got[2][1:].all() and np.isfinite(got[1][0, 1]).all()
     assert np.isnan(got[0][0, :2]).all() and np.isnan(got[1][0, 0]).all()
+    # solve: well-conditioned, a stack of right-hand sides broadcast against the matrices, singular and NaN (NaN in
+    # both), an indefinite nonsingular matrix (solved in both)
+    rhs = rng.standard_normal((B, r, n, 3))
+    _close(*_both(linalg.solve, P, rhs), RTOL_ONE_CALL, "solve")
+    _close(*_both(linalg.solve, P, rhs[0, 0]), RTOL_ONE_CALL, "solve (broadcast)")
+    got, ref = _both(linalg.solve, odd, rhs)
+    _close(got, ref, RTOL_ONE_CALL, "solve (odd matrices)")
+    assert np.isnan(got[0, 1]).all() and np.isnan(got[1, 2]).all() and np.isfinite(got[0, 0]).all()
+    assert np.isfinite(np.delete(got.reshape(B * r, n, 3), [1, r + 2], axis=0)).all()
     with linalg.use_kernel("numba"):                            # an exactly singular member: NaN, not an exception
         sing = members[0].copy()
         sing[2, 2, 0] = np.outer(np.ones(n), np.ones(n))
@@ -235,7 +244,8 @@ def test_every_operation_has_a_numpy_body_and_a_compiled_twin():
     ops = {name: obj for name, obj in vars(linalg).items() if hasattr(obj, "implementations")}
     assert {"cholesky", "matmul_rows", "sigma_points", "weighted_mean", "weighted_covariances", "kalman_moments",
             "combine_covariances", "congruence", "range_bearing", "linear_predict", "sigma_point_predict_linear",
-            "measurement_moments", "imm_mix", "imm_output", "normalised_square", "information_fusion"} <= set(ops)
+            "measurement_moments", "imm_mix", "imm_output", "normalised_square", "information_fusion",
+            "solve"} <= set(ops)
     for name, op in ops.items():
         assert set(op.implementations) == set(linalg.KERNELS), name
         assert op.implementations["numba"].__name__ == f"_{name}_compiled", name

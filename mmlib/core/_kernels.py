@@ -222,6 +222,31 @@ def _lu_solve(A, X):
 
 
 @njit(**_OPTS)
+def solve(A, B):
+    """X with A X = B per run, A (N, n, n), B (N, n, k) -> X (N, n, k) (:func:`_lu_solve`): NaN where an operand is
+    not finite or A is exactly singular."""
+    N, n, k = B.shape
+    out = np.empty((N, n, k))
+    M = np.empty((n, n))
+    X = np.empty((n, k))
+    for b in range(N):
+        for i in range(n):
+            for j in range(n):
+                M[i, j] = A[b, i, j]
+            for c in range(k):
+                X[i, c] = B[b, i, c]
+        if _lu_solve(M, X):
+            for i in range(n):
+                for c in range(k):
+                    out[b, i, c] = X[i, c]
+        else:
+            for i in range(n):
+                for c in range(k):
+                    out[b, i, c] = np.nan
+    return out
+
+
+@njit(**_OPTS)
 def information_fusion(means, covs):
     r"""Information-weighted fusion of M estimates per run: ``means`` (N, M, n), ``covs`` (N, M, n, n) ->
     ``(mean (N, n), cov (N, n, n), ok (N,))``, :math:`P = (\sum_p P_p^{-1})^{-1}` symmetrised,

@@ -43,8 +43,8 @@ from numpy.typing import ArrayLike
 
 __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused", "sigma_points", "offset_points",
            "weighted_mean", "weighted_covariances", "kalman_moments", "measurement_moments", "congruence", "cholesky",
-           "log_det_from_cholesky", "normalised_square", "information_fusion", "tril_inverse", "symmetrize", "trace",
-           "wrap_angle", "range_bearing", "matmul_rows",
+           "log_det_from_cholesky", "normalised_square", "solve", "information_fusion", "tril_inverse", "symmetrize",
+           "trace", "wrap_angle", "range_bearing", "matmul_rows",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
            "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES",
@@ -217,6 +217,7 @@ _SHAPES = {
     "cholesky": ("N n n",),
     "normalised_square": ("N d", "N d d"),
     "information_fusion": ("N M n", "N M n n"),
+    "solve": ("N n n", "N n k"),
     "matmul_rows": ("N k", "k d"),
     "sigma_points": ("N n", "N n n", "M n"),
     "weighted_mean": ("N M d", "M"),
@@ -446,6 +447,47 @@ def _normalised_square_compiled(v, S):
     flat_v = _stack(v, 1, lead)
     flat_S = _stack(S, 2, lead)
     return _call("normalised_square", flat_v.shape[0], flat_v, flat_S).reshape(lead)
+
+
+@_operation
+def solve(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    r""":math:`X = A^{-1} B` per leading index (the leading shapes broadcast) for matrices ``A`` (..., n, n) and
+    right-hand sides ``B`` (..., n, k): LU with partial pivoting per matrix (LAPACK's ``gesv`` here, a loop per run in
+    the compiled twin), so a run's values do not depend on the rest of its batch.  NaN for a matrix that is not finite
+    or is exactly singular (a diverged run), in both paths."""
+    A = np.asarray(A, dtype=float)
+    B = np.asarray(B, dtype=float)
+    lead = np.broadcast_shapes(A.shape[:-2], B.shape[:-2])
+    A, B = np.broadcast_to(A, lead + A.shape[-2:]), np.broadcast_to(B, lead + B.shape[-2:])
+    ok = np.isfinite(A).all(axis=(-2, -1)) & np.isfinite(B).all(axis=(-2, -1))
+    if ok.all():
+        try:
+            return np.linalg.solve(A, B)
+        except np.linalg.LinAlgError:
+            pass
+    out = np.full(B.shape, np.nan)
+    if ok.any():
+        Ao, Bo = A[ok], B[ok]
+        try:
+            out[ok] = np.linalg.solve(Ao, Bo)
+        except np.linalg.LinAlgError:        # a singular matrix: solve them one by one, NaN for the singular ones
+            sol = np.full(Bo.shape, np.nan)
+            for i in range(Ao.shape[0]):
+                try:
+                    sol[i] = np.linalg.solve(Ao[i], Bo[i])
+                except np.linalg.LinAlgError:
+                    pass
+            out[ok] = sol
+    return out
+
+
+@solve.compiled
+def _solve_compiled(A, B):
+    A = np.asarray(A, dtype=np.float64)
+    B = np.asarray(B, dtype=np.float64)
+    lead = np.broadcast_shapes(A.shape[:-2], B.shape[:-2])
+    flat_A, flat_B = _stack(A, 2, lead), _stack(B, 2, lead)
+    return _call("solve", flat_A.shape[0], flat_A, flat_B).reshape(lead + B.shape[-2:])
 
 
 @_operation

@@ -33,6 +33,7 @@ import numpy as np
 
 from mmlib.core._validate import check_choice, check_name, check_scalar
 from mmlib.core.filters import FilterLayer, MeasurementPrediction, kalman_update
+from mmlib.core import linalg
 from mmlib.core.linalg import trace
 from mmlib.core.protocols import MeasurementModel
 
@@ -88,7 +89,7 @@ class StrongTracking(FilterLayer):
             N = V - H @ Q @ Ht - self.beta * R
             M = H @ (state.cov - Q) @ Ht
         else:
-            X = np.linalg.solve(state.cov, pred.Pxz)                 # (P^l)^-1 Pxz, (..., n, m)
+            X = linalg.solve(state.cov, pred.Pxz)                    # (P^l)^-1 Pxz, (..., n, m)
             N = V - np.swapaxes(X, -1, -2) @ Q @ X - self.beta * R
             M = pred.S - V + N + (self.beta - 1.0) * R
         tr_n, tr_m = trace(N), trace(M)
