@@ -187,7 +187,13 @@ def test_pseudoranges_are_the_bits_of_the_vector_formula():
     x = rng.standard_normal((40, 3, 17, 8)) * 1e3
     d = sats - x[..., None, [0, 2, 4]]
     r = np.sqrt((d * d).sum(axis=-1))
-    assert np.array_equal(pr.h(x), r + x[..., 6, None])
+    from mmlib.core import linalg
+    for kernel in linalg.KERNELS:                  # the compiled twin too: the same IEEE operations, the same bits
+        with linalg.use_kernel(kernel):
+            assert pr.h(x).tobytes() == (r + x[..., 6, None]).tobytes(), kernel
+            assert pr.h(x[3, 1, 2]).tobytes() == (r + x[..., 6, None])[3, 1, 2].tobytes(), kernel   # one point
+    with pytest.raises(IndexError):
+        linalg.pseudoranges(x, sats, (0, 2, 9), 6)
     jac = np.zeros(x.shape[:-1] + (7, 8))
     jac[..., [0, 2, 4]] = -d / r[..., None]
     jac[..., 6] = 1.0

@@ -245,7 +245,7 @@ def test_every_operation_has_a_numpy_body_and_a_compiled_twin():
     assert {"cholesky", "matmul_rows", "sigma_points", "weighted_mean", "weighted_covariances", "kalman_moments",
             "combine_covariances", "congruence", "range_bearing", "linear_predict", "sigma_point_predict_linear",
             "measurement_moments", "imm_mix", "imm_output", "normalised_square", "information_fusion",
-            "solve"} <= set(ops)
+            "solve", "pseudoranges"} <= set(ops)
     for name, op in ops.items():
         assert set(op.implementations) == set(linalg.KERNELS), name
         assert op.implementations["numba"].__name__ == f"_{name}_compiled", name

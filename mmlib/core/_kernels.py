@@ -741,6 +741,24 @@ def range_bearing(x, i, j, sx, sy):
 
 
 @njit(**_OPTS)
+def pseudoranges(x, sats, i0, i1, i2, ib):
+    r"""Pseudoranges :math:`\lVert s_c - p\rVert + b` of the points x (N, n) to the satellites ``sats`` (m, 3),
+    p = x[:, (i0, i1, i2)], b = x[:, ib] -> (N, m): the squares summed from the first axis on, as numpy reduces three
+    terms (the operations of :func:`_measure`'s kind 2; scalar loop)."""
+    N = x.shape[0]
+    m = sats.shape[0]
+    out = np.empty((N, m))
+    for b in range(N):
+        p0, p1, p2, bias = x[b, i0], x[b, i1], x[b, i2], x[b, ib]
+        for c in range(m):
+            d0 = sats[c, 0] - p0
+            d1 = sats[c, 1] - p1
+            d2 = sats[c, 2] - p2
+            out[b, c] = math.sqrt((d0 * d0 + d1 * d1) + d2 * d2) + bias
+    return out
+
+
+@njit(**_OPTS)
 def _output_core(ll, cb, Xb, Pb, Nb, Sb, with_cov, mub, marginal, underflow, fused, fcov, innov, icov):
     r"""The body of :func:`imm_output`, batch innermost: ll (r, N), cb (1, r, N), Xb (r, n, N), Pb (r, n, n, N),
     Nb (r, m, N), Sb (r, m, m, N) -> mub (1, r, N), marginal, underflow (N,), fused (1, n, N), fcov (1, n, n, N)

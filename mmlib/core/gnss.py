@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mmlib.core import linalg
 from mmlib.core._validate import as_float_array, check_covariance, check_finite, check_scalar
 from mmlib.core.models import LinearGaussianDynamics, _cholesky_of_R, _psd_factor, psd_by_construction
 
@@ -252,8 +253,7 @@ class Pseudoranges:
     def h(self, x: np.ndarray) -> np.ndarray:
         r"""Pseudoranges :math:`\lVert s_i - p\rVert + b` (..., m) in m for states or sigma points ``x`` (..., 8)
         of this module's ordering (position p = ``x[..., (0, 2, 4)]``, clock bias b = ``x[..., 6]``, m)."""
-        _, r = self._line_of_sight(x)
-        return r + x[..., CLOCK_INDEX[0], None]
+        return linalg.pseudoranges(x, self.satellites, POSITION_INDEX, CLOCK_INDEX[0])
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         r""":math:`\partial\rho/\partial x` (..., m, 8) at states ``x`` (..., 8): minus the unit lines of sight

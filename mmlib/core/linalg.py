@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike
 __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused", "sigma_points", "offset_points",
            "weighted_mean", "weighted_covariances", "kalman_moments", "measurement_moments", "congruence", "cholesky",
            "log_det_from_cholesky", "normalised_square", "solve", "information_fusion", "tril_inverse", "symmetrize",
-           "trace", "wrap_angle", "range_bearing", "matmul_rows",
+           "trace", "wrap_angle", "range_bearing", "pseudoranges", "matmul_rows",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
            "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES",
@@ -782,6 +782,29 @@ def _range_bearing_compiled(x, i, j, sensor):
     flat = _contiguous(x).reshape(-1, n)
     out = _compiled_module().range_bearing(flat, i, j, float(sensor[0]), float(sensor[1]))
     return out.reshape(x.shape[:-1] + (2,))
+
+
+@_operation
+def pseudoranges(x: np.ndarray, satellites: np.ndarray, position: tuple, bias: int) -> np.ndarray:
+    r"""Pseudoranges :math:`\lVert s_c - p\rVert + b` (..., m) in m of the points ``x`` (..., n) to ``satellites``
+    (m, 3) (m), with p = ``x[..., position]`` (three indices) and the clock bias b = ``x[..., bias]``
+    (:meth:`mmlib.core.gnss.Pseudoranges.h`).  The same IEEE operations on either path, in the same order (the three
+    squares summed from the first on, a correctly rounded square root, then the bias), so the same bits."""
+    x = np.asarray(x, dtype=float)
+    d = [satellites[:, k] - x[..., i, None] for k, i in enumerate(position)]
+    return np.sqrt((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]) + x[..., bias, None]
+
+
+@pseudoranges.compiled
+def _pseudoranges_compiled(x, satellites, position, bias):
+    n = x.shape[-1]
+    for index in (*position, bias):       # the kernel does not check bounds
+        if not -n <= index < n:
+            raise IndexError(f"index {index} is out of bounds for axis {x.ndim - 1} with size {n}")
+    flat = _contiguous(x).reshape(-1, n)
+    i0, i1, i2 = (int(i) % n for i in position)
+    out = _compiled_module().pseudoranges(flat, _contiguous(satellites), i0, i1, i2, int(bias) % n)
+    return out.reshape(x.shape[:-1] + (satellites.shape[0],))
 
 
 # --------------------------------------------------------------------------- whole fused filter steps (compiled only)
