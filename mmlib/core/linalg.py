@@ -426,18 +426,25 @@ def normalised_square(v: np.ndarray, S: np.ndarray) -> np.ndarray:
     ok = np.isfinite(v).all(axis=-1) & np.isfinite(S).all(axis=(-2, -1))
     out = np.full(lead, np.nan)
     if ok.any():
-        vo, So = v[ok], S[ok]
-        try:
-            sol = np.linalg.solve(So, vo[..., None])[..., 0]
-        except np.linalg.LinAlgError:        # a singular matrix: solve them one by one, NaN for the singular ones
-            sol = np.full(vo.shape, np.nan)
-            for i in range(vo.shape[0]):
-                try:
-                    sol[i] = np.linalg.solve(So[i], vo[i])
-                except np.linalg.LinAlgError:
-                    pass
+        vo = v[ok]
+        sol = _solve_each(S[ok], vo[..., None])[..., 0]
         out[ok] = (vo * sol).sum(axis=-1)    # the same reduction on either path: a run's bits do not depend on
     return out                               # whether another run of its batch is singular
+
+
+def _solve_each(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``np.linalg.solve`` of finite stacks A (K, n, n), B (K, n, k); on a singular matrix (LinAlgError) the matrices
+    one by one, NaN for the singular ones (LAPACK per matrix either way: the same bits for the others)."""
+    try:
+        return np.linalg.solve(A, B)
+    except np.linalg.LinAlgError:
+        out = np.full(B.shape, np.nan)
+        for i in range(A.shape[0]):
+            try:
+                out[i] = np.linalg.solve(A[i], B[i])
+            except np.linalg.LinAlgError:
+                pass
+        return out
 
 
 @normalised_square.compiled
@@ -460,24 +467,9 @@ def solve(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     lead = np.broadcast_shapes(A.shape[:-2], B.shape[:-2])
     A, B = np.broadcast_to(A, lead + A.shape[-2:]), np.broadcast_to(B, lead + B.shape[-2:])
     ok = np.isfinite(A).all(axis=(-2, -1)) & np.isfinite(B).all(axis=(-2, -1))
-    if ok.all():
-        try:
-            return np.linalg.solve(A, B)
-        except np.linalg.LinAlgError:
-            pass
     out = np.full(B.shape, np.nan)
     if ok.any():
-        Ao, Bo = A[ok], B[ok]
-        try:
-            out[ok] = np.linalg.solve(Ao, Bo)
-        except np.linalg.LinAlgError:        # a singular matrix: solve them one by one, NaN for the singular ones
-            sol = np.full(Bo.shape, np.nan)
-            for i in range(Ao.shape[0]):
-                try:
-                    sol[i] = np.linalg.solve(Ao[i], Bo[i])
-                except np.linalg.LinAlgError:
-                    pass
-            out[ok] = sol
+        out[ok] = _solve_each(A[ok], B[ok])
     return out
 
 
