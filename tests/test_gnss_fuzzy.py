@@ -142,12 +142,21 @@ def test_pv_clock_noise_is_psd_by_construction_as_marked():
     levels it accepts passes the full check (zero, tiny, huge and random levels, per run and mode)."""
     from mmlib.core._validate import check_covariance
     from mmlib.core.models import is_psd_by_construction
-    noise = gnss.PVClockNoise(1.0, gnss.clock_process_noise(1.0, 2e-19, 2e-20))
-    assert is_psd_by_construction(noise.Q)
+    from mmlib.core.models import psd_by_construction
     rng = np.random.default_rng(3)
-    levels = np.concatenate([[0.0, 5e-324, 1e-300, 1e-12, 1.0, 1e12, 1e300], 10.0 ** rng.uniform(-20, 20, 993)])
-    check_covariance(noise.Q(levels.reshape(500, 2)), "Q", 8, stack=True, semidefinite=True)
+    for T in (1e-3, 1.0, 2.0, 30.0):                 # T > 1.44: T^3/3 > 1, the largest level below finfo.max
+        noise = gnss.PVClockNoise(T, gnss.clock_process_noise(T, 2e-19, 2e-20))
+        assert is_psd_by_construction(noise.Q)
+        top = np.finfo(float).max / max(noise.unit.max(), 1.0)       # about the largest level whose Q is finite
+        levels = np.concatenate([[0.0, 5e-324, 1e-300, 1e-12, 1.0, 1e12, top * 0.25, top * 0.5],
+                                 10.0 ** rng.uniform(-300, np.log10(top * 0.5), 992)])
+        check_covariance(noise.Q(levels.reshape(500, 2)), "Q", 8, stack=True, semidefinite=True)
+        if noise.unit.max() > 1.0:
+            with pytest.raises(ValueError, match="^levels: .*overflows"):     # a level whose Q is not finite: refused
+                noise.Q(np.array([1.0, top * 1.01]))
     assert not is_psd_by_construction(lambda levels: noise.Q(levels))      # an unmarked callable is checked
+    with pytest.raises(ValueError, match="^fn: "):
+        psd_by_construction(noise.Q)                                           # a bound method cannot be marked
 
 
 def test_noise_adaptive_imm_checks_an_unmarked_noise_every_step_and_skips_a_marked_one(monkeypatch):
@@ -192,8 +201,16 @@ def test_pseudoranges_are_the_bits_of_the_vector_formula():
         with linalg.use_kernel(kernel):
             assert pr.h(x).tobytes() == (r + x[..., 6, None]).tobytes(), kernel
             assert pr.h(x[3, 1, 2]).tobytes() == (r + x[..., 6, None])[3, 1, 2].tobytes(), kernel   # one point
-    with pytest.raises(IndexError):
-        linalg.pseudoranges(x, sats, (0, 2, 9), 6)
+    for kernel in linalg.KERNELS:                  # bad operands named, never read out of bounds
+        with linalg.use_kernel(kernel):
+            with pytest.raises(IndexError):
+                linalg.pseudoranges(x, sats, (0, 2, 9), 6)
+            with pytest.raises(ValueError, match="^satellites: "):
+                linalg.pseudoranges(x, sats[:, :2], (0, 2, 4), 6)
+            with pytest.raises(ValueError, match="^position: "):
+                linalg.pseudoranges(x, sats, (0, 2, 1.7), 6)
+            with pytest.raises(ValueError, match="^bias: "):
+                linalg.pseudoranges(x, sats, (0, 2, 4), True)
     jac = np.zeros(x.shape[:-1] + (7, 8))
     jac[..., [0, 2, 4]] = -d / r[..., None]
     jac[..., 6] = 1.0

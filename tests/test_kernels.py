@@ -137,6 +137,23 @@ def test_every_kernel_matches_the_numpy_path_on_random_operands():
     _close(got, ref, RTOL_ONE_CALL, "solve (odd matrices)")
     assert np.isnan(got[0, 1]).all() and np.isnan(got[1, 2]).all() and np.isfinite(got[0, 0]).all()
     assert np.isfinite(np.delete(got.reshape(B * r, n, 3), [1, r + 2], axis=0)).all()
+    # the leading axes of the members broadcast (one covariance per member shared by every run), in both paths; other
+    # members or leading axes are a ValueError naming the argument, never a read out of bounds
+    shared = np.stack([P[0, 0], 2.0 * P[0, 0]])
+    for got, ref, what in zip(*_both(linalg.information_fusion, members[1][:2], shared), ("mean", "cov", "ok")):
+        _close(got, ref, RTOL_ONE_CALL, f"information_fusion {what} (shared covariances)")
+        assert got.shape[:2] == (B, r)
+    for kernel in linalg.KERNELS:
+        with linalg.use_kernel(kernel):
+            with pytest.raises(ValueError, match="^covs: "):
+                linalg.information_fusion(members[1], members[0][:2])
+            with pytest.raises(ValueError, match="^covs: "):
+                linalg.information_fusion(members[1], np.swapaxes(members[0], 1, 2))
+    # a kernel operand with a divisor of the runs' rows is periodic (linalg._SHAPES): row b % rows
+    from mmlib.core import _kernels
+    flat_P, flat_rhs = P.reshape(-1, n, n), rhs.reshape(-1, n, 3)
+    assert _kernels.solve(flat_P[:1], flat_rhs).tobytes() == _kernels.solve(
+        np.repeat(flat_P[:1], B * r, axis=0), flat_rhs).tobytes()
     with linalg.use_kernel("numba"):                            # an exactly singular member: NaN, not an exception
         sing = members[0].copy()
         sing[2, 2, 0] = np.outer(np.ones(n), np.ones(n))

@@ -225,16 +225,17 @@ def _lu_solve(A, X):
 def solve(A, B):
     """X with A X = B per run, A (N, n, n), B (N, n, k) -> X (N, n, k) (:func:`_lu_solve`): NaN where an operand is
     not finite or A is exactly singular."""
-    N, n, k = B.shape
+    NA, NB = A.shape[0], B.shape[0]
+    N, n, k = max(NA, NB), B.shape[1], B.shape[2]
     out = np.empty((N, n, k))
     M = np.empty((n, n))
     X = np.empty((n, k))
-    for b in range(N):
+    for b in range(N):                     # an operand with fewer rows is periodic over the runs (linalg._SHAPES)
         for i in range(n):
             for j in range(n):
-                M[i, j] = A[b, i, j]
+                M[i, j] = A[b % NA, i, j]
             for c in range(k):
-                X[i, c] = B[b, i, c]
+                X[i, c] = B[b % NB, i, c]
         if _lu_solve(M, X):
             for i in range(n):
                 for c in range(k):
@@ -254,7 +255,9 @@ def information_fusion(means, covs):
     information passes the Cholesky test of :func:`cholesky`.  A run whose member covariance or total information
     is not finite or exactly singular gets NaN and ``ok`` False; a run that is not ``ok`` has a NaN mean.  Run by
     run (the pivoting differs between runs), the members summed in order."""
-    N, M, n = means.shape
+    NM, M, n = means.shape
+    NC = covs.shape[0]
+    N = max(NM, NC)                        # an operand with fewer rows is periodic over the runs (linalg._SHAPES)
     total = np.zeros((N, n, n))
     weighted = np.zeros((N, n))
     good = np.ones(N, dtype=np.bool_)
@@ -264,7 +267,7 @@ def information_fusion(means, covs):
         for p in range(M):
             for i in range(n):
                 for j in range(n):
-                    A[i, j] = covs[b, p, i, j]
+                    A[i, j] = covs[b % NC, p, i, j]
                     Y[i, j] = 1.0 if i == j else 0.0
             if not _lu_solve(A, Y):
                 good[b] = False
@@ -273,7 +276,7 @@ def information_fusion(means, covs):
                 t = 0.0
                 for j in range(n):
                     total[b, i, j] += Y[i, j]
-                    t += Y[i, j] * means[b, p, j]
+                    t += Y[i, j] * means[b % NM, p, j]
                 weighted[b, i] += t
     sym = np.empty((N, n, n))
     for b in range(N):

@@ -77,7 +77,7 @@ def _trapezoid_memberships(bounds: np.ndarray, x: np.ndarray) -> np.ndarray:
     same bits), without k calls."""
     a, b, c, d = bounds
     X = x[:, None]
-    with np.errstate(invalid="ignore", divide="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):     # the branches np.where drops
         up = np.where(a == -math.inf, 1.0, np.where(b == a, (X >= b).astype(float), (X - a) / (b - a)))
         down = np.where(d == math.inf, 1.0, np.where(d == c, (X <= c).astype(float), (d - X) / (d - c)))
     return np.clip(np.minimum(up, down), 0.0, 1.0)
@@ -158,9 +158,12 @@ class TakagiSugeno:
         object.__setattr__(self, "inputs", sets)
         object.__setattr__(self, "consequents", cons)
         # an input whose sets are all trapezoids is evaluated in one call (_trapezoid_memberships), same bits
-        object.__setattr__(self, "_bounds", tuple(
-            np.array([[t.a, t.b, t.c, t.d] for t in s]).T if all(type(t) is Trapezoid for t in s) else None
-            for s in sets))
+        bounds = tuple(np.array([[t.a, t.b, t.c, t.d] for t in s]).T if all(type(t) is Trapezoid for t in s)
+                       else None for s in sets)
+        for b in bounds:
+            if b is not None:
+                b.setflags(write=False)
+        object.__setattr__(self, "_bounds", bounds)
 
     @property
     def n_inputs(self) -> int:

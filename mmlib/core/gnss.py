@@ -343,16 +343,25 @@ class PVClockNoise:
         for an IMM's modes or (B, r) per run; m^2/s^3, finite, >= 0, else a ValueError naming ``levels``);
         units m^2, m^2/s, m^2/s^2 by entry.
 
-        Finite, symmetric and positive semi-definite by construction (:func:`mmlib.core.models.psd_by_construction`):
-        Q is block diagonal, :math:`S_p Q_1` three times and the clock's block, so its eigenvalues are the blocks'.
-        Every entry of :math:`S_p Q_1` is one rounded product of the level and a symmetric :math:`Q_1`, so the block is
-        exactly symmetric, and :math:`\det Q_1 = T^4/12`, a quarter of the product of its diagonal, so the rounding of
-        the products (relative 1e-16) cannot make it indefinite; the clock's block was checked (symmetric, PSD) on
-        construction and is added to zeros."""
+        Marked :func:`mmlib.core.models.psd_by_construction`: every Q returned passes the check a noise-adaptive IMM
+        would otherwise run each step (:func:`mmlib.core._validate.check_covariance` with ``semidefinite=True``).
+        Finite: the levels are, and a level so large that a product overflows is refused (ValueError naming
+        ``levels``).  Q is block diagonal, :math:`S_p Q_1` three times and the clock's block alone in its rows and
+        columns, so its eigenvalues are the blocks'.  Each entry of :math:`S_p Q_1` is one rounded product of the level
+        and the exactly symmetric :math:`Q_1`, so the block is exactly symmetric, and :math:`\det Q_1 = T^4/12` is a
+        quarter of the product of its diagonal, so rounding (relative 1e-16, or an underflow to a subnormal, of the
+        order of the smallest double) moves its eigenvalues by far less than the check's tolerance, ``RTOL`` x the
+        largest entry.  The clock's block passed the same check on construction (symmetric and semi-definite to
+        ``RTOL`` of its own largest entry, at most Q's)."""
         levels = as_float_array(levels, "levels")
         if np.any(~np.isfinite(levels)) or np.any(levels < 0):
             raise ValueError("levels: acceleration spectral densities must be finite and >= 0")
-        return levels[..., None, None] * self.unit + self.base
+        with np.errstate(over="ignore"):
+            Q = levels[..., None, None] * self.unit + self.base
+        if not np.isfinite(Q).all():
+            raise ValueError(f"levels: a level up to {float(np.max(levels)):.3g} m^2/s^3 overflows Q (the largest "
+                             f"that does not: about {np.finfo(float).max / self.unit.max():.3g})")
+        return Q
 
     def dynamics(self, level: float, name: str = "") -> LinearGaussianDynamics:
         """The 8-state model with one level (m^2/s^3, finite, >= 0): ``x_k = F x_{k-1} + w``,

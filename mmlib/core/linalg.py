@@ -494,6 +494,7 @@ def information_fusion(means: np.ndarray, covs: np.ndarray) -> tuple[np.ndarray,
     not (a failed run, reported by the caller).  A member covariance that is not finite gives NaN.  Each run on its
     own (LAPACK per matrix here; a loop per run in the compiled twin, where an exactly singular matrix also gives NaN,
     not numpy's LinAlgError), so a run's values do not depend on the rest of its batch."""
+    means, covs, _ = _fusion_operands(means, covs)
     infos = [np.linalg.inv(c) for c in covs]
     total = sum(infos)
     chol, _ = cholesky(symmetrize(total))
@@ -504,11 +505,31 @@ def information_fusion(means: np.ndarray, covs: np.ndarray) -> tuple[np.ndarray,
     return np.where(ok[..., None], mean, np.nan), cov, ok
 
 
-@information_fusion.compiled
-def _information_fusion_compiled(means, covs):
+def _fusion_operands(means, covs) -> tuple:
+    """``(means, covs, lead)`` of :func:`information_fusion`, float arrays whose leading axes after the members are
+    broadcast to ``lead``; a ValueError naming ``means`` or ``covs`` for another number of members or dimension."""
     means = np.asarray(means, dtype=np.float64)
     covs = np.asarray(covs, dtype=np.float64)
-    M, lead, n = means.shape[0], means.shape[1:-1], means.shape[-1]
+    if means.ndim < 2 or means.shape[0] < 1:
+        raise ValueError(f"means: expected shape (M, ..., n) with M >= 1 members, got {means.shape}")
+    M, n = means.shape[0], means.shape[-1]
+    if covs.ndim < 3 or covs.shape[0] != M or covs.shape[-2:] != (n, n):
+        raise ValueError(f"covs: expected shape ({M}, ..., {n}, {n}) (the members of means), got {covs.shape}")
+    try:
+        lead = np.broadcast_shapes(means.shape[1:-1], covs.shape[1:-2])
+    except ValueError:
+        raise ValueError(f"covs: leading axes {covs.shape[1:-2]} do not broadcast against those of means, "
+                         f"{means.shape[1:-1]}") from None
+    def spread(a, tail):                     # the members' axis kept first, the leading axes aligned on the right
+        own = a.shape[1:a.ndim - len(tail)]
+        return np.broadcast_to(a.reshape((M,) + (1,) * (len(lead) - len(own)) + own + tail), (M,) + lead + tail)
+    return spread(means, (n,)), spread(covs, (n, n)), lead
+
+
+@information_fusion.compiled
+def _information_fusion_compiled(means, covs):
+    means, covs, lead = _fusion_operands(means, covs)
+    M, n = means.shape[0], means.shape[-1]
     flat_m = np.ascontiguousarray(np.moveaxis(means.reshape((M, -1, n)), 0, 1))            # (N, M, n)
     flat_c = np.ascontiguousarray(np.moveaxis(covs.reshape((M, -1, n, n)), 0, 1))          # (N, M, n, n)
     mean, cov, ok = _call("information_fusion", flat_m.shape[0], flat_m, flat_c)
@@ -782,20 +803,38 @@ def pseudoranges(x: np.ndarray, satellites: np.ndarray, position: tuple, bias: i
     (m, 3) (m), with p = ``x[..., position]`` (three indices) and the clock bias b = ``x[..., bias]``
     (:meth:`mmlib.core.gnss.Pseudoranges.h`).  The same IEEE operations on either path, in the same order (the three
     squares summed from the first on, a correctly rounded square root, then the bias), so the same bits."""
-    x = np.asarray(x, dtype=float)
+    x, satellites, position, bias = _pseudorange_operands(x, satellites, position, bias)
     d = [satellites[:, k] - x[..., i, None] for k, i in enumerate(position)]
     return np.sqrt((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]) + x[..., bias, None]
 
 
+def _pseudorange_operands(x, satellites, position, bias) -> tuple:
+    """The operands of :func:`pseudoranges` checked: ``x`` a float array (..., n), ``satellites`` (m, 3) (ValueError
+    naming it otherwise), ``position`` three and ``bias`` one integer index into the last axis of ``x`` (non-negative;
+    an IndexError beyond it, a ValueError naming ``position`` or ``bias`` for another kind of index)."""
+    x = np.asarray(x, dtype=np.float64)
+    satellites = np.asarray(satellites, dtype=np.float64)
+    if satellites.ndim != 2 or satellites.shape[1] != 3 or satellites.shape[0] < 1:
+        raise ValueError(f"satellites: expected shape (m >= 1, 3), got {satellites.shape}")
+    if isinstance(position, (str, bytes)) or not hasattr(position, "__len__") or len(position) != 3:
+        raise ValueError(f"position: expected three indices, got {position!r}")
+    n = x.shape[-1] if x.ndim else 0
+    indices = []
+    for name, index in (("position", position[0]), ("position", position[1]), ("position", position[2]),
+                        ("bias", bias)):
+        if isinstance(index, (bool, np.bool_)) or not isinstance(index, (int, np.integer)):
+            raise ValueError(f"{name}: expected integer indices, got {index!r}")
+        if not -n <= index < n:                  # the kernel does not check bounds
+            raise IndexError(f"index {index} is out of bounds for axis {max(x.ndim - 1, 0)} with size {n}")
+        indices.append(int(index) % n)
+    return x, satellites, tuple(indices[:3]), indices[3]
+
+
 @pseudoranges.compiled
 def _pseudoranges_compiled(x, satellites, position, bias):
+    x, satellites, (i0, i1, i2), bias = _pseudorange_operands(x, satellites, position, bias)
     n = x.shape[-1]
-    for index in (*position, bias):       # the kernel does not check bounds
-        if not -n <= index < n:
-            raise IndexError(f"index {index} is out of bounds for axis {x.ndim - 1} with size {n}")
-    flat = _contiguous(x).reshape(-1, n)
-    i0, i1, i2 = (int(i) % n for i in position)
-    out = _compiled_module().pseudoranges(flat, _contiguous(satellites), i0, i1, i2, int(bias) % n)
+    out = _compiled_module().pseudoranges(_contiguous(x).reshape(-1, n), _contiguous(satellites), i0, i1, i2, bias)
     return out.reshape(x.shape[:-1] + (satellites.shape[0],))
 
 

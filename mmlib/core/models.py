@@ -42,7 +42,11 @@ def psd_by_construction(fn: Callable) -> Callable:
     ``check=False``); an unmarked callable is checked at every step.  Returns ``fn`` itself, marked."""
     if not callable(fn):
         raise ValueError(f"fn: expected a function levels -> Q, got {type(fn).__name__}")
-    fn.psd_by_construction = True
+    try:
+        fn.psd_by_construction = True
+    except AttributeError:
+        raise ValueError(f"fn: expected a function (mark it where it is defined, not a bound method), got "
+                         f"{type(fn).__name__}") from None
     return fn
 
 
