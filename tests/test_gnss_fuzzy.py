@@ -185,6 +185,11 @@ def test_noise_adaptive_imm_checks_an_unmarked_noise_every_step_and_skips_a_mark
         base.imm.stacked.with_noise(np.zeros((2, 3, 8, 8)), check=False)
     with pytest.raises(ValueError, match="^check: "):
         base.imm.stacked.with_noise(base.noise(np.ones(2)), check="no")
+    stacked = base.imm.stacked
+    with pytest.raises(ValueError, match="^q_psd_by_construction: "):
+        type(stacked)(stacked.models, stacked.Q, stacked.F, q_psd_by_construction="yes")
+    with pytest.raises(ValueError, match="^F: "):                     # the unchecked Q still checks the rest
+        type(stacked)(stacked.models, stacked.Q, stacked.F[:1], q_psd_by_construction=True)
 
 
 def test_pseudoranges_are_the_bits_of_the_vector_formula():
@@ -240,17 +245,29 @@ def test_trapezoid_and_partition_of_unity():
         ramp_sets(("N", "M"), (2.0, 1.0))
 
 
+def _membership(t, x: float) -> float:
+    """A trapezoid's membership at one point, written from its definition in scalar Python arithmetic (the
+    independent reference: one IEEE operation per step, so the bits a correct vectorised evaluation must give)."""
+    up = 1.0 if t.a == -math.inf else (float(x >= t.b) if t.b == t.a else (x - t.a) / (t.b - t.a))
+    down = 1.0 if t.d == math.inf else (float(x <= t.c) if t.d == t.c else (t.d - x) / (t.d - t.c))
+    return min(max(min(up, down), 0.0), 1.0)
+
+
 def test_trapezoids_evaluated_at_once_are_the_bits_of_each_set():
-    """TakagiSugeno evaluates an input's trapezoids in one call: the same bits as each set's own call, at the
-    breakpoints, between them, far out, at -0.0, for shoulders, triangles, a step (a = b) and a plateau."""
+    """TakagiSugeno evaluates an input's trapezoids in one call, and each set's own call goes through the same
+    function: both the bits of the definition evaluated point by point, at the breakpoints, between them, far out,
+    at -0.0, for shoulders, triangles, a step (a = b) and a plateau, and for any shape of input."""
     from mmlib.core.fuzzy import _trapezoid_memberships
     sets = ramp_sets(("N", "M", "L"), (0.5, 1.0, 3.0)) + (Trapezoid("step", 1.0, 1.0, 2.0, 2.0),
                                                           Trapezoid("tri", 0.2, 0.7, 0.7, 1.5))
     x = np.concatenate([np.random.default_rng(2).standard_normal(2000) * 3,
                         [0.5, 1.0, 3.0, 2.0, 0.2, 0.7, 1.5, -1e300, 1e300, 0.0, -0.0]])
+    ref = np.array([[_membership(t, v) for t in sets] for v in x.tolist()])
     bounds = np.array([[t.a, t.b, t.c, t.d] for t in sets]).T
-    got, ref = _trapezoid_memberships(bounds, x), np.stack([t(x) for t in sets], axis=-1)
-    assert got.tobytes() == ref.tobytes()
+    assert _trapezoid_memberships(bounds, x).tobytes() == ref.tobytes()
+    assert np.stack([t(x) for t in sets], axis=-1).tobytes() == ref.tobytes()
+    assert sets[3](x.reshape(1, -1, 1)).tobytes() == ref[:, 3].tobytes()          # any shape in, same shape out
+    assert sets[3](x.reshape(1, -1, 1)).shape == (1, x.size, 1) and sets[4](0.7).shape == ()
     # and the system uses it, with the same output as through the sets one by one
     ts = two_input_system()
     assert all(b is not None for b in ts._bounds)

@@ -63,18 +63,16 @@ class Trapezoid:
 
     def __call__(self, x: np.ndarray | float) -> np.ndarray:
         x = check_finite(as_float_array(x, "x"), "x")
-        with np.errstate(invalid="ignore", divide="ignore"):
-            up = np.ones_like(x) if self.a == -math.inf else (
-                (x >= self.b).astype(float) if self.b == self.a else (x - self.a) / (self.b - self.a))
-            down = np.ones_like(x) if self.d == math.inf else (
-                (x <= self.c).astype(float) if self.d == self.c else (self.d - x) / (self.d - self.c))
-        return np.clip(np.minimum(up, down), 0.0, 1.0)
+        bounds = np.array([[self.a], [self.b], [self.c], [self.d]])
+        return _trapezoid_memberships(bounds, x.reshape(-1))[:, 0].reshape(x.shape)
 
 
 def _trapezoid_memberships(bounds: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """The memberships (B, k) of ``x`` (B,) in k trapezoids at once, ``bounds`` (4, k) their ``a, b, c, d``: the
-    arithmetic of :meth:`Trapezoid.__call__` per element (each entry one IEEE operation on the same operands, so the
-    same bits), without k calls."""
+    r"""The memberships (B, k) of ``x`` (B,) in k trapezoids at once, ``bounds`` (4, k) their ``a, b, c, d``
+    (:class:`Trapezoid`, which calls it with k = 1): per entry :math:`\min(\mathrm{up}, \mathrm{down})` clipped to
+    [0, 1], with up = 1 for a left shoulder, :math:`[x \ge b]` for a = b, else :math:`(x - a)/(b - a)`, and down = 1
+    for a right shoulder, :math:`[x \le c]` for c = d, else :math:`(d - x)/(d - c)`; each entry's arithmetic depends
+    on its own operands only, so the same bits whatever k and B."""
     a, b, c, d = bounds
     X = x[:, None]
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):     # the branches np.where drops

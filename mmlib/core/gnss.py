@@ -220,7 +220,7 @@ class Pseudoranges:
         sats.setflags(write=False)
         R.setflags(write=False)
         object.__setattr__(self, "satellites", sats)
-        # the satellites' E, N and U coordinates as three contiguous rows (_line_of_sight)
+        # the satellites' E, N and U coordinates as three contiguous rows (linalg.lines_of_sight in the Jacobian)
         enu = np.ascontiguousarray(sats.T)
         enu.setflags(write=False)
         object.__setattr__(self, "_satellites_enu", enu)
@@ -242,14 +242,6 @@ class Pseudoranges:
         """Which components are angles (residuals wrapped): none."""
         return (False,) * self.dim
 
-    def _line_of_sight(self, x):
-        r"""``(d, r)``: the lines of sight :math:`s_i - p` as their three ENU components, each (..., m), and their
-        lengths :math:`\sqrt{d_E^2 + d_N^2 + d_U^2}` (..., m), in m.  Component by component (contiguous arrays,
-        no (..., m, 3) copy): the bits of summing the squares along a last axis of three, in the same order."""
-        d = tuple(self._satellites_enu[k] - x[..., i, None] for k, i in enumerate(POSITION_INDEX))
-        sq = [dk * dk for dk in d]
-        return d, np.sqrt(sq[0] + sq[1] + sq[2])
-
     def h(self, x: np.ndarray) -> np.ndarray:
         r"""Pseudoranges :math:`\lVert s_i - p\rVert + b` (..., m) in m for states or sigma points ``x`` (..., 8)
         of this module's ordering (position p = ``x[..., (0, 2, 4)]``, clock bias b = ``x[..., 6]``, m)."""
@@ -259,7 +251,7 @@ class Pseudoranges:
         r""":math:`\partial\rho/\partial x` (..., m, 8) at states ``x`` (..., 8): minus the unit lines of sight
         :math:`-(s_i - p)^T/\lVert s_i - p\rVert` in the position columns, 1 in the clock-bias column, 0 for
         the velocities and the clock drift (dimensionless)."""
-        d, r = self._line_of_sight(x)
+        d, r = linalg.lines_of_sight(x, self._satellites_enu, POSITION_INDEX)
         jac = np.zeros(x.shape[:-1] + (self.dim, x.shape[-1]))
         for dk, i in zip(d, POSITION_INDEX):
             jac[..., i] = -dk / r

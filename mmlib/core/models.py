@@ -13,7 +13,7 @@ Dynamics are ``x_k = f(x_{k-1}) + w_k`` with :math:`w_k \sim N(0, Q)`,
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import InitVar, dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
@@ -616,11 +616,14 @@ class StackedDynamics:
     evaluated mode by mode.  ``Q`` is (r, n, n), or any shape broadcasting against
     (..., r, n, n) (e.g. per-run adapted noise): symmetric positive semi-definite, finite, in squared
     state units; it is checked on construction, so also at every :meth:`with_noise` (per step).
-    ``F``, if given, is (r, n, n) and equals the models' own ``F`` (all models linear)."""
+    ``F``, if given, is (r, n, n) and equals the models' own ``F`` (all models linear).
+    ``q_psd_by_construction=True`` (:meth:`with_noise` with ``check=False``) says ``Q`` comes from a noise family
+    marked :func:`psd_by_construction`: then only its dtype and shape are checked, not its definiteness."""
 
     models: tuple
     Q: np.ndarray
     F: np.ndarray | None = None
+    q_psd_by_construction: InitVar[bool] = False
 
     @staticmethod
     def _check_models(models) -> tuple:
@@ -636,10 +639,16 @@ class StackedDynamics:
             raise ValueError(f"models: all modes must share one state dimension, got {sorted(dims)}")
         return models
 
-    def __post_init__(self):
+    def __post_init__(self, q_psd_by_construction: bool):
         models = self._check_models(self.models)
         r, n = len(models), models[0].dim
-        Q = check_covariance(self.Q, "Q", n, stack=True, semidefinite=True)
+        if check_bool(q_psd_by_construction, "q_psd_by_construction"):
+            Q = np.asarray(self.Q)
+            if Q.dtype != float or Q.ndim < 2 or Q.shape[-2:] != (n, n):
+                raise ValueError(f"Q: expected a float array of shape (..., {r}, {n}, {n}) from a noise family "
+                                 f"marked psd_by_construction, got {Q.dtype} {Q.shape}")
+        else:
+            Q = check_covariance(self.Q, "Q", n, stack=True, semidefinite=True)
         if Q.ndim >= 3 and Q.shape[-3] not in (1, r):
             raise ValueError(f"Q: expected shape ({r}, {n}, {n}) or (..., {r}, {n}, {n}) (one covariance per mode), "
                              f"got {Q.shape}")
@@ -694,16 +703,7 @@ class StackedDynamics:
         per step); a NaN, asymmetric or indefinite ``Q`` is a ValueError naming ``Q``.  ``check=False``: ``Q``
         comes from a family marked :func:`psd_by_construction` and only its shape is checked (the per-step path of
         a noise-adaptive IMM: the full check costs a Cholesky of every matrix, every step)."""
-        if check_bool(check, "check"):
-            return StackedDynamics(self.models, Q, self.F)
-        Q, r, n = np.asarray(Q), len(self.models), self.dim
-        if Q.dtype != float or Q.ndim < 2 or Q.shape[-2:] != (n, n) or (Q.ndim >= 3 and Q.shape[-3] not in (1, r)):
-            raise ValueError(f"Q: expected a float array of shape (..., {r}, {n}, {n}) from a noise family marked "
-                             f"psd_by_construction, got {Q.dtype} {Q.shape}")
-        new = object.__new__(StackedDynamics)
-        for name, value in (("models", self.models), ("Q", Q), ("F", self.F)):
-            object.__setattr__(new, name, value)
-        return new
+        return StackedDynamics(self.models, Q, self.F, q_psd_by_construction=not check_bool(check, "check"))
 
 
 def range_bearing(R: np.ndarray, state_dim: int = 4,
