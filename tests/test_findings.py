@@ -3,6 +3,7 @@ and the README's generated "What we found" block, all from the committed results
 from __future__ import annotations
 
 import copy
+import functools
 import json
 import re
 import sys
@@ -20,12 +21,20 @@ sys.path.insert(0, str(REPO / "tools"))
 RESULTS = REPO / "data" / "results"
 
 
+@functools.lru_cache(maxsize=None)
+def _read(path: Path) -> dict:
+    """A committed results file read and validated once per process (read_results' validation of the larger files
+    takes most of a second; the committed files do not change while the tests run)."""
+    return read_results(path)
+
+
 def committed(name: str) -> dict:
-    return read_results(RESULTS / f"{name}.json")
+    """The committed results of paper ``name``, a copy of its own (a test may change it)."""
+    return copy.deepcopy(_read(RESULTS / f"{name}.json"))
 
 
 def all_docs() -> list[dict]:
-    return [read_results(p) for p in sorted(RESULTS.glob("*.json"))]
+    return [copy.deepcopy(_read(p)) for p in sorted(RESULTS.glob("*.json"))]
 
 
 # -- summaries ---------------------------------------------------------------------------------------------------
