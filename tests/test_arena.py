@@ -646,6 +646,32 @@ def test_cost_is_measured_on_per_step_sensors():
     assert 0 < cost < 1e-2                                # seconds per run-step: positive and finite
 
 
+@pytest.mark.parametrize("name", ["tseng2011", "ladder-nl1"])
+def test_cost_warm_up_is_one_run_over_the_first_steps_then_every_step_is_timed(name):
+    """The untimed warm-up steps one run over WARM_UP_STEPS steps (not the whole run: its per-step Python cost was as
+    large as the timed run's at a few runs), the timed run every run over every step; with per-step sensors
+    (tseng2011) and one sensor (a ladder rung)."""
+    s = study.scenario(name)
+    mc = MonteCarlo(s.root_seed, 3)
+    inner = recipes.build("UKF", s)
+    make_batch = evaluation.with_initial_states(s.simulator(mc), {"UKF": inner},
+                                                lambda e, start, runs: recipes.initial_state(e, s, start, runs, mc))
+    batches = []
+
+    class Counting:                  # the estimator protocol, recording the runs of every step it is asked to take
+        name = inner.name
+
+        def init(self, *args, **kwargs):
+            return inner.init(*args, **kwargs)
+
+        def step(self, state, z, **kwargs):
+            batches.append(np.shape(z)[0])
+            return inner.step(state, z, **kwargs)
+
+    study.cost_per_run_step(Counting(), make_batch, s, 3)
+    assert batches == [1] * study.WARM_UP_STEPS + [3] * s.n_steps
+
+
 # ============================================================ 9. who takes part, and what is pooled (issue 24)
 @pytest.fixture
 def twins():

@@ -94,7 +94,8 @@ __all__ = [
     "per_run_values", "rank_scenario", "cost_per_run_step", "scenario", "known_scenarios", "seed_of",
     "measurement_only_errors", "measurement_only_mse", "measurement_only_rmse", "degenerate_reason", "exclusions",
     "digest", "paper_names", "ArenaVerdict", "ARENA_READING", "VERSUS_BEST", "BASELINE_WHAT", "PAPER", "STUDY",
-    "SCENARIOS", "ALGORITHMS", "CHUNK_SIZE", "COST_RUNS", "RESULT_KEYS", "SIMULATION_MEMO", "SIMULATION_MEMO_BYTES"
+    "SCENARIOS", "ALGORITHMS", "CHUNK_SIZE", "COST_RUNS", "WARM_UP_STEPS", "RESULT_KEYS", "SIMULATION_MEMO",
+    "SIMULATION_MEMO_BYTES"
 ]
 
 
@@ -115,6 +116,7 @@ SCENARIOS = paper_names() + ladder.NAMES
 ALGORITHMS = recipes.ALGORITHMS
 CHUNK_SIZE = 250
 COST_RUNS = 100           #: runs of the batched run that measures a cell's cost (the same batch for every algorithm)
+WARM_UP_STEPS = 2         #: steps of the untimed one-run warm-up before that run (:func:`cost_per_run_step`)
 RESULT_KEYS = ("metrics", "reason", "n_runs", "diverged", "per_run")
 #: the simulated batches a process keeps (:func:`simulated`), the most recently used: a cell asks for its chunks and
 #: its cost batch (n_runs / CHUNK_SIZE + 1 = 5 batches at 1000 runs), and the cells of a scenario run one after the
@@ -287,7 +289,9 @@ def evaluate_cell(algorithm: str, s: Scenario, mc: MonteCarlo, consistency: bool
 def cost_per_run_step(est: Estimator, make_batch: Callable[[Sequence[int]], tuple], s: Scenario,
                       n: int) -> float:
     """Thread CPU seconds per run and step of one batched run of ``est`` over the first ``n`` runs (no NEES/NIS),
-    after an untimed one-run warm-up (compilation, caches)."""
+    after an untimed warm-up of one run over the first :data:`WARM_UP_STEPS` steps: it compiles what the timed path
+    calls and fills the caches; a whole run would also do that, at the Python cost of every step (as much as the
+    timed run itself at a few runs: the per-step cost of a batch hardly depends on its size)."""
     recipes._check_scenario(s, "s")
     check_has(est, "est", "an estimator (protocols.Estimator)", ("init", "step", "name"))
     if not callable(make_batch):
@@ -298,8 +302,12 @@ def cost_per_run_step(est: Estimator, make_batch: Callable[[Sequence[int]], tupl
     from mmlib.core.estimation import run, select_runs
     _, z, init = make_batch(range(n))
     state = init[est.name]
-    first = [zk[:1] for zk in z] if s.measurement_models is not None else z[:1]
-    run(est, select_runs(state, slice(0, 1)), first, keep_cov=False, measurement_models=s.measurement_models)
+    w = min(WARM_UP_STEPS, s.n_steps)
+    if s.measurement_models is not None:
+        first, models = [zk[:1] for zk in z[:w]], s.measurement_models[:w]
+    else:
+        first, models = z[:1, :w], None
+    run(est, select_runs(state, slice(0, 1)), first, keep_cov=False, measurement_models=models)
     t0 = time.thread_time()
     run(est, state, z, keep_cov=False, measurement_models=s.measurement_models)
     return (time.thread_time() - t0) / (n * s.n_steps)
