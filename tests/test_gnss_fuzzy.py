@@ -188,6 +188,8 @@ def test_noise_adaptive_imm_checks_an_unmarked_noise_every_step_and_skips_a_mark
     stacked = base.imm.stacked
     with pytest.raises(ValueError, match="^q_psd_by_construction: "):
         type(stacked)(stacked.models, stacked.Q, stacked.F, q_psd_by_construction="yes")
+    with pytest.raises(ValueError, match="^Q: "):                     # and a non-finite Q
+        stacked.with_noise(np.where(np.eye(8) > 0, np.nan, stacked.Q), check=False)
     with pytest.raises(ValueError, match="^F: "):                     # the unchecked Q still checks the rest
         type(stacked)(stacked.models, stacked.Q, stacked.F[:1], q_psd_by_construction=True)
 
@@ -216,6 +218,14 @@ def test_pseudoranges_are_the_bits_of_the_vector_formula():
                 linalg.pseudoranges(x, sats, (0, 2, 1.7), 6)
             with pytest.raises(ValueError, match="^bias: "):
                 linalg.pseudoranges(x, sats, (0, 2, 4), True)
+            # range and bearing share the index check: a float or a bool is named, not truncated to a column
+            for i, j, bad in ((0.9, 2, "i"), (0, True, "j"), (np.float64(2.0), 1, "i")):
+                with pytest.raises(ValueError, match=f"^{bad}: expected an integer index"):
+                    linalg.range_bearing(x, i, j, np.zeros(2))
+            with pytest.raises(IndexError):
+                linalg.range_bearing(x, 0, 8, np.zeros(2))
+            assert linalg.range_bearing(x, -8, -6, np.ones(2)).tobytes() == \
+                linalg.range_bearing(x, 0, 2, np.ones(2)).tobytes()
     jac = np.zeros(x.shape[:-1] + (7, 8))
     jac[..., [0, 2, 4]] = -d / r[..., None]
     jac[..., 6] = 1.0
@@ -259,22 +269,25 @@ def test_trapezoids_evaluated_at_once_are_the_bits_of_each_set():
     at -0.0, for shoulders, triangles, a step (a = b) and a plateau, and for any shape of input."""
     from mmlib.core.fuzzy import _trapezoid_memberships
     sets = ramp_sets(("N", "M", "L"), (0.5, 1.0, 3.0)) + (Trapezoid("step", 1.0, 1.0, 2.0, 2.0),
-                                                          Trapezoid("tri", 0.2, 0.7, 0.7, 1.5))
+                                                          Trapezoid("tri", 0.2, 0.7, 0.7, 1.5),
+                                                          Trapezoid("at0", 0.0, 1.0, 2.0, 3.0))   # -0.0 -> -0.0
     x = np.concatenate([np.random.default_rng(2).standard_normal(2000) * 3,
                         [0.5, 1.0, 3.0, 2.0, 0.2, 0.7, 1.5, -1e300, 1e300, 0.0, -0.0]])
     ref = np.array([[_membership(t, v) for t in sets] for v in x.tolist()])
     bounds = np.array([[t.a, t.b, t.c, t.d] for t in sets]).T
+    assert np.signbit(ref[-1, -1]) and ref[-1, -1] == 0          # the signed zero is there to compare (x = -0.0)
     assert _trapezoid_memberships(bounds, x).tobytes() == ref.tobytes()
     assert np.stack([t(x) for t in sets], axis=-1).tobytes() == ref.tobytes()
     assert sets[3](x.reshape(1, -1, 1)).tobytes() == ref[:, 3].tobytes()          # any shape in, same shape out
-    assert sets[3](x.reshape(1, -1, 1)).shape == (1, x.size, 1) and sets[4](0.7).shape == ()
+    assert sets[3](x.reshape(1, -1, 1)).shape == (1, x.size, 1)
+    assert type(sets[4](0.7)) is np.float64 and sets[4](0.7) == _membership(sets[4], 0.7)     # a scalar for a scalar
     # and the system uses it, with the same output as through the sets one by one
     ts = two_input_system()
     assert all(b is not None for b in ts._bounds)
     xy = np.random.default_rng(4).uniform(-1, 6, (300, 2))
     w = np.ones((300, 1, 1))
     for i, sets_i in enumerate(ts.inputs):
-        mu = np.stack([t(xy[:, i]) for t in sets_i], axis=-1)
+        mu = np.array([[_membership(t, v) for t in sets_i] for v in xy[:, i].tolist()])
         w = w * mu.reshape((300, 3, 1) if i == 0 else (300, 1, 3))
     assert ts.firing_strengths(xy).tobytes() == w.tobytes()
 

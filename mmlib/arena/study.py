@@ -289,9 +289,11 @@ def evaluate_cell(algorithm: str, s: Scenario, mc: MonteCarlo, consistency: bool
 def cost_per_run_step(est: Estimator, make_batch: Callable[[Sequence[int]], tuple], s: Scenario,
                       n: int) -> float:
     """Thread CPU seconds per run and step of one batched run of ``est`` over the first ``n`` runs (no NEES/NIS),
-    after an untimed warm-up of one run over the first :data:`WARM_UP_STEPS` steps: it compiles what the timed path
-    calls and fills the caches; a whole run would also do that, at the Python cost of every step (as much as the
-    timed run itself at a few runs: the per-step cost of a batch hardly depends on its size)."""
+    after an untimed warm-up of one run over the first :data:`WARM_UP_STEPS` steps, which compiles what those steps
+    call and fills the caches.  What only later steps call is compiled by the cell's evaluation before it in the same
+    process (:func:`evaluate_cell`); a caller timing an estimator that has run nowhere else in its process may see
+    that compilation in the time.  A whole warm-up run would cost the Python of every step: as much as the timed run
+    itself at a few runs (the per-step cost of a batch hardly depends on its size)."""
     recipes._check_scenario(s, "s")
     check_has(est, "est", "an estimator (protocols.Estimator)", ("init", "step", "name"))
     if not callable(make_batch):

@@ -64,7 +64,7 @@ class Trapezoid:
     def __call__(self, x: np.ndarray | float) -> np.ndarray:
         x = check_finite(as_float_array(x, "x"), "x")
         bounds = np.array([[self.a], [self.b], [self.c], [self.d]])
-        return _trapezoid_memberships(bounds, x.reshape(-1))[:, 0].reshape(x.shape)
+        return _trapezoid_memberships(bounds, x.reshape(-1))[:, 0].reshape(x.shape)[()]     # a scalar for a scalar
 
 
 def _trapezoid_memberships(bounds: np.ndarray, x: np.ndarray) -> np.ndarray:

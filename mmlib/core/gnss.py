@@ -220,7 +220,7 @@ class Pseudoranges:
         sats.setflags(write=False)
         R.setflags(write=False)
         object.__setattr__(self, "satellites", sats)
-        # the satellites' E, N and U coordinates as three contiguous rows (linalg.lines_of_sight in the Jacobian)
+        # the satellites' E, N and U coordinates as three contiguous rows (linalg._lines_of_sight in the Jacobian)
         enu = np.ascontiguousarray(sats.T)
         enu.setflags(write=False)
         object.__setattr__(self, "_satellites_enu", enu)
@@ -251,7 +251,7 @@ class Pseudoranges:
         r""":math:`\partial\rho/\partial x` (..., m, 8) at states ``x`` (..., 8): minus the unit lines of sight
         :math:`-(s_i - p)^T/\lVert s_i - p\rVert` in the position columns, 1 in the clock-bias column, 0 for
         the velocities and the clock drift (dimensionless)."""
-        d, r = linalg.lines_of_sight(x, self._satellites_enu, POSITION_INDEX)
+        d, r = linalg._lines_of_sight(x, self._satellites_enu, POSITION_INDEX)
         jac = np.zeros(x.shape[:-1] + (self.dim, x.shape[-1]))
         for dk, i in zip(d, POSITION_INDEX):
             jac[..., i] = -dk / r

@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike
 __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused", "sigma_points", "offset_points",
            "weighted_mean", "weighted_covariances", "kalman_moments", "measurement_moments", "congruence", "cholesky",
            "log_det_from_cholesky", "normalised_square", "solve", "information_fusion", "tril_inverse", "symmetrize",
-           "trace", "wrap_angle", "range_bearing", "pseudoranges", "lines_of_sight", "matmul_rows",
+           "trace", "wrap_angle", "range_bearing", "pseudoranges", "matmul_rows",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
            "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES",
@@ -780,7 +780,8 @@ def range_bearing(x: np.ndarray, i: int, j: int, sensor: np.ndarray) -> np.ndarr
     the points ``x`` (..., n) from a sensor at ``sensor`` (2,) (m), with :math:`\Delta x = x_i - s_x`,
     :math:`\Delta y = x_j - s_y` -> (..., 2) (m, rad in :math:`[-\pi, \pi]`), ``hypot`` and ``atan2`` of the C
     library on either path (:meth:`mmlib.core.models.RangeBearing.h`).  An index beyond the state is an
-    IndexError."""
+    IndexError, one that is not an integer a ValueError naming ``i`` or ``j``."""
+    i, j = _last_axis_index(x, i, "i"), _last_axis_index(x, j, "j")
     dx = x[..., i] - sensor[0]
     dy = x[..., j] - sensor[1]
     return np.stack([np.hypot(dx, dy), np.arctan2(dy, dx)], axis=-1)
@@ -789,7 +790,7 @@ def range_bearing(x: np.ndarray, i: int, j: int, sensor: np.ndarray) -> np.ndarr
 @range_bearing.compiled
 def _range_bearing_compiled(x, i, j, sensor):
     n = x.shape[-1]
-    i, j = (_last_axis_index(x, index) for index in (i, j))     # the kernel does not check bounds
+    i, j = _last_axis_index(x, i, "i"), _last_axis_index(x, j, "j")     # the kernel does not check bounds
     flat = _contiguous(x).reshape(-1, n)
     out = _compiled_module().range_bearing(flat, i, j, float(sensor[0]), float(sensor[1]))
     return out.reshape(x.shape[:-1] + (2,))
@@ -802,23 +803,27 @@ def pseudoranges(x: np.ndarray, satellites: np.ndarray, position: tuple, bias: i
     (:meth:`mmlib.core.gnss.Pseudoranges.h`).  The same IEEE operations on either path, in the same order (the three
     squares summed from the first on, a correctly rounded square root, then the bias), so the same bits."""
     x, satellites, position, bias = _pseudorange_operands(x, satellites, position, bias)
-    return lines_of_sight(x, satellites.T, position)[1] + x[..., bias, None]
+    return _lines_of_sight(x, satellites.T, position)[1] + x[..., bias, None]
 
 
-def lines_of_sight(x: np.ndarray, satellites_enu: np.ndarray, position: tuple) -> tuple:
+def _lines_of_sight(x: np.ndarray, satellites_enu: np.ndarray, position: tuple) -> tuple:
     r"""``(d, r)``: the lines of sight :math:`s_c - p` from the points ``x`` (..., n) to the satellites, as their
     three components ``d`` (three arrays (..., m), m), and their lengths :math:`r = \sqrt{(d_0^2 + d_1^2) + d_2^2}`
     (..., m), in m; ``satellites_enu`` (3, m) holds the satellites' three coordinates as rows (m), ``position`` the
     three indices of p in ``x``.  Component by component, with no (..., m, 3) copy, and the squares summed in that
     order: the arithmetic of :func:`pseudoranges` (which adds the bias to r) and of the pseudoranges' Jacobian
-    (:meth:`mmlib.core.gnss.Pseudoranges.jacobian`).  The operands are taken as given (no check)."""
+    (:meth:`mmlib.core.gnss.Pseudoranges.jacobian`).  The operands are taken as given: the callers have checked
+    them (:func:`_pseudorange_operands`; a :class:`mmlib.core.gnss.Pseudoranges` its satellites)."""
     d = tuple(satellites_enu[k] - x[..., i, None] for k, i in enumerate(position))
     return d, np.sqrt((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2])
 
 
-def _last_axis_index(x: np.ndarray, index: int) -> int:
-    """``index`` (an integer, negative from the end) into the last axis of ``x`` as a non-negative int: numpy's
-    IndexError beyond it (the compiled kernels do not check bounds)."""
+def _last_axis_index(x: np.ndarray, index: int, name: str) -> int:
+    """``index`` (an integer, negative from the end) into the last axis of ``x`` as a non-negative int: a ValueError
+    naming ``name`` for anything but an integer (a bool or a float included), numpy's IndexError beyond the axis (the
+    compiled kernels check neither)."""
+    if isinstance(index, (bool, np.bool_)) or not isinstance(index, (int, np.integer)):
+        raise ValueError(f"{name}: expected an integer index, got {index!r}")
     n = x.shape[-1] if x.ndim else 0
     if not -n <= index < n:
         raise IndexError(f"index {index} is out of bounds for axis {max(x.ndim - 1, 0)} with size {n}")
@@ -838,9 +843,7 @@ def _pseudorange_operands(x, satellites, position, bias) -> tuple:
     indices = []
     for name, index in (("position", position[0]), ("position", position[1]), ("position", position[2]),
                         ("bias", bias)):
-        if isinstance(index, (bool, np.bool_)) or not isinstance(index, (int, np.integer)):
-            raise ValueError(f"{name}: expected integer indices, got {index!r}")
-        indices.append(_last_axis_index(x, index))
+        indices.append(_last_axis_index(x, index, name))
     return x, satellites, tuple(indices[:3]), indices[3]
 
 

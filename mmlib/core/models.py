@@ -618,7 +618,8 @@ class StackedDynamics:
     state units; it is checked on construction, so also at every :meth:`with_noise` (per step).
     ``F``, if given, is (r, n, n) and equals the models' own ``F`` (all models linear).
     ``q_psd_by_construction=True`` (:meth:`with_noise` with ``check=False``) says ``Q`` comes from a noise family
-    marked :func:`psd_by_construction`: then only its dtype and shape are checked, not its definiteness."""
+    marked :func:`psd_by_construction`: then only its dtype, shape and finiteness are checked, not its symmetry and
+    definiteness (what the marking promises); the models and ``F`` are checked either way."""
 
     models: tuple
     Q: np.ndarray
@@ -647,6 +648,7 @@ class StackedDynamics:
             if Q.dtype != float or Q.ndim < 2 or Q.shape[-2:] != (n, n):
                 raise ValueError(f"Q: expected a float array of shape (..., {r}, {n}, {n}) from a noise family "
                                  f"marked psd_by_construction, got {Q.dtype} {Q.shape}")
+            check_finite(Q, "Q")                 # cheap; symmetry and definiteness are what the marking promises
         else:
             Q = check_covariance(self.Q, "Q", n, stack=True, semidefinite=True)
         if Q.ndim >= 3 and Q.shape[-3] not in (1, r):
@@ -701,8 +703,8 @@ class StackedDynamics:
     def with_noise(self, Q: np.ndarray, *, check: bool = True) -> "StackedDynamics":
         """The same modes with process noise ``Q`` ((r, n, n) or (..., r, n, n), e.g. per run and
         per step); a NaN, asymmetric or indefinite ``Q`` is a ValueError naming ``Q``.  ``check=False``: ``Q``
-        comes from a family marked :func:`psd_by_construction` and only its shape is checked (the per-step path of
-        a noise-adaptive IMM: the full check costs a Cholesky of every matrix, every step)."""
+        comes from a family marked :func:`psd_by_construction` and only its shape and finiteness are checked (the
+        per-step path of a noise-adaptive IMM: the full check costs a Cholesky of every matrix, every step)."""
         return StackedDynamics(self.models, Q, self.F, q_psd_by_construction=not check_bool(check, "check"))
 
 
