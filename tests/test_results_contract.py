@@ -99,12 +99,19 @@ def test_committed_results_validate(path, reference):
 
 def test_the_complete_contract_holds_the_whole_one(reference):
     """test_committed_results_validate checks a paper's document against the complete contract alone: a document
-    breaking the whole contract at its root (a key missing, a wrong type) breaks the complete one too."""
+    breaking the whole contract at its root (a key missing, a wrong type) breaks the complete one too, and so does one
+    that only the whole contract's root keywords catch (a paper's document calling itself the arena's: its "if" on
+    ``kind``), which the complete definition on its own would pass -- the complete schema applies the root's keywords
+    beside its $ref, as draft 2020-12 says, and is the whole schema plus that $ref."""
     whole, complete = reference
     doc = small(committed("hu2017.json"))
     assert whole.is_valid(doc) and complete.is_valid(doc)
     for broken in ({k: v for k, v in doc.items() if k != "rows"}, {**doc, "paper": 3}, {**doc, "claims": "none"}):
         assert not whole.is_valid(broken) and not complete.is_valid(broken)
+    root_only = {**doc, "kind": "arena"}
+    definition_alone = Draft202012Validator({"$defs": whole.schema["$defs"], "$ref": "#/$defs/complete_paper_results"})
+    assert definition_alone.is_valid(root_only)
+    assert not whole.is_valid(root_only) and not complete.is_valid(root_only)
     assert complete.schema["$ref"] == "#/$defs/complete_paper_results"
     assert {k: v for k, v in complete.schema.items() if k != "$ref"} == whole.schema
 
