@@ -192,6 +192,9 @@ def test_noise_adaptive_imm_checks_an_unmarked_noise_every_step_and_skips_a_mark
         stacked.with_noise(np.where(np.eye(8) > 0, np.nan, stacked.Q), check=False)
     with pytest.raises(ValueError, match="^F: "):                     # the unchecked Q still checks the rest
         type(stacked)(stacked.models, stacked.Q, stacked.F[:1], q_psd_by_construction=True)
+    # the instance says which path it took (an InitVar's class default would read False on both)
+    assert stacked.with_noise(base.noise(np.ones(2)), check=False).q_psd_by_construction is True
+    assert stacked.with_noise(base.noise(np.ones(2))).q_psd_by_construction is False
 
 
 def test_pseudoranges_are_the_bits_of_the_vector_formula():

@@ -821,7 +821,9 @@ def _lines_of_sight(x: np.ndarray, satellites_enu: np.ndarray, position: tuple) 
 def _last_axis_index(x: np.ndarray, index: int, name: str) -> int:
     """``index`` (an integer, negative from the end) into the last axis of ``x`` as a non-negative int: a ValueError
     naming ``name`` for anything but an integer (a bool or a float included), numpy's IndexError beyond the axis (the
-    compiled kernels check neither)."""
+    compiled kernels check neither).  The integer test is :func:`mmlib.core._validate.check_index`'s, written again
+    here: that module imports this one (its covariance check calls :func:`cholesky`), and this one stays at the
+    bottom of the core's imports (tests/test_architecture.py refuses the cycle)."""
     if isinstance(index, (bool, np.bool_)) or not isinstance(index, (int, np.integer)):
         raise ValueError(f"{name}: expected an integer index, got {index!r}")
     n = x.shape[-1] if x.ndim else 0

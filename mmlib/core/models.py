@@ -643,7 +643,9 @@ class StackedDynamics:
     def __post_init__(self, q_psd_by_construction: bool):
         models = self._check_models(self.models)
         r, n = len(models), models[0].dim
-        if check_bool(q_psd_by_construction, "q_psd_by_construction"):
+        # stored on the instance (an InitVar's default is a class attribute: it would read False on every one)
+        object.__setattr__(self, "q_psd_by_construction", check_bool(q_psd_by_construction, "q_psd_by_construction"))
+        if self.q_psd_by_construction:
             Q = np.asarray(self.Q)
             if Q.dtype != float or Q.ndim < 2 or Q.shape[-2:] != (n, n):
                 raise ValueError(f"Q: expected a float array of shape (..., {r}, {n}, {n}) from a noise family "
