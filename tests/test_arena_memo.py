@@ -88,11 +88,11 @@ def test_the_memo_is_bounded(monkeypatch):
     study._SIMULATIONS.clear()
     size = sum(x.nbytes for x in memo(range(2)) if isinstance(x, np.ndarray))
     study._SIMULATIONS.clear()
-    monkeypatch.setattr(study, "SIMULATION_MEMO_BYTES", size + size // 2)
+    monkeypatch.setattr(study._SIMULATIONS, "max_bytes", size + size // 2)
     memo(range(2))
     memo(range(2, 4))                                  # the two together exceed the bytes: the older is dropped
-    assert [k[2] for k in study._SIMULATIONS] == [(2, 3)]
-    monkeypatch.setattr(study, "SIMULATION_MEMO_BYTES", size - 1)
+    assert [k[1] for k in study._SIMULATIONS] == [(2, 3)]
+    monkeypatch.setattr(study._SIMULATIONS, "max_bytes", size - 1)
     study._SIMULATIONS.clear()
     memo(range(2))                                     # larger than the bytes: not kept
     assert not study._SIMULATIONS

@@ -2,7 +2,7 @@
 against the notebook's in-process path, the windowed DOD and the verdict vocabulary."""
 import concurrent.futures as cf
 import multiprocessing
-from dataclasses import replace
+from dataclasses import fields, replace
 
 import numpy as np
 import pytest
@@ -14,7 +14,7 @@ from mmlib.experiment import evaluation, report, run_grid, verdicts
 from mmlib.experiment.montecarlo import MonteCarlo
 from mmlib.experiment.universe import UniverseResult
 from mmlib.papers import REGISTRY
-from mmlib.papers.tseng2011 import baseline, diagnostics, space, study, text
+from mmlib.papers.tseng2011 import baseline, diagnostics, simulation, space, study, text
 from mmlib.papers.tseng2011.setup import Setup
 from mmlib.papers.tseng2011.simulation import experiment, make_batch_fn
 
@@ -84,9 +84,9 @@ def test_filter_only_factors_share_truth_and_measurements_and_noise_factors_shar
     n = 2
     mc = MonteCarlo(PAPER.root_seed, n)
 
-    def batch(reading):
+    def batch(reading):                    # a fresh simulation: the memo of the simulated batches left out
         ex = experiment(PAPER.setup(reading), names=("UKF",))
-        truth, z, _ = make_batch_fn(ex, mc)(range(n))
+        truth, z, _ = simulation.simulator(ex, memo=False)(mc)(range(n))
         return ex, truth, z
 
     _, truth0, z0 = batch(SPACE.headline)
@@ -107,6 +107,53 @@ def test_filter_only_factors_share_truth_and_measurements_and_noise_factors_shar
     # the speed changes the trajectory but not the receiver clock's draws
     _, t20, _ = batch(SPACE.with_headline(**{"T-1": "30"}))
     assert np.array_equal(t20[..., 6:], truth0[..., 6:]) and not np.array_equal(t20[..., :4], truth0[..., :4])
+
+
+def test_readings_differing_in_no_simulation_field_share_one_remembered_simulation(monkeypatch):
+    """SIMULATION_FIELDS holds every Setup field the simulation reads: each option of the reading space, and each
+    held-fixed change of NON_INFLUENTIAL (the initial spread p0_sd is one, read by the start means), that changes
+    none of them gives, simulated afresh, the headline's truth, pseudoranges and start means bit for bit; the memo
+    then hands every such set-up the one batch it simulated, and one that changes a field gets a batch of its own."""
+    n = 2
+    mc = MonteCarlo(PAPER.root_seed, n)
+    assert set(simulation.SIMULATION_FIELDS) <= {f.name for f in fields(Setup)}
+
+    def simulate(setup, memo):
+        return simulation.simulator(experiment(setup, names=("UKF",)), memo=memo)(mc)(range(n))
+
+    def same(a, b):
+        return all(np.array_equal(x, y) and x.tobytes() == y.tobytes() for x, y in
+                   zip((a[0], a[2], *a[1]), (b[0], b[2], *b[1])))
+
+    head = PAPER.setup(SPACE.headline)
+    fresh0 = simulate(head, False)
+    setups = [(f"{factor.id} {option.name}", PAPER.setup(SPACE.with_headline(**{factor.id: option.name})))
+              for factor in SPACE.factors for option in factor.options]
+    setups += [(label, replace(head, **changes)) for label, changes in space.NON_INFLUENTIAL.items()]
+    filter_only, own = [], []
+    for label, setup in setups:
+        if any(getattr(setup, f) != getattr(head, f) for f in simulation.SIMULATION_FIELDS):
+            own.append(setup)
+        else:                      # the headline's own options included
+            filter_only.append(setup)
+            assert same(simulate(setup, False), fresh0), label
+    assert len(filter_only) > len(SPACE.factors) and len(own) > 3      # both kinds are exercised
+    simulation._SIMULATIONS.clear()
+    calls = []
+    real = simulation._SIMULATIONS.wrap
+    monkeypatch.setattr(simulation._SIMULATIONS, "wrap",
+                        lambda f, key, owner=None: real(lambda runs: calls.append(key) or f(runs), key, owner))
+    first = simulate(head, True)
+    assert same(first, fresh0)
+    for setup in filter_only:
+        again = simulate(setup, True)
+        assert again[0] is first[0] and again[1][0] is first[1][0]         # remembered, not simulated again
+    assert len(calls) == 1
+    for setup in own:
+        assert simulate(setup, True)[0] is not first[0]
+    assert len(calls) == 1 + len(own)
+    with pytest.raises(ValueError, match="read-only"):
+        first[0][...] = 0.0
 
 
 # --------------------------------------------------------------------------- factors and set-ups

@@ -69,7 +69,6 @@ import math
 import os
 import concurrent.futures as cf
 import enum
-from collections import OrderedDict
 from pathlib import Path
 from typing import Callable, Iterable, Mapping, NamedTuple, Sequence
 
@@ -85,6 +84,7 @@ from mmlib.experiment.grid import run_grid
 from mmlib.experiment.montecarlo import MonteCarlo, say_progress
 from mmlib.experiment.paper import Study
 from mmlib.experiment.scenario import Scenario
+from mmlib.experiment.simulate import BatchMemo
 from mmlib.papers import REGISTRY
 
 __all__ = [
@@ -196,51 +196,15 @@ def seed_of(s: Scenario, seed: int | None) -> int:
     return s.root_seed if seed is None else check_positive_int(seed, "seed", minimum=0)
 
 
-#: (id of the scenario, mc, runs) -> (the scenario, its read-only batch, bytes); the scenario is held so that its id
-#: cannot be reused by another while the entry lives
-_SIMULATIONS: OrderedDict = OrderedDict()
-
-
-def _runs_key(runs) -> tuple | None:
-    """The run indices of ``runs`` as a tuple of ints, or None for anything but a range, list, tuple or 1-D integer
-    array of them (left to the simulator to use or refuse)."""
-    if isinstance(runs, range):
-        return tuple(runs)
-    if isinstance(runs, np.ndarray):
-        if runs.ndim != 1 or runs.dtype.kind not in "iu":
-            return None
-        return tuple(int(r) for r in runs)
-    if not isinstance(runs, (list, tuple)) or \
-            not all(isinstance(r, (int, np.integer)) and not isinstance(r, bool) for r in runs):
-        return None
-    return tuple(int(r) for r in runs)
-
-
-def _read_only(value):
-    """``value`` (an array, or a list or tuple of them, as a simulator returns) with its arrays made read-only, and its
-    size in bytes."""
-    if isinstance(value, np.ndarray):
-        value.setflags(write=False)
-        return value, value.nbytes
-    if isinstance(value, (list, tuple)):
-        parts = [_read_only(v) for v in value]
-        return type(value)(p for p, _ in parts), sum(n for _, n in parts)
-    return value, 0
-
-
-def _handed_out(value):
-    """A memoised ``value`` as handed to a caller: a list is a new list (a caller may append to its own), every array
-    the same read-only one."""
-    if isinstance(value, list):
-        return [_handed_out(v) for v in value]
-    if isinstance(value, tuple):
-        return tuple(_handed_out(v) for v in value)
-    return value
+#: the batches of this process (:func:`simulated`): keyed by (id of the scenario, mc) and the runs, each entry holding
+#: the scenario, so that its id cannot be reused by another while the entry lives
+_SIMULATIONS = BatchMemo(SIMULATION_MEMO, SIMULATION_MEMO_BYTES)
 
 
 def simulated(s: Scenario, mc: MonteCarlo) -> Callable:
     """``s.simulator(mc)``, ``runs -> (truth, measurements, start means)``, remembering the last
-    :data:`SIMULATION_MEMO` batches of this process (at most :data:`SIMULATION_MEMO_BYTES`): every algorithm of a
+    :data:`SIMULATION_MEMO` batches of this process (at most :data:`SIMULATION_MEMO_BYTES`; a
+    :class:`~mmlib.experiment.simulate.BatchMemo`): every algorithm of a
     scenario is evaluated on the same runs, which are simulated once per process instead of once per cell.  A batch is
     keyed by everything that determines it -- the scenario (the object: its simulator), the root seed and run count
     of ``mc`` and the run indices -- and is the simulator's own output, so a remembered batch is the one a fresh
@@ -248,26 +212,7 @@ def simulated(s: Scenario, mc: MonteCarlo) -> Callable:
     recipes._check_scenario(s, "s")
     if not isinstance(mc, MonteCarlo):
         raise ValueError(f"mc: expected a MonteCarlo, got {type(mc).__name__}")
-    simulate_runs = s.simulator(mc)
-
-    def memoised(runs):
-        runs_key = _runs_key(runs)
-        if runs_key is None:
-            return simulate_runs(runs)
-        key = (id(s), mc, runs_key)
-        hit = _SIMULATIONS.get(key)
-        if hit is not None and hit[0] is s:
-            _SIMULATIONS.move_to_end(key)
-            return _handed_out(hit[1])
-        batch, size = _read_only(simulate_runs(runs))
-        if size <= SIMULATION_MEMO_BYTES:
-            _SIMULATIONS[key] = (s, batch, size)
-            while len(_SIMULATIONS) > SIMULATION_MEMO or \
-                    sum(entry[2] for entry in _SIMULATIONS.values()) > SIMULATION_MEMO_BYTES:
-                _SIMULATIONS.popitem(last=False)
-        return _handed_out(batch)
-
-    return memoised
+    return _SIMULATIONS.wrap(s.simulator(mc), (id(s), mc), owner=s)
 
 
 def evaluate_cell(algorithm: str, s: Scenario, mc: MonteCarlo, consistency: bool = True) -> tuple:

@@ -9,8 +9,9 @@ therefore covers the transitions that *start* in ``[t0, t1)``.  A jump
 """
 from __future__ import annotations
 
+from collections import OrderedDict
 from dataclasses import dataclass
-from typing import Callable, Iterable, NamedTuple, Sequence
+from typing import Any, Callable, Hashable, Iterable, NamedTuple, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -22,7 +23,7 @@ from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.core.protocols import MeasurementModel, SimulatedDynamics, members
 
 __all__ = [
-    "simulate", "ManeuverSchedule", "Scenario", "propagate", "SIMULATED_DYNAMICS_METHODS"
+    "simulate", "ManeuverSchedule", "Scenario", "propagate", "SIMULATED_DYNAMICS_METHODS", "BatchMemo", "runs_key"
 ]
 
 SIMULATED_DYNAMICS_METHODS = members(SimulatedDynamics)
@@ -198,3 +199,100 @@ def simulate(schedule: ManeuverSchedule, x0: ArrayLike, measurement: Measurement
     else:
         z = measurement_noise_fn(truth[:, 1:], v)
     return Scenario(truth, z, modes)
+
+
+# --------------------------------------------------------------------------- remembered batches
+def runs_key(runs) -> tuple | None:
+    """The run indices of ``runs`` as a tuple of ints, or None for anything but a range, list, tuple or 1-D integer
+    array of them (left to the simulator to use or refuse)."""
+    if isinstance(runs, range):
+        return tuple(runs)
+    if isinstance(runs, np.ndarray):
+        if runs.ndim != 1 or runs.dtype.kind not in "iu":
+            return None
+        return tuple(int(r) for r in runs)
+    if not isinstance(runs, (list, tuple)) or \
+            not all(isinstance(r, (int, np.integer)) and not isinstance(r, bool) for r in runs):
+        return None
+    return tuple(int(r) for r in runs)
+
+
+def _read_only(value) -> tuple:
+    """``value`` (an array, or a list or tuple of them, as a simulator returns) with its arrays made read-only, and its
+    size in bytes."""
+    if isinstance(value, np.ndarray):
+        value.setflags(write=False)
+        return value, value.nbytes
+    if isinstance(value, (list, tuple)):
+        parts = [_read_only(v) for v in value]
+        return type(value)(p for p, _ in parts), sum(n for _, n in parts)
+    return value, 0
+
+
+def _handed_out(value):
+    """A remembered ``value`` as handed to a caller: a list is a new list (a caller may append to its own), every
+    array the same read-only one."""
+    if isinstance(value, list):
+        return [_handed_out(v) for v in value]
+    if isinstance(value, tuple):
+        return tuple(_handed_out(v) for v in value)
+    return value
+
+
+class BatchMemo:
+    """Simulated Monte Carlo batches a process remembers, the most recently used: at most ``max_batches`` of them
+    and ``max_bytes`` in all (a batch larger than that is not kept).  Estimators evaluated one after the other on
+    the same runs (the cells of an arena scenario, the filters of a reading) ask for the same batches; each is
+    simulated once.  A remembered batch is the simulator's own output, so it is the one a fresh simulation gives,
+    bit for bit; its arrays are read-only (a caller's write is a ValueError) and a list in it is a new list for each
+    caller.
+
+    :meth:`wrap` memoises one simulator under a ``key`` that must determine its batches together with the run
+    indices (a paper's simulation fields and the MonteCarlo, say); ``owner``, when given, is held by the entries and
+    must be the very object again for a hit (a key built from ``id(owner)`` then cannot match an object that reuses
+    the id).  The limits are attributes, read at each store."""
+
+    def __init__(self, max_batches: int, max_bytes: int):
+        self.max_batches = check_positive_int(max_batches, "max_batches")
+        self.max_bytes = check_positive_int(max_bytes, "max_bytes", minimum=0)
+        self._entries: OrderedDict = OrderedDict()      # (key, runs) -> (owner, read-only batch, bytes)
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def __iter__(self):
+        """The entries' ``(key, runs)``, the least recently used first."""
+        return iter(list(self._entries))
+
+    def clear(self) -> None:
+        """Forget every batch."""
+        self._entries.clear()
+
+    def wrap(self, simulate_runs: Callable, key: Hashable, owner: Any = None) -> Callable:
+        """``runs -> batch``: ``simulate_runs(runs)`` remembered under ``(key, run indices)``.  Runs that are not a
+        range, list, tuple or 1-D integer array of indices go to the simulator unremembered (its own error, if
+        any)."""
+        if not callable(simulate_runs):
+            raise ValueError(f"simulate_runs: expected a function runs -> batch, got {type(simulate_runs).__name__}")
+        try:
+            hash(key)
+        except TypeError:
+            raise ValueError(f"key: expected a hashable key, got {type(key).__name__}") from None
+        entries = self._entries
+
+        def memoised(runs):
+            rk = runs_key(runs)
+            if rk is None:
+                return simulate_runs(runs)
+            hit = entries.get((key, rk))
+            if hit is not None and hit[0] is owner:
+                entries.move_to_end((key, rk))
+                return _handed_out(hit[1])
+            batch, size = _read_only(simulate_runs(runs))
+            if size <= self.max_bytes:
+                entries[(key, rk)] = (owner, batch, size)
+                while len(entries) > self.max_batches or sum(e[2] for e in entries.values()) > self.max_bytes:
+                    entries.popitem(last=False)
+            return _handed_out(batch)
+
+        return memoised

@@ -17,18 +17,19 @@ from typing import Any, Callable, Iterable, NamedTuple
 import numpy as np
 
 from mmlib.core import gnss, models
+from mmlib.core._validate import check_bool
 from mmlib.core.estimation import IMM
 from mmlib.core.layers.adaptive_imm import NoiseAdaptiveIMM
 from mmlib.experiment import evaluation
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.experiment.scenario import Scenario
-from mmlib.experiment.simulate import ManeuverSchedule, propagate
+from mmlib.experiment.simulate import BatchMemo, ManeuverSchedule, propagate
 from mmlib.papers.tseng2011.setup import Setup, build, noise_model, transition_matrix
 from mmlib.papers.tseng2011.text import ALGORITHMS, CITATION, NAME, ROOT_SEED
 
 __all__ = [
     "scenario", "batch", "simulator", "make_batch_fn", "motion_schedule", "trajectory", "maneuver_intervals", "Sky",
-    "sky", "Experiment", "experiment", "NoiseLevels", "GEOMETRY_FIELDS"
+    "sky", "Experiment", "experiment", "NoiseLevels", "GEOMETRY_FIELDS", "SIMULATION_FIELDS"
 ]
 
 
@@ -131,12 +132,27 @@ def experiment(setup: Setup, names: Iterable[str] = ALGORITHMS, **build_kw: Any)
     return Experiment(setup, plane, sk, {n: est[n] for n in names})
 
 
-def simulator(ex: Experiment) -> Callable:
+#: the Setup fields the simulated runs depend on (:func:`simulator` reads no other): the geometry's, the receiver
+#: clock's and the initial-estimate spread.  Readings that differ only in other fields -- the filters' settings --
+#: share their truth and pseudoranges (tests/test_tseng2011.py checks it over the reading space's options).
+SIMULATION_FIELDS = GEOMETRY_FIELDS + ("clock_h0", "clock_h_minus2", "p0_sd")
+
+#: the simulated batches of this process (:func:`simulator`): the filters of a reading, evaluated one by one
+#: (:func:`mmlib.papers.tseng2011.study.evaluate_reading`), its no-information baseline and the next readings of a
+#: worker that differ only in filter settings ask for the same runs.  25 runs of 1800 epochs are about 6 MB.
+_SIMULATIONS = BatchMemo(max_batches=4, max_bytes=128 * 2**20)
+
+
+def simulator(ex: Experiment, memo: bool = True) -> Callable:
     """``mc -> (runs -> (truth (B, K+1, 8), [z_k (B, m_k)], start means (B, 8)))``.
 
     Per run: the clock random walk from Stream.TRUTH, pseudorange noise from Stream.MEASUREMENT
     (drawn for all 24 satellites at every epoch, so a satellite's noise does not depend on which
-    others are in view), the initial-estimate error from Stream.INITIAL."""
+    others are in view), the initial-estimate error from Stream.INITIAL.  ``memo``: remember the batches in this
+    process under the set-up's :data:`SIMULATION_FIELDS`, the MonteCarlo and the runs (the simulator's own output,
+    read-only: the same bits as simulating again); the arena's scenario passes False (the arena remembers its
+    batches itself)."""
+    check_bool(memo, "memo")
     s = ex.setup
     K = s.n_steps
     clock = ManeuverSchedule([gnss.clock_dynamics(s.T, s.clock_h0, s.clock_h_minus2)], [], 0, s.T, K)
@@ -155,7 +171,9 @@ def simulator(ex: Experiment) -> Callable:
                  for k, model in enumerate(ex.measurement_models)]
             return truth, z, mc.gaussian(runs, Stream.INITIAL, truth[:, 0], P0)
 
-        return simulate_runs
+        if not memo:
+            return simulate_runs
+        return _SIMULATIONS.wrap(simulate_runs, (tuple(getattr(s, f) for f in SIMULATION_FIELDS), mc))
 
     return for_mc
 
@@ -197,7 +215,8 @@ def scenario(setup: Setup) -> Scenario:
     ex = experiment(setup, names=("UKF",))
     noise = noise_model(setup)
     return Scenario(name=NAME, title="Tseng et al. 2011 (reconstruction): GPS pseudoranges, PV-clock model",
-                    source=CITATION, root_seed=ROOT_SEED, T=setup.T, n_steps=setup.n_steps, simulator=simulator(ex),
+                    source=CITATION, root_seed=ROOT_SEED, T=setup.T, n_steps=setup.n_steps,
+                    simulator=simulator(ex, memo=False),
                     P0=np.diag(np.square(setup.p0_sd)), position=gnss.POSITION_INDEX[:2],
                     velocity=gnss.VELOCITY_INDEX[:2], single=noise.dynamics(setup.ukf_level, "UKF"),
                     modes=(noise.dynamics(setup.s_lower, "lower"), noise.dynamics(setup.s_upper, "upper")),
