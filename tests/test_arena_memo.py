@@ -12,6 +12,7 @@ import pytest
 
 from mmlib.arena import study
 from mmlib.experiment.montecarlo import MonteCarlo
+from mmlib.experiment.simulate import BatchMemo
 
 
 @pytest.fixture(autouse=True)
@@ -88,12 +89,13 @@ def test_the_memo_is_bounded(monkeypatch):
     study._SIMULATIONS.clear()
     size = sum(x.nbytes for x in memo(range(2)) if isinstance(x, np.ndarray))
     study._SIMULATIONS.clear()
-    monkeypatch.setattr(study._SIMULATIONS, "max_bytes", size + size // 2)
+    monkeypatch.setattr(study, "_SIMULATIONS", BatchMemo(study.SIMULATION_MEMO, size + size // 2))
+    memo = study.simulated(s, mc)                      # (a simulator wraps the memo of its making)
     memo(range(2))
     memo(range(2, 4))                                  # the two together exceed the bytes: the older is dropped
-    assert [k[1] for k in study._SIMULATIONS] == [(2, 3)]
-    monkeypatch.setattr(study._SIMULATIONS, "max_bytes", size - 1)
-    study._SIMULATIONS.clear()
+    assert [k[2] for k in study._SIMULATIONS] == [(2, 3)]
+    monkeypatch.setattr(study, "_SIMULATIONS", BatchMemo(study.SIMULATION_MEMO, size - 1))
+    memo = study.simulated(s, mc)
     memo(range(2))                                     # larger than the bytes: not kept
     assert not study._SIMULATIONS
 
@@ -120,3 +122,38 @@ def test_runs_it_cannot_key_go_to_the_simulator_unremembered():
     assert len(calls) == 2 and not study._SIMULATIONS
     with pytest.raises(ValueError, match="mc"):
         study.simulated(s, 6)
+
+
+def test_batch_memo_names_bad_arguments_keeps_owners_apart_and_rebuilds_named_tuples():
+    """The memo itself (mmlib.experiment.simulate.BatchMemo): a ValueError naming each bad argument; an entry held
+    for one owner is no hit for another object under the same key, and that owner's batch replaces it; a NamedTuple
+    batch comes back as its own type, read-only."""
+    from typing import NamedTuple
+
+    for args, name in (((0, 10), "max_batches"), ((2, -1), "max_bytes"), ((True, 10), "max_batches")):
+        with pytest.raises(ValueError, match=f"^{name}: "):
+            BatchMemo(*args)
+    memo = BatchMemo(2, 10**6)
+    with pytest.raises(ValueError, match="^simulate_runs: "):
+        memo.wrap(3, "k")
+    with pytest.raises(ValueError, match="^key: "):
+        memo.wrap(lambda runs: np.zeros(1), ["unhashable"])
+    calls = []
+
+    class Batch(NamedTuple):
+        truth: np.ndarray
+        z: list
+
+    def simulate(runs):
+        calls.append(list(runs))
+        return Batch(np.arange(3.0), [np.ones(2)])
+
+    a, b = object(), object()
+    first = memo.wrap(simulate, "k", owner=a)(range(2))
+    assert isinstance(first, Batch) and not first.truth.flags.writeable
+    assert memo.wrap(simulate, "k", owner=a)(range(2)).truth is first.truth and len(calls) == 1
+    other = memo.wrap(simulate, "k", owner=b)(range(2))          # same key, another owner: simulated again
+    assert other.truth is not first.truth and len(calls) == 2 and len(memo) == 1
+    assert memo.wrap(simulate, "k", owner=b)(range(2)).truth is other.truth and len(calls) == 2
+    memo.clear()
+    assert len(memo) == 0 and list(memo) == []

@@ -1,6 +1,7 @@
 """GNSS geometry, clock model, Takagi-Sugeno inference, the noise-adaptive IMM, the fuzzy noise controller
 (mmlib.core.layers.fuzzy_noise) and the Tseng et al. 2011 reconstruction (hand-checkable cases, limits,
 invariances, bad inputs)."""
+import dataclasses
 import math
 
 import numpy as np
@@ -192,9 +193,12 @@ def test_noise_adaptive_imm_checks_an_unmarked_noise_every_step_and_skips_a_mark
         stacked.with_noise(np.where(np.eye(8) > 0, np.nan, stacked.Q), check=False)
     with pytest.raises(ValueError, match="^F: "):                     # the unchecked Q still checks the rest
         type(stacked)(stacked.models, stacked.Q, stacked.F[:1], q_psd_by_construction=True)
-    # the instance says which path it took (an InitVar's class default would read False on both)
-    assert stacked.with_noise(base.noise(np.ones(2)), check=False).q_psd_by_construction is True
-    assert stacked.with_noise(base.noise(np.ones(2))).q_psd_by_construction is False
+    # the instance says which path it took, and a replaced Q is checked again (replace() reads the InitVar's class
+    # default, never the unchecked path of the instance it copies)
+    unchecked = stacked.with_noise(base.noise(np.ones(2)), check=False)
+    assert unchecked.q_checked is False and stacked.with_noise(base.noise(np.ones(2))).q_checked is True
+    with pytest.raises(ValueError, match="^Q: "):
+        dataclasses.replace(unchecked, Q=-base.noise(np.ones(2)))
 
 
 def test_pseudoranges_are_the_bits_of_the_vector_formula():

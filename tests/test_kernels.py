@@ -271,7 +271,8 @@ def test_every_operation_has_a_numpy_body_and_a_compiled_twin():
 
 #: where the kernel's name may be read: to record it (results, digests, fingerprints) or to pass it to workers
 KERNEL_RECORDERS = ("mmlib/experiment/writing.py", "mmlib/experiment/digests.py", "mmlib/experiment/machine.py",
-                    "mmlib/experiment/executors.py", "mmlib/arena/study.py", "bench/provenance.py")
+                    "mmlib/experiment/executors.py", "mmlib/experiment/simulate.py", "mmlib/arena/study.py",
+                    "bench/provenance.py")
 #: names that reach into linalg's dispatch or the compiled module
 DISPATCH_NAMES = ("_kernels", "_compiled", "_compiled_module", "_KERNEL", "implementations", "_call", "compiled",
                   "_operation")

@@ -4,14 +4,16 @@ import concurrent.futures as cf
 import multiprocessing
 from dataclasses import fields, replace
 
+import cloudpickle
 import numpy as np
 import pytest
 
 from mmlib.core.estimation import run
 from mmlib.core.layers.adaptive_imm import NoiseAdaptiveIMM, WindowedNoiseAdaptiveIMM
-from mmlib.core import gnss
+from mmlib.core import gnss, linalg
 from mmlib.experiment import evaluation, report, run_grid, verdicts
 from mmlib.experiment.montecarlo import MonteCarlo
+from mmlib.experiment.simulate import BatchMemo
 from mmlib.experiment.universe import UniverseResult
 from mmlib.papers import REGISTRY
 from mmlib.papers.tseng2011 import baseline, diagnostics, simulation, space, study, text
@@ -109,51 +111,69 @@ def test_filter_only_factors_share_truth_and_measurements_and_noise_factors_shar
     assert np.array_equal(t20[..., 6:], truth0[..., 6:]) and not np.array_equal(t20[..., :4], truth0[..., :4])
 
 
+#: one other valid value of every Setup field (the test below refuses a Setup field missing here)
+OTHER_VALUES = dict(T=0.5, n_steps=900, speed=25.0, heading_deg=30.0,
+                    turns=((300.0, 700.0, 180.0), (800.0, 900.0, 90.0), (1200.0, 1400.0, -90.0)),
+                    site=(30.0, 121.78, 0.0), phasing_deg=20.0, mask_deg=12.0, sigma_pr=4.0, clock_h0=4e-19,
+                    clock_h_minus2=4e-20, s_lower=0.02, s_upper=2.0, s_ukf=0.1, ukf_rule="lower", p_stay=0.95,
+                    mu0=(0.9, 0.1), ukf=(0.5, 2.0, 0.0), xi_breakpoints=(1.5, 3.0, 6.0), dod_normalise="measurement",
+                    mf_scale=2.0, dod_window=4, p0_sd=tuple(2.0 * v for v in text.P0_SD))
+
+
+def _simulate(setup, mc, memo):
+    return simulation.simulator(experiment(setup, names=("UKF",)), memo=memo)(mc)(range(mc.n_runs))
+
+
+def _same_batch(a, b) -> bool:
+    xs, ys = (a[0], a[2], *a[1]), (b[0], b[2], *b[1])
+    return len(xs) == len(ys) and all(x.shape == y.shape and x.tobytes() == y.tobytes() for x, y in zip(xs, ys))
+
+
+def test_the_simulation_reads_exactly_its_simulation_fields():
+    """SIMULATION_FIELDS, the memo's key, are the Setup fields the simulation reads: each field changed alone to
+    another valid value changes a fresh simulation of two runs exactly when it is one of them."""
+    mc = MonteCarlo(PAPER.root_seed, 2)
+    head = Setup()
+    assert set(OTHER_VALUES) == {f.name for f in fields(Setup)}
+    fresh0 = _simulate(head, mc, False)
+    changes = {name: not _same_batch(_simulate(replace(head, **{name: value}), mc, False), fresh0)
+               for name, value in OTHER_VALUES.items()}
+    assert changes == {name: name in simulation.SIMULATION_FIELDS for name in OTHER_VALUES}
+
+
 def test_readings_differing_in_no_simulation_field_share_one_remembered_simulation(monkeypatch):
-    """SIMULATION_FIELDS holds every Setup field the simulation reads: each option of the reading space, and each
-    held-fixed change of NON_INFLUENTIAL (the initial spread p0_sd is one, read by the start means), that changes
-    none of them gives, simulated afresh, the headline's truth, pseudoranges and start means bit for bit; the memo
-    then hands every such set-up the one batch it simulated, and one that changes a field gets a batch of its own."""
-    n = 2
-    mc = MonteCarlo(PAPER.root_seed, n)
-    assert set(simulation.SIMULATION_FIELDS) <= {f.name for f in fields(Setup)}
-
-    def simulate(setup, memo):
-        return simulation.simulator(experiment(setup, names=("UKF",)), memo=memo)(mc)(range(n))
-
-    def same(a, b):
-        return all(np.array_equal(x, y) and x.tobytes() == y.tobytes() for x, y in
-                   zip((a[0], a[2], *a[1]), (b[0], b[2], *b[1])))
-
+    """Every option of the reading space and every held-fixed change of NON_INFLUENTIAL that changes no simulation
+    field is handed the one batch the memo simulated for the headline -- the headline's fresh simulation, bit for
+    bit --, one that changes a field gets a batch of its own, a kernel of its own too, and a wrapped simulator
+    pickles without the batches."""
+    monkeypatch.setattr(simulation, "_SIMULATIONS", BatchMemo(simulation.SIMULATION_MEMO,
+                                                              simulation.SIMULATION_MEMO_BYTES))
+    mc = MonteCarlo(PAPER.root_seed, 2)
     head = PAPER.setup(SPACE.headline)
-    fresh0 = simulate(head, False)
-    setups = [(f"{factor.id} {option.name}", PAPER.setup(SPACE.with_headline(**{factor.id: option.name})))
+    setups = [PAPER.setup(SPACE.with_headline(**{factor.id: option.name}))
               for factor in SPACE.factors for option in factor.options]
-    setups += [(label, replace(head, **changes)) for label, changes in space.NON_INFLUENTIAL.items()]
-    filter_only, own = [], []
-    for label, setup in setups:
-        if any(getattr(setup, f) != getattr(head, f) for f in simulation.SIMULATION_FIELDS):
-            own.append(setup)
-        else:                      # the headline's own options included
-            filter_only.append(setup)
-            assert same(simulate(setup, False), fresh0), label
-    assert len(filter_only) > len(SPACE.factors) and len(own) > 3      # both kinds are exercised
-    simulation._SIMULATIONS.clear()
-    calls = []
-    real = simulation._SIMULATIONS.wrap
-    monkeypatch.setattr(simulation._SIMULATIONS, "wrap",
-                        lambda f, key, owner=None: real(lambda runs: calls.append(key) or f(runs), key, owner))
-    first = simulate(head, True)
-    assert same(first, fresh0)
-    for setup in filter_only:
-        again = simulate(setup, True)
-        assert again[0] is first[0] and again[1][0] is first[1][0]         # remembered, not simulated again
-    assert len(calls) == 1
+    setups += [replace(head, **changes) for changes in space.NON_INFLUENTIAL.values()]
+    own = [s for s in setups if any(getattr(s, f) != getattr(head, f) for f in simulation.SIMULATION_FIELDS)]
+    shared = [s for s in setups if s not in own]
+    assert len(shared) > len(SPACE.factors) and len(own) > 3          # both kinds are exercised
+    first = _simulate(head, mc, True)
+    assert _same_batch(first, _simulate(head, mc, False))
+    for setup in shared:
+        again = _simulate(setup, mc, True)
+        assert again[0] is first[0] and again[1][0] is first[1][0]    # remembered, not simulated again
+    assert len(simulation._SIMULATIONS) == 1
     for setup in own:
-        assert simulate(setup, True)[0] is not first[0]
-    assert len(calls) == 1 + len(own)
+        assert _simulate(setup, mc, True)[0] is not first[0]
+    assert len(simulation._SIMULATIONS) == min(1 + len(own), simulation.SIMULATION_MEMO)
     with pytest.raises(ValueError, match="read-only"):
         first[0][...] = 0.0
+    with linalg.use_kernel("numpy"):               # the kernels agree to round-off only: each has its own batch
+        numpy_batch = _simulate(head, mc, True)
+        assert numpy_batch[0] is not first[0] and _same_batch(numpy_batch, _simulate(head, mc, False))
+    wrapped = make_batch_fn(experiment(head, names=("UKF",)), mc)
+    filled = len(cloudpickle.dumps(wrapped))                  # (the experiment's sky is most of it)
+    simulation._SIMULATIONS.clear()
+    assert len(cloudpickle.dumps(wrapped)) == filled           # the batches stay in this process
 
 
 # --------------------------------------------------------------------------- factors and set-ups

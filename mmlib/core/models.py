@@ -626,6 +626,12 @@ class StackedDynamics:
     F: np.ndarray | None = None
     q_psd_by_construction: InitVar[bool] = False
 
+    @property
+    def q_checked(self) -> bool:
+        """Whether ``Q``'s symmetry and definiteness were checked on construction (False: ``q_psd_by_construction``;
+        the InitVar itself reads its class default on every instance)."""
+        return self._q_checked
+
     @staticmethod
     def _check_models(models) -> tuple:
         if isinstance(models, (str, bytes, np.ndarray)) or not hasattr(models, "__iter__"):
@@ -643,9 +649,10 @@ class StackedDynamics:
     def __post_init__(self, q_psd_by_construction: bool):
         models = self._check_models(self.models)
         r, n = len(models), models[0].dim
-        # stored on the instance (an InitVar's default is a class attribute: it would read False on every one)
-        object.__setattr__(self, "q_psd_by_construction", check_bool(q_psd_by_construction, "q_psd_by_construction"))
-        if self.q_psd_by_construction:
+        # recorded under another name: dataclasses.replace() reads an InitVar with a default from the instance, so
+        # storing the flag itself would carry the unchecked path into a replaced Q
+        object.__setattr__(self, "_q_checked", not check_bool(q_psd_by_construction, "q_psd_by_construction"))
+        if not self._q_checked:
             Q = np.asarray(self.Q)
             if Q.dtype != float or Q.ndim < 2 or Q.shape[-2:] != (n, n):
                 raise ValueError(f"Q: expected a float array of shape (..., {r}, {n}, {n}) from a noise family "

@@ -9,6 +9,7 @@ therefore covers the transitions that *start* in ``[t0, t1)``.  A jump
 """
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any, Callable, Hashable, Iterable, NamedTuple, Sequence
@@ -18,7 +19,7 @@ from numpy.typing import ArrayLike
 
 from mmlib.core._validate import (as_float_array, check_applies, check_bool, check_finite, check_has, check_index,
                                   check_positive_int, check_scalar)
-from mmlib.core.linalg import matmul_rows
+from mmlib.core.linalg import kernel, matmul_rows
 from mmlib.experiment.montecarlo import MonteCarlo, Stream
 from mmlib.core.protocols import MeasurementModel, SimulatedDynamics, members
 
@@ -202,7 +203,7 @@ def simulate(schedule: ManeuverSchedule, x0: ArrayLike, measurement: Measurement
 
 
 # --------------------------------------------------------------------------- remembered batches
-def runs_key(runs) -> tuple | None:
+def runs_key(runs: Any) -> tuple | None:
     """The run indices of ``runs`` as a tuple of ints, or None for anything but a range, list, tuple or 1-D integer
     array of them (left to the simulator to use or refuse)."""
     if isinstance(runs, range):
@@ -218,81 +219,110 @@ def runs_key(runs) -> tuple | None:
 
 
 def _read_only(value) -> tuple:
-    """``value`` (an array, or a list or tuple of them, as a simulator returns) with its arrays made read-only, and its
-    size in bytes."""
+    """``value`` (an array, or a list or tuple -- a NamedTuple included -- of them, as a simulator returns) with its
+    arrays made read-only, and the bytes of their data."""
     if isinstance(value, np.ndarray):
         value.setflags(write=False)
         return value, value.nbytes
     if isinstance(value, (list, tuple)):
         parts = [_read_only(v) for v in value]
-        return type(value)(p for p, _ in parts), sum(n for _, n in parts)
+        return _same_kind(value, [p for p, _ in parts]), sum(n for _, n in parts)
     return value, 0
 
 
 def _handed_out(value):
     """A remembered ``value`` as handed to a caller: a list is a new list (a caller may append to its own), every
     array the same read-only one."""
-    if isinstance(value, list):
-        return [_handed_out(v) for v in value]
-    if isinstance(value, tuple):
-        return tuple(_handed_out(v) for v in value)
+    if isinstance(value, (list, tuple)):
+        return _same_kind(value, [_handed_out(v) for v in value])
     return value
+
+
+def _same_kind(like, items: list):
+    """``items`` as a container of ``like``'s type (a NamedTuple rebuilt field by field)."""
+    return like._make(items) if hasattr(like, "_make") else type(like)(items)
 
 
 class BatchMemo:
     """Simulated Monte Carlo batches a process remembers, the most recently used: at most ``max_batches`` of them
-    and ``max_bytes`` in all (a batch larger than that is not kept).  Estimators evaluated one after the other on
-    the same runs (the cells of an arena scenario, the filters of a reading) ask for the same batches; each is
-    simulated once.  A remembered batch is the simulator's own output, so it is the one a fresh simulation gives,
-    bit for bit; its arrays are read-only (a caller's write is a ValueError) and a list in it is a new list for each
-    caller.
+    and ``max_bytes`` of array data in all (a batch larger than that is not kept).  Estimators evaluated one after
+    the other on the same runs (the cells of an arena scenario, the filters of a reading) ask for the same batches;
+    each is simulated once.  A remembered batch is the simulator's own output under the kernel implementation in use
+    (:func:`mmlib.core.linalg.kernel`, part of every entry's key: the two agree only to round-off), so it is the one
+    a fresh simulation gives, bit for bit; its arrays are read-only (a caller's write is a ValueError) and a list in
+    it is a new list for each caller.
 
     :meth:`wrap` memoises one simulator under a ``key`` that must determine its batches together with the run
     indices (a paper's simulation fields and the MonteCarlo, say); ``owner``, when given, is held by the entries and
     must be the very object again for a hit (a key built from ``id(owner)`` then cannot match an object that reuses
-    the id).  The limits are attributes, read at each store."""
+    the id).  The limits are fixed at construction.  Safe to share between threads (the simulator itself runs
+    outside the lock).  Pickled (a wrapped simulator sent to a worker process), it arrives empty: batches are never
+    shipped between processes."""
 
     def __init__(self, max_batches: int, max_bytes: int):
-        self.max_batches = check_positive_int(max_batches, "max_batches")
-        self.max_bytes = check_positive_int(max_bytes, "max_bytes", minimum=0)
-        self._entries: OrderedDict = OrderedDict()      # (key, runs) -> (owner, read-only batch, bytes)
+        self._max_batches = check_positive_int(max_batches, "max_batches")
+        self._max_bytes = check_positive_int(max_bytes, "max_bytes", minimum=0)
+        self._entries: OrderedDict = OrderedDict()      # (key, kernel, runs) -> (owner, read-only batch, bytes)
+        self._lock = threading.Lock()
+
+    def __reduce__(self):
+        return BatchMemo, (self._max_batches, self._max_bytes)
+
+    @property
+    def max_batches(self) -> int:
+        """The most batches kept."""
+        return self._max_batches
+
+    @property
+    def max_bytes(self) -> int:
+        """The most bytes of array data kept."""
+        return self._max_bytes
 
     def __len__(self) -> int:
         return len(self._entries)
 
     def __iter__(self):
-        """The entries' ``(key, runs)``, the least recently used first."""
-        return iter(list(self._entries))
+        """The entries' ``(key, kernel, runs)``, the least recently used first."""
+        with self._lock:
+            return iter(list(self._entries))
 
     def clear(self) -> None:
         """Forget every batch."""
-        self._entries.clear()
+        with self._lock:
+            self._entries.clear()
 
     def wrap(self, simulate_runs: Callable, key: Hashable, owner: Any = None) -> Callable:
-        """``runs -> batch``: ``simulate_runs(runs)`` remembered under ``(key, run indices)``.  Runs that are not a
-        range, list, tuple or 1-D integer array of indices go to the simulator unremembered (its own error, if
-        any)."""
+        """``runs -> batch``: ``simulate_runs(runs)`` remembered under ``(key, kernel, run indices)``.  Runs that are
+        not a range, list, tuple or 1-D integer array of indices go to the simulator unremembered (its own error, if
+        any).  ValueError naming ``simulate_runs`` (not callable) or ``key`` (not hashable)."""
         if not callable(simulate_runs):
             raise ValueError(f"simulate_runs: expected a function runs -> batch, got {type(simulate_runs).__name__}")
         try:
             hash(key)
         except TypeError:
             raise ValueError(f"key: expected a hashable key, got {type(key).__name__}") from None
-        entries = self._entries
 
         def memoised(runs):
             rk = runs_key(runs)
             if rk is None:
                 return simulate_runs(runs)
-            hit = entries.get((key, rk))
-            if hit is not None and hit[0] is owner:
-                entries.move_to_end((key, rk))
-                return _handed_out(hit[1])
-            batch, size = _read_only(simulate_runs(runs))
-            if size <= self.max_bytes:
-                entries[(key, rk)] = (owner, batch, size)
-                while len(entries) > self.max_batches or sum(e[2] for e in entries.values()) > self.max_bytes:
-                    entries.popitem(last=False)
-            return _handed_out(batch)
+            return self._get((key, kernel(), rk), owner, lambda: simulate_runs(runs))
 
         return memoised
+
+    def _get(self, full_key: tuple, owner, simulate: Callable):
+        entries = self._entries
+        with self._lock:
+            hit = entries.get(full_key)
+            if hit is not None and hit[0] is owner:
+                entries.move_to_end(full_key)
+                return _handed_out(hit[1])
+        batch, size = _read_only(simulate())
+        if size <= self._max_bytes:
+            with self._lock:
+                entries.pop(full_key, None)              # a stale entry (another owner) leaves its place too
+                entries[full_key] = (owner, batch, size)
+                while entries and (len(entries) > self._max_batches
+                                   or sum(e[2] for e in entries.values()) > self._max_bytes):
+                    entries.popitem(last=False)
+        return _handed_out(batch)

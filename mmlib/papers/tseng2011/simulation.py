@@ -29,7 +29,8 @@ from mmlib.papers.tseng2011.text import ALGORITHMS, CITATION, NAME, ROOT_SEED
 
 __all__ = [
     "scenario", "batch", "simulator", "make_batch_fn", "motion_schedule", "trajectory", "maneuver_intervals", "Sky",
-    "sky", "Experiment", "experiment", "NoiseLevels", "GEOMETRY_FIELDS", "SIMULATION_FIELDS"
+    "sky", "Experiment", "experiment", "NoiseLevels", "GEOMETRY_FIELDS", "SIMULATION_FIELDS", "SIMULATION_MEMO",
+    "SIMULATION_MEMO_BYTES"
 ]
 
 
@@ -137,10 +138,12 @@ def experiment(setup: Setup, names: Iterable[str] = ALGORITHMS, **build_kw: Any)
 #: share their truth and pseudoranges (tests/test_tseng2011.py checks it over the reading space's options).
 SIMULATION_FIELDS = GEOMETRY_FIELDS + ("clock_h0", "clock_h_minus2", "p0_sd")
 
-#: the simulated batches of this process (:func:`simulator`): the filters of a reading, evaluated one by one
-#: (:func:`mmlib.papers.tseng2011.study.evaluate_reading`), its no-information baseline and the next readings of a
-#: worker that differ only in filter settings ask for the same runs.  25 runs of 1800 epochs are about 6 MB.
-_SIMULATIONS = BatchMemo(max_batches=4, max_bytes=128 * 2**20)
+#: the batches and bytes of array data the memo of :func:`simulator` keeps: the filters of a reading, evaluated one
+#: by one (:func:`mmlib.papers.tseng2011.study.evaluate_reading`), its no-information baseline and the next readings
+#: of a worker that differ only in filter settings ask for the same runs; 25 runs of 1800 epochs are about 5 MB
+SIMULATION_MEMO = 4
+SIMULATION_MEMO_BYTES = 128 * 2**20
+_SIMULATIONS = BatchMemo(SIMULATION_MEMO, SIMULATION_MEMO_BYTES)
 
 
 def simulator(ex: Experiment, memo: bool = True) -> Callable:
@@ -150,10 +153,18 @@ def simulator(ex: Experiment, memo: bool = True) -> Callable:
     (drawn for all 24 satellites at every epoch, so a satellite's noise does not depend on which
     others are in view), the initial-estimate error from Stream.INITIAL.  ``memo``: remember the batches in this
     process under the set-up's :data:`SIMULATION_FIELDS`, the MonteCarlo and the runs (the simulator's own output,
-    read-only: the same bits as simulating again); the arena's scenario passes False (the arena remembers its
-    batches itself)."""
+    read-only and shared by the callers: the same bits as simulating again), for an Experiment whose trajectory and
+    sky are its set-up's own (:func:`experiment`'s; one built otherwise is simulated afresh each time); the arena's
+    scenario passes False (the arena remembers its batches itself)."""
     check_bool(memo, "memo")
     s = ex.setup
+    plane, sk = _geometry(**{f: getattr(s, f) for f in GEOMETRY_FIELDS})
+    key = tuple(getattr(s, f) for f in SIMULATION_FIELDS)
+    try:
+        hash(key)
+    except TypeError:            # a field given as a list, say: simulated afresh
+        memo = False
+    memo = memo and ex.truth_plane is plane and ex.sky is sk
     K = s.n_steps
     clock = ManeuverSchedule([gnss.clock_dynamics(s.T, s.clock_h0, s.clock_h_minus2)], [], 0, s.T, K)
     P0 = np.diag(np.square(s.p0_sd))
@@ -173,13 +184,14 @@ def simulator(ex: Experiment, memo: bool = True) -> Callable:
 
         if not memo:
             return simulate_runs
-        return _SIMULATIONS.wrap(simulate_runs, (tuple(getattr(s, f) for f in SIMULATION_FIELDS), mc))
+        return _SIMULATIONS.wrap(simulate_runs, (key, mc))
 
     return for_mc
 
 
 def make_batch_fn(ex: Experiment, mc: MonteCarlo) -> Callable:
-    """``runs -> (truth (B, K+1, 8), [z_k (B, m_k)], {name: initial state})`` (:func:`simulator`)."""
+    """``runs -> (truth (B, K+1, 8), [z_k (B, m_k)], {name: initial state})`` (:func:`simulator`: the truth and
+    pseudoranges are read-only arrays shared with the other callers of the same runs)."""
     s = ex.setup
     P0 = np.diag(np.square(s.p0_sd))
 
