@@ -157,3 +157,9 @@ def test_batch_memo_names_bad_arguments_keeps_owners_apart_and_rebuilds_named_tu
     assert memo.wrap(simulate, "k", owner=b)(range(2)).truth is other.truth and len(calls) == 2
     memo.clear()
     assert len(memo) == 0 and list(memo) == []
+    # another owner's batch takes the stale entry's place as the most recent: k3 then evicts k2, not it
+    memo.wrap(simulate, "k", owner=a)(range(2))
+    memo.wrap(simulate, "k2", owner=a)(range(2))
+    memo.wrap(simulate, "k", owner=b)(range(2))
+    memo.wrap(simulate, "k3", owner=a)(range(2))
+    assert [k[0] for k in memo] == ["k", "k3"]

@@ -135,7 +135,7 @@ def experiment(setup: Setup, names: Iterable[str] = ALGORITHMS, **build_kw: Any)
 
 #: the Setup fields the simulated runs depend on (:func:`simulator` reads no other): the geometry's, the receiver
 #: clock's and the initial-estimate spread.  Readings that differ only in other fields -- the filters' settings --
-#: share their truth and pseudoranges (tests/test_tseng2011.py checks it over the reading space's options).
+#: share their truth and pseudoranges (tests/test_tseng2011.py changes every Setup field alone).
 SIMULATION_FIELDS = GEOMETRY_FIELDS + ("clock_h0", "clock_h_minus2", "p0_sd")
 
 #: the batches and bytes of array data the memo of :func:`simulator` keeps: the filters of a reading, evaluated one
@@ -158,13 +158,14 @@ def simulator(ex: Experiment, memo: bool = True) -> Callable:
     scenario passes False (the arena remembers its batches itself)."""
     check_bool(memo, "memo")
     s = ex.setup
-    plane, sk = _geometry(**{f: getattr(s, f) for f in GEOMETRY_FIELDS})
     key = tuple(getattr(s, f) for f in SIMULATION_FIELDS)
     try:
         hash(key)
     except TypeError:            # a field given as a list, say: simulated afresh
         memo = False
-    memo = memo and ex.truth_plane is plane and ex.sky is sk
+    if memo:
+        plane, sk = _geometry(**{f: getattr(s, f) for f in GEOMETRY_FIELDS})
+        memo = ex.truth_plane is plane and ex.sky is sk
     K = s.n_steps
     clock = ManeuverSchedule([gnss.clock_dynamics(s.T, s.clock_h0, s.clock_h_minus2)], [], 0, s.T, K)
     P0 = np.diag(np.square(s.p0_sd))
@@ -191,7 +192,7 @@ def simulator(ex: Experiment, memo: bool = True) -> Callable:
 
 def make_batch_fn(ex: Experiment, mc: MonteCarlo) -> Callable:
     """``runs -> (truth (B, K+1, 8), [z_k (B, m_k)], {name: initial state})`` (:func:`simulator`: the truth and
-    pseudoranges are read-only arrays shared with the other callers of the same runs)."""
+    pseudoranges are read-only arrays shared with the other callers of the same runs where the memo applies)."""
     s = ex.setup
     P0 = np.diag(np.square(s.p0_sd))
 
