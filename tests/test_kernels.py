@@ -269,7 +269,8 @@ def test_every_operation_has_a_numpy_body_and_a_compiled_twin():
         assert op.__doc__ and op.__wrapped__ is op.implementations["numpy"], name
 
 
-#: where the kernel's name may be read: to record it (results, digests, fingerprints) or to pass it to workers
+#: where the kernel's name may be read: to record it (results, digests, fingerprints), to pass it to workers, or to
+#: key what a process remembers (simulate.BatchMemo: the two kernels agree only to round-off)
 KERNEL_RECORDERS = ("mmlib/experiment/writing.py", "mmlib/experiment/digests.py", "mmlib/experiment/machine.py",
                     "mmlib/experiment/executors.py", "mmlib/experiment/simulate.py", "mmlib/arena/study.py",
                     "bench/provenance.py")
