@@ -62,13 +62,14 @@ def paper_filters(n_runs: int, n_steps: int, repeats: int, peak_gflops: float) -
             flops = cost.step_flops(est, measurement=largest)["total"] if largest is not None \
                 else cost.step_flops(est)["total"]
             calls = []
-            fused_steps = (linalg.imm_sigma_step, linalg.sigma_step)
-            linalg.imm_sigma_step = lambda *a, **k: calls.append(1) or fused_steps[0](*a, **k)
-            linalg.sigma_step = lambda *a, **k: calls.append(1) or fused_steps[1](*a, **k)
+            fused_steps = {step: getattr(linalg, step) for step in linalg.FUSED_STEPS}
+            for step, real in fused_steps.items():
+                setattr(linalg, step, lambda *a, _real=real, **k: calls.append(1) or _real(*a, **k))
             try:
                 fused = time_per_step(est, init[est_name], z, repeats, models)["best_s"]
             finally:
-                linalg.imm_sigma_step, linalg.sigma_step = fused_steps
+                for step, real in fused_steps.items():
+                    setattr(linalg, step, real)
             with linalg.use_fused(False):
                 composed = time_per_step(est, init[est_name], z, repeats, models)["best_s"]
             floor = flops / (peak_gflops * 1e9)

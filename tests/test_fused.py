@@ -15,7 +15,8 @@ import pytest
 from mmlib import MonteCarlo
 from mmlib.core import estimation, gnss, linalg, models, rules
 from mmlib.core.estimation import IMM, MomentMixing, SingleModel, run
-from mmlib.core.filters import SigmaPointFilter
+from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
+from mmlib.core.layers.strong_tracking import StrongTracking
 from mmlib.experiment.simulate import ManeuverSchedule, simulate
 from mmlib.papers import REGISTRY
 
@@ -268,7 +269,7 @@ def test_every_paper_headline_fused_equals_composed(name, monkeypatch):
     (those that do not take it trivially); a fused step is taken by every IMM or single model of a plain sigma-point
     filter on linear dynamics with a library measurement model, and by no other estimator."""
     calls = []
-    for step in ("imm_sigma_step", "sigma_step"):
+    for step in linalg.FUSED_STEPS:
         real = getattr(linalg, step)
         monkeypatch.setattr(linalg, step, lambda *a, _real=real, **k: calls.append(1) or _real(*a, **k))
     composed = _headline_tracks(name, False, calls)
@@ -289,6 +290,8 @@ def _should_fuse(est) -> bool:
         filt, dyn, mixing_ok = inner.filter, inner.stacked, type(inner.mixing) is MomentMixing
     elif isinstance(inner, SingleModel):
         filt, dyn, mixing_ok = inner.filter, inner.dynamics, True
+        if type(filt) is StrongTracking and filt.form == "statistical":      # the fused strong-tracking step
+            filt = filt.base
     else:
         return False
     measurement_ok = inner.measurement is None or type(inner.measurement) in (models.LinearMeasurement,
@@ -336,23 +339,24 @@ def test_fused_steps_reject_mismatched_shapes():
             linalg.imm_sigma_step(**{**args, "measure": measure})
 
 
-def _same_steps(est, state, zs, **step_kw) -> tuple:
-    """Step ``est`` through the measurements ``zs`` (K, B, m) with the fused steps off and on: ``(mismatches, fused
-    estimates, fused calls)``, the mismatches naming every (step, Estimate field) and final-state leaf whose bits
+def _same_steps(est, state, zs, models_k=None, **step_kw) -> tuple:
+    """Step ``est`` through the measurements ``zs`` (K, B, m) (or a list of (B, m_k), with ``models_k`` the
+    measurement model of each step) with the fused steps off and on: ``(mismatches, fused estimates, fused
+    calls)``, the mismatches naming every (step, Estimate field) and final-state leaf whose bits
     differ (the test asserts there is none), the calls counting the fused steps taken."""
     out, calls = [], []
-    fused_steps = (linalg.imm_sigma_step, linalg.sigma_step)
     for on in (False, True):
         s, estimates = state, []
         with linalg.use_fused(on):
-            for z in zs:
-                before = linalg.imm_sigma_step, linalg.sigma_step
-                linalg.imm_sigma_step = lambda *a, **k: calls.append(1) or fused_steps[0](*a, **k)
-                linalg.sigma_step = lambda *a, **k: calls.append(1) or fused_steps[1](*a, **k)
+            for k, z in enumerate(zs):
+                before = {name: getattr(linalg, name) for name in linalg.FUSED_STEPS}
+                for name, real in before.items():
+                    setattr(linalg, name, lambda *a, _real=real, **kw: calls.append(1) or _real(*a, **kw))
                 try:
-                    s, e = est.step(s, z, **step_kw)
+                    s, e = est.step(s, z, **step_kw, **({} if models_k is None else {"measurement": models_k[k]}))
                 finally:
-                    linalg.imm_sigma_step, linalg.sigma_step = before
+                    for name, real in before.items():
+                        setattr(linalg, name, real)
                 estimates.append(e)
         out.append((s, estimates))
     (s0, e0), (s1, e1) = out
@@ -447,3 +451,141 @@ def test_no_vectorised_transcendentals():
     vectorise them, and the bits would depend on the machine (the lock file does not install it)."""
     import numba
     assert not numba.config.USING_SVML
+
+
+# --------------------------------------------------------------------------- the fused strong-tracking step
+ST_RULES = {**RULES, "SSRCKF": rules.SphericalSimplexRadial()}
+
+
+def _strong_tracking(rule: str, measurement, q: float = 0.01, **kw) -> SingleModel:
+    """A strong-tracking filter (Liu & Wu 2017's beta and rho) on a CV model too quiet for the turn of
+    :func:`_problem`, so that its fading factor exceeds 1 at some steps and not at others."""
+    return SingleModel(StrongTracking(SigmaPointFilter(ST_RULES[rule]), beta=4.5, rho=0.95, **kw),
+                       models.constant_velocity(T, q), measurement)
+
+
+def _fading_factors(est, state, zs) -> np.ndarray:
+    """(K, B) the fading factor of every step (fused steps on)."""
+    out = []
+    for z in zs:
+        state, _ = est.step(state, z)
+        out.append(state.fading)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("rule", sorted(ST_RULES))
+@pytest.mark.parametrize("meas", sorted(MEASUREMENTS))
+def test_strong_tracking_fused_equals_composed_bit_for_bit(rule, meas):
+    """The strong-tracking layer over a plain sigma-point filter: one compiled call per step gives every Estimate field
+    at every step and the final state (V of Eq. 17, Q, the fading factor) the bits of the composed layer, through steps
+    whose fading factor exceeds 1 (the prior inflated and predicted again) and steps where it is 1."""
+    measurement = MEASUREMENTS[meas]
+    est = _strong_tracking(rule, measurement)
+    zs = np.swapaxes(_problem(measurement, 21), 0, 1)
+    state = est.init(np.tile(X0, (21, 1)), P0)
+    mismatches, _, calls = _same_steps(est, state, zs)
+    assert not mismatches and calls == K
+    lam = _fading_factors(est, state, zs)
+    assert (lam > 1.0).any() and (lam == 1.0).any() and not (lam < 1.0).any()
+
+
+@pytest.mark.parametrize("block", [1, 7, 128])
+def test_strong_tracking_over_several_blocks_equals_composed(block, monkeypatch):
+    """More runs than a block, and blocks in which only some runs inflate: every block lands on its own runs."""
+    monkeypatch.setattr(linalg, "FUSED_BLOCK", block)
+    measurement = MEASUREMENTS["range-bearing off-centre"]
+    est = _strong_tracking("CKF", measurement)
+    zs = np.swapaxes(_problem(measurement, 300)[:, :12], 0, 1)
+    state = est.init(np.tile(X0, (300, 1)), P0)
+    mismatches, estimates, calls = _same_steps(est, state, zs)
+    assert not mismatches and calls == 12 and np.isfinite(estimates[-1].mean).all()
+    lam = _fading_factors(est, state, zs)
+    assert ((lam > 1.0).any(axis=1) & (lam == 1.0).any(axis=1)).any()      # a step with runs of both kinds
+
+
+@pytest.mark.parametrize("batch", [1, 2, 3, 64])
+def test_strong_tracking_batch_size_changes_no_bit(batch):
+    """A run's fused strong-tracking track has the same bits alone, in a batch of 2 or 3 and in one of 64."""
+    measurement = MEASUREMENTS["range-bearing"]
+    est = _strong_tracking("UKF", measurement)
+    z = _problem(measurement, 64)
+    ref = _track(est, z, True)
+    got = _track(est, z[:batch], True)
+    for field in ("mean", "cov", "diverged_step", "nis"):
+        a, b = getattr(got, field), getattr(ref, field)
+        assert a is None and b is None or _same(a, b[:batch]), field
+
+
+def test_strong_tracking_restart_failures_and_gnss_equal_composed():
+    """Pseudoranges whose satellite set changes size (V restarts, Eq. 17), a run whose covariance fails at the first
+    step and one that fails later: the same bits as the composed layer, and the failures reported at their steps."""
+    from mmlib.arena import recipes, study
+    from mmlib.experiment import evaluation
+    s = study.scenario("tseng2011")
+    est = recipes.build("STUKF", s)
+    mc = MonteCarlo(s.root_seed, 5)
+    make_batch = evaluation.with_initial_states(s.simulator(mc), {"STUKF": est},
+                                                lambda e, start, runs: recipes.initial_state(e, s, start, runs, mc))
+    _, z, init = make_batch(range(5))
+    zs, models_k = [], []
+    for k in range(12):
+        model, zk = s.measurement_models[k], z[k]
+        if 4 <= k < 8:                          # one satellite fewer for four epochs, then all again
+            model = gnss.Pseudoranges(model.satellites[:-1], np.asarray(model.R)[:-1, :-1])
+            zk = zk[:, :-1]
+        zs.append(zk)
+        models_k.append(model)
+    state = init["STUKF"]
+    cov = state.cov.copy()
+    cov[1, 6, 6] = -1.0                         # run 1: not positive definite from the start
+    state = state._replace(cov=cov)
+    mismatches, estimates, calls = _same_steps(est, state, zs, models_k)
+    assert not mismatches and calls == len(zs)
+    assert estimates[0].failure[1] != 0 and np.isfinite(estimates[-1].mean[[0, 2, 3, 4]]).all()
+    assert {e.innovation.shape[1] for e in estimates} == {zs[0].shape[1], zs[0].shape[1] - 1}
+
+
+@pytest.mark.parametrize("why", ["numpy kernels", "fusion off", "jacobian form", "EKF base", "central differences",
+                                 "layer subclass", "stacked dynamics", "user measurement model"])
+def test_strong_tracking_fused_path_is_not_taken_where_it_does_not_apply(why, monkeypatch):
+    measurement, base, form = MEASUREMENTS["range-bearing"], SigmaPointFilter(RULES["UKF"]), "statistical"
+    dynamics = models.constant_velocity(T, 0.01)
+    layer = StrongTracking
+    if why == "jacobian form":
+        form = "jacobian"
+    elif why == "EKF base":
+        base = ExtendedKalmanFilter()
+    elif why == "central differences":
+        base = SigmaPointFilter(rules.CentralDifference(np.sqrt(3.0)))
+    elif why == "layer subclass":
+        class Layer(StrongTracking):
+            pass
+        layer = Layer
+    elif why == "stacked dynamics":
+        dynamics = models.StackedDynamics.of([dynamics])
+    elif why == "user measurement model":
+        class Radar(models.RangeBearing):
+            pass
+        measurement = Radar(np.asarray(measurement.R))
+    est = SingleModel(layer(base, beta=4.5, rho=0.95, form=form), dynamics, measurement)
+    calls = []
+    monkeypatch.setattr(linalg, "strong_tracking_step", lambda *a, **k: calls.append(1))
+    z = _problem(MEASUREMENTS["range-bearing"], 4)
+    kernel = "numpy" if why == "numpy kernels" else "numba"
+    with linalg.use_kernel(kernel), linalg.use_fused(why != "fusion off"):
+        track = run(est, est.init(np.tile(X0, (4, 1)), P0), z)
+    assert not calls and np.isfinite(track.mean).all()
+
+
+def test_strong_tracking_step_rejects_mismatched_shapes():
+    B, n, m = 4, 4, 2
+    up = RULES["UKF"].unit_points(n)
+    args = dict(mean=np.zeros((B, n)), cov=np.tile(np.eye(n), (B, 1, 1)), xi=up.xi, wm=up.wm, wc=up.wc, F=np.eye(n),
+                Q=np.eye(n), z=np.ones((B, m)), measure=(linalg.MEASURE_LINEAR, np.eye(m, n), (), np.zeros(2)),
+                angular=(False, False), R=np.eye(m), V=np.tile(np.eye(m), (B, 1, 1)), rho=0.95, beta=4.5,
+                log_2pi=np.log(2 * np.pi))
+    assert np.isfinite(linalg.strong_tracking_step(**args)[0]).all()
+    for name, bad in (("V", np.eye(m + 1)), ("V", np.zeros((3, m, m))), ("cov", np.zeros((B, n, n + 1))),
+                      ("R", np.eye(m + 1)), ("Q", np.eye(n + 1)), ("F", np.eye(n + 1))):
+        with pytest.raises(ValueError):
+            linalg.strong_tracking_step(**{**args, name: bad})

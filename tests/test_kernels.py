@@ -149,6 +149,18 @@ def test_every_kernel_matches_the_numpy_path_on_random_operands():
                 linalg.information_fusion(members[1], members[0][:2])
             with pytest.raises(ValueError, match="^covs: "):
                 linalg.information_fusion(members[1], np.swapaxes(members[0], 1, 2))
+    # the strong-tracking fading factor (Jacobian-free form): S large enough for tr M > 0 (M = S - R - X^T Q X), V
+    # scaled so that some factors exceed 1 and others are 1; a prior without a Cholesky factor gives 1 in both paths
+    Qs = _spd(rng, 1, n)[0] * 0.1
+    X = np.linalg.solve(P, Pxz)
+    S_st = R + 2.0 * np.swapaxes(Pxz, -1, -2) @ X + np.eye(m)
+    V = _spd(rng, B * r, m).reshape(B, r, m, m) * rng.uniform(0.1, 20.0, (B, r, 1, 1))
+    got, ref = _both(linalg.fading_factor, P, Qs, Pxz, V, S_st, R, 4.5)
+    _close(got, ref, RTOL_ONE_CALL, "fading_factor")
+    assert (got > 1.0).any() and (got == 1.0).any() and not (got < 1.0).any()
+    got, ref = _both(linalg.fading_factor, odd, Qs, Pxz, V, S_st, R, 4.5)
+    _close(got, ref, RTOL_ONE_CALL, "fading_factor (odd matrices)")
+    assert got[0, 0] == 1.0 and got[0, 1] == 1.0 and got[1, 2] == 1.0     # indefinite, singular, NaN: no factor
     # a kernel operand with a divisor of the runs' rows is periodic (linalg._SHAPES): row b % rows
     from mmlib.core import _kernels
     flat_P, flat_rhs = P.reshape(-1, n, n), rhs.reshape(-1, n, 3)
@@ -262,7 +274,7 @@ def test_every_operation_has_a_numpy_body_and_a_compiled_twin():
     assert {"cholesky", "matmul_rows", "sigma_points", "weighted_mean", "weighted_covariances", "kalman_moments",
             "combine_covariances", "congruence", "range_bearing", "linear_predict", "sigma_point_predict_linear",
             "measurement_moments", "imm_mix", "imm_output", "normalised_square", "information_fusion",
-            "solve", "pseudoranges"} <= set(ops)
+            "solve", "pseudoranges", "fading_factor"} <= set(ops)
     for name, op in ops.items():
         assert set(op.implementations) == set(linalg.KERNELS), name
         assert op.implementations["numba"].__name__ == f"_{name}_compiled", name

@@ -8,9 +8,9 @@ kernel copies its operands into a **batch-innermost** layout ``(n, n, N)`` (:fun
 :func:`_outer`) and runs each scalar operation of the algorithm as a loop over the N runs: independent
 lanes that LLVM turns into SIMD instructions, with no temporaries and one call per filter operation.  Each
 operation's loop nest is a ``_*_core`` function on batch-innermost operands; the public kernel wraps it in the
-layout changes, and the *fused steps* (:func:`sigma_step`, :func:`imm_sigma_step`) chain the same cores for a block of
-runs at a time, so a whole filter or IMM step is one call with one layout change of the state, and gives the bits of
-the composed operations.
+layout changes, and the *fused steps* (:func:`sigma_step`, :func:`imm_sigma_step`, :func:`strong_tracking_step`) chain
+the same cores for a block of runs at a time, so a whole filter, IMM or strong-tracking step is one call with one
+layout change of the state, and gives the bits of the composed operations.
 
 Conventions shared with the numpy path (:mod:`mmlib.core.linalg`), and tested against it
 (``tests/test_kernels.py``):
@@ -942,6 +942,57 @@ def _measure(X, kind, A, idx, sensor, Z):
 
 
 @njit(**_OPTS)
+def _moments_core(mean, Pm, xi, wm, wc, kind, A, idx, sensor, angular, Rb, zp, S, Pxz):
+    r"""The measurement prediction of a sigma-point filter, batch innermost, as the composed operations compute it:
+    fresh points of the prior mean (n, N) and cov Pm (n, n, N) (:func:`sigma_points`, NaN for a run whose Pm has no
+    Cholesky factor), their images (:func:`_measure`) and :func:`measurement_moments` with Rb (m, m, N) -> zp (m, N),
+    S (m, m, N), Pxz (n, m, N)."""
+    n, N = mean.shape
+    M = xi.shape[0]
+    m = zp.shape[0]
+    f_pts = np.zeros(N, dtype=np.bool_)
+    L = np.empty((n, n, N))
+    _chol(Pm, L, f_pts)
+    X = np.empty((M, n, N))
+    _points(mean, L, xi, X)
+    _nan_lanes(X, f_pts)
+    Z = np.empty((M, m, N))
+    _measure(X, kind, A, idx, sensor, Z)
+    _measurement_core(X, mean, Z, wm, wc, angular, Rb, zp, S, Pxz)
+
+
+@njit(**_OPTS)
+def _residual_core(zb, zp, angular, nu):
+    """nu (m, N) <- the residual zb - zp (m, N), the ``angular`` components wrapped (:func:`_wrap`), as the library's
+    measurement models' ``residual``."""
+    m, N = zb.shape
+    for i in range(m):
+        if angular[i]:
+            for lane in range(N):
+                nu[i, lane] = _wrap(zb[i, lane] - zp[i, lane])
+        else:
+            for lane in range(N):
+                nu[i, lane] = zb[i, lane] - zp[i, lane]
+
+
+@njit(**_OPTS)
+def _update_core(mean, Pm, nu, S, Pxz, log_2pi, cov, ll, failed):
+    r""":func:`kalman_moments` (the form :math:`P - AA^T`) of the prior mean (n, N) (overwritten by the posterior mean)
+    and cov Pm (n, n, N) with nu (m, N), S (m, m, N), Pxz (n, m, N) -> ``cov`` (n, n, N), the log-likelihood
+    :math:`-\tfrac12(\nu^TS^{-1}\nu + \log|S| + m\log 2\pi)` ``ll`` (N,) and ``failed`` (N,) (S or the posterior
+    covariance without a Cholesky factor: its mean, cov and ll NaN), as :func:`mmlib.core.filters.kalman_update`."""
+    m, N = nu.shape
+    nis = np.empty(N)
+    logdet = np.empty(N)
+    no_H = np.empty((0, 0, N))
+    _kalman_core(mean, Pm, nu, S, Pxz, no_H, no_H, False, cov, nis, logdet, failed)
+    _nan_lanes(mean, failed)
+    _nan_lanes(cov, failed)
+    for lane in range(N):
+        ll[lane] = np.nan if failed[lane] else -0.5 * (nis[lane] + logdet[lane] + m * log_2pi)
+
+
+@njit(**_OPTS)
 def _filter_step(mb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, mean, cov, nu, S, ll,
                  failed):
     r"""One step of a sigma-point filter on linear dynamics, batch innermost, as the composed operations compute it:
@@ -952,39 +1003,181 @@ def _filter_step(mb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angul
     ``cov`` (n, n, N) (NaN for a failed run), ``nu`` (m, N), ``S`` (m, m, N), ``ll`` (N,) (NaN for a failed run) and
     ``failed`` (N,): S or the posterior covariance without a Cholesky factor."""
     n, N = mb.shape
-    M = xi.shape[0]
     m = zb.shape[0]
     Pm = np.empty((n, n, N))
     f_pred = np.empty(N, dtype=np.bool_)
     _predict_core(mb, Pb, xi, wm, wc, Fb, Qb, mean, Pm, f_pred)
     _nan_lanes(mean, f_pred)
     _nan_lanes(Pm, f_pred)
-    f_pts = np.zeros(N, dtype=np.bool_)
-    L = np.empty((n, n, N))
-    _chol(Pm, L, f_pts)
-    X = np.empty((M, n, N))
-    _points(mean, L, xi, X)
-    _nan_lanes(X, f_pts)
-    Z = np.empty((M, m, N))
-    _measure(X, kind, A, idx, sensor, Z)
     zp = np.empty((m, N))
     Pxz = np.empty((n, m, N))
-    _measurement_core(X, mean, Z, wm, wc, angular, Rb, zp, S, Pxz)
-    for i in range(m):
-        if angular[i]:
-            for lane in range(N):
-                nu[i, lane] = _wrap(zb[i, lane] - zp[i, lane])
+    _moments_core(mean, Pm, xi, wm, wc, kind, A, idx, sensor, angular, Rb, zp, S, Pxz)
+    _residual_core(zb, zp, angular, nu)
+    _update_core(mean, Pm, nu, S, Pxz, log_2pi, cov, ll, failed)
+
+
+@njit(**_OPTS)
+def _fading_core(Pl, Qb, Pxz, V, S, Rb, beta, lam):
+    r"""The strong-tracking fading factor of the Jacobian-free form (Liu & Wu 2017, Eqs. 14, 18-19), batch innermost:
+    :math:`X = (P^l)^{-1}P_{xz}` through the Cholesky factor of the covariance :math:`P^l` (:func:`_chol`, forward then
+    back substitution, column by column), the diagonals of :math:`N = V - X^TQX - \beta R` and
+    :math:`M = P_{zz} - V + N + (\beta - 1)R`, their traces summed in index order,
+    :math:`\lambda = \max(1, \mathrm{tr}N/\mathrm{tr}M)` (1 where :math:`\mathrm{tr}M` is not > 0; NaN where tr N is
+    NaN and tr M > 0, as ``np.maximum``).  Pl, Qb (n, n, N), Pxz (n, m, N), V, S, Rb (m, m, N) -> lam (N,).  A run
+    whose :math:`P^l` is not positive definite gets X NaN, hence :math:`\lambda = 1` (its sigma points are NaN: the
+    run fails at this step's update)."""
+    n, m, N = Pxz.shape
+    L = np.empty((n, n, N))
+    bad = np.zeros(N, dtype=np.bool_)
+    _chol(Pl, L, bad)
+    X = np.empty((n, m, N))
+    for c in range(m):
+        for i in range(n):                           # L Y = Pxz
+            for b in range(N):
+                X[i, c, b] = Pxz[i, c, b]
+            for k in range(i):
+                for b in range(N):
+                    X[i, c, b] -= L[i, k, b] * X[k, c, b]
+            for b in range(N):
+                X[i, c, b] = X[i, c, b] / L[i, i, b]
+        for i in range(n - 1, -1, -1):               # L^T X = Y
+            for k in range(i + 1, n):
+                for b in range(N):
+                    X[i, c, b] -= L[k, i, b] * X[k, c, b]
+            for b in range(N):
+                X[i, c, b] = X[i, c, b] / L[i, i, b]
+    _nan_lanes(X, bad)
+    tr_n = np.zeros(N)
+    tr_m = np.zeros(N)
+    t = np.empty(N)
+    d = np.empty(N)
+    for c in range(m):
+        d[:] = 0.0                                   # (X^T Q X)_cc
+        for i in range(n):
+            t[:] = 0.0                               # (Q X)_ic
+            for k in range(n):
+                for b in range(N):
+                    t[b] += Qb[i, k, b] * X[k, c, b]
+            for b in range(N):
+                d[b] += X[i, c, b] * t[b]
+        for b in range(N):
+            n_cc = (V[c, c, b] - d[b]) - beta * Rb[c, c, b]
+            tr_n[b] += n_cc
+            tr_m[b] += ((S[c, c, b] - V[c, c, b]) + n_cc) + (beta - 1.0) * Rb[c, c, b]
+    for b in range(N):
+        ratio = tr_n[b] / tr_m[b] if tr_m[b] > 0.0 else 1.0
+        lam[b] = ratio if (ratio > 1.0 or ratio != ratio) else 1.0
+
+
+@njit(**_OPTS)
+def fading_factor(Pl, Q, Pxz, V, S, R, beta):
+    r"""The strong-tracking fading factor (:func:`_fading_core`) for a stack of N runs: Pl (N, n, n), Q (P, n, n),
+    Pxz (N, n, m), V (N, m, m), S (N, m, m), R (P', m, m) (Q and R periodic over the runs) -> lam (N,)."""
+    N = Pl.shape[0]
+    lam = np.empty(N)
+    _fading_core(_inner(Pl, N), _inner(Q, N), _inner(Pxz, N), _inner(V, N), _inner(S, N), _inner(R, N), beta, lam)
+    return lam
+
+
+@njit(**_OPTS)
+def strong_tracking_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, angular, R, V, restart, rho, beta,
+                         log_2pi, block):
+    r"""One step of a strong-tracking sigma-point filter on linear dynamics in one call
+    (:class:`mmlib.core.layers.strong_tracking.StrongTracking`, the Jacobian-free form, over a plain sigma-point
+    filter): the time update to :math:`P^l` (:func:`_predict_core`), the measurement prediction
+    (:func:`_moments_core`), the innovation :math:`v`, :math:`V = vv^T` (``restart``) or
+    :math:`(\rho V_{k-1} + vv^T)/(1 + \rho)` (Eq. 17), the fading factor :math:`\lambda` (:func:`_fading_core`), and
+    where :math:`\lambda > 1` the prior :math:`\lambda(P^l - Q) + Q` (Eq. 28) predicted again (the whole block when one
+    of its runs inflates: the others get their own bits again), then the Kalman update (:func:`_update_core`): the
+    operations the layer composes, the same bits.  mean (B, n), cov (B, n, n), the rule xi (M, n), wm, wc (M,),
+    F (n, n), Q (P, n, n) and R (P', m, m) periodic over the runs, z (B, m), the measurement function
+    (:func:`_measure`), V (B, m, m) (read only without ``restart``).  Returns ``(mean+, cov+, loglik, innovation, S,
+    failed, V, fading)``."""
+    B, n = mean.shape
+    m = z.shape[1]
+    mean_out = np.empty((B, n))
+    cov_out = np.empty((B, n, n))
+    ll_out = np.empty(B)
+    nu_out = np.empty((B, m))
+    S_out = np.empty((B, m, m))
+    failed_out = np.zeros(B, dtype=np.bool_)
+    V_out = np.empty((B, m, m))
+    lam_out = np.empty(B)
+    scale = 1.0 + rho
+    for b0 in range(0, B, block):
+        N = min(block, B - b0)
+        Fb = np.empty((n, n, N))
+        for lane in range(N):
+            for i in range(n):
+                for k in range(n):
+                    Fb[i, k, lane] = F[i, k]
+        Qb = np.empty((n, n, N))
+        _lanes(Q, b0, N, (1, 0), Qb)
+        Rb = np.empty((m, m, N))
+        _lanes(R, b0, N, (1, 0), Rb)
+        mb = np.empty((n, N))
+        _lanes(mean, b0, N, (1, 0), mb)
+        Pb = np.empty((n, n, N))
+        _lanes(cov, b0, N, (1, 0), Pb)
+        zb = np.empty((m, N))
+        _lanes(z, b0, N, (1, 0), zb)
+        prior = np.empty((n, N))
+        Pl = np.empty((n, n, N))
+        f_pred = np.empty(N, dtype=np.bool_)
+        _predict_core(mb, Pb, xi, wm, wc, Fb, Qb, prior, Pl, f_pred)
+        _nan_lanes(prior, f_pred)
+        _nan_lanes(Pl, f_pred)
+        zp = np.empty((m, N))
+        S = np.empty((m, m, N))
+        Pxz = np.empty((n, m, N))
+        _moments_core(prior, Pl, xi, wm, wc, kind, A, idx, sensor, angular, Rb, zp, S, Pxz)
+        v = np.empty((m, N))
+        _residual_core(zb, zp, angular, v)
+        Vb = np.empty((m, m, N))
+        if restart:
+            for i in range(m):
+                for k in range(m):
+                    for lane in range(N):
+                        Vb[i, k, lane] = v[i, lane] * v[k, lane]
         else:
-            for lane in range(N):
-                nu[i, lane] = zb[i, lane] - zp[i, lane]
-    nis = np.empty(N)
-    logdet = np.empty(N)
-    no_H = np.empty((0, 0, N))
-    _kalman_core(mean, Pm, nu, S, Pxz, no_H, no_H, False, cov, nis, logdet, failed)
-    _nan_lanes(mean, failed)
-    _nan_lanes(cov, failed)
-    for lane in range(N):
-        ll[lane] = np.nan if failed[lane] else -0.5 * (nis[lane] + logdet[lane] + m * log_2pi)
+            _lanes(V, b0, N, (1, 0), Vb)
+            for i in range(m):
+                for k in range(m):
+                    for lane in range(N):
+                        Vb[i, k, lane] = (rho * Vb[i, k, lane] + v[i, lane] * v[k, lane]) / scale
+        lam = np.empty(N)
+        _fading_core(Pl, Qb, Pxz, Vb, S, Rb, beta, lam)
+        inflate = False
+        for lane in range(N):
+            inflate = inflate or lam[lane] > 1.0
+        if inflate:
+            for i in range(n):
+                for k in range(n):
+                    for lane in range(N):
+                        if lam[lane] > 1.0:
+                            Pl[i, k, lane] = lam[lane] * (Pl[i, k, lane] - Qb[i, k, lane]) + Qb[i, k, lane]
+            _moments_core(prior, Pl, xi, wm, wc, kind, A, idx, sensor, angular, Rb, zp, S, Pxz)
+        nu = np.empty((m, N))
+        _residual_core(zb, zp, angular, nu)
+        post_cov = np.empty((n, n, N))
+        ll = np.empty(N)
+        failed = np.empty(N, dtype=np.bool_)
+        _update_core(prior, Pl, nu, S, Pxz, log_2pi, post_cov, ll, failed)
+        for lane in range(N):
+            b = b0 + lane
+            ll_out[b] = ll[lane]
+            failed_out[b] = failed[lane]
+            lam_out[b] = lam[lane]
+            for i in range(n):
+                mean_out[b, i] = prior[i, lane]
+                for k in range(n):
+                    cov_out[b, i, k] = post_cov[i, k, lane]
+            for i in range(m):
+                nu_out[b, i] = nu[i, lane]
+                for k in range(m):
+                    S_out[b, i, k] = S[i, k, lane]
+                    V_out[b, i, k] = Vb[i, k, lane]
+    return mean_out, cov_out, ll_out, nu_out, S_out, failed_out, V_out, lam_out
 
 
 @njit(**_OPTS)

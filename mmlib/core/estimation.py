@@ -271,6 +271,11 @@ class SingleModel:
                 measurement.angular, measurement.R, LOG_2PI)
             return GaussianState(mean, cov), Estimate(mean, cov, None, loglik, innovation, innovation_cov=S,
                                                       failure=_failure_codes(failed))
+        layer = _fused_layer_step(self.filter, state, self.dynamics, z, measurement)
+        if layer is not None:
+            state, loglik, innovation, S, failed = layer
+            return state, Estimate(state.mean, state.cov, None, loglik, innovation, innovation_cov=S,
+                                   failure=_failure_codes(failed))
         state = self.filter.predict(state, self.dynamics)
         state, info = self.filter.update(state, z, measurement)
         return state, Estimate(state.mean, state.cov, None, info.loglik, info.innovation, innovation_cov=info.S,
@@ -563,6 +568,20 @@ def _fusable(filt, state, dynamics) -> bool:
     are weighted outer products, a :class:`~mmlib.core.filters.GaussianState` and linear dynamics."""
     return (linalg.fused() and type(filt) is SigmaPointFilter and filt.rule.weighted_moments
             and type(state) is GaussianState and bool(getattr(dynamics, "is_linear", False)))
+
+
+def _fused_layer_step(filt, state, dynamics, z, measurement) -> tuple | None:
+    """A layer's whole single-model step in one compiled call, where the layer offers one (``fused_step``, e.g.
+    :meth:`mmlib.core.layers.strong_tracking.StrongTracking.fused_step`) and the step can be fused: the compiled
+    kernels with fusion on (:func:`mmlib.core.linalg.fused`), linear dynamics with one (n, n) ``F`` and a measurement
+    model :func:`_fused_measure` knows.  ``(state, loglik, innovation, S, failed)``, or None (the composed step runs):
+    the layer itself decides whether its configuration and state are ones its fused step computes."""
+    step = getattr(filt, "fused_step", None)
+    if step is None or not linalg.fused() or not bool(getattr(dynamics, "is_linear", False)) \
+            or np.ndim(dynamics.F) != 2:
+        return None
+    measure = _fused_measure(measurement)
+    return None if measure is None else step(state, dynamics, z, measurement, measure)
 
 
 def _fused_measure(measurement) -> tuple | None:

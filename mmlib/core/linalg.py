@@ -15,8 +15,9 @@ The fused operations (:func:`linear_predict`, :func:`sigma_point_predict_linear`
 :func:`measurement_moments`, :func:`imm_mix`, :func:`imm_output`) do a whole part of a filter step in one
 compiled call; their numpy bodies compose the generic operations exactly as a filter step does
 (``tests/test_kernels.py`` checks that bit for bit).  On the compiled kernels, the *fused steps*
-(:func:`sigma_step`, :func:`imm_sigma_step`) go further: a whole step of a plain sigma-point filter or of its IMM on
-linear dynamics in one call, with the bits of composing those operations (``tests/test_fused.py``); the estimators
+(:func:`sigma_step`, :func:`imm_sigma_step`, :func:`strong_tracking_step`) go further: a whole step of a plain
+sigma-point filter, of its IMM or of its strong-tracking layer on linear dynamics in one call, with the bits of
+composing those operations (``tests/test_fused.py``); the estimators
 of :mod:`mmlib.core.estimation` take them where they apply (:func:`fused`, ``MMLIB_FUSED=0`` turns them off).  The
 numpy and compiled paths agree to round-off, not bit for bit (BLAS and LAPACK sum in other orders;
 ``tests/test_kernels.py``); each gives a run the same bits in any batch (``tests/test_batch_independence.py``).
@@ -46,7 +47,9 @@ __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused"
            "log_det_from_cholesky", "normalised_square", "solve", "information_fusion", "tril_inverse", "symmetrize",
            "trace", "wrap_angle", "range_bearing", "pseudoranges", "matmul_rows",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
+           "fading_factor", "strong_tracking_step",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
+           "FUSED_STEPS",
            "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES",
            "COMPILE_TIME"]
 
@@ -230,10 +233,12 @@ _SHAPES = {
     "congruence": ("N d n", "N n n", "N d d"),
     "linear_predict": ("N n", "N n n", "N n n", "N n n"),
     "imm_output": ("N r", "N r", "N r n", "N r n n", "N r m", "N r m m", None),
-    # the fused steps (mmlib.core.linalg.imm_sigma_step, sigma_step): the array arguments they check, R any stack of
+    # the fused steps (FUSED_STEPS): the array arguments they check, R any stack of
     # (m, m) (periodic over the runs and modes: read modulo its rows)
     "imm_sigma_step": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N m", "... m m", "m", "... n n"),
     "sigma_step": ("N n", "N n n", "M n", "M", "M", "n n", "N m", "... m m", "m", "... n n"),
+    "strong_tracking_step": ("N n", "N n n", "M n", "M", "M", "n n", "N m", "... m m", "m", "... n n", "N m m"),
+    "fading_factor": ("N n n", "N n n", "N n m", "N m m", "N m m", "N m m", None),
 }
 _CHECKED: set = set()
 
@@ -480,6 +485,41 @@ def _solve_compiled(A, B):
     lead = np.broadcast_shapes(A.shape[:-2], B.shape[:-2])
     flat_A, flat_B = _stack(A, 2, lead), _stack(B, 2, lead)
     return _call("solve", flat_A.shape[0], flat_A, flat_B).reshape(lead + B.shape[-2:])
+
+
+@_operation
+def fading_factor(Pl: np.ndarray, Q: np.ndarray, Pxz: np.ndarray, V: np.ndarray, S: np.ndarray, R: np.ndarray,
+                  beta: float) -> np.ndarray:
+    r"""The strong-tracking fading factor of the Jacobian-free form (Liu & Wu 2017, Eqs. 14, 18-19):
+    with :math:`\tilde H = P_{xz}^T (P^l)^{-1}` (:func:`solve`), :math:`N = V - \tilde H Q \tilde H^T - \beta R` and
+    :math:`M = P_{zz} - V + N + (\beta - 1)R`, :math:`\lambda = \max(1, \mathrm{tr}N / \mathrm{tr}M)`, 1 where
+    :math:`\mathrm{tr}M` is not > 0 (NaN where tr N is NaN and tr M > 0).  ``Pl`` (..., n, n) the predicted covariance
+    (Q included), ``Q`` (..., n, n) broadcasting, ``Pxz`` (..., n, m), ``V`` (..., m, m) the smoothed innovation outer
+    product (Eq. 17), ``S`` (..., m, m) the predicted measurement covariance (R included), ``R`` broadcasting against
+    (..., m, m), ``beta`` >= 1 the softening factor; returns :math:`\lambda` (...), dimensionless.  A run whose
+    covariance :math:`P^l` is not positive definite (:func:`cholesky`) gets 1: its sigma points are NaN, so it fails
+    at this step's update.  The compiled twin solves through the Cholesky factor and forms only the diagonals of N
+    and M (:func:`mmlib.core._kernels._fading_core`): the two agree to round-off."""
+    X = solve(Pl, Pxz)                                           # (P^l)^-1 Pxz, (..., n, m)
+    _, not_pd = cholesky(Pl)
+    if not_pd.any():                                             # a failed run: its sigma points are NaN too
+        X = np.where(not_pd[..., None, None], np.nan, X)
+    N = V - np.swapaxes(X, -1, -2) @ Q @ X - beta * R
+    M = S - V + N + (beta - 1.0) * R
+    tr_n, tr_m = trace(N), trace(M)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = np.where(tr_m > 0.0, tr_n / tr_m, 1.0)
+    return np.maximum(c, 1.0)
+
+
+@fading_factor.compiled
+def _fading_factor_compiled(Pl, Q, Pxz, V, S, R, beta):
+    Pl = np.asarray(Pl, dtype=np.float64)
+    lead = np.broadcast_shapes(Pl.shape[:-2], np.shape(Pxz)[:-2], np.shape(V)[:-2], np.shape(S)[:-2])
+    flat = _stack(Pl, 2, lead)
+    lam = _call("fading_factor", flat.shape[0], flat, _periodic(Q, 2, lead), _stack(Pxz, 2, lead), _stack(V, 2, lead),
+                _stack(S, 2, lead), _periodic(R, 2, lead), float(beta))
+    return lam.reshape(lead)
 
 
 @_operation
@@ -871,7 +911,8 @@ _FUSED = [_initial_fused()]
 
 
 def fused() -> bool:
-    """Whether a filter or IMM step that can be fused (:func:`sigma_step`, :func:`imm_sigma_step`) is: fusion on and
+    """Whether a filter or IMM step that can be fused (:func:`sigma_step`, :func:`imm_sigma_step`,
+    :func:`strong_tracking_step`) is: fusion on and
     the compiled kernels in use."""
     return _FUSED[0] and _KERNEL[0] == "numba"
 
@@ -894,6 +935,10 @@ def use_fused(on: bool) -> Iterator[None]:
 #: r = 3) stays in a core's L1/L2 cache while the loops over the runs stay long enough to vectorise.  A tuning choice
 #: only: a run's numbers do not depend on it (``tests/test_fused.py``).
 FUSED_BLOCK = 128
+
+#: the names of the fused steps below, each a whole filter step in one compiled call (what a caller spies on to see
+#: whether one was taken: ``bench/papers.py``, ``tests/test_fused.py``)
+FUSED_STEPS = ("imm_sigma_step", "sigma_step", "strong_tracking_step")
 
 #: the measurement functions the fused steps evaluate themselves (:func:`mmlib.core._kernels._measure`)
 MEASURE_LINEAR, MEASURE_RANGE_BEARING, MEASURE_PSEUDORANGES = 0, 1, 2
@@ -952,6 +997,29 @@ def sigma_step(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray
         _periodic(Q, 2, (B,)), _contiguous(z), *_measure_args(measure, n, z.shape[-1]),
         angular,
         _periodic(R, 2, (B,)), float(log_2pi), FUSED_BLOCK)
+
+
+def strong_tracking_step(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray, wc: np.ndarray,
+                         F: np.ndarray, Q: np.ndarray, z: np.ndarray, measure: tuple, angular: ArrayLike, R: np.ndarray,
+                         V: np.ndarray | None, rho: float, beta: float, log_2pi: float) -> tuple:
+    r"""One step of a strong-tracking sigma-point filter over linear dynamics in one compiled call (compiled kernels
+    only; :func:`fused`): what :class:`mmlib.core.layers.strong_tracking.StrongTracking` (Jacobian-free form) composes
+    over a plain sigma-point filter -- :func:`sigma_point_predict_linear`, the measurement moments, the innovation,
+    :math:`V` of Eq. 17, :func:`fading_factor`, the inflated prior :math:`\lambda(P^l - Q) + Q` predicted again where
+    :math:`\lambda > 1`, :func:`kalman_moments` -- the same bits.  ``mean`` ... ``log_2pi`` as :func:`sigma_step`;
+    ``V`` (B, m, m) the last smoothed innovation outer product, or None to restart it (:math:`V = vv^T`); ``rho`` the
+    forgetting and ``beta`` the softening factor.  Returns ``(mean+, cov+, loglik, innovation, S, failed, V, fading)``
+    (each (B, ...))."""
+    B, n = mean.shape
+    m = z.shape[-1]
+    cov = _stack(cov, 2, (B,))                 # a covariance shared by the runs: every run's own copy
+    angular = np.asarray(angular, dtype=np.bool_)
+    Vs = np.zeros((1, m, m)) if V is None else _stack(V, 2, (B,))
+    _check_shapes("strong_tracking_step", B, (mean, cov, xi, wm, wc, F, z, R, angular, Q, Vs))
+    return _compiled_module().strong_tracking_step(
+        _contiguous(mean), _contiguous(cov), _contiguous(xi), _contiguous(wm), _contiguous(wc), _contiguous(F),
+        _periodic(Q, 2, (B,)), _contiguous(z), *_measure_args(measure, n, m), angular, _periodic(R, 2, (B,)),
+        _contiguous(Vs), V is None, float(rho), float(beta), float(log_2pi), FUSED_BLOCK)
 
 
 def _measure_args(measure: tuple, n: int, m: int) -> tuple:

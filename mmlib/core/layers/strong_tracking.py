@@ -32,7 +32,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from mmlib.core._validate import check_choice, check_name, check_scalar
-from mmlib.core.filters import FilterLayer, MeasurementPrediction, kalman_update
+from mmlib.core.filters import LOG_2PI, FilterLayer, MeasurementPrediction, SigmaPointFilter, kalman_update
 from mmlib.core import linalg
 from mmlib.core.linalg import trace
 from mmlib.core.protocols import MeasurementModel
@@ -81,7 +81,8 @@ class StrongTracking(FilterLayer):
                       measurement: MeasurementModel) -> np.ndarray:
         """lambda_k of Eq. 14 for the predicted ``state`` (P^l (..., n, n), Q) and its measurement prediction
         ``pred``, with the smoothed innovation outer product ``V`` (..., m, m): ``max(1, tr N / tr M)``
-        (1 where ``tr M <= 0``), dimensionless, shape (...)."""
+        (1 where ``tr M <= 0``), dimensionless, shape (...).  The Jacobian-free form is
+        :func:`mmlib.core.linalg.fading_factor`."""
         Q, R = state.Q, measurement.R
         if self.form == "jacobian":
             H = measurement.jacobian(state.mean)
@@ -89,9 +90,7 @@ class StrongTracking(FilterLayer):
             N = V - H @ Q @ Ht - self.beta * R
             M = H @ (state.cov - Q) @ Ht
         else:
-            X = linalg.solve(state.cov, pred.Pxz)                    # (P^l)^-1 Pxz, (..., n, m)
-            N = V - np.swapaxes(X, -1, -2) @ Q @ X - self.beta * R
-            M = pred.S - V + N + (self.beta - 1.0) * R
+            return linalg.fading_factor(state.cov, Q, pred.Pxz, V, pred.S, R, self.beta)
         tr_n, tr_m = trace(N), trace(M)
         with np.errstate(divide="ignore", invalid="ignore"):
             c = np.where(tr_m > 0.0, tr_n / tr_m, 1.0)
@@ -123,3 +122,25 @@ class StrongTracking(FilterLayer):
             pred = self.base.predict_measurement(state, measurement)
         new, info = kalman_update(state, pred, z, measurement)
         return new._replace(V=V, fading=lam), info
+
+    def fused_step(self, state: StrongTrackingState, dynamics: Any, z: np.ndarray, measurement: MeasurementModel,
+                   measure: tuple) -> tuple | None:
+        """:meth:`predict` through ``dynamics`` then :meth:`update` with ``z`` (B, m) in one compiled call
+        (:func:`mmlib.core.linalg.strong_tracking_step`, the same bits), for a single model whose step the caller
+        (:class:`mmlib.core.estimation.SingleModel`) has found fusable: fusion on, linear ``dynamics`` with one
+        (n, n) ``F``, and ``measure`` the kernel's form of ``measurement``.  It applies to this class itself (a
+        subclass may override a step), the Jacobian-free form and a plain
+        :class:`~mmlib.core.filters.SigmaPointFilter` base whose rule's covariances are weighted outer products.
+        Returns ``(StrongTrackingState, loglik (B,), innovation (B, m), S (B, m, m), failed (B,))``, or None where it
+        does not apply (the composed step runs)."""
+        if not (type(self) is StrongTracking and self.form == "statistical" and type(self.base) is SigmaPointFilter
+                and self.base.rule.weighted_moments and type(state) is StrongTrackingState):
+            return None
+        up = self.base.rule.unit_points(dynamics.dim)
+        m = np.shape(z)[-1]
+        V = None if state.V is None or state.V.shape[-1] != m else state.V      # Eq. 17 restarts, as in update()
+        mean, cov, loglik, innovation, S, failed, V, fading = linalg.strong_tracking_step(
+            state.mean, state.cov, up.xi, up.wm, up.wc, dynamics.F, dynamics.Q, z, measure, measurement.angular,
+            measurement.R, V, self.rho, self.beta, LOG_2PI)
+        new = StrongTrackingState(mean, cov, V, np.broadcast_to(dynamics.Q, cov.shape), fading)
+        return new, loglik, innovation, S, failed
