@@ -475,12 +475,14 @@ def _fading_factors(est, state, zs) -> np.ndarray:
 
 @pytest.mark.parametrize("rule", sorted(ST_RULES))
 @pytest.mark.parametrize("meas", sorted(MEASUREMENTS))
-def test_strong_tracking_fused_equals_composed_bit_for_bit(rule, meas):
+@pytest.mark.parametrize("q", [0.01, 30.0])
+def test_strong_tracking_fused_equals_composed_bit_for_bit(rule, meas, q):
     """The strong-tracking layer over a plain sigma-point filter: one compiled call per step gives every Estimate field
     at every step and the final state (V of Eq. 17, Q, the fading factor) the bits of the composed layer, through steps
-    whose fading factor exceeds 1 (the prior inflated and predicted again) and steps where it is 1."""
+    whose fading factor exceeds 1 (the prior inflated and predicted again) and steps where it is 1 (with a Q of the
+    prior's size, where (P - Q) + Q is not P's bits, a run inflated at a factor of 1 would show)."""
     measurement = MEASUREMENTS[meas]
-    est = _strong_tracking(rule, measurement)
+    est = _strong_tracking(rule, measurement, q)
     zs = np.swapaxes(_problem(measurement, 21), 0, 1)
     state = est.init(np.tile(X0, (21, 1)), P0)
     mismatches, _, calls = _same_steps(est, state, zs)
@@ -589,3 +591,65 @@ def test_strong_tracking_step_rejects_mismatched_shapes():
                       ("R", np.eye(m + 1)), ("Q", np.eye(n + 1)), ("F", np.eye(n + 1))):
         with pytest.raises(ValueError):
             linalg.strong_tracking_step(**{**args, name: bad})
+
+
+class _PerRunNoise:
+    """Linear CV dynamics with a process noise per run, (B, n, n) (a user's model: the library's single models share
+    one Q)."""
+
+    is_linear = True
+
+    def __init__(self, B: int):
+        self.model = models.constant_velocity(T, 0.01)
+        self.dim, self.F = self.model.dim, self.model.F
+        self.Q = self.model.Q * np.linspace(1.0, 400.0, B)[:, None, None]
+
+    def transition(self, x):
+        return self.model.transition(x)
+
+    def jacobian(self, x):
+        return self.model.jacobian(x)
+
+
+@pytest.mark.parametrize("block", [1, 4, 128])
+def test_strong_tracking_per_run_noise_and_a_given_V_equal_composed(block, monkeypatch):
+    """A process noise per run read at each block's own runs, and a V of Eq. 17 given at init (per run, then one
+    shared (m, m)): the composed bits."""
+    monkeypatch.setattr(linalg, "FUSED_BLOCK", block)
+    B = 9
+    measurement = MEASUREMENTS["range-bearing"]
+    est = SingleModel(StrongTracking(SigmaPointFilter(RULES["CKF"]), beta=4.5, rho=0.95), _PerRunNoise(B), measurement)
+    zs = np.swapaxes(_problem(measurement, B)[:, :12], 0, 1)
+    V0 = np.diag([400.0, 1e-4]) * np.linspace(0.5, 3.0, B)[:, None, None]
+    for V in (V0, V0[0]):
+        state = est.init(np.tile(X0, (B, 1)), P0, V=V)
+        mismatches, _, calls = _same_steps(est, state, zs)
+        assert not mismatches and calls == len(zs)
+    lam = _fading_factors(est, est.init(np.tile(X0, (B, 1)), P0), zs)
+    assert (lam > 1.0).any()
+
+
+@pytest.mark.filterwarnings("ignore:overflow:RuntimeWarning")
+def test_strong_tracking_a_later_failure_equals_composed():
+    """A wild measurement at step 5 of run 2 (V of Eq. 17 overflows; the run fails from it): the composed bits at every
+    step, the failure reported at the same step in both, not before step 5, and the other runs untouched."""
+    B = 4
+    measurement = MEASUREMENTS["range-bearing"]
+    est = _strong_tracking("UKF", measurement)
+    zs = np.swapaxes(_problem(measurement, B)[:, :8], 0, 1).copy()
+    zs[5, 2, 0] = 1e200
+    mismatches, estimates, calls = _same_steps(est, est.init(np.tile(X0, (B, 1)), P0), zs)
+    assert not mismatches and calls == len(zs)
+    assert [e.failure[2] != 0 for e in estimates].index(True) >= 5
+    assert np.isfinite(estimates[-1].mean[[0, 1, 3]]).all() and np.isnan(estimates[-1].mean[2]).all()
+
+
+def test_strong_tracking_a_float32_V_takes_the_composed_step():
+    """A V of another precision than float64 given at init (the composed update computes Eq. 17 in it): the first step
+    is composed, the later ones (V then float64) fused, and every step has the composed bits."""
+    measurement = MEASUREMENTS["linear"]
+    est = _strong_tracking("CKF", measurement)
+    state = est.init(np.tile(X0, (3, 1)), P0, V=np.eye(2, dtype=np.float32) * 100.0)
+    zs = np.swapaxes(_problem(measurement, 3)[:, :6], 0, 1)
+    mismatches, _, calls = _same_steps(est, state, zs)
+    assert not mismatches and calls == len(zs) - 1

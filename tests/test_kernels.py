@@ -158,6 +158,11 @@ def test_every_kernel_matches_the_numpy_path_on_random_operands():
     got, ref = _both(linalg.fading_factor, P, Qs, Pxz, V, S_st, R, 4.5)
     _close(got, ref, RTOL_ONE_CALL, "fading_factor")
     assert (got > 1.0).any() and (got == 1.0).any() and not (got < 1.0).any()
+    # tr M < 0 with tr N < 0 (a ratio above 1 that is not a fading factor) and tr M = 0 exactly: 1 in both paths
+    neg = _both(linalg.fading_factor, P, Qs, Pxz, 0.1 * np.eye(m), 0.5 * R, R, 4.5)
+    zero = _both(linalg.fading_factor, P, np.zeros((n, n)), Pxz, np.zeros((m, m)), np.eye(m), np.eye(m), 4.5)
+    for got, ref in (neg, zero):
+        assert (got == 1.0).all() and (ref == 1.0).all()
     got, ref = _both(linalg.fading_factor, odd, Qs, Pxz, V, S_st, R, 4.5)
     _close(got, ref, RTOL_ONE_CALL, "fading_factor (odd matrices)")
     assert got[0, 0] == 1.0 and got[0, 1] == 1.0 and got[1, 2] == 1.0     # indefinite, singular, NaN: no factor

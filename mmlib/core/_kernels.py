@@ -592,17 +592,23 @@ def _predict_core(mb, Pb, xi, wm, wc, Fb, Qb, ybar, Pm, failed):
     Y = np.zeros((M, n, N))
     ybar[:, :] = 0.0
     for p in range(M):
+        wp = wm[p]
         for i in range(n):
+            y = Y[p, i]
             for j in range(n):
+                f = Fb[i, j]
+                x = X[p, j]
                 for b in range(N):
-                    Y[p, i, b] += Fb[i, j, b] * X[p, j, b]
-            wp = wm[p]
+                    y[b] += f[b] * x[b]
+            yb = ybar[i]
             for b in range(N):
-                ybar[i, b] += wp * Y[p, i, b]
+                yb[b] += wp * y[b]
     for p in range(M):
         for i in range(n):
+            y = Y[p, i]
+            yb = ybar[i]
             for b in range(N):
-                Y[p, i, b] -= ybar[i, b]
+                y[b] -= yb[b]
     _outer_sums(Y, wc, np.empty((M, 0, N)), Qb, Pm, np.empty((0, n, N)))
 
 
@@ -916,12 +922,14 @@ def _measure(X, kind, A, idx, sensor, Z):
     if kind == 0:
         for p in range(M):
             for c in range(m):
+                z = Z[p, c]
                 for b in range(N):
-                    Z[p, c, b] = 0.0
+                    z[b] = 0.0
                 for j in range(n):
                     h = A[c, j]
+                    x = X[p, j]
                     for b in range(N):
-                        Z[p, c, b] += X[p, j, b] * h
+                        z[b] += x[b] * h
     elif kind == 1:
         i0, i1 = idx[0], idx[1]
         sx, sy = sensor[0], sensor[1]
@@ -932,13 +940,18 @@ def _measure(X, kind, A, idx, sensor, Z):
                 Z[p, 0, b] = math.hypot(dx, dy)
                 Z[p, 1, b] = math.atan2(dy, dx)
     else:
+        # each point's rows taken before the loop over the runs: indexed there by idx, the loop is not vectorised and
+        # the square roots run one at a time (a correctly rounded vector square root gives the same bits)
         for p in range(M):
+            x0, x1, x2, xb = X[p, idx[0]], X[p, idx[1]], X[p, idx[2]], X[p, idx[3]]
             for c in range(m):
+                a0, a1, a2 = A[c, 0], A[c, 1], A[c, 2]
+                z = Z[p, c]
                 for b in range(N):
-                    d0 = A[c, 0] - X[p, idx[0], b]
-                    d1 = A[c, 1] - X[p, idx[1], b]
-                    d2 = A[c, 2] - X[p, idx[2], b]
-                    Z[p, c, b] = math.sqrt((d0 * d0 + d1 * d1) + d2 * d2) + X[p, idx[3], b]
+                    d0 = a0 - x0[b]
+                    d1 = a1 - x1[b]
+                    d2 = a2 - x2[b]
+                    z[b] = math.sqrt((d0 * d0 + d1 * d1) + d2 * d2) + xb[b]
 
 
 @njit(**_OPTS)
@@ -1024,8 +1037,7 @@ def _fading_core(Pl, Qb, Pxz, V, S, Rb, beta, lam):
     :math:`M = P_{zz} - V + N + (\beta - 1)R`, their traces summed in index order,
     :math:`\lambda = \max(1, \mathrm{tr}N/\mathrm{tr}M)` (1 where :math:`\mathrm{tr}M` is not > 0; NaN where tr N is
     NaN and tr M > 0, as ``np.maximum``).  Pl, Qb (n, n, N), Pxz (n, m, N), V, S, Rb (m, m, N) -> lam (N,).  A run
-    whose :math:`P^l` is not positive definite gets X NaN, hence :math:`\lambda = 1` (its sigma points are NaN: the
-    run fails at this step's update)."""
+    whose :math:`P^l` is not positive definite (no covariance) gets X NaN, hence :math:`\lambda = 1`."""
     n, m, N = Pxz.shape
     L = np.empty((n, n, N))
     bad = np.zeros(N, dtype=np.bool_)

@@ -497,9 +497,10 @@ def fading_factor(Pl: np.ndarray, Q: np.ndarray, Pxz: np.ndarray, V: np.ndarray,
     (Q included), ``Q`` (..., n, n) broadcasting, ``Pxz`` (..., n, m), ``V`` (..., m, m) the smoothed innovation outer
     product (Eq. 17), ``S`` (..., m, m) the predicted measurement covariance (R included), ``R`` broadcasting against
     (..., m, m), ``beta`` >= 1 the softening factor; returns :math:`\lambda` (...), dimensionless.  A run whose
-    covariance :math:`P^l` is not positive definite (:func:`cholesky`) gets 1: its sigma points are NaN, so it fails
-    at this step's update.  The compiled twin solves through the Cholesky factor and forms only the diagonals of N
-    and M (:func:`mmlib.core._kernels._fading_core`): the two agree to round-off."""
+    :math:`P^l` is not positive definite (:func:`cholesky`), hence no covariance, gets 1 (no inflation; over a
+    sigma-point filter its points are NaN and the run fails at this step's update).  The compiled twin solves through
+    the Cholesky factor and forms only the diagonals of N and M (:func:`mmlib.core._kernels._fading_core`): the two
+    agree to round-off."""
     X = solve(Pl, Pxz)                                           # (P^l)^-1 Pxz, (..., n, m)
     _, not_pd = cholesky(Pl)
     if not_pd.any():                                             # a failed run: its sigma points are NaN too
@@ -515,7 +516,8 @@ def fading_factor(Pl: np.ndarray, Q: np.ndarray, Pxz: np.ndarray, V: np.ndarray,
 @fading_factor.compiled
 def _fading_factor_compiled(Pl, Q, Pxz, V, S, R, beta):
     Pl = np.asarray(Pl, dtype=np.float64)
-    lead = np.broadcast_shapes(Pl.shape[:-2], np.shape(Pxz)[:-2], np.shape(V)[:-2], np.shape(S)[:-2])
+    lead = np.broadcast_shapes(Pl.shape[:-2], np.shape(Q)[:-2], np.shape(Pxz)[:-2], np.shape(V)[:-2],
+                               np.shape(S)[:-2], np.shape(R)[:-2])
     flat = _stack(Pl, 2, lead)
     lam = _call("fading_factor", flat.shape[0], flat, _periodic(Q, 2, lead), _stack(Pxz, 2, lead), _stack(V, 2, lead),
                 _stack(S, 2, lead), _periodic(R, 2, lead), float(beta))

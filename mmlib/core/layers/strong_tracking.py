@@ -129,13 +129,14 @@ class StrongTracking(FilterLayer):
         (:func:`mmlib.core.linalg.strong_tracking_step`, the same bits), for a single model whose step the caller
         (:class:`mmlib.core.estimation.SingleModel`) has found fusable: fusion on, linear ``dynamics`` with one
         (n, n) ``F``, and ``measure`` the kernel's form of ``measurement``.  It applies to this class itself (a
-        subclass may override a step), the Jacobian-free form and a plain
-        :class:`~mmlib.core.filters.SigmaPointFilter` base whose rule's covariances are weighted outer products.
+        subclass may override a step), the Jacobian-free form, a plain :class:`~mmlib.core.filters.SigmaPointFilter`
+        base whose rule's covariances are weighted outer products, and a ``V`` that is None or float64.
         Returns ``(StrongTrackingState, loglik (B,), innovation (B, m), S (B, m, m), failed (B,))``, or None where it
         does not apply (the composed step runs)."""
         if not (type(self) is StrongTracking and self.form == "statistical" and type(self.base) is SigmaPointFilter
-                and self.base.rule.weighted_moments and type(state) is StrongTrackingState):
-            return None
+                and self.base.rule.weighted_moments and type(state) is StrongTrackingState
+                and (state.V is None or np.asarray(state.V).dtype == np.float64)):
+            return None         # (a V of another precision: the composed update computes Eq. 17 in it)
         up = self.base.rule.unit_points(dynamics.dim)
         m = np.shape(z)[-1]
         V = None if state.V is None or state.V.shape[-1] != m else state.V      # Eq. 17 restarts, as in update()
