@@ -185,7 +185,7 @@ print(f"every universe reproduces every positive cell: {section['positive']['eve
 claims = verdicts.Claims()
 for c in summary.claims:
     claims.add(c.claim, f"{c.verdict}: {c.decisive}" if c.decisive else c.verdict, key=c.key)
-nb.write_results(rows=rows, claims=claims, deviations=[d.as_dict() for d in paper.deviations],
-                 digest=digests.run_digest(headline.runs, nb.digest_runs), multiverse=mv,
-                 headline_reading=paper.headline, consistency=entries, controls=section,
-                 diverged_runs=dict(summary.diverged))
+doc = nb.write_results(rows=rows, claims=claims, deviations=[d.as_dict() for d in paper.deviations],
+                       digest=digests.run_digest(headline.runs, nb.digest_runs), multiverse=mv,
+                       headline_reading=paper.headline, consistency=entries, controls=section,
+                       diverged_runs=dict(summary.diverged))

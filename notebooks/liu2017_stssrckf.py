@@ -336,12 +336,12 @@ display(Markdown(diagnostics.findings(mv)))
 # %%
 # digest of the headline's per-run numbers over the first smoke-size runs (the same runs in every profile):
 # tests/tolerance/test_digest.py recomputes it (study.headline_digest) and compares it with the committed one
-nb.write_results(rows=rows, claims=claims, deviations=[d.as_dict() for d in paper.deviations],
-                 digest=digests.run_digest(headline.runs, nb.digest_runs), multiverse=mv,
-                 headline_reading=paper.headline, consistency=consistency,
-                 near_equality_position_armse_difference_vs_STSSRCKF=near_equal,
-                 max_position_difference_vs_STSSRCKF=d_rules,
-                 diverged_runs={k.split(" ", 2)[-1]: v for k, v in summary.diverged.items()
-                                if k.startswith("Example 1 ")},
-                 timing_ms_per_run={a: {"one_at_a_time": 1e3 * float(per_run[a].mean()),
-                                        "batched": 1e3 * float(batched[a].mean())} for a in per_run})
+doc = nb.write_results(rows=rows, claims=claims, deviations=[d.as_dict() for d in paper.deviations],
+                       digest=digests.run_digest(headline.runs, nb.digest_runs), multiverse=mv,
+                       headline_reading=paper.headline, consistency=consistency,
+                       near_equality_position_armse_difference_vs_STSSRCKF=near_equal,
+                       max_position_difference_vs_STSSRCKF=d_rules,
+                       diverged_runs={k.split(" ", 2)[-1]: v for k, v in summary.diverged.items()
+                                      if k.startswith("Example 1 ")},
+                       timing_ms_per_run={a: {"one_at_a_time": 1e3 * float(per_run[a].mean()),
+                                              "batched": 1e3 * float(batched[a].mean())} for a in per_run})

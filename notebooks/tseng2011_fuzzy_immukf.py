@@ -506,14 +506,14 @@ display(Markdown("\n".join(lines)))
 # %%
 # the digest: the headline's per-run numbers over the first smoke-size runs (the same runs in every profile), which
 # tests/tolerance/test_digest.py recomputes and compares with the committed one
-nb.write_results(rows=rows, digest=digests.run_digest(res, nb.digest_runs), claims=claims, multiverse=mv,
-                 deviations=[d.as_dict() for d in paper.deviations], diverged_runs=diverged,
-                 oracle_schedules=oracle_json, ukf_minus_ekf_max_m=ukf_ekf, consistency=consistency,
-                 no_information_baseline={"what": "single-epoch least-squares fix (baseline.py): horizontal "
-                                                  "position RMSE (m)",
-                                          "value": float(ls_rms.value), "stderr": float(ls_rms.stderr),
-                                          "filters": {a: [float(v.value), float(v.stderr)]
-                                                      for a, v in horizontal.items()},
-                                          "degenerate": head_degenerate},
-                 satellites_in_view=[int(n_vis.min()), int(n_vis.max())],
-                 provenance={"oracle_runs": mc_oracle.n_runs})
+doc = nb.write_results(rows=rows, digest=digests.run_digest(res, nb.digest_runs), claims=claims, multiverse=mv,
+                       deviations=[d.as_dict() for d in paper.deviations], diverged_runs=diverged,
+                       oracle_schedules=oracle_json, ukf_minus_ekf_max_m=ukf_ekf, consistency=consistency,
+                       no_information_baseline={"what": "single-epoch least-squares fix (baseline.py): horizontal "
+                                                        "position RMSE (m)",
+                                                "value": float(ls_rms.value), "stderr": float(ls_rms.stderr),
+                                                "filters": {a: [float(v.value), float(v.stderr)]
+                                                            for a, v in horizontal.items()},
+                                                "degenerate": head_degenerate},
+                       satellites_in_view=[int(n_vis.min()), int(n_vis.max())],
+                       provenance={"oracle_runs": mc_oracle.n_runs})

@@ -499,7 +499,7 @@ display(Markdown("\n".join(lines)))
 # %%
 # the digest: the headline's per-run numbers over the first smoke-size runs (the same runs in every profile), which
 # tests/tolerance/test_digest.py recomputes without the notebook (study.headline_digest)
-nb.write_results(rows=rows + variant_rows, digest=digests.run_digest(head, nb.digest_runs), claims=claims,
-                 deviations=[d.as_dict() for d in paper.deviations], multiverse=mv,
-                 diverged_runs={"case 2 (as printed)": div2}, consistency=consistency,
-                 fault_observability=observability, synthetic_analogue=analogue)
+doc = nb.write_results(rows=rows + variant_rows, digest=digests.run_digest(head, nb.digest_runs), claims=claims,
+                       deviations=[d.as_dict() for d in paper.deviations], multiverse=mv,
+                       diverged_runs={"case 2 (as printed)": div2}, consistency=consistency,
+                       fault_observability=observability, synthetic_analogue=analogue)

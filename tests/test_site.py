@@ -827,9 +827,15 @@ def test_the_static_checks_catch_what_they_look_for(site, browser):
     assert not [p for p in found if p.startswith("api/zz-good-formulas.html")], text
 
 
+#: the most lines of text a cell of an executed notebook may show: a reader scrolls a page of narration, tables and
+#: figures (the longest, the arena's scenario list, is a few hundred lines); a dump of a results document (tens of
+#: thousands of lines, the site's page a million pixels tall) belongs in data/results/, not on the page
+MAX_CELL_OUTPUT_LINES = 1000
+
+
 def test_committed_notebooks_are_fit_to_publish():
-    """The committed executed notebooks hold no stderr output (progress goes to the runner's log) and no path of
-    the machine that ran them."""
+    """The committed executed notebooks hold no stderr output (progress goes to the runner's log), no path of
+    the machine that ran them, and no cell showing more than :data:`MAX_CELL_OUTPUT_LINES` lines of text."""
     import json
     executed = sorted((REPO / "notebooks" / "executed").glob("*.ipynb"))
     assert [p.stem for p in executed] == sorted(p.stem for p in (REPO / "notebooks").glob("*.py"))
@@ -838,6 +844,11 @@ def test_committed_notebooks_are_fit_to_publish():
         nb = json.loads(text)
         stderr = [i for i, c in enumerate(nb["cells"]) for o in c.get("outputs", []) if o.get("name") == "stderr"]
         assert not stderr, f"{path.name}: stderr output in cells {stderr}"
+        long = {i: n for i, c in enumerate(nb["cells"])
+                if (n := sum("".join(o.get("text", "")).count("\n")
+                             + sum("".join(v).count("\n") for k, v in o.get("data", {}).items()
+                                   if k.startswith("text/")) for o in c.get("outputs", []))) > MAX_CELL_OUTPUT_LINES}
+        assert not long, f"{path.name}: cells showing more than {MAX_CELL_OUTPUT_LINES} lines: {long}"
         for local in (str(REPO), "/home/", "/tmp/", "/root/", "/Users/", "/work/", "/opt/", "/var/", "/mnt/",
                       "C:\\\\"):
             assert local not in text, f"{path.name}: machine-local path {local!r}"
