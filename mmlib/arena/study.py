@@ -118,10 +118,10 @@ CHUNK_SIZE = 250
 COST_RUNS = 100           #: runs of the batched run that measures a cell's cost (the same batch for every algorithm)
 WARM_UP_STEPS = 2         #: steps of the untimed one-run warm-up before that run (:func:`cost_per_run_step`)
 RESULT_KEYS = ("metrics", "reason", "n_runs", "diverged", "per_run")
-#: the simulated batches a process keeps (:func:`simulated`; the limits of its memo, built at import), the most
-#: recently used: a cell asks for its chunks and
-#: its cost batch (n_runs / CHUNK_SIZE + 1 = 5 batches at 1000 runs), and the cells of a scenario run one after the
-#: other (run_arena orders them by scenario), so the next algorithm of the scenario finds them all
+#: the simulated batches a process keeps, the most recently used (:func:`simulated`; the limits of its memo, built at
+#: import): a cell asks for its chunks and its cost batch (n_runs / CHUNK_SIZE + 1 = 5 batches at 1000 runs), and the
+#: cells of a scenario run one after the other (run_arena orders them by scenario), so the next algorithm of the
+#: scenario finds them all
 SIMULATION_MEMO = 5
 #: and at most this many bytes of them (a batch larger than that is not kept): Tseng et al. 2011's 250 runs of 1800
 #: epochs are about 58 MB
