@@ -158,11 +158,19 @@ def test_every_kernel_matches_the_numpy_path_on_random_operands():
     got, ref = _both(linalg.fading_factor, P, Qs, Pxz, V, S_st, R, 4.5)
     _close(got, ref, RTOL_ONE_CALL, "fading_factor")
     assert (got > 1.0).any() and (got == 1.0).any() and not (got < 1.0).any()
-    # tr M < 0 with tr N < 0 (a ratio above 1 that is not a fading factor) and tr M = 0 exactly: 1 in both paths
+    # tr M < 0 with tr N < 0 (a ratio above 1 that is not a fading factor), and tr M = 0 exactly with tr N = 7 > 0
+    # (Q = 0, S = R = I, V = 8 I: M = (1 - 8) + 3.5 + 3.5 = 0 in floating point; without the guard, +inf): 1 in both
     neg = _both(linalg.fading_factor, P, Qs, Pxz, 0.1 * np.eye(m), 0.5 * R, R, 4.5)
-    zero = _both(linalg.fading_factor, P, np.zeros((n, n)), Pxz, np.zeros((m, m)), np.eye(m), np.eye(m), 4.5)
+    zero = _both(linalg.fading_factor, P, np.zeros((n, n)), Pxz, 8.0 * np.eye(m), np.eye(m), np.eye(m), 4.5)
     for got, ref in (neg, zero):
         assert (got == 1.0).all() and (ref == 1.0).all()
+    # a process noise or measurement noise batched beyond the other operands broadcasts in both paths
+    Q_runs = Qs * rng.uniform(0.5, 2.0, (B, r, 1, 1))
+    for args in ((P[0, 0], Q_runs, Pxz[0, 0], V[0, 0], S_st[0, 0], R), (P[0, 0], Qs, Pxz[0, 0], V[0, 0], S_st[0, 0],
+                                                                         R * rng.uniform(0.5, 2.0, (B, r, 1, 1)))):
+        got, ref = _both(linalg.fading_factor, *args, 4.5)
+        _close(got, ref, RTOL_ONE_CALL, "fading_factor (a batched Q or R)")
+        assert got.shape == (B, r)
     got, ref = _both(linalg.fading_factor, odd, Qs, Pxz, V, S_st, R, 4.5)
     _close(got, ref, RTOL_ONE_CALL, "fading_factor (odd matrices)")
     assert got[0, 0] == 1.0 and got[0, 1] == 1.0 and got[1, 2] == 1.0     # indefinite, singular, NaN: no factor
