@@ -214,12 +214,18 @@ def test_fused_path_is_not_taken_where_it_does_not_apply(why, monkeypatch):
         filt = Filter(RULES["UKF"])
     transition = TRANSITION if len(modes) == 3 else np.array([[0.95, 0.05], [0.05, 0.95]])
     imm = IMM(filt, modes, measurement, transition, mixing=mixing)
+    _assert_composed(imm, "imm_sigma_step", why, monkeypatch)
+
+
+def _assert_composed(est, step: str, why: str, monkeypatch) -> None:
+    """``est`` run over 4 runs of the range-bearing problem, with the numpy kernels or fusion off when ``why`` says so,
+    never calls the fused step ``step`` (replaced by a stub that would fail the run) and gives a finite track."""
     calls = []
-    monkeypatch.setattr(linalg, "imm_sigma_step", lambda *a, **k: calls.append(1))
+    monkeypatch.setattr(linalg, step, lambda *a, **k: calls.append(1))
     z = _problem(MEASUREMENTS["range-bearing"], 4)
     kernel = "numpy" if why == "numpy kernels" else "numba"
     with linalg.use_kernel(kernel), linalg.use_fused(why != "fusion off"):
-        track = run(imm, imm.init(np.tile(X0, (4, 1)), P0), z)
+        track = run(est, est.init(np.tile(X0, (4, 1)), P0), z)
     assert not calls and np.isfinite(track.mean).all()
 
 
@@ -571,13 +577,7 @@ def test_strong_tracking_fused_path_is_not_taken_where_it_does_not_apply(why, mo
             pass
         measurement = Radar(np.asarray(measurement.R))
     est = SingleModel(layer(base, beta=4.5, rho=0.95, form=form), dynamics, measurement)
-    calls = []
-    monkeypatch.setattr(linalg, "strong_tracking_step", lambda *a, **k: calls.append(1))
-    z = _problem(MEASUREMENTS["range-bearing"], 4)
-    kernel = "numpy" if why == "numpy kernels" else "numba"
-    with linalg.use_kernel(kernel), linalg.use_fused(why != "fusion off"):
-        track = run(est, est.init(np.tile(X0, (4, 1)), P0), z)
-    assert not calls and np.isfinite(track.mean).all()
+    _assert_composed(est, "strong_tracking_step", why, monkeypatch)
 
 
 def test_strong_tracking_step_rejects_mismatched_shapes():

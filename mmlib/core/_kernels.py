@@ -1006,6 +1006,18 @@ def _update_core(mean, Pm, nu, S, Pxz, log_2pi, cov, ll, failed):
 
 
 @njit(**_OPTS)
+def _predict_and_moments(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb, prior, Pl, zp, S, Pxz):
+    r"""The time update of a sigma-point filter on linear dynamics (:func:`_predict_core`: the prior ``prior`` (n, N)
+    and ``Pl`` (n, n, N), NaN for a run whose covariance has no Cholesky factor) then its measurement prediction
+    (:func:`_moments_core`: ``zp`` (m, N), ``S`` (m, m, N), ``Pxz`` (n, m, N)), batch innermost."""
+    f_pred = np.empty(mb.shape[1], dtype=np.bool_)
+    _predict_core(mb, Pb, xi, wm, wc, Fb, Qb, prior, Pl, f_pred)
+    _nan_lanes(prior, f_pred)
+    _nan_lanes(Pl, f_pred)
+    _moments_core(prior, Pl, xi, wm, wc, kind, A, idx, sensor, angular, Rb, zp, S, Pxz)
+
+
+@njit(**_OPTS)
 def _filter_step(mb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, mean, cov, nu, S, ll,
                  failed):
     r"""One step of a sigma-point filter on linear dynamics, batch innermost, as the composed operations compute it:
@@ -1018,13 +1030,9 @@ def _filter_step(mb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angul
     n, N = mb.shape
     m = zb.shape[0]
     Pm = np.empty((n, n, N))
-    f_pred = np.empty(N, dtype=np.bool_)
-    _predict_core(mb, Pb, xi, wm, wc, Fb, Qb, mean, Pm, f_pred)
-    _nan_lanes(mean, f_pred)
-    _nan_lanes(Pm, f_pred)
     zp = np.empty((m, N))
     Pxz = np.empty((n, m, N))
-    _moments_core(mean, Pm, xi, wm, wc, kind, A, idx, sensor, angular, Rb, zp, S, Pxz)
+    _predict_and_moments(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb, mean, Pm, zp, S, Pxz)
     _residual_core(zb, zp, angular, nu)
     _update_core(mean, Pm, nu, S, Pxz, log_2pi, cov, ll, failed)
 
@@ -1092,6 +1100,58 @@ def fading_factor(Pl, Q, Pxz, V, S, R, beta):
 
 
 @njit(**_OPTS)
+def _block_operands(mean, cov, F, Q, R, z, b0, N):
+    r"""The operands of a single-model fused step for the N runs of a block starting at run b0, batch innermost:
+    ``(mb (n, N), Pb (n, n, N), Fb (n, n, N), Qb (n, n, N), Rb (m, m, N), zb (m, N))`` from mean (B, n), cov (B, n, n),
+    the one F (n, n) copied into every lane, Q and R periodic over the runs (:func:`_lanes`) and z (B, m)."""
+    n, m = mean.shape[1], z.shape[1]
+    Fb = np.empty((n, n, N))
+    for lane in range(N):
+        for i in range(n):
+            for k in range(n):
+                Fb[i, k, lane] = F[i, k]
+    Qb = np.empty((n, n, N))
+    _lanes(Q, b0, N, (1, 0), Qb)
+    Rb = np.empty((m, m, N))
+    _lanes(R, b0, N, (1, 0), Rb)
+    mb = np.empty((n, N))
+    _lanes(mean, b0, N, (1, 0), mb)
+    Pb = np.empty((n, n, N))
+    _lanes(cov, b0, N, (1, 0), Pb)
+    zb = np.empty((m, N))
+    _lanes(z, b0, N, (1, 0), zb)
+    return mb, Pb, Fb, Qb, Rb, zb
+
+
+@njit(**_OPTS)
+def _step_outputs(B, n, m):
+    """The outputs of a single-model fused step for B runs, run axis first: ``(mean (B, n), cov (B, n, n), loglik (B,),
+    innovation (B, m), S (B, m, m), failed (B,) all False)``, filled block by block by :func:`_store_block`."""
+    return (np.empty((B, n)), np.empty((B, n, n)), np.empty(B), np.empty((B, m)), np.empty((B, m, m)),
+            np.zeros(B, dtype=np.bool_))
+
+
+@njit(**_OPTS)
+def _store_block(b0, mean, cov, ll, nu, S, failed, mean_out, cov_out, ll_out, nu_out, S_out, failed_out):
+    """A single-model fused step's results for the block of runs starting at b0 (batch innermost: mean (n, N), cov
+    (n, n, N), ll, failed (N,), nu (m, N), S (m, m, N)) written to the runs' rows of the outputs (run axis first)."""
+    n, N = mean.shape
+    m = nu.shape[0]
+    for lane in range(N):
+        b = b0 + lane
+        ll_out[b] = ll[lane]
+        failed_out[b] = failed[lane]
+        for i in range(n):
+            mean_out[b, i] = mean[i, lane]
+            for k in range(n):
+                cov_out[b, i, k] = cov[i, k, lane]
+        for i in range(m):
+            nu_out[b, i] = nu[i, lane]
+            for k in range(m):
+                S_out[b, i, k] = S[i, k, lane]
+
+
+@njit(**_OPTS)
 def strong_tracking_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, angular, R, V, restart, rho, beta,
                          log_2pi, block):
     r"""One step of a strong-tracking sigma-point filter on linear dynamics in one call
@@ -1107,42 +1167,19 @@ def strong_tracking_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, a
     failed, V, fading)``."""
     B, n = mean.shape
     m = z.shape[1]
-    mean_out = np.empty((B, n))
-    cov_out = np.empty((B, n, n))
-    ll_out = np.empty(B)
-    nu_out = np.empty((B, m))
-    S_out = np.empty((B, m, m))
-    failed_out = np.zeros(B, dtype=np.bool_)
+    mean_out, cov_out, ll_out, nu_out, S_out, failed_out = _step_outputs(B, n, m)
     V_out = np.empty((B, m, m))
     lam_out = np.empty(B)
     scale = 1.0 + rho
     for b0 in range(0, B, block):
         N = min(block, B - b0)
-        Fb = np.empty((n, n, N))
-        for lane in range(N):
-            for i in range(n):
-                for k in range(n):
-                    Fb[i, k, lane] = F[i, k]
-        Qb = np.empty((n, n, N))
-        _lanes(Q, b0, N, (1, 0), Qb)
-        Rb = np.empty((m, m, N))
-        _lanes(R, b0, N, (1, 0), Rb)
-        mb = np.empty((n, N))
-        _lanes(mean, b0, N, (1, 0), mb)
-        Pb = np.empty((n, n, N))
-        _lanes(cov, b0, N, (1, 0), Pb)
-        zb = np.empty((m, N))
-        _lanes(z, b0, N, (1, 0), zb)
+        mb, Pb, Fb, Qb, Rb, zb = _block_operands(mean, cov, F, Q, R, z, b0, N)
         prior = np.empty((n, N))
         Pl = np.empty((n, n, N))
-        f_pred = np.empty(N, dtype=np.bool_)
-        _predict_core(mb, Pb, xi, wm, wc, Fb, Qb, prior, Pl, f_pred)
-        _nan_lanes(prior, f_pred)
-        _nan_lanes(Pl, f_pred)
         zp = np.empty((m, N))
         S = np.empty((m, m, N))
         Pxz = np.empty((n, m, N))
-        _moments_core(prior, Pl, xi, wm, wc, kind, A, idx, sensor, angular, Rb, zp, S, Pxz)
+        _predict_and_moments(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb, prior, Pl, zp, S, Pxz)
         v = np.empty((m, N))
         _residual_core(zb, zp, angular, v)
         Vb = np.empty((m, m, N))
@@ -1175,20 +1212,12 @@ def strong_tracking_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, a
         ll = np.empty(N)
         failed = np.empty(N, dtype=np.bool_)
         _update_core(prior, Pl, nu, S, Pxz, log_2pi, post_cov, ll, failed)
+        _store_block(b0, prior, post_cov, ll, nu, S, failed, mean_out, cov_out, ll_out, nu_out, S_out, failed_out)
         for lane in range(N):
-            b = b0 + lane
-            ll_out[b] = ll[lane]
-            failed_out[b] = failed[lane]
-            lam_out[b] = lam[lane]
-            for i in range(n):
-                mean_out[b, i] = prior[i, lane]
-                for k in range(n):
-                    cov_out[b, i, k] = post_cov[i, k, lane]
+            lam_out[b0 + lane] = lam[lane]
             for i in range(m):
-                nu_out[b, i] = nu[i, lane]
                 for k in range(m):
-                    S_out[b, i, k] = S[i, k, lane]
-                    V_out[b, i, k] = Vb[i, k, lane]
+                    V_out[b0 + lane, i, k] = Vb[i, k, lane]
     return mean_out, cov_out, ll_out, nu_out, S_out, failed_out, V_out, lam_out
 
 
@@ -1200,49 +1229,19 @@ def sigma_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, angular, R,
     (:func:`_measure`).  Returns ``(mean+, cov+, loglik, innovation, S, failed)``."""
     B, n = mean.shape
     m = z.shape[1]
-    mean_out = np.empty((B, n))
-    cov_out = np.empty((B, n, n))
-    ll_out = np.empty(B)
-    nu_out = np.empty((B, m))
-    S_out = np.empty((B, m, m))
-    failed_out = np.zeros(B, dtype=np.bool_)
+    mean_out, cov_out, ll_out, nu_out, S_out, failed_out = _step_outputs(B, n, m)
     for b0 in range(0, B, block):
         N = min(block, B - b0)
-        Fb = np.empty((n, n, N))
-        for lane in range(N):
-            for i in range(n):
-                for k in range(n):
-                    Fb[i, k, lane] = F[i, k]
-        Qb = np.empty((n, n, N))
-        _lanes(Q, b0, N, (1, 0), Qb)
-        Rb = np.empty((m, m, N))
-        _lanes(R, b0, N, (1, 0), Rb)
+        mb, Pb, Fb, Qb, Rb, zb = _block_operands(mean, cov, F, Q, R, z, b0, N)
         post_mean = np.empty((n, N))
         post_cov = np.empty((n, n, N))
         nu = np.empty((m, N))
         S = np.empty((m, m, N))
         ll = np.empty(N)
         failed = np.empty(N, dtype=np.bool_)
-        mb = np.empty((n, N))
-        _lanes(mean, b0, N, (1, 0), mb)
-        Pb = np.empty((n, n, N))
-        _lanes(cov, b0, N, (1, 0), Pb)
-        zb = np.empty((m, N))
-        _lanes(z, b0, N, (1, 0), zb)
         _filter_step(mb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, post_mean, post_cov,
                      nu, S, ll, failed)
-        for lane in range(N):
-            b = b0 + lane
-            ll_out[b] = ll[lane]
-            failed_out[b] = failed[lane]
-            for i in range(n):
-                mean_out[b, i] = post_mean[i, lane]
-                for k in range(n):
-                    cov_out[b, i, k] = post_cov[i, k, lane]
-            for i in range(m):
-                nu_out[b, i] = nu[i, lane]
-                for k in range(m):
-                    S_out[b, i, k] = S[i, k, lane]
+        _store_block(b0, post_mean, post_cov, ll, nu, S, failed, mean_out, cov_out, ll_out, nu_out, S_out, failed_out)
     return mean_out, cov_out, ll_out, nu_out, S_out, failed_out
 
 
