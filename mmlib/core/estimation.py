@@ -269,11 +269,11 @@ class SingleModel:
             mean, cov, loglik, innovation, S, failed = linalg.sigma_step(
                 state.mean, state.cov, up.xi, up.wm, up.wc, self.dynamics.F, self.dynamics.Q, z, measure,
                 measurement.angular, measurement.R, LOG_2PI)
-            return GaussianState(mean, cov), Estimate(mean, cov, None, loglik, innovation, innovation_cov=S,
-                                                      failure=_failure_codes(failed))
-        layer = _fused_layer_step(self.filter, state, self.dynamics, z, measurement)
-        if layer is not None:
-            state, loglik, innovation, S, failed = layer
+            fused = GaussianState(mean, cov), loglik, innovation, S, failed
+        else:
+            fused = _fused_layer_step(self.filter, state, self.dynamics, z, measurement)
+        if fused is not None:
+            state, loglik, innovation, S, failed = fused
             return state, Estimate(state.mean, state.cov, None, loglik, innovation, innovation_cov=S,
                                    failure=_failure_codes(failed))
         state = self.filter.predict(state, self.dynamics)
@@ -566,7 +566,7 @@ def _fusable(filt, state, dynamics) -> bool:
     model :func:`_fused_measure` knows): the compiled kernels with fusion on (:func:`mmlib.core.linalg.fused`), a
     plain :class:`SigmaPointFilter` (not a layer or a subclass, which may override a step) whose rule's covariances
     are weighted outer products, a :class:`~mmlib.core.filters.GaussianState` and linear dynamics."""
-    return (linalg.fused() and type(filt) is SigmaPointFilter and filt.rule.weighted_moments
+    return (linalg.fused() and isinstance(filt, SigmaPointFilter) and filt.fusable
             and type(state) is GaussianState and bool(getattr(dynamics, "is_linear", False)))
 
 

@@ -216,6 +216,13 @@ class SigmaPointFilter(_FilterBase):
         if not self.name:
             object.__setattr__(self, "name", self.rule.name)
 
+    @property
+    def fusable(self) -> bool:
+        """Whether a fused step (:func:`mmlib.core.linalg.sigma_step` and the steps built like it) computes this
+        filter's step: this class itself (a subclass may override a step) with a rule whose covariances are weighted
+        outer products (``weighted_moments``: every rule but the Stirling central differences)."""
+        return type(self) is SigmaPointFilter and self.rule.weighted_moments
+
     def _points(self, state):
         """The rule's sigma points from the state's Cholesky factor (NaN for a run whose P is not PD)."""
         X, _failed = linalg.sigma_points(state.mean, state.cov, self.rule.unit_points(state.mean.shape[-1]).xi)

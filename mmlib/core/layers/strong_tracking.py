@@ -22,7 +22,9 @@ follows (Eqs. 34-36).  Where :math:`\lambda = 1` the layer uses :math:`P^l` itse
 strong-tracking filter whose factor never exceeds 1 *is* its base filter, bit for bit.
 
 STF, STUKF, STCKF, STSSRCKF (and a strong-tracking 5th-degree CKF or CDKF) are this
-layer over the corresponding base filter: configurations, not classes.
+layer over the corresponding base filter: configurations, not classes.  Over a plain
+sigma-point filter on linear dynamics, a single model's whole step (time update and this
+update) runs as one compiled call with the same bits (:meth:`StrongTracking.fused_step`).
 """
 from __future__ import annotations
 
@@ -129,12 +131,12 @@ class StrongTracking(FilterLayer):
         (:func:`mmlib.core.linalg.strong_tracking_step`, the same bits), for a single model whose step the caller
         (:class:`mmlib.core.estimation.SingleModel`) has found fusable: fusion on, linear ``dynamics`` with one
         (n, n) ``F``, and ``measure`` the kernel's form of ``measurement``.  It applies to this class itself (a
-        subclass may override a step), the Jacobian-free form, a plain :class:`~mmlib.core.filters.SigmaPointFilter`
-        base whose rule's covariances are weighted outer products, and a ``V`` that is None or float64.
+        subclass may override a step), the Jacobian-free form, a base that a fused step computes
+        (:attr:`mmlib.core.filters.SigmaPointFilter.fusable`), and a ``V`` that is None or float64.
         Returns ``(StrongTrackingState, loglik (B,), innovation (B, m), S (B, m, m), failed (B,))``, or None where it
         does not apply (the composed step runs)."""
-        if not (type(self) is StrongTracking and self.form == "statistical" and type(self.base) is SigmaPointFilter
-                and self.base.rule.weighted_moments and type(state) is StrongTrackingState
+        if not (type(self) is StrongTracking and self.form == "statistical" and isinstance(self.base, SigmaPointFilter)
+                and self.base.fusable and type(state) is StrongTrackingState
                 and (state.V is None or np.asarray(state.V).dtype == np.float64)):
             return None         # (a V of another precision: the composed update computes Eq. 17 in it)
         up = self.base.rule.unit_points(dynamics.dim)
