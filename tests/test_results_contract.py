@@ -346,30 +346,61 @@ def _paths(doc, prefix=()):
         yield from _paths(value, prefix + (key,))
 
 
-def _cut(doc, keep: dict, where=()):
+def _cut(doc, keep: dict, maps: set = frozenset(), where=()):
     """``doc`` with every array of objects or arrays cut to its first item, every array of numbers or strings to its
-    first two (an interval is a pair), or either to its first ``keep[where]`` items (``where`` its path in the cut
-    document); the arena's cells to one with the reason it does not apply and one with metrics."""
+    first two (an interval is a pair), each object at a path of ``maps`` (an object keyed by data: see
+    :func:`_maps`) to its first entry, or any of these to its first ``keep[where]`` items (``where`` its path in the
+    cut document); the arena's cells to one with the reason it does not apply and one with metrics."""
     if isinstance(doc, dict):
         if isinstance(doc.get("cells"), list):
             doc = {**doc, "cells": [next(c for c in doc["cells"] if "reason" in c),
                                     next(c for c in doc["cells"] if "reason" not in c)]}
             keep = {where + ("cells",): 2, **keep}                   # both kinds of cell
-        return {k: _cut(v, keep, where + (k,)) for k, v in doc.items()}
+        items = list(doc.items())
+        if where in maps:
+            items = items[:keep.get(where, 1)]
+        return {k: _cut(v, keep, maps, where + (k,)) for k, v in items}
     if isinstance(doc, list):
         leaves = not any(isinstance(x, (dict, list)) for x in doc)
-        return [_cut(x, keep, where + (i,)) for i, x in enumerate(doc[:keep.get(where, 2 if leaves else 1)])]
+        return [_cut(x, keep, maps, where + (i,)) for i, x in enumerate(doc[:keep.get(where, 2 if leaves else 1)])]
     return doc
 
 
+#: a key no object of the contract names, added by :func:`_maps` with a value no schema of the contract accepts
+PROBE, PROBE_VALUE = "\x00probe", [[["\x00probe"]]]
+
+
+def _maps(doc, validator) -> set:
+    """The paths of the objects of ``doc`` keyed by data (counts by algorithm, verdicts by claim, a reading's options
+    by factor): those whose schema gives any further key one schema (``additionalProperties`` a schema).  Found by
+    ``validator`` itself: :data:`PROBE` is added to every object at once, and an object is a map where an error (or
+    an error inside a ``oneOf``'s) lies at or below that key, i.e. where the key's value was judged by a schema. An
+    object that refuses the key (``additionalProperties: false``) or accepts anything there is not a map."""
+    def probed(node):
+        if isinstance(node, dict):
+            return {**{k: probed(v) for k, v in node.items()}, PROBE: PROBE_VALUE}
+        return [probed(x) for x in node] if isinstance(node, list) else node
+    found: set = set()
+
+    def visit(errors):
+        for e in errors:
+            path = tuple(e.absolute_path)
+            if PROBE in path:
+                found.add(path[:path.index(PROBE)])
+            visit(e.context or ())
+    visit(validator.iter_errors(probed(doc)))
+    return found
+
+
 def tiny(doc, validator):
-    """A committed document cut by :func:`_cut`, with as many items as the schema's ``minItems`` asks where an array
-    has fewer (read from ``validator``'s errors on the cut document, which restore the first items of that array):
-    still valid, and small enough to mutate node by node (an item's nodes are those its siblings would have: one item
-    covers the items' schema)."""
+    """A committed document cut by :func:`_cut` (its maps found by :func:`_maps`), with as many items as the schema's
+    ``minItems`` asks where an array has fewer (read from ``validator``'s errors on the cut document, which restore
+    the first items of that array): still valid, and small enough to mutate node by node (an item's nodes are those
+    its siblings would have: one item of an array, or one entry of a map, covers the items' schema)."""
     keep: dict = {}
+    maps = _maps(_cut(doc, keep), validator)
     while True:
-        base = _cut(doc, keep)
+        base = _cut(doc, keep, maps)
         short = {tuple(e.absolute_path): e.validator_value for e in validator.iter_errors(base)
                  if e.validator == "minItems"}
         if not short:

@@ -439,3 +439,37 @@ def test_reading_space_parameter_leaves_out_notebooks_without_one_and_verbose_re
     # without -v a user's own MMLIB_PROGRESS_VERBOSE stands (the runner sets it only for -v)
     own = run(repo, "alpha2001", check=0, env={"MMLIB_PROGRESS_VERBOSE": "1"})
     assert "verbose=1" in own.stdout
+
+
+# ------------------------------------------------------------------------------------------------------- imports
+def _format_keywords(node, where="#") -> list[str]:
+    """Where a JSON Schema uses the "format" keyword (a string value; a property *named* format is a schema)."""
+    found = []
+    if isinstance(node, dict):
+        if isinstance(node.get("format"), str):
+            found.append(where)
+        for key, value in node.items():
+            found += _format_keywords(value, f"{where}/{key}")
+    elif isinstance(node, list):
+        for i, value in enumerate(node):
+            found += _format_keywords(value, f"{where}/{i}")
+    return found
+
+
+def test_the_runner_leaves_out_an_import_no_check_it_makes_needs():
+    """The runner's process never imports what :data:`SKIPPED_IMPORTS` names (rfc3987_syntax: 1.4 s of grammar
+    compilation per process, used by jsonschema only to check the "iri" formats), yet papermill, nbformat and
+    jsonschema import and validate a notebook; and that is safe because no schema of nbformat, which the runner
+    validates notebooks with, uses the "format" keyword at all."""
+    code = (f"import runpy, sys; runpy.run_path({str(RUNNER)!r}, run_name='runner'); import papermill, nbformat; "
+            "nbformat.validate(nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell('1')])); "
+            "print(sorted(n for n in ('rfc3987_syntax', 'lark') if sys.modules.get(n) is not None), "
+            "'jsonschema' in sys.modules)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["[]", "True"], proc.stdout
+    import nbformat
+    schemas = sorted(Path(nbformat.__file__).parent.glob("v*/nbformat.v*.schema.json"))
+    assert len(schemas) >= 8, schemas
+    used = {p.name: _format_keywords(json.loads(p.read_text())) for p in schemas}
+    assert not any(used.values()), {k: v for k, v in used.items() if v}
