@@ -523,8 +523,7 @@ def assemble(stage: Path, docs: list[dict], notebooks: dict[str, Path], root: Pa
         copies.update({k: root / v for k, v in link_figures(stage / rel, by_name.get(paper), rel).items()})
     api_pages(stage)
     # the bundled MathJax (jupyter-server-mathjax's copy of MathJax 2.7), served from _static/mathjax/
-    import jupyter_server_mathjax
-    shutil.copytree(Path(jupyter_server_mathjax.__file__).parent / "static", stage / "_mathjax" / "mathjax")
+    shutil.copytree(_package_folder("jupyter_server_mathjax") / "static", stage / "_mathjax" / "mathjax")
     return copies
 
 
@@ -549,6 +548,16 @@ def page_progress(line: str) -> str | None:
     if m is None:
         return None
     return f"site: {m['phase'].split()[0]:<7} {int(m['pct']):3d} % {m['page']}"
+
+
+def _package_folder(name: str) -> Path:
+    """The folder of the installed package ``name``, found without importing it (jupyter_server_mathjax, whose import
+    loads jupyter_server and jsonschema, 2.2 s, for a folder of static files); SiteError naming it when missing."""
+    import importlib.util
+    spec = importlib.util.find_spec(name)
+    if spec is None or not spec.submodule_search_locations:
+        raise SiteError(f"{name} is not installed (make venv installs it)")
+    return Path(list(spec.submodule_search_locations)[0])
 
 
 def sphinx(stage: Path, html: Path, quiet: bool = True) -> None:
