@@ -354,6 +354,17 @@ def test_section23_claim_verdicts_are_computed_from_the_moments(monkeypatch):
     assert section23.section23_parts()["overestimates"][0].verdict == report.PartVerdict.HOLDS_NEGLIGIBLE
 
 
+def test_section23_moments_are_computed_once_and_each_caller_gets_its_own_dict():
+    """The quadrature runs once per process (every universe judges the Sec. 2.3 claims): the remembered moments are
+    the ones a fresh computation gives, bit for bit, and a caller's changes to its dict reach no later caller."""
+    first = section23.section23_moments()
+    assert first == section23._section23_moments.__wrapped__()
+    first["mixture_var"] = -1.0
+    again = section23.section23_moments()
+    assert again is not first and again["mixture_var"] > 0 and again == section23._section23_moments.__wrapped__()
+    assert section23._section23_moments.cache_info().misses <= 1
+
+
 def test_table1_analytic_rows_are_exact_and_the_sample_row_is_monte_carlo(monkeypatch):
     """Table 1's MSE and CP rows are analytic: *reproduced (exact)* when equal to the printed precision (CP's mean
     0.6 printed 0.6, formerly 'inconclusive' with a zero standard error), with no z-score; MC is a sample, judged
