@@ -4,11 +4,14 @@ paper's promotion stays whole (one at a time, so the last cross-paper README des
 rejected by name before anything runs.  Uses the throw-away roots and fake notebooks of tests/test_runner.py."""
 from __future__ import annotations
 
+import itertools
+import json
 import re
 import socket
 import subprocess
 import time
 
+import pytest
 from test_runner import (REPO, assert_no_leftovers, assert_whole, base, generations, repo, run,  # noqa: F401
                          runner, sigkill, snapshot, start_until)
 
@@ -43,6 +46,77 @@ def test_parallel_plan_divides_the_workers_among_the_notebooks_at_once(runner): 
     assert runner.parallel_plan(4, 1) == (1, 4)
     assert runner.parallel_plan(8, 5) == (5, 2)
     assert runner.parallel_plan(6, 2) == (2, 3)
+
+
+def test_makespan_is_when_the_last_lane_frees(runner):  # noqa: F811 -- fixtures of test_runner
+    """Each notebook starts, in order, on the first lane to free (run_all's thread pool): the order matters."""
+    assert runner.makespan([3.0, 2.0, 2.0], 2) == 4.0          # 3 | 2 + 2
+    assert runner.makespan([2.0, 2.0, 3.0], 2) == 5.0          # 2 + 3 | 2
+    assert runner.makespan([2.0, 2.0, 3.0], 1) == 7.0
+    assert runner.makespan([5.0], 3) == 5.0 and runner.makespan([], 2) == 0.0
+
+
+def test_lane_order_ends_as_soon_as_the_best_split_of_the_recorded_times(runner, tmp_path):  # noqa: F811
+    """The six notebooks' wall times of a full run (2026-12-04): the given (alphabetical) order ends 53 s after the
+    best; the planned order ends when the best split into two lanes does (checked against every split, not every
+    order); the given order is kept when it is as good, when one lane runs everything, when a notebook has no
+    recorded time; beyond EXHAUSTIVE notebooks, longest first."""
+    times = {"controls": 22.6, "hu2017_x": 152.9, "liu2017_x": 208.2, "tseng2011_x": 271.1, "zhou2017_x": 211.7,
+             "zhu2016_x": 130.8}
+    given = [tmp_path / f"{stem}.py" for stem in times]
+    order = runner.lane_order(given, 2, times)
+    assert sorted(order) == sorted(given)
+    total = sum(times.values())
+    best_split = min(max(sum(t for t, keep in zip(times.values(), mask) if keep),
+                         sum(t for t, keep in zip(times.values(), mask) if not keep))
+                     for mask in itertools.product((True, False), repeat=len(times)))
+    planned = runner.makespan([times[p.stem] for p in order], 2)
+    assert planned == pytest.approx(best_split) and planned < runner.makespan(list(times.values()), 2) - 50
+    assert total / 2 <= planned
+    assert runner.lane_order(order, 2, times) == order                   # already the best: kept
+    assert runner.lane_order(given, 1, times) == given
+    assert runner.lane_order(given, 2, {k: v for k, v in times.items() if k != "controls"}) == given
+    many = [tmp_path / f"n{i}.py" for i in range(runner.EXHAUSTIVE + 1)]
+    many_times = {p.stem: float(i % 4) + 1 for i, p in enumerate(many)}
+    assert [many_times[p.stem] for p in runner.lane_order(many, 2, many_times)] == sorted(many_times.values(),
+                                                                                           reverse=True)
+
+
+def test_recorded_times_are_the_last_full_runs_freshly_computed_notebooks(runner, tmp_path):  # noqa: F811
+    """From data/bench/notebooks.json: papers and studies by notebook stem; a notebook that read universes from the
+    multiverse cache, or has no usable wall time, is left out; a missing or unreadable file gives none."""
+    assert runner.recorded_times(tmp_path) == {}
+    path = tmp_path / runner.TIMES_FILE
+    path.parent.mkdir(parents=True)
+    path.write_text("{not json")
+    assert runner.recorded_times(tmp_path) == {}
+    path.write_text(json.dumps({
+        "papers": {"a": {"notebook": "a_one.ipynb", "wall_s": 10.5, "universes_from_cache": 0},
+                   "b": {"notebook": "b_two.ipynb", "wall_s": 3.0, "universes_from_cache": 12},
+                   "c": {"notebook": "c_three.ipynb", "wall_s": None}},
+        "studies": {"arena": {"notebook": "arena.ipynb", "wall_s": 400.0, "universes_from_cache": None}}}))
+    assert runner.recorded_times(tmp_path) == {"a_one": 10.5, "arena": 400.0}
+
+
+def test_the_runner_starts_the_notebooks_in_the_planned_order(repo):  # noqa: F811 -- fixtures of test_runner
+    """Three notebooks on two lanes with recorded times 2, 2 and 3 s: in the given order the 3 s one starts last
+    and the lanes end at 5 s; planned, it starts with the first (the first best order: 2 + 2 | 3, ending at 4 s),
+    the runner says so, and every paper is promoted whole."""
+    src = (repo / "notebooks" / "alpha2001_fake.py").read_text()
+    (repo / "notebooks" / "gamma2003_fake.py").write_text(src.replace('"alpha2001"', '"gamma2003"'))
+    times = repo / "data" / "bench" / "notebooks.json"
+    times.parent.mkdir(parents=True)
+    times.write_text(json.dumps({"papers": {
+        p: {"notebook": f"{p}_fake.ipynb", "wall_s": w, "universes_from_cache": 0}
+        for p, w in (("alpha2001", 2.0), ("beta2002", 2.0), ("gamma2003", 3.0))}}))
+    proc = run(repo, "--workers", "2", check=0)
+    lines = proc.stdout.splitlines()
+    assert any(ln.startswith("order: alpha2001_fake, gamma2003_fake, beta2002_fake: the lanes end after about 4 s "
+                             "against 5 s in the given order") for ln in lines), proc.stdout
+    assert [ln.split(":")[0] for ln in lines if ": executing " in ln] == [
+        "[1/3] alpha2001_fake", "[2/3] gamma2003_fake", "[3/3] beta2002_fake"]
+    assert_whole(repo, alpha2001="new", beta2002="new")
+    assert "gamma2003-new" in (repo / "data" / "results" / "gamma2003.json").read_text()
 
 
 def test_notebooks_execute_at_once_and_each_promotion_is_whole(repo):  # noqa: F811 -- fixtures of test_runner

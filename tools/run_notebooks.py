@@ -39,8 +39,9 @@ Execution settings change where the work runs, never a result, so they never sen
 ``--workers N`` (default ``$WORKERS``, else every core; ``-p WORKERS=N`` is the same setting) and ``--scheduler
 ADDRESS`` (default ``$MMLIB_SCHEDULER``: a Dask scheduler that receives the notebooks' Monte Carlo chunks and
 universes; checked before anything runs).  Both reach the kernels through their environment.  Independent notebooks
-run in parallel, up to N at a time (see ``parallel_plan``), each logged by one line when it starts and one when it
-finishes, with its wall time; their printed output is prefixed with the notebook's name.  Execution is parallel,
+run in parallel, up to N at a time (see ``parallel_plan``), started in the order that ends soonest at the wall times
+of the last full run (``lane_order``, from data/bench/notebooks.json; the order changes no output), each logged by
+one line when it starts and one when it finishes, with its wall time; their printed output is prefixed with the notebook's name.  Execution is parallel,
 promotion is not: one paper is promoted at a time (its cross-paper README rendered from the papers promoted before
 it), so each promotion stays atomic and the last README describes every paper.
 """
@@ -51,6 +52,7 @@ import ast
 import contextlib
 import hashlib
 import inspect
+import itertools
 import json
 import logging
 import os
@@ -61,6 +63,7 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -661,6 +664,59 @@ def parallel_plan(workers: int, n_notebooks: int) -> tuple[int, int]:
     return slots, -(-workers // slots)
 
 
+#: the wall times the notebooks' order is planned from (``python -m bench.notebooks`` writes them after each full
+#: ``make figures``), relative to the root
+TIMES_FILE = Path("data") / "bench" / "notebooks.json"
+#: up to this many notebooks every order is tried (8! = 40,320 simulated runs); longest first beyond
+EXHAUSTIVE = 8
+
+
+def recorded_times(root: Path) -> dict[str, float]:
+    """Wall seconds by notebook stem from the last full run's :data:`TIMES_FILE` under ``root``, for the notebooks
+    that computed every universe there (one that read its universes from the multiverse cache says nothing about a
+    fresh run); {} when the file is missing or unreadable."""
+    try:
+        doc = json.loads((root / TIMES_FILE).read_text())
+    except (OSError, ValueError):
+        return {}
+    out = {}
+    for group in ("papers", "studies"):
+        entries = doc.get(group) if isinstance(doc, dict) else None
+        for e in (entries.values() if isinstance(entries, dict) else ()):
+            if isinstance(e, dict) and isinstance(e.get("notebook"), str) and not e.get("universes_from_cache") \
+                    and isinstance(e.get("wall_s"), (int, float)) and e["wall_s"] > 0:
+                out[Path(e["notebook"]).stem] = float(e["wall_s"])
+    return out
+
+
+def makespan(durations: Sequence[float], jobs: int) -> float:
+    """When the last of ``durations`` ends if each starts, in this order, on the first of ``jobs`` lanes to free (the
+    thread pool of :func:`run_all`)."""
+    lanes = [0.0] * max(1, jobs)
+    for d in durations:
+        i = lanes.index(min(lanes))
+        lanes[i] += d
+    return max(lanes)
+
+
+def lane_order(sources: list[Path], jobs: int, times: dict[str, float]) -> list[Path]:
+    """``sources`` in the order whose run on ``jobs`` lanes ends soonest (:func:`makespan`) given each notebook's
+    ``times`` (seconds by stem, :func:`recorded_times`): every order of up to :data:`EXHAUSTIVE` notebooks, the first
+    best one kept (the given order unless another ends sooner), longest first beyond that.  The given order when
+    one lane runs them all or a notebook has no time.  Outputs do not depend on the order; only when the last lane
+    frees does (two lanes that end far apart leave a core idle)."""
+    if jobs <= 1 or len(sources) <= 1 or any(src.stem not in times for src in sources):
+        return list(sources)
+    if len(sources) > EXHAUSTIVE:
+        return sorted(sources, key=lambda src: -times[src.stem])
+    best, best_end = list(sources), makespan([times[src.stem] for src in sources], jobs)
+    for order in itertools.permutations(sources):
+        end = makespan([times[src.stem] for src in order], jobs)
+        if end < best_end - 1e-9:
+            best, best_end = list(order), end
+    return best
+
+
 def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, timeout: int, jobs: int = 1,
             exclusive: list[Path] = (), exclusive_workers: int | None = None) -> int:
     """Run the notebooks, up to ``jobs`` at a time (in threads; each kernel is its own process), each promoted as
@@ -880,6 +936,14 @@ def main(argv=None) -> int:
         alone = [src for src in sources if is_exclusive(src)]
         sources = [src for src in sources if src not in alone]
         jobs, kernel_workers = parallel_plan(workers, len(sources) or 1)
+        times = recorded_times(root)
+        ordered = lane_order(sources, jobs, times)
+        if ordered != sources:
+            print(f"order: {', '.join(s.stem for s in ordered)}: the lanes end after about "
+                  f"{makespan([times[s.stem] for s in ordered], jobs):.0f} s against "
+                  f"{makespan([times[s.stem] for s in sources], jobs):.0f} s in the given order, at the wall times "
+                  f"of the last full run ({TIMES_FILE.as_posix()})", flush=True)
+            sources = ordered
         # the kernels inherit this environment: their worker count, and the scheduler (or none)
         os.environ["WORKERS"] = str(kernel_workers if sources else workers)
         if scheduler:
