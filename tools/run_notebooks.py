@@ -42,8 +42,9 @@ universes; checked before anything runs).  Both reach the kernels through their 
 run in parallel, up to N at a time (see ``parallel_plan``), started in the order that ends soonest at the wall times
 of the last full run (``lane_order``, from data/bench/notebooks.json; the order changes no output), each logged by
 one line when it starts and one when it finishes, with its wall time; their printed output is prefixed with the
-notebook's name.  Execution is parallel, promotion is not: one paper is promoted at a time (its cross-paper README rendered from the papers promoted before
-it), so each promotion stays atomic and the last README describes every paper.
+notebook's name.  Execution is parallel, promotion is not: one paper is promoted at a time (its cross-paper README
+rendered from the papers promoted before it), so each promotion stays atomic and the last README describes every
+paper.
 """
 from __future__ import annotations
 
