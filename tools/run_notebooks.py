@@ -940,10 +940,10 @@ def main(argv=None) -> int:
         times = recorded_times(root)
         ordered = lane_order(sources, jobs, times)
         if ordered != sources:
-            print(f"order: {', '.join(s.stem for s in ordered)}: the lanes end after about "
-                  f"{makespan([times[s.stem] for s in ordered], jobs):.0f} s against "
-                  f"{makespan([times[s.stem] for s in sources], jobs):.0f} s in the given order, at the wall times "
-                  f"of the last full run ({TIMES_FILE.as_posix()})", flush=True)
+            print(f"order: {', '.join(s.stem for s in ordered)}, planned from the wall times of the last full run "
+                  f"({TIMES_FILE.as_posix()}), at which its lanes end after "
+                  f"{makespan([times[s.stem] for s in ordered], jobs):.0f} s instead of "
+                  f"{makespan([times[s.stem] for s in sources], jobs):.0f} s in the given order", flush=True)
             sources = ordered
         # the kernels inherit this environment: their worker count, and the scheduler (or none)
         os.environ["WORKERS"] = str(kernel_workers if sources else workers)
