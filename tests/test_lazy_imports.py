@@ -34,9 +34,20 @@ def _imported_after(statement: str) -> list[str]:
 
 @pytest.mark.parametrize("statement", ["import mmlib", "import mmlib.experiment",
                                        "from mmlib.experiment.montecarlo import say_progress",
-                                       "from mmlib.experiment.montecarlo import MonteCarlo, Stream"])
+                                       "from mmlib.experiment.montecarlo import MonteCarlo, Stream",
+                                       # what the notebook runner reads: the notebooks' parameter rules, the registry
+                                       "from mmlib.experiment.notebook import NotebookRun; from mmlib.papers import "
+                                       "REGISTRY"])
 def test_a_light_import_does_not_import_the_heavy_modules(statement):
     assert _imported_after(statement) == []
+
+
+def test_the_reports_views_leave_scipy_stats_unimported_until_an_interval_is_computed():
+    """The notebook runner renders reports through mmlib.experiment.views (the multiverse and the metrics): scipy.stats
+    (1.1 s) is imported only by the first interval computed."""
+    assert "scipy.stats" not in _imported_after("import mmlib.experiment.views")
+    assert "scipy.stats" in _imported_after("from mmlib.experiment.metrics import wilson_interval; "
+                                            "wilson_interval(3, 10)")
 
 
 def test_the_probe_sees_a_heavy_import():

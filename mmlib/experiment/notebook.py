@@ -10,13 +10,14 @@ from typing import TYPE_CHECKING, Any, Iterable, Mapping
 from mmlib.experiment.paper import Paper, Study
 from mmlib.experiment.readings import Deviation
 from mmlib.experiment.report import PartVerdict, Row, joint_tests
-from mmlib.experiment.views import markdown_table, value_pm
 
 __all__ = [
     "NotebookRun", "rows_table", "claims_table", "claim_matrix", "deviations_table", "shade_intervals", "plot_style",
     "PART_SYMBOLS", "CORE_PROVENANCE", "PARAMETER_MINIMUM", "STABILITY_UNIVERSES", "DESIGNS"
 ]
 
+# mmlib.experiment.views (and through it the multiverse, the metrics and scipy.stats: 1.4 s) is imported by the
+# functions that draw a table: the notebook runner imports NotebookRun for its parameter rules alone, once per run
 if TYPE_CHECKING:
     from mmlib.experiment.montecarlo import MonteCarlo
     from mmlib.experiment.multiverse import Multiverse
@@ -27,6 +28,7 @@ if TYPE_CHECKING:
 def deviations_table(deviations: Iterable[Deviation]) -> str:
     """A Markdown table of :class:`~mmlib.experiment.readings.Deviation` s: id, topic, what the paper gives, our
     choice, why, and the sweep that tests it."""
+    from mmlib.experiment.views import markdown_table
     return markdown_table(["id", "topic", "paper", "our choice", "why", "sweep"],
                           [[d.id, d.topic, d.paper, d.choice, d.reason, d.sweep or ""] for d in deviations])
 
@@ -36,6 +38,7 @@ def rows_table(rows: Iterable[Row]) -> str:
     (:func:`~mmlib.experiment.verdicts.joint_tests`): item, algorithm, quantity, the printed value, ours ± its
     standard error, the standardized distance z, the verdict and the deviations that bear on it; then one line per
     table and row that fails its joint test."""
+    from mmlib.experiment.views import markdown_table, value_pm
     judged, tests = joint_tests(list(rows))
     table = markdown_table(["item", "algorithm", "quantity", "paper", "replicated ± s.e.", "z", "verdict",
                             "deviations"],
@@ -60,6 +63,7 @@ PART_SYMBOLS = {PartVerdict.HOLDS: "✓", PartVerdict.HOLDS_NEGLIGIBLE: "(✓)",
 def claims_table(claims: Iterable[Mapping]) -> str:
     """A Markdown table of judged claims (:meth:`mmlib.experiment.verdicts.Claims.as_list` entries): the claim, its
     one verdict and the decisive number that produced it."""
+    from mmlib.experiment.views import markdown_table
     return markdown_table(["claim", "verdict", "decisive"],
                           [[c["claim"], c["verdict"], c.get("decisive", "")] for c in claims])
 
@@ -68,6 +72,7 @@ def claim_matrix(claims: Iterable[Mapping]) -> str:
     """The claim x comparison matrix: one row per claim with parts, one column per comparison and quantity, a
     symbol per part verdict (:data:`PART_SYMBOLS`: ✓ holds, ✗ contradicted, (✓)/(✗) negligible (< 1 %),
     · no detectable difference, ≡ identical to round-off, ? not comparable) with the part's percentage or ratio."""
+    from mmlib.experiment.views import markdown_table
     claims = [c for c in claims if c.get("parts")]
     columns: list = []
     for c in claims:
