@@ -124,3 +124,13 @@ def test_the_type_checking_imports_match_the_lazy_tables(package):
     assert {n: m for n, m in modules.items() if n in expected} == expected
     for name, module in modules.items():
         assert getattr(package, name) is importlib.import_module(module)
+
+
+def test_the_table_helpers_the_notebooks_import_from_the_notebook_module_are_the_views_ones():
+    """``from mmlib.experiment.notebook import markdown_table, value_pm`` (every paper notebook's first cell) gives
+    the views' functions, imported on first use; another missing name is still an AttributeError."""
+    from mmlib.experiment import notebook, views
+    from mmlib.experiment.notebook import markdown_table, value_pm
+    assert markdown_table is views.markdown_table and value_pm is views.value_pm
+    with pytest.raises(AttributeError, match="no attribute 'no_such_helper'"):
+        notebook.no_such_helper

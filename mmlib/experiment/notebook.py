@@ -16,8 +16,21 @@ __all__ = [
     "PART_SYMBOLS", "CORE_PROVENANCE", "PARAMETER_MINIMUM", "STABILITY_UNIVERSES", "DESIGNS"
 ]
 
-# mmlib.experiment.views (and through it the multiverse, the metrics and scipy.stats: 1.4 s) is imported by the
-# functions that draw a table: the notebook runner imports NotebookRun for its parameter rules alone, once per run
+# mmlib.experiment.views (and through it the multiverse and the metrics: 1.4 s with scipy.stats) is imported by the
+# functions that draw a table, and its two table helpers the notebooks import from here on first use (__getattr__):
+# the notebook runner imports NotebookRun for its parameter rules alone, once per run
+_FROM_VIEWS = ("markdown_table", "value_pm")
+
+
+def __getattr__(name: str):
+    """:func:`mmlib.experiment.views.markdown_table` and :func:`~mmlib.experiment.views.value_pm`, imported on first
+    use (PEP 562)."""
+    if name in _FROM_VIEWS:
+        from mmlib.experiment import views
+        return getattr(views, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 if TYPE_CHECKING:
     from mmlib.experiment.montecarlo import MonteCarlo
     from mmlib.experiment.multiverse import Multiverse
