@@ -128,9 +128,12 @@ def test_the_type_checking_imports_match_the_lazy_tables(package):
 
 def test_the_table_helpers_the_notebooks_import_from_the_notebook_module_are_the_views_ones():
     """``from mmlib.experiment.notebook import markdown_table, value_pm`` (every paper notebook's first cell) gives
-    the views' functions, imported on first use; another missing name is still an AttributeError."""
+    the views' functions, imported on first use (:func:`mmlib.core._lazy.lazy_attributes` on a plain module); another
+    missing name is still an AttributeError (a plain module has no submodule to look for), so ``hasattr`` is False."""
     from mmlib.experiment import notebook, views
     from mmlib.experiment.notebook import markdown_table, value_pm
     assert markdown_table is views.markdown_table and value_pm is views.value_pm
+    assert {"markdown_table", "value_pm", "NotebookRun"} <= set(dir(notebook))
     with pytest.raises(AttributeError, match="no attribute 'no_such_helper'"):
         notebook.no_such_helper
+    assert not hasattr(notebook, "no_such_helper")

@@ -15,11 +15,12 @@ __all__ = ["lazy_attributes"]
 def lazy_attributes(package: str, namespace: dict, modules: Mapping[str, str] | Iterable[str] = (),
                     objects: Mapping[str, Iterable[str]] | None = None,
                     ) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
-    """``(__getattr__, __dir__)`` for the package named ``package`` whose globals are ``namespace``: a name of
-    ``modules`` (``{name: module path}``, or names of the package's own modules) is that module, a name of
+    """``(__getattr__, __dir__)`` for the package (or plain module) named ``package`` whose globals are ``namespace``:
+    a name of ``modules`` (``{name: module path}``, or names of the package's own modules) is that module, a name of
     ``objects`` (``{module path: names}``) the object the module defines, each imported on first access and then
-    bound in ``namespace``; any other submodule of the package is imported on access (``mmlib.core.models`` after
-    ``import mmlib.core``); anything else is an AttributeError, as for a module without it."""
+    bound in ``namespace``; for a package, any other submodule is imported on access (``mmlib.core.models`` after
+    ``import mmlib.core``); anything else is an AttributeError, as for a module without it (a plain module, e.g.
+    :mod:`mmlib.experiment.notebook`, has no submodules to look for)."""
     table = dict(modules) if isinstance(modules, Mapping) else {name: f"{package}.{name}" for name in modules}
     owner = {name: module for module, names in (objects or {}).items() for name in names}
 
@@ -29,7 +30,8 @@ def lazy_attributes(package: str, namespace: dict, modules: Mapping[str, str] | 
             value = importlib.import_module(table[name])
         elif name in owner:
             value = getattr(importlib.import_module(owner[name]), name)
-        elif name.isidentifier() and not name.startswith("__") and importlib.util.find_spec(f"{package}.{name}"):
+        elif "__path__" in namespace and name.isidentifier() and not name.startswith("__") \
+                and importlib.util.find_spec(f"{package}.{name}"):
             return importlib.import_module(f"{package}.{name}")     # the import binds it in the package
         else:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, Iterable, Mapping
 
+from mmlib.core._lazy import lazy_attributes
 from mmlib.experiment.paper import Paper, Study
 from mmlib.experiment.readings import Deviation
 from mmlib.experiment.report import PartVerdict, Row, joint_tests
@@ -17,18 +18,10 @@ __all__ = [
 ]
 
 # mmlib.experiment.views (and through it the multiverse and the metrics: 1.4 s with scipy.stats) is imported by the
-# functions that draw a table, and its two table helpers the notebooks import from here on first use (__getattr__):
-# the notebook runner imports NotebookRun for its parameter rules alone, once per run
-_FROM_VIEWS = ("markdown_table", "value_pm")
-
-
-def __getattr__(name: str):
-    """:func:`mmlib.experiment.views.markdown_table` and :func:`~mmlib.experiment.views.value_pm`, imported on first
-    use (PEP 562)."""
-    if name in _FROM_VIEWS:
-        from mmlib.experiment import views
-        return getattr(views, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# functions that draw a table, and its two table helpers the notebooks import from here on first use (PEP 562): the
+# notebook runner imports NotebookRun for its parameter rules alone, once per run
+__getattr__, __dir__ = lazy_attributes(__name__, globals(),
+                                       objects={"mmlib.experiment.views": ("markdown_table", "value_pm")})
 
 
 if TYPE_CHECKING:
