@@ -905,3 +905,15 @@ def test_a_failing_page_is_named_with_its_notebook_and_cell(tmp_path):
     assert "notebook papers/broken.ipynb, cell 2 (index in the .ipynb, from 0): WARNING: Unknown directive type: " \
            "'nosuchdirective'" in str(err.value)
     assert not (tmp_path / "html").exists()
+
+
+def test_the_bundled_mathjax_is_found_without_importing_its_package():
+    """The site copies jupyter-server-mathjax's static/ folder, found without importing the package (which loads
+    jupyter_server); a missing package or folder is a SiteError naming it."""
+    builder = load_builder()
+    folder = builder._package_data("jupyter_server_mathjax", "static")
+    assert (folder / "MathJax.js").is_file() or any(folder.rglob("MathJax.js")), folder
+    with pytest.raises(builder.SiteError, match="no_such_package_xyz is not installed"):
+        builder._package_data("no_such_package_xyz", "static")
+    with pytest.raises(builder.SiteError, match="json has no no_such_folder/ folder"):
+        builder._package_data("json", "no_such_folder")

@@ -523,7 +523,7 @@ def assemble(stage: Path, docs: list[dict], notebooks: dict[str, Path], root: Pa
         copies.update({k: root / v for k, v in link_figures(stage / rel, by_name.get(paper), rel).items()})
     api_pages(stage)
     # the bundled MathJax (jupyter-server-mathjax's copy of MathJax 2.7), served from _static/mathjax/
-    shutil.copytree(_package_folder("jupyter_server_mathjax") / "static", stage / "_mathjax" / "mathjax")
+    shutil.copytree(_package_data("jupyter_server_mathjax", "static"), stage / "_mathjax" / "mathjax")
     return copies
 
 
@@ -550,14 +550,20 @@ def page_progress(line: str) -> str | None:
     return f"site: {m['phase'].split()[0]:<7} {int(m['pct']):3d} % {m['page']}"
 
 
-def _package_folder(name: str) -> Path:
-    """The folder of the installed package ``name``, found without importing it (jupyter_server_mathjax, whose import
-    loads jupyter_server and jsonschema, 2.2 s, for a folder of static files); SiteError naming it when missing."""
+def _package_data(name: str, folder: str) -> Path:
+    """The data ``folder`` of the installed package ``name``, found without importing the package
+    (jupyter_server_mathjax, whose import loads jupyter_server and jsonschema, 2.2 s, for a folder of static files):
+    the first of its locations that holds it (a namespace package has several); SiteError naming the package or the
+    folder when there is none."""
     import importlib.util
     spec = importlib.util.find_spec(name)
     if spec is None or not spec.submodule_search_locations:
         raise SiteError(f"{name} is not installed (make venv installs it)")
-    return Path(list(spec.submodule_search_locations)[0])
+    for location in spec.submodule_search_locations:
+        if (Path(location) / folder).is_dir():
+            return Path(location) / folder
+    raise SiteError(f"{name} has no {folder}/ folder in {list(spec.submodule_search_locations)}: reinstall it "
+                    f"(rm -r .venv && make venv)")
 
 
 def sphinx(stage: Path, html: Path, quiet: bool = True) -> None:
