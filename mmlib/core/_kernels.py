@@ -24,9 +24,11 @@ Conventions shared with the numpy path (:mod:`mmlib.core.linalg`), and tested ag
   sequence of IEEE operations whatever N (SIMD lanes and the scalar remainder execute the same
   additions, multiplications, divisions and square roots, each correctly rounded); there is no
   ``fastmath``, so LLVM neither reassociates sums nor contracts ``a*b + c`` into a fused multiply-add,
-  and the bits do not depend on the machine's instruction set; transcendental functions (log, hypot, atan2)
-  are the C library's scalar ones (numba vectorises them only with Intel's SVML, which the lock file does not
-  install, and ``tests/test_fused.py`` checks that it is not in use);
+  and the bits do not depend on the machine's instruction set; the log is the C library's scalar one
+  (numba vectorises it only with Intel's SVML, which the lock file does not install, and ``tests/test_fused.py``
+  checks that it is not in use); range and bearing are :mod:`mmlib.core._elementary`'s, made of the four operations
+  and the square root (the same bits as the numpy path's, in SIMD lanes or not, the C library's ``hypot`` and
+  ``atan2`` only for operands outside their regular range);
 * the two paths agree to round-off, not bit for bit (BLAS and LAPACK sum in other orders;
   ``tests/test_kernels.py`` states the bounds).
 
@@ -43,6 +45,9 @@ import math
 
 import numpy as np
 from numba import njit
+
+from mmlib.core._elementary import (P0, P1, P2, P3, P4, Q0, Q1, Q2, Q3, Q4, QPI1_HI, QPI1_LO, QPI2_HI, QPI2_LO,
+                                    QPI3_HI, QPI3_LO, QPI4_HI, QPI4_LO, REDUCE_ABOVE, REGULAR_MAX, REGULAR_MIN)
 
 _OPTS = dict(cache=True, nogil=True, error_model="numpy")
 _TWO_PI = 2.0 * math.pi
@@ -735,17 +740,82 @@ def imm_mix(mu, T, means, covs):
 
 
 @njit(**_OPTS)
+def _regular(dx, dy):
+    """Whether :func:`_hypot` and :func:`_atan2` hold for (dx, dy): dx^2 + dy^2 in the regular range of
+    :mod:`mmlib.core._elementary` (else the C library's ``hypot`` and ``atan2`` answer)."""
+    s = dx * dx + dy * dy
+    return (s > REGULAR_MIN) & (s < REGULAR_MAX)
+
+
+@njit(**_OPTS)
+def _hypot(dx, dy):
+    r""":math:`\sqrt{dx^2 + dy^2}` for regular operands (:mod:`mmlib.core._elementary`: below 2 ulp)."""
+    return math.sqrt(dx * dx + dy * dy)
+
+
+@njit(**_OPTS)
+def _atan2(dy, dx):
+    r""":math:`\operatorname{atan2}(dy, dx)` for regular operands, branch-free (the selects vectorise): the octant
+    reduction, Cephes' rational arctan and the multiple of pi/4 of :func:`mmlib.core._elementary.range_bearing`, the
+    same operations in the same order (below 2 ulp)."""
+    ax = abs(dx)
+    ay = abs(dy)
+    swap = ay > ax
+    small = ax if swap else ay
+    big = ay if swap else ax
+    reduce = small > REDUCE_ABOVE * big
+    u = (small - big if reduce else small) / (small + big if reduce else big)
+    z = u * u
+    p = (((P0 * z + P1) * z + P2) * z + P3) * z + P4
+    q = ((((z + Q0) * z + Q1) * z + Q2) * z + Q3) * z + Q4
+    r = u + u * (z * p / q)
+    negative_x = math.copysign(1.0, dx) < 0.0
+    k = 1.0 if reduce else 0.0              # a float: integer selects keep LLVM from vectorising the loop
+    k = 2.0 - k if swap else k
+    k = 4.0 - k if negative_x else k
+    r = -r if swap != negative_x else r
+    hi = QPI4_HI if k == 4.0 else (QPI3_HI if k == 3.0 else (QPI2_HI if k == 2.0 else (QPI1_HI if k == 1.0 else 0.0)))
+    lo = QPI4_LO if k == 4.0 else (QPI3_LO if k == 3.0 else (QPI2_LO if k == 2.0 else (QPI1_LO if k == 1.0 else 0.0)))
+    return math.copysign(hi + (lo + r), dy)
+
+
+@njit(**_OPTS)
+def _range_bearing_lanes(x0, x1, sx, sy, rng, bearing):
+    """Range and bearing of the points (x0[b], x1[b]) (N,) from (sx, sy) into rng, bearing (N,): a loop of the
+    branch-free formulas over every lane (vectorised), then the C library's ``hypot`` and ``atan2`` for the lanes
+    whose operands are not regular (:mod:`mmlib.core._elementary`)."""
+    N = x0.shape[0]
+    for b in range(N):
+        dx = x0[b] - sx
+        dy = x1[b] - sy
+        rng[b] = _hypot(dx, dy)
+        bearing[b] = _atan2(dy, dx)
+    for b in range(N):
+        dx = x0[b] - sx
+        dy = x1[b] - sy
+        if not _regular(dx, dy):
+            rng[b] = math.hypot(dx, dy)
+            bearing[b] = math.atan2(dy, dx)
+
+
+@njit(**_OPTS)
 def range_bearing(x, i, j, sx, sy):
     r"""Range and bearing of the points x (N, n) from a sensor at (sx, sy): :math:`(\sqrt{dx^2 + dy^2},
     \operatorname{atan2}(dy, dx))` with :math:`dx = x_i - s_x`, :math:`dy = x_j - s_y` -> (N, 2)
-    (``hypot`` and ``atan2`` of the C library, as numpy calls them; scalar loop)."""
+    (:func:`_range_bearing_lanes`: the bits of :func:`mmlib.core._elementary.range_bearing`)."""
     N = x.shape[0]
+    x0 = np.empty(N)
+    x1 = np.empty(N)
+    for b in range(N):
+        x0[b] = x[b, i]
+        x1[b] = x[b, j]
+    rng = np.empty(N)
+    bearing = np.empty(N)
+    _range_bearing_lanes(x0, x1, sx, sy, rng, bearing)
     out = np.empty((N, 2))
     for b in range(N):
-        dx = x[b, i] - sx
-        dy = x[b, j] - sy
-        out[b, 0] = math.hypot(dx, dy)
-        out[b, 1] = math.atan2(dy, dx)
+        out[b, 0] = rng[b]
+        out[b, 1] = bearing[b]
     return out
 
 
@@ -913,7 +983,7 @@ def _measure(X, kind, A, idx, sensor, Z):
 
     * 0, linear: :math:`Hx` with H = A (m, n), summed in index order from 0 (:func:`matmul_rows`);
     * 1, range and bearing of the position components idx[0], idx[1] seen from ``sensor`` (2,) (:func:`range_bearing`:
-      the C library's ``hypot`` and ``atan2``);
+      :func:`_range_bearing_lanes`);
     * 2, pseudoranges :math:`\lVert s_i - p\rVert + b` to the satellites A (m, 3) of the position components
       idx[0..2] with the clock bias idx[3] (:class:`mmlib.core.gnss.Pseudoranges`: the squares summed from the first
       axis on, as numpy reduces three terms)."""
@@ -934,11 +1004,7 @@ def _measure(X, kind, A, idx, sensor, Z):
         i0, i1 = idx[0], idx[1]
         sx, sy = sensor[0], sensor[1]
         for p in range(M):
-            for b in range(N):
-                dx = X[p, i0, b] - sx
-                dy = X[p, i1, b] - sy
-                Z[p, 0, b] = math.hypot(dx, dy)
-                Z[p, 1, b] = math.atan2(dy, dx)
+            _range_bearing_lanes(X[p, i0], X[p, i1], sx, sy, Z[p, 0], Z[p, 1])
     else:
         # each point's rows taken before the loop over the runs: indexed there by idx, the loop is not vectorised and
         # the square roots run one at a time (a correctly rounded vector square root gives the same bits)

@@ -27,9 +27,10 @@ affected runs are returned in a mask and their factor is NaN, so that the
 divergence propagates to that run only and is *reported* by the caller
 (:func:`mmlib.core.estimation.run`) instead of being patched.
 
-This module imports nothing else of :mod:`mmlib` but :mod:`mmlib.core._kernels`, the compiled twins (when loaded,
-to see whether numba imports; that module imports nothing of :mod:`mmlib`): it is the bottom of the estimation core's
-imports.
+This module imports nothing else of :mod:`mmlib` but :mod:`mmlib.core._elementary` (range and bearing from the
+four operations, numpy only) and :mod:`mmlib.core._kernels`, the compiled twins (when loaded, to see whether numba
+imports; that module imports nothing of :mod:`mmlib` but :mod:`mmlib.core._elementary`'s constants): it is the bottom
+of the estimation core's imports.
 """
 from __future__ import annotations
 
@@ -41,6 +42,8 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike
+
+from mmlib.core import _elementary
 
 __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused", "sigma_points", "offset_points",
            "weighted_mean", "weighted_covariances", "kalman_moments", "measurement_moments", "congruence", "cholesky",
@@ -820,13 +823,15 @@ def _congruence_compiled(A, P, add):
 def range_bearing(x: np.ndarray, i: int, j: int, sensor: np.ndarray) -> np.ndarray:
     r"""Range and bearing :math:`(\sqrt{\Delta x^2 + \Delta y^2}, \operatorname{atan2}(\Delta y, \Delta x))` of
     the points ``x`` (..., n) from a sensor at ``sensor`` (2,) (m), with :math:`\Delta x = x_i - s_x`,
-    :math:`\Delta y = x_j - s_y` -> (..., 2) (m, rad in :math:`[-\pi, \pi]`), ``hypot`` and ``atan2`` of the C
-    library on either path (:meth:`mmlib.core.models.RangeBearing.h`).  An index beyond the state is an
-    IndexError, one that is not an integer a ValueError naming ``i`` or ``j``."""
+    :math:`\Delta y = x_j - s_y` -> (..., 2) (m, rad in :math:`[-\pi, \pi]`), computed by
+    :func:`mmlib.core._elementary.range_bearing` from the four operations and the square root, the same bits on
+    either path and every machine (below 2 ulp of the exact values; the C library's ``hypot`` and ``atan2`` for zeros,
+    infinities, NaN and |d| beyond 2**500 or below 2**-450) (:meth:`mmlib.core.models.RangeBearing.h`).  An index
+    beyond the state is an IndexError, one that is not an integer a ValueError naming ``i`` or ``j``."""
     i, j = _last_axis_index(x, i, "i"), _last_axis_index(x, j, "j")
     dx = x[..., i] - sensor[0]
     dy = x[..., j] - sensor[1]
-    return np.stack([np.hypot(dx, dy), np.arctan2(dy, dx)], axis=-1)
+    return np.stack(_elementary.range_bearing(dx, dy), axis=-1)
 
 
 @range_bearing.compiled
