@@ -25,8 +25,9 @@ Accuracy (:math:`u = 2^{-53}`; ``tests/test_elementary.py`` measures both agains
 
 The fast formulas hold for *regular* operands: :math:`\Delta x^2 + \Delta y^2` in :math:`(2^{-900}, 2^{1000})`
 (both finite, not both zero, no square overflowing, the smaller square's underflow below the larger's rounding).
-Elsewhere (zeros, infinities, NaN, :math:`|d|` beyond :math:`2^{500}` or below :math:`2^{-450}`) the C library's ``hypot`` and ``atan2``
-answer, on both paths; their special values (signed zeros, :math:`\pm\pi`, infinities) are exact.
+Elsewhere (zeros, infinities, NaN, :math:`|d|` beyond :math:`2^{500}` or below :math:`2^{-450}`) the C library's
+``hypot`` and ``atan2`` answer, on both paths; their special values (signed zeros, :math:`\pm\pi`, infinities) are
+exact.
 """
 from __future__ import annotations
 

@@ -826,8 +826,9 @@ def range_bearing(x: np.ndarray, i: int, j: int, sensor: np.ndarray) -> np.ndarr
     :math:`\Delta y = x_j - s_y` -> (..., 2) (m, rad in :math:`[-\pi, \pi]`), computed by
     :func:`mmlib.core._elementary.range_bearing` from the four operations and the square root, the same bits on
     either path and every machine (below 2 ulp of the exact values; the C library's ``hypot`` and ``atan2`` for zeros,
-    infinities, NaN and :math:`|d|` beyond :math:`2^{500}` or below :math:`2^{-450}`) (:meth:`mmlib.core.models.RangeBearing.h`).  An index
-    beyond the state is an IndexError, one that is not an integer a ValueError naming ``i`` or ``j``."""
+    infinities, NaN and :math:`|d|` beyond :math:`2^{500}` or below :math:`2^{-450}`)
+    (:meth:`mmlib.core.models.RangeBearing.h`).  An index beyond the state is an IndexError, one that is not an
+    integer a ValueError naming ``i`` or ``j``."""
     i, j = _last_axis_index(x, i, "i"), _last_axis_index(x, j, "j")
     dx = x[..., i] - sensor[0]
     dy = x[..., j] - sensor[1]
