@@ -37,8 +37,10 @@ def _operands(n: int = 400_000, seed: int = 7) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _ulps(got: np.ndarray, exact: np.ndarray) -> np.ndarray:
-    """|got - exact| in units of the last place of the double nearest ``exact`` (computed in long double)."""
-    ulp = np.spacing(np.abs(exact.astype(np.float64))).astype(np.longdouble)
+    """|got - exact| in units of the last place of doubles in the binade of ``exact`` (long double arithmetic; the
+    binade of the exact value, not of its rounding, which may be the next power of two with twice the spacing)."""
+    _, e = np.frexp(exact)
+    ulp = np.maximum(np.ldexp(np.ones_like(exact), e - 53), np.longdouble(2.0) ** -1074)   # subnormals: 2^-1074
     return np.abs(((got.astype(np.longdouble) - exact) / ulp).astype(np.float64))
 
 
@@ -71,6 +73,34 @@ def test_numpy_and_compiled_paths_give_the_same_bits():
     assert np.array_equal(ref.view(np.int64), got.view(np.int64))
 
 
+def test_regular_bearings_stay_within_plus_minus_pi():
+    dx, dy = _operands()
+    _, bearing = _elementary.range_bearing(dx, dy)
+    finite = np.isfinite(bearing)
+    assert finite.sum() > 400_000
+    assert (np.abs(bearing[finite]) <= math.pi).all()
+    # the cut: y = +-0 with x < 0, and the largest y below 0 with it, round to +-pi at most
+    _, b = _elementary.range_bearing(np.array([-1.0, -1.0, -1e300]), np.array([5e-324, -5e-324, 1e-10]))
+    assert (np.abs(b) <= math.pi).all() and b[0] == math.pi and b[1] == -math.pi
+
+
+@pytest.mark.parametrize("dtype", [np.int64, np.float32])
+def test_other_dtypes_are_taken_as_float64_on_both_paths(dtype):
+    """Integer squares would wrap around and float32 ones lose accuracy: both paths take the operands as float64
+    (the compiled one always did), so 3037000500 in both coordinates is a range of 4294967296.03 m."""
+    x = np.array([[3037000500, 0, 3037000500, 0], [3, 0, 4, 0]], dtype=dtype)
+    sensor = np.zeros(2, dtype=dtype)
+    with linalg.use_kernel("numpy"):
+        ref = linalg.range_bearing(x, 0, 2, sensor)
+    with linalg.use_kernel("numba"):
+        got = linalg.range_bearing(x, 0, 2, sensor)
+    assert ref.dtype == got.dtype == np.float64
+    assert np.array_equal(ref, got)
+    want = np.hypot(x[:, 0].astype(np.float64), x[:, 2].astype(np.float64))
+    np.testing.assert_allclose(ref[:, 0], want, rtol=4e-16)
+    assert ref[1, 0] == 5.0
+
+
 def test_irregular_operands_get_the_c_librarys_exact_values():
     pairs = np.array([(p, q) for p in SPECIAL for q in SPECIAL])
     dx, dy = pairs[:, 0], pairs[:, 1]
@@ -83,6 +113,11 @@ def test_irregular_operands_get_the_c_librarys_exact_values():
     want_b = np.array([math.atan2(b, a) for a, b in zip(dx, dy)])
     assert np.array_equal(rng[irregular].view(np.int64), want_r[irregular].view(np.int64))
     assert np.array_equal(bearing[irregular].view(np.int64), want_b[irregular].view(np.int64))
+    ref, got = _both_paths(dx, dy)                      # and the compiled path's, the same C library calls
+    assert np.array_equal(ref.view(np.int64), got.view(np.int64))
+    # a 0-d pair, irregular and regular
+    assert _elementary.range_bearing(np.array(0.0), np.array(-0.0))[1] == 0.0
+    assert float(_elementary.range_bearing(np.array(3.0), np.array(4.0))[0]) == 5.0
     # the signed zeros and the cut at pi of regular operands too
     r, b = _elementary.range_bearing(np.array([1.0, -1.0, -1.0, -0.0, 0.0]), np.array([-0.0, 0.0, -0.0, 1.0, -1.0]))
     assert b.tolist() == [-0.0, math.pi, -math.pi, math.pi / 2, -math.pi / 2]

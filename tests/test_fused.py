@@ -453,8 +453,9 @@ def test_huge_bearing_residual_wraps_as_the_composed_residual():
 
 
 def test_no_vectorised_transcendentals():
-    """The kernels call the C library's log, hypot and atan2 one value at a time: with Intel's SVML numba would
-    vectorise them, and the bits would depend on the machine (the lock file does not install it)."""
+    """The kernels call the C library's log one value at a time (and its hypot and atan2 for the operands outside
+    the regular range of mmlib.core._elementary): with Intel's SVML numba would vectorise them, and the bits would
+    depend on the machine (the lock file does not install it)."""
     import numba
     assert not numba.config.USING_SVML
 

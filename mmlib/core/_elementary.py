@@ -19,18 +19,22 @@ Accuracy (:math:`u = 2^{-53}`; ``tests/test_elementary.py`` measures both agains
   the octant reduction: with :math:`a = \min(|x|,|y|)`, :math:`b = \max(|x|,|y|)`, :math:`u = a/b`, or, where
   :math:`a > 0.66\,b`, :math:`u = (a - b)/(a + b)` about :math:`\pi/4` (a - b exact: a >= b/2); the angle is then a
   multiple :math:`k\pi/4` (k = 0..4, a two-part constant) plus or minus :math:`\arctan u`, with the sign of y.
-  Rounding errors: the quotient u (0.5 ulp, carried at most 1:1 into the angle), the last addition of the
-  polynomial (0.5 ulp) and the final sum (0.5 ulp): below 2 ulp.  Two divisions and no branch: the compiled loops
+  Rounding errors: u (one rounding, or, reduced, two that weigh at most 0.35 of the angle) carried into
+  :math:`\arctan u` (up to 1 ulp of it where the two fall at different places in their binades), the polynomial's
+  tail and last addition, the two-part sum and the approximation (~1e-17): measured at most 1.58 ulp over six million
+  samples aimed at the worst quotients; the test's bound is 2 ulp.  Two divisions and no branch: the compiled loops
   run it in SIMD lanes.
 
 The fast formulas hold for *regular* operands: :math:`\Delta x^2 + \Delta y^2` in :math:`(2^{-900}, 2^{1000})`
 (both finite, not both zero, no square overflowing, the smaller square's underflow below the larger's rounding).
 Elsewhere (zeros, infinities, NaN, :math:`|d|` beyond :math:`2^{500}` or below :math:`2^{-450}`) the C library's
-``hypot`` and ``atan2`` answer, on both paths; their special values (signed zeros, :math:`\pm\pi`, infinities) are
-exact.
+``hypot`` and ``atan2`` answer, one value at a time on both paths (``math.hypot``, ``math.atan2``: numpy's own
+``arctan2`` is another implementation on AVX-512 machines); their special values (signed zeros, :math:`\pm\pi`,
+infinities) are exact.
 """
 from __future__ import annotations
 
+import math
 from decimal import Decimal, localcontext
 
 import numpy as np
@@ -68,7 +72,9 @@ def range_bearing(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarra
     r"""Range :math:`\sqrt{dx^2 + dy^2}` and bearing :math:`\operatorname{atan2}(dy, dx)` of arrays ``dx``, ``dy``
     (same shape, m) -> two arrays (m, rad in :math:`[-\pi, \pi]`): the operations of the compiled kernels' ``_hypot``
     and ``_atan2`` in their order, hence their bits; the C library's ``hypot`` and
-    ``atan2`` where the operands are not regular."""
+    ``atan2`` where the operands are not regular.  The operands are taken as float64 (as the compiled path takes
+    them): integer squares would wrap around, float32 ones lose the accuracy stated."""
+    dx, dy = np.broadcast_arrays(np.asarray(dx, dtype=np.float64), np.asarray(dy, dtype=np.float64))
     ax, ay = np.abs(dx), np.abs(dy)
     swap = ay > ax
     small, big = np.where(swap, ax, ay), np.where(swap, ay, ax)
@@ -89,8 +95,10 @@ def range_bearing(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarra
     k = np.where(negative_x, 4.0 - k, k).astype(np.intp)
     r = np.where(swap != negative_x, -r, r)
     bearing = np.copysign(_QPI_HI[k] + (_QPI_LO[k] + r), dy)
-    if not regular.all():
-        irregular = ~regular
-        rng = np.where(irregular, np.hypot(dx, dy), rng)
-        bearing = np.where(irregular, np.arctan2(dy, dx), bearing)
+    irregular = np.flatnonzero(~regular)
+    if irregular.size:                                 # few: the C library's values one at a time, as compiled
+        rng, bearing = np.array(rng, dtype=np.float64), np.array(bearing, dtype=np.float64)
+    for f in irregular:
+        a, b = float(dx.flat[f]), float(dy.flat[f])
+        rng.flat[f], bearing.flat[f] = math.hypot(a, b), math.atan2(b, a)
     return rng, bearing

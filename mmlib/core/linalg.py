@@ -830,6 +830,7 @@ def range_bearing(x: np.ndarray, i: int, j: int, sensor: np.ndarray) -> np.ndarr
     (:meth:`mmlib.core.models.RangeBearing.h`).  An index beyond the state is an IndexError, one that is not an
     integer a ValueError naming ``i`` or ``j``."""
     i, j = _last_axis_index(x, i, "i"), _last_axis_index(x, j, "j")
+    x, sensor = np.asarray(x, dtype=np.float64), np.asarray(sensor, dtype=np.float64)     # as the compiled path
     dx = x[..., i] - sensor[0]
     dy = x[..., j] - sensor[1]
     return np.stack(_elementary.range_bearing(dx, dy), axis=-1)
