@@ -9,6 +9,7 @@ import json
 import re
 import socket
 import subprocess
+import threading
 import time
 
 import pytest
@@ -190,22 +191,63 @@ def test_bad_execution_settings_are_rejected_by_name_before_anything_runs(runner
     assert snapshot(repo) == before
 
 
-def test_an_exclusive_notebook_runs_alone_after_the_others_with_every_worker(repo):  # noqa: F811 -- fixtures of test_runner
-    """A notebook marked ``# mmlib-runner: exclusive`` (the arena) starts after the others have ended, alone, and its
-    kernel gets all the workers, not a share."""
+def test_an_exclusive_notebook_runs_after_the_others_with_every_worker(repo):  # noqa: F811 -- fixtures of test_runner
+    """A notebook marked ``# mmlib-runner: exclusive`` (the arena) starts after the others (here one, on one lane: it
+    ends first), and its kernel gets all the workers, not a share."""
     report_environment(repo)
     src = repo / "notebooks" / "alpha2001_fake.py"
     src.write_text(src.read_text() + "\n# %% [markdown]\n# mmlib-runner: exclusive\n")
     proc = run(repo, "--workers", "2", check=0)
     lines = proc.stdout.splitlines()
-    assert "execution: 2 worker(s): 1 notebook(s) at a time, WORKERS=2 in each; then alpha2001_fake alone, WORKERS=2" \
-        in lines
+    assert "execution: 2 worker(s): 1 notebook(s) at a time, WORKERS=2 in each; then alpha2001_fake with WORKERS=2 " \
+           "after them" in lines
     beta_done = next(i for i, ln in enumerate(lines) if re.fullmatch(r"\[\d/2\] beta2002_fake: done in .*", ln))
     alpha_start = next(i for i, ln in enumerate(lines) if re.fullmatch(r"\[\d/2\] alpha2001_fake: executing .*", ln))
     assert alpha_start > beta_done                                    # after the others
     assert "kernel env: WORKERS=2 MMLIB_SCHEDULER=" in proc.stdout    # every worker
     assert_whole(repo, alpha2001="new", beta2002="new")
     assert_no_leftovers(repo)
+
+
+def test_an_exclusive_notebook_starts_on_the_first_lane_to_free_once_the_others_have_started(runner, tmp_path,  # noqa: F811
+                                                                                              monkeypatch, capsys):
+    """On two lanes, three notebooks (a long one) and two exclusive ones (run_one stubbed, timed): each exclusive
+    notebook starts only once every other notebook has started, on the first lane to free, so before the long one
+    ends (no core idles meanwhile), with its own WORKERS in its kernel's environment while the others inherit the
+    runner's; the exclusive ones never run at the same time; a failure starts nothing after it."""
+    events, lock = [], threading.Lock()
+    seconds = {"long": 0.6, "a": 0.1, "b": 0.1, "x1": 0.2, "x2": 0.2}
+
+    def fake_run_one(src, layout, profile, params, timeout, promotion_lock=None, stdout=None, stderr=None,
+                     kernel_env=None):
+        with lock:
+            events.append(("start", src.stem, time.monotonic(), dict(kernel_env or {})))
+        if src.stem == "fail":
+            raise runner.NotebookFailed("cell 1: boom")
+        time.sleep(seconds[src.stem])
+        with lock:
+            events.append(("end", src.stem, time.monotonic(), None))
+        return []
+
+    monkeypatch.setattr(runner, "run_one", fake_run_one)
+    layout = runner.Layout(tmp_path, tmp_path, tmp_path, "executed")
+    paths = {name: tmp_path / f"{name}.py" for name in seconds}
+    assert runner.run_all([paths["long"], paths["a"], paths["b"]], layout, "full", {}, 60, 2,
+                          [paths["x1"], paths["x2"]], 2) == 0
+    at = {(kind, name): t for kind, name, t, _ in events}
+    env = {name: e for kind, name, _, e in events if kind == "start"}
+    started_all = max(at[("start", name)] for name in ("long", "a", "b"))
+    first = min(("x1", "x2"), key=lambda name: at[("start", name)])
+    second = "x2" if first == "x1" else "x1"
+    assert started_all <= at[("start", first)] < at[("end", "long")]      # a core freed before the long one ended
+    assert at[("start", second)] >= at[("end", first)]                    # one exclusive notebook at a time
+    assert env["x1"] == env["x2"] == {"WORKERS": "2"} and env["a"] == env["long"] == {}
+    # after a failure nothing further starts, the exclusive notebooks included
+    events.clear()
+    paths["fail"] = tmp_path / "fail.py"
+    assert runner.run_all([paths["fail"], paths["a"]], layout, "full", {}, 60, 1, [paths["x1"]], 2) == 1
+    assert [name for kind, name, _, _ in events if kind == "start"] == ["fail"]
+    capsys.readouterr()
 
 
 def test_is_exclusive_reads_the_mark_on_a_line_of_its_own(runner, tmp_path):  # noqa: F811 -- fixtures of test_runner

@@ -477,9 +477,10 @@ class RelativePaths:
 
 
 def execute(src: Path, staging: Path, layout: Layout, profile: str, params: dict, timeout: int,
-            stdout=None, stderr=None) -> Path:
+            stdout=None, stderr=None, kernel_env: dict | None = None) -> Path:
     """Run the notebook with its outputs directed to ``staging``; returns the executed notebook (in ``staging``,
-    where the promotion expects it).  The kernel's printed output goes to ``stdout``/``stderr`` (default: this
+    where the promotion expects it).  ``kernel_env``: added to the kernel's environment (:func:`run_one`).  The
+    kernel's printed output goes to ``stdout``/``stderr`` (default: this
     process's).  Raises NotebookFailed naming the notebook and the cell."""
     import papermill as pm
     from papermill.exceptions import PapermillExecutionError
@@ -501,7 +502,7 @@ def execute(src: Path, staging: Path, layout: Layout, profile: str, params: dict
                             stdout_file=RelativePaths(stdout or sys.stdout, staging, layout),
                             stderr_file=RelativePaths(stderr or sys.stderr, staging, layout),
                             kernel_manager_class=kernel_manager_with_env(
-                                {PROGRESS_LOG_ENV: str(log.resolve())}))
+                                {**(kernel_env or {}), PROGRESS_LOG_ENV: str(log.resolve())}))
     except PapermillExecutionError as exc:
         raise NotebookFailed(f"cell {exc.cell_index} (execution count {exc.exec_count}): {exc.ename}: "
                              f"{exc.evalue}") from None
@@ -611,9 +612,11 @@ def stage_reports(staging: Path, layout: Layout, paper: str) -> None:
 
 
 def run_one(src: Path, layout: Layout, profile: str, params: dict, timeout: int,
-            promotion_lock: threading.Lock | None = None, stdout=None, stderr=None) -> list[str]:
+            promotion_lock: threading.Lock | None = None, stdout=None, stderr=None,
+            kernel_env: dict | None = None) -> list[str]:
     """Execute one notebook and promote its outputs all at once; returns the promoted paths.  On failure keeps the
-    partial executed notebook under <work>/failed/, promotes nothing and raises NotebookFailed.
+    partial executed notebook under <work>/failed/, promotes nothing and raises NotebookFailed.  ``kernel_env``:
+    variables the notebook's kernel gets on top of this process's environment (an exclusive notebook's WORKERS).
 
     Notebooks may execute at the same time, but ``promotion_lock`` (shared by them) admits one promotion at a time,
     from the rendering of the reports to the removal of the journal: the cross-paper README staged with a paper is
@@ -623,7 +626,7 @@ def run_one(src: Path, layout: Layout, profile: str, params: dict, timeout: int,
     staging.mkdir(parents=True)
     lock = promotion_lock or contextlib.nullcontext()
     try:
-        executed = execute(src, staging, layout, profile, params, timeout, stdout, stderr)
+        executed = execute(src, staging, layout, profile, params, timeout, stdout, stderr, kernel_env)
         sanitize(executed, staging, layout.out, layout.root)
         paper = staged_paper(staging, src)
         with lock:
@@ -721,9 +724,11 @@ def lane_order(sources: list[Path], jobs: int, times: dict[str, float]) -> list[
 def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, timeout: int, jobs: int = 1,
             exclusive: list[Path] = (), exclusive_workers: int | None = None) -> int:
     """Run the notebooks, up to ``jobs`` at a time (in threads; each kernel is its own process), each promoted as
-    soon as it succeeds; then the ``exclusive`` ones, one at a time, each kernel with ``exclusive_workers`` workers.
-    At the first failure no further notebook starts; those already running finish (and are promoted if they
-    succeed); exit status 1."""
+    soon as it succeeds; then the ``exclusive`` ones, one at a time, each kernel with ``exclusive_workers`` workers
+    (its own environment's WORKERS): each starts on the first lane to free once every other notebook has started,
+    so that no core idles while the last of the others finishes (the cores are shared until it does; a run's
+    numbers do not depend on its worker count).  At the first failure no further notebook starts; those already
+    running finish (and are promoted if they succeed); exit status 1."""
     t_all = time.perf_counter()
     n = len(sources) + len(exclusive)
     jobs = max(1, min(jobs, len(sources) or 1))
@@ -735,7 +740,10 @@ def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, tim
         with print_lock:
             print(text, file=file or sys.stdout, flush=True)
 
-    def one(i: int, src: Path) -> None:
+    exclusive_env = {} if exclusive_workers is None else {"WORKERS": str(exclusive_workers)}
+    exclusive_lock = threading.Lock()               # the exclusive notebooks one at a time
+
+    def one(i: int, src: Path, kernel_env: dict | None = None) -> None:
         if stop.is_set():
             return
         say(f"[{i}/{n}] {src.stem}: executing (profile={profile}, kernel={KERNEL})")
@@ -743,7 +751,7 @@ def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, tim
                    PrefixedLines(sys.stderr, f"[{src.stem}] ", print_lock)) if jobs > 1 else (None, None)
         t0 = time.perf_counter()
         try:
-            moved = run_one(src, layout, profile, params, timeout, promotion_lock, *streams)
+            moved = run_one(src, layout, profile, params, timeout, promotion_lock, *streams, kernel_env=kernel_env)
         except NotebookFailed as exc:
             stop.set()
             failed = layout.work / "failed" / f"{src.stem}.ipynb"
@@ -758,16 +766,23 @@ def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, tim
                     stream.close()
         say(f"[{i}/{n}] {src.stem}: done in {time.perf_counter() - t0:.1f} s -> " + ", ".join(moved))
 
+    def alone(i: int, src: Path) -> None:
+        with exclusive_lock:
+            one(i, src, exclusive_env)
+
+    numbered = [(one, i, src) for i, src in enumerate(sources, 1)] \
+        + [(alone, i, src) for i, src in enumerate(exclusive, len(sources) + 1)]
     if jobs == 1:
-        for i, src in enumerate(sources, 1):
-            one(i, src)
+        for fn, i, src in numbered:
+            fn(i, src)
             if failures:
                 return 1
-    elif sources:
+    else:
         import concurrent.futures as cf
         pool = cf.ThreadPoolExecutor(max_workers=jobs, thread_name_prefix="notebook")
         try:
-            for fut in [pool.submit(one, i, src) for i, src in enumerate(sources, 1)]:
+            # a thread pool starts its tasks in order: an exclusive notebook only after every other one has started
+            for fut in [pool.submit(fn, i, src) for fn, i, src in numbered]:
                 fut.result()
         except KeyboardInterrupt:
             # the threads wait on kernels that would outlive a normal exit; every stage is safe to kill (the next
@@ -777,14 +792,6 @@ def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, tim
         pool.shutdown(wait=True)
         if failures:
             return 1
-    if exclusive:
-        if exclusive_workers is not None:          # the kernels inherit it; no other kernel runs now
-            os.environ["WORKERS"] = str(exclusive_workers)
-        jobs = 1
-        for i, src in enumerate(exclusive, len(sources) + 1):
-            one(i, src)
-            if failures:
-                return 1
     print(f"all {n} notebook(s) done in {time.perf_counter() - t_all:.1f} s (profile={profile}, "
           f"outputs: {layout.destination}, {jobs} at a time)")
     return 0
@@ -957,7 +964,9 @@ def main(argv=None) -> int:
         print(f"execution: {workers} worker(s): "
               + (f"{jobs} notebook(s) at a time, WORKERS={kernel_workers} in each" if sources else "")
               + ("; then " if sources and alone else "")
-              + (f"{', '.join(s.stem for s in alone)} alone, WORKERS={workers}" if alone else "")
+              + (f"{', '.join(s.stem for s in alone)} with WORKERS={workers}"
+                 + (" on the first lane to free once the others have started" if jobs > 1 and len(sources) > 1
+                    else " after them" if sources else "") if alone else "")
               + (f"; Monte Carlo chunks and universes on the Dask scheduler at {scheduler}" if scheduler else ""),
               flush=True)
         try:
