@@ -46,8 +46,8 @@
 # than 1 % below the measurement-only estimate's (`study.exclusions`); the per-scenario tables keep every scenario.
 
 # %% [markdown]
-# The runner (`make figures`) runs this notebook alone, after the papers, with every worker: its cells keep all the
-# cores busy by themselves.
+# The runner (`make figures`) starts this notebook once every paper has started, on the first core to free, with every
+# worker: its cells keep all the cores busy by themselves.
 # mmlib-runner: exclusive
 
 # %% tags=["parameters"]

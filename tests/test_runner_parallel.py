@@ -216,7 +216,7 @@ def test_an_exclusive_notebook_starts_on_the_first_lane_to_free_once_the_others_
     ends (no core idles meanwhile), with its own WORKERS in its kernel's environment while the others inherit the
     runner's; the exclusive ones never run at the same time; a failure starts nothing after it."""
     events, lock = [], threading.Lock()
-    seconds = {"long": 0.6, "a": 0.1, "b": 0.1, "x1": 0.2, "x2": 0.2}
+    seconds = {"long": 0.6, "a": 0.1, "b": 0.1, "x1": 0.5, "x2": 0.5}   # x2 is queued while x1 runs: the lock
 
     def fake_run_one(src, layout, profile, params, timeout, promotion_lock=None, stdout=None, stderr=None,
                      kernel_env=None):
@@ -242,11 +242,14 @@ def test_an_exclusive_notebook_starts_on_the_first_lane_to_free_once_the_others_
     assert started_all <= at[("start", first)] < at[("end", "long")]      # a core freed before the long one ended
     assert at[("start", second)] >= at[("end", first)]                    # one exclusive notebook at a time
     assert env["x1"] == env["x2"] == {"WORKERS": "2"} and env["a"] == env["long"] == {}
-    # after a failure nothing further starts, the exclusive notebooks included
-    events.clear()
+    # after a failure nothing further starts, the exclusive notebooks included, on one lane and on two
     paths["fail"] = tmp_path / "fail.py"
-    assert runner.run_all([paths["fail"], paths["a"]], layout, "full", {}, 60, 1, [paths["x1"]], 2) == 1
-    assert [name for kind, name, _, _ in events if kind == "start"] == ["fail"]
+    for jobs in (1, 2):
+        events.clear()
+        assert runner.run_all([paths["fail"], paths["a"], paths["b"]], layout, "full", {}, 60, jobs,
+                              [paths["x1"]], 2) == 1
+        started = [name for kind, name, _, _ in events if kind == "start"]
+        assert started[0] == "fail" and "x1" not in started and "b" not in started
     capsys.readouterr()
 
 

@@ -646,8 +646,9 @@ def run_one(src: Path, layout: Layout, profile: str, params: dict, timeout: int,
     return [layout.show(layout.out / rel) for rel in owned_paths(layout, paper, src.stem)]
 
 
-#: A line of a notebook source that asks to run alone, after the others, with every worker: a study that keeps all the
-#: cores busy by itself (the arena's cells) would otherwise hold only its share of them long after the others ended.
+#: A line of a notebook source that asks to run with every worker, one such notebook at a time, started once every
+#: other notebook has started (:func:`run_all`): a study that keeps all the cores busy by itself (the arena's cells)
+#: would otherwise hold only its share of them long after the others ended.
 EXCLUSIVE_MARK = "# mmlib-runner: exclusive"
 
 
@@ -663,7 +664,9 @@ def parallel_plan(workers: int, n_notebooks: int) -> tuple[int, int]:
     rounded up (no core idles for a remainder; at most one process per notebook beyond the workers).  A notebook's
     serial parts (set-up, headline evaluation, timings, figures) then overlap other notebooks' work instead of
     leaving cores idle, and when the workers divide evenly (2 cores: 2 notebooks with 1 worker each) the run times
-    (``time_algorithms``: CPU time of one thread) are not taken on oversubscribed cores."""
+    (``time_algorithms``: CPU time of one thread) are not taken on oversubscribed cores -- but while an exclusive
+    notebook (:data:`EXCLUSIVE_MARK`) overlaps the last of the others, which CPU time mostly ignores and their wall
+    times and universes per minute do not."""
     slots = max(1, min(workers, n_notebooks))
     return slots, -(-workers // slots)
 
