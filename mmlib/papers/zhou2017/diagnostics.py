@@ -54,9 +54,8 @@ def alias_positions(setup: Setup, truth: np.ndarray, delta: np.ndarray) -> np.nd
     if truth.ndim != 3 or truth.shape[-1] != 4 or delta.shape != (truth.shape[0], truth.shape[1] - 1, 2):
         raise ValueError(f"truth, delta: expected (N, K+1, 4) and (N, K, 2), got {truth.shape} and {delta.shape}")
     s = np.asarray(radar.sensor, dtype=float)
-    dx, dy = truth[:, 1:, 0] - s[0], truth[:, 1:, 2] - s[1]
-    r = np.hypot(dx, dy) + delta[..., 0]
-    th = np.arctan2(dy, dx) + delta[..., 1]
+    faulted = radar.h(truth[:, 1:]) + delta          # the radar's own measurement function, faulted (Eq. 2)
+    r, th = faulted[..., 0], faulted[..., 1]
     return np.stack([s[0] + r * np.cos(th), s[1] + r * np.sin(th)], axis=-1)
 
 
