@@ -202,7 +202,11 @@ def main(argv=None) -> int:
         "mmlib_10000_runs_peak_rss_mib": large["peak_rss_mib"] if large else None,
         "mmlib_10000_runs_note": "from the scaling curve (data/bench/scaling.json): the filter's time in a "
                                  "fresh process, chunks of 2000 runs, estimates of every run kept; peak "
-                                 "resident memory of that process (VmHWM, imports included)",
+                                 "resident memory of that process (VmHWM, imports included); one core",
+        "mmlib_10000_runs_every_core_s": (curve["every_core_10000_runs"] or {}).get("filter_seconds"),
+        "mmlib_10000_runs_every_core_threads": (curve["every_core_10000_runs"] or {}).get("threads"),
+        "mmlib_10000_runs_every_core_note": "the same job with the fused steps' blocks of runs split over every core "
+                                            "(MMLIB_THREADS; scaling.json, every_core_10000_runs)",
         "flops_per_run_step": curve["flops_per_run_step"]["total"],
         "floor_us_per_run_step": curve["floor_us_per_run_step"],
         "ratio_to_floor": head["mmlib_us_per_run_step"] / curve["floor_us_per_run_step"],
@@ -219,6 +223,7 @@ def main(argv=None) -> int:
     atomic_write_text(OUT / "imm_ukf.json", json.dumps(doc, indent=1) + "\n")
     print(json.dumps({k: doc[k] for k in ("mmlib_median_s", "filterpy_median_s", "speedup_median",
                                           "estimates_agree", "mmlib_10000_runs_s", "mmlib_10000_runs_peak_rss_mib",
+                                          "mmlib_10000_runs_every_core_s",
                                           "ratio_to_floor", "verdicts", "bench_seconds")}, indent=1))
     if not head["estimates_agree"]:
         a = head["agreement"]

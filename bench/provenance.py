@@ -13,9 +13,10 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 
-#: Thread-count variables of the runtimes numpy, scipy and numba may use; all set to BENCH_THREADS (default 1).
+#: Thread-count variables of the runtimes numpy, scipy and numba may use, and of mmlib's fused steps
+#: (:func:`mmlib.core.linalg.threads`); all set to BENCH_THREADS (default 1).
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS",
-                    "NUMBA_NUM_THREADS")
+                    "NUMBA_NUM_THREADS", "MMLIB_THREADS")
 
 
 def pin_threads() -> str:

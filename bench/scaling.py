@@ -77,10 +77,10 @@ def child(n_runs: int) -> dict:
             "estimates_mib": n_runs * K * N_STATE * 8 / 2 ** 20}
 
 
-def run_child(n_runs: int) -> dict:
-    """:func:`child` in a subprocess (the environment, thread settings included, is inherited)."""
+def run_child(n_runs: int, env: dict | None = None) -> dict:
+    """:func:`child` in a subprocess (the environment, thread settings included, is inherited; ``env`` is added)."""
     out = subprocess.run([sys.executable, "-m", "bench.scaling", "--child", str(n_runs)], cwd=REPO,
-                         capture_output=True, text=True)
+                         capture_output=True, text=True, env={**os.environ, **(env or {})})
     if out.returncode:
         raise RuntimeError(f"scaling child for {n_runs} runs failed:\n{out.stderr[-4000:]}")
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -110,10 +110,24 @@ def scaling_report(sizes=SIZES, say=print) -> dict:
             f"(baseline {p['baseline_rss_mib']:.0f}, estimates {p['estimates_mib']:.1f}); "
             f"process {p['process_seconds']:.0f} s")
     large = [p for p in points if p["runs"] >= 10_000]
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    every_core = None
+    if cores > 1 and 10_000 in sizes:
+        # the same job on every core: the fused steps split their blocks of runs over MMLIB_THREADS threads (BLAS
+        # stays pinned); the points above are one core's
+        every_core = run_child(10_000, {"MMLIB_THREADS": str(cores)})
+        every_core["threads"] = cores
+        every_core["ratio_to_one_core"] = next(p for p in points if p["runs"] == 10_000)["filter_seconds"] \
+            / every_core["filter_seconds"]
+        say(f"   10000 runs on {cores} threads: filter {every_core['filter_seconds']:.2f} s "
+            f"({every_core['ratio_to_one_core']:.2f}x one core), peak RSS {every_core['peak_rss_mib']:.0f} MiB")
     return {
         "job": JOB, "what": "mmlib, time per run-step and peak resident memory against the number of runs; one "
                             "process per size (a fresh interpreter: peak RSS includes the imports)",
         "points": points,
+        "every_core_10000_runs": every_core,
+        "every_core_note": "10,000 runs with the fused steps' blocks split over every core this process may use "
+                           "(MMLIB_THREADS); the same bits as one thread (tests/test_fused.py)",
         "flops_per_run_step": flops,
         "flops_convention": "bench/flops.py: the equations of mmlib's IMM-UKF evaluated densely, unscented points "
                             "as mean +/- scaled Cholesky columns; +,-,*,/, comparisons, sqrt, floor, log, exp, "
@@ -143,6 +157,10 @@ def figure(doc: dict, out_dir: Path) -> list:
     for p in pts:
         ax1.annotate(f"{p['ratio_to_floor']:.0f}× floor", (p["runs"], p["us_per_run_step"]),
                      textcoords="offset points", xytext=(0, 7), ha="center", fontsize=8)
+    every = doc.get("every_core_10000_runs")
+    if every:
+        ax1.loglog([every["runs"]], [every["us_per_run_step"]], "D", color="C1", ms=6,
+                   label=f"mmlib, 10,000 runs on {every['threads']} threads (every core)")
     if doc.get("filterpy_us_per_run_step"):
         ax1.axhline(doc["filterpy_us_per_run_step"], color="C3", ls="-.", lw=1,
                     label=f"FilterPy 2.0, one run at a time ({doc['filterpy_us_per_run_step']:.0f} µs, 100 runs)")

@@ -657,3 +657,104 @@ def test_strong_tracking_a_float32_V_takes_the_composed_step():
     zs = np.swapaxes(_problem(measurement, 3)[:, :6], 0, 1)
     mismatches, _, calls = _same_steps(est, state, zs)
     assert not mismatches and calls == len(zs) - 1
+
+
+# ------------------------------------------------------------------------------------ the runs split over threads
+def _spy_ranges(monkeypatch, step: str) -> list:
+    """Wrap the compiled ``step`` of :mod:`mmlib.core._kernels`: record ``(start, stop, thread name)`` of each call."""
+    from mmlib.core import _kernels
+    seen, kernel = [], getattr(_kernels, step)
+
+    def spy(*args):
+        import threading
+        seen.append((args[-3], args[-2], threading.current_thread().name))
+        return kernel(*args)
+    monkeypatch.setattr(_kernels, step, spy)
+    return seen
+
+
+THREADED = {
+    "imm_sigma_step": lambda m: IMM(SigmaPointFilter(RULES["UKF"]), _modes(), m, TRANSITION),
+    "sigma_step": lambda m: SingleModel(SigmaPointFilter(RULES["5CKF"]), models.constant_velocity(T, 1.0), m),
+    "strong_tracking_step": lambda m: _strong_tracking("CKF", m),
+}
+
+
+@pytest.mark.parametrize("step", sorted(THREADED))
+@pytest.mark.parametrize("count", [2, 3, 8])
+def test_thread_count_changes_no_bit(step, count, monkeypatch):
+    """The blocks of runs split over 2, 3 or 8 threads (7 blocks of 7 runs, the last short): the track of one thread
+    bit for bit, each range of runs computed once, the first in the caller's thread and the others in helper threads
+    (the split is really taken)."""
+    measurement = MEASUREMENTS["range-bearing off-centre"]
+    est = THREADED[step](measurement)
+    z = _problem(measurement, 45)[:, :10]
+    monkeypatch.setattr(linalg, "FUSED_BLOCK", 7)
+    with linalg.use_threads(1):
+        reference = _track(est, z, True)
+    seen = _spy_ranges(monkeypatch, step)
+    with linalg.use_threads(count):
+        got = _track(est, z, True)
+    _assert_same_track(reference, got)
+    ranges = linalg._run_ranges(45, 7, count)
+    assert len(ranges) == min(count, 7) and len(seen) == 10 * len(ranges)
+    assert sorted((a, b) for a, b, _ in seen) == sorted(ranges * 10)
+    here = [(a, b) for a, b, name in seen if name == "MainThread"]
+    assert here == [ranges[0]] * 10                # the other ranges at once in the helper threads
+
+
+@pytest.mark.parametrize("block", [1, 3, 128])
+def test_run_ranges_cover_every_run_once_in_whole_blocks(block):
+    for B in [*range(1, 40), 127, 128, 129, 255, 256, 257, 1000]:
+        for count in range(1, 6):
+            ranges = linalg._run_ranges(B, block, count)
+            blocks = -(-B // block)
+            assert ranges[0][0] == 0 and ranges[-1][1] == B and len(ranges) == min(count, blocks)
+            assert all(a[1] == b[0] for a, b in zip(ranges, ranges[1:]))
+            assert all(start % block == 0 and stop > start for start, stop in ranges)
+            sizes = [-(-(stop - start) // block) for start, stop in ranges]
+            assert sum(sizes) == blocks and max(sizes) - min(sizes) <= 1
+
+
+def test_an_error_in_a_helper_thread_is_raised(monkeypatch):
+    """A range that raises in a helper thread fails the step (after the other ranges finish), never a silent gap."""
+    from mmlib.core import _kernels
+    kernel = _kernels.sigma_step
+
+    def failing(*args):
+        if args[-3] > 0:
+            raise RuntimeError("range failed")
+        return kernel(*args)
+    monkeypatch.setattr(_kernels, "sigma_step", failing)
+    monkeypatch.setattr(linalg, "FUSED_BLOCK", 4)
+    est = THREADED["sigma_step"](MEASUREMENTS["linear"])
+    z = _problem(MEASUREMENTS["linear"], 9)
+    with linalg.use_threads(2), pytest.raises(RuntimeError, match="range failed"):
+        _track(est, z, True)
+
+
+def test_use_threads_and_environment_reject_bad_values(monkeypatch):
+    for bad in (0, -1, True, 1.5, "2", None):
+        with pytest.raises(ValueError, match="count"):
+            with linalg.use_threads(bad):
+                pass
+    for bad in ("0", "-2", "two", "1.5", "٣"):
+        monkeypatch.setenv("MMLIB_THREADS", bad)
+        with pytest.raises(ValueError, match="MMLIB_THREADS"):
+            linalg._initial_threads()
+    monkeypatch.setenv("MMLIB_THREADS", " 3 ")
+    assert linalg._initial_threads() == 3
+    with linalg.use_threads(5):
+        assert linalg.threads() == 5
+        with linalg.use_threads(1):
+            assert linalg.threads() == 1
+        assert linalg.threads() == 5
+
+
+def test_tasks_run_their_fused_steps_on_one_thread():
+    """A task of the experiment layer (here serially in this process) uses one thread: the workers are the
+    parallelism, and a task never fans out again."""
+    from mmlib.experiment import executors
+    with linalg.use_threads(4):
+        assert executors.run_tasks(lambda: linalg.threads(), [(), ()], workers=1) == [1, 1]
+        assert linalg.threads() == 4

@@ -1219,7 +1219,8 @@ def _store_block(b0, mean, cov, ll, nu, S, failed, mean_out, cov_out, ll_out, nu
 
 @njit(**_OPTS)
 def strong_tracking_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, angular, R, V, restart, rho, beta,
-                         log_2pi, block):
+                         log_2pi, mean_out, cov_out, ll_out, nu_out, S_out, failed_out, V_out, lam_out, start, stop,
+                         block):
     r"""One step of a strong-tracking sigma-point filter on linear dynamics in one call
     (:class:`mmlib.core.layers.strong_tracking.StrongTracking`, the Jacobian-free form, over a plain sigma-point
     filter): the time update to :math:`P^l` (:func:`_predict_core`), the measurement prediction
@@ -1229,16 +1230,13 @@ def strong_tracking_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, a
     of its runs inflates: the others get their own bits again), then the Kalman update (:func:`_update_core`): the
     operations the layer composes, the same bits.  mean (B, n), cov (B, n, n), the rule xi (M, n), wm, wc (M,),
     F (n, n), Q (P, n, n) and R (P', m, m) periodic over the runs, z (B, m), the measurement function
-    (:func:`_measure`), V (B, m, m) (read only without ``restart``).  Returns ``(mean+, cov+, loglik, innovation, S,
-    failed, V, fading)``."""
-    B, n = mean.shape
+    (:func:`_measure`), V (B, m, m) (read only without ``restart``).  Writes the runs start..stop-1 of ``(mean+, cov+,
+    loglik, innovation, S, failed, V, fading)`` into ``mean_out`` ... ``lam_out`` (B, ...) (:func:`_step_outputs`)."""
+    n = mean.shape[1]
     m = z.shape[1]
-    mean_out, cov_out, ll_out, nu_out, S_out, failed_out = _step_outputs(B, n, m)
-    V_out = np.empty((B, m, m))
-    lam_out = np.empty(B)
     scale = 1.0 + rho
-    for b0 in range(0, B, block):
-        N = min(block, B - b0)
+    for b0 in range(start, stop, block):
+        N = min(block, stop - b0)
         mb, Pb, Fb, Qb, Rb, zb = _block_operands(mean, cov, F, Q, R, z, b0, N)
         prior = np.empty((n, N))
         Pl = np.empty((n, n, N))
@@ -1284,20 +1282,20 @@ def strong_tracking_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, a
             for i in range(m):
                 for k in range(m):
                     V_out[b0 + lane, i, k] = Vb[i, k, lane]
-    return mean_out, cov_out, ll_out, nu_out, S_out, failed_out, V_out, lam_out
 
 
 @njit(**_OPTS)
-def sigma_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, angular, R, log_2pi, block):
+def sigma_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, angular, R, log_2pi, mean_out, cov_out, ll_out,
+               nu_out, S_out, failed_out, start, stop, block):
     r"""One step of a single-model sigma-point filter on linear dynamics in one call (:func:`_filter_step`, the same
     bits as the composed operations), for blocks of ``block`` runs: mean (B, n), cov (B, n, n), rule xi (M, n), wm, wc
     (M,), F (n, n), Q (P, n, n) and R (P', m, m) periodic over the runs, z (B, m), the measurement function
-    (:func:`_measure`).  Returns ``(mean+, cov+, loglik, innovation, S, failed)``."""
-    B, n = mean.shape
+    (:func:`_measure`).  Writes the runs start..stop-1 of ``(mean+, cov+, loglik, innovation, S, failed)`` into
+    ``mean_out`` ... ``failed_out`` (B, ...) (:func:`_step_outputs`)."""
+    n = mean.shape[1]
     m = z.shape[1]
-    mean_out, cov_out, ll_out, nu_out, S_out, failed_out = _step_outputs(B, n, m)
-    for b0 in range(0, B, block):
-        N = min(block, B - b0)
+    for b0 in range(start, stop, block):
+        N = min(block, stop - b0)
         mb, Pb, Fb, Qb, Rb, zb = _block_operands(mean, cov, F, Q, R, z, b0, N)
         post_mean = np.empty((n, N))
         post_cov = np.empty((n, n, N))
@@ -1308,12 +1306,12 @@ def sigma_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, angular, R,
         _filter_step(mb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, post_mean, post_cov,
                      nu, S, ll, failed)
         _store_block(b0, post_mean, post_cov, ll, nu, S, failed, mean_out, cov_out, ll_out, nu_out, S_out, failed_out)
-    return mean_out, cov_out, ll_out, nu_out, S_out, failed_out
 
 
 @njit(**_OPTS)
 def imm_sigma_step(mu, T, means, covs, xi, wm, wc, F, Q, z, kind, A, idx, sensor, angular, R, with_cov, log_2pi,
-                   block):
+                   means_out, covs_out, mu_out, marginal, underflow, mean_out, cov_out, innov_out, icov_out, failed_out,
+                   start, stop, block):
     r"""One whole IMM cycle of a sigma-point filter with linear mode dynamics, fused: what :func:`imm_mix`,
     :func:`sigma_point_predict_linear`, :func:`sigma_points`, the measurement function (:func:`_measure`),
     :func:`measurement_moments`, the residual, :func:`kalman_moments` (the form :math:`P - AA^T`), the
@@ -1326,26 +1324,17 @@ def imm_sigma_step(mu, T, means, covs, xi, wm, wc, F, Q, z, kind, A, idx, sensor
     z (B, m), the measurement function ``kind``, A, idx, sensor (:func:`_measure`), angular (m,),
     R (P', m, m) periodic as Q, ``log_2pi`` = log(2 pi) as the numpy path computes it.
 
-    Returns ``(means+, covs+, mu+, marginal, underflow, mean, cov, innovation, innovation_cov, failed)``: the mode
-    filters' posteriors (B, r, n), (B, r, n, n), the mode probabilities (B, r), the log marginal likelihood (B,),
+    Writes the runs start..stop-1 of ``(means+, covs+, mu+, marginal, underflow, mean, cov, innovation,
+    innovation_cov, failed)`` into ``means_out`` ... ``failed_out`` (:func:`_imm_outputs`): the mode filters'
+    posteriors (B, r, n), (B, r, n, n), the mode probabilities (B, r), the log marginal likelihood (B,),
     ``underflow`` (B,), the fused estimate (B, n) and covariance (B, n, n) ((B, 0, 0) without ``with_cov``), the
     mixture prior's innovation (B, m) and its covariance (B, m, m), and ``failed`` (B, r): a mode filter whose S or
     posterior covariance has no Cholesky factor (its mean and covariance NaN, its log-likelihood NaN)."""
-    B, r = mu.shape
+    r = mu.shape[1]
     n = means.shape[2]
     m = z.shape[1]
-    means_out = np.empty((B, r, n))
-    covs_out = np.empty((B, r, n, n))
-    mu_out = np.empty((B, r))
-    marginal = np.empty(B)
-    underflow = np.zeros(B, dtype=np.bool_)
-    mean_out = np.empty((B, n))
-    cov_out = np.empty((B, n, n) if with_cov else (B, 0, 0))
-    innov_out = np.empty((B, m))
-    icov_out = np.empty((B, m, m))
-    failed_out = np.zeros((B, r), dtype=np.bool_)
-    for b0 in range(0, B, block):
-        N = min(block, B - b0)
+    for b0 in range(start, stop, block):
+        N = min(block, stop - b0)
         mub = np.empty((r, N))
         Xb = np.empty((r, n, N))
         Pb = np.empty((r, n, n, N))
@@ -1403,4 +1392,13 @@ def imm_sigma_step(mu, T, means, covs, xi, wm, wc, F, Q, z, kind, A, idx, sensor
                 innov_out[b, i] = innov[0, i, lane]
                 for k in range(m):
                     icov_out[b, i, k] = icov[0, i, k, lane]
-    return (means_out, covs_out, mu_out, marginal, underflow, mean_out, cov_out, innov_out, icov_out, failed_out)
+
+
+@njit(**_OPTS)
+def _imm_outputs(B, r, n, m, with_cov):
+    """The outputs of :func:`imm_sigma_step` for B runs, run axis first: ``(means+ (B, r, n), covs+ (B, r, n, n),
+    mu+ (B, r), marginal (B,), underflow (B,), mean (B, n), cov (B, n, n) or (B, 0, 0), innovation (B, m),
+    innovation_cov (B, m, m), failed (B, r))``, every run's rows written by the step."""
+    return (np.empty((B, r, n)), np.empty((B, r, n, n)), np.empty((B, r)), np.empty(B), np.zeros(B, dtype=np.bool_),
+            np.empty((B, n)), np.empty((B, n, n) if with_cov else (B, 0, 0)), np.empty((B, m)), np.empty((B, m, m)),
+            np.zeros((B, r), dtype=np.bool_))

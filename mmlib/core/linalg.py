@@ -34,10 +34,12 @@ of the estimation core's imports.
 """
 from __future__ import annotations
 
+import concurrent.futures as cf
 import contextlib
 import functools
 import math
 import os
+import threading
 from collections.abc import Callable, Iterator
 
 import numpy as np
@@ -45,7 +47,8 @@ from numpy.typing import ArrayLike
 
 from mmlib.core import _elementary
 
-__all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused", "sigma_points", "offset_points",
+__all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused", "threads", "use_threads",
+           "THREADS_VARIABLE", "sigma_points", "offset_points",
            "weighted_mean", "weighted_covariances", "kalman_moments", "measurement_moments", "congruence", "cholesky",
            "log_det_from_cholesky", "normalised_square", "solve", "information_fusion", "tril_inverse", "symmetrize",
            "trace", "wrap_angle", "range_bearing", "pseudoranges", "matmul_rows",
@@ -940,6 +943,98 @@ def use_fused(on: bool) -> Iterator[None]:
         _FUSED[0] = previous
 
 
+#: environment variable: the threads a fused step spreads its blocks of runs over (default: every core this process
+#: may use); :func:`threads`
+THREADS_VARIABLE = "MMLIB_THREADS"
+
+
+def _initial_threads() -> int:
+    """``$MMLIB_THREADS`` (a positive integer; anything else is a ValueError naming it), else the cores this process
+    may use."""
+    env = os.environ.get(THREADS_VARIABLE, "").strip()
+    if env:
+        if not (env.isascii() and env.isdigit()) or int(env) < 1:
+            raise ValueError(f"{THREADS_VARIABLE}: expected a positive integer (threads), got {env!r}")
+        return int(env)
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+_THREADS = [_initial_threads()]
+_THREADS_HERE = threading.local()          # use_threads: this thread's own count, over the process's
+
+
+def threads() -> int:
+    """The threads a fused step (:func:`sigma_step`, :func:`imm_sigma_step`, :func:`strong_tracking_step`) of this
+    thread spreads its runs over: :func:`use_threads` where it is in force, else ``$MMLIB_THREADS``, else every core
+    this process may use.  The blocks of :data:`FUSED_BLOCK` runs are split between the threads, which run the compiled
+    step at once (it holds no GIL); a run's numbers do not depend on the split (``tests/test_fused.py``).  The
+    experiment layer runs every task of :func:`mmlib.experiment.executors.run_tasks` with one thread (the workers are
+    the parallelism)."""
+    return getattr(_THREADS_HERE, "count", None) or _THREADS[0]
+
+
+@contextlib.contextmanager
+def use_threads(count: int) -> Iterator[None]:
+    """Context manager: this thread's fused steps use ``count`` threads (an integer >= 1, else a ValueError naming
+    ``count``) in the body; other threads keep theirs."""
+    if isinstance(count, bool) or not isinstance(count, int | np.integer) or count < 1:
+        raise ValueError(f"count: expected a positive integer (threads), got {count!r}")
+    previous = getattr(_THREADS_HERE, "count", None)
+    _THREADS_HERE.count = int(count)
+    try:
+        yield
+    finally:
+        _THREADS_HERE.count = previous
+
+
+_POOLS: dict = {}                           # (pid, helpers) -> the helper threads of the fused steps
+_POOLS_LOCK = threading.Lock()
+
+
+def _pool(helpers: int) -> cf.ThreadPoolExecutor:
+    """This process's pool of ``helpers`` threads, made on first use; a forked child, which has the pool objects but
+    not their threads, makes its own."""
+    key = (os.getpid(), helpers)
+    with _POOLS_LOCK:
+        if key not in _POOLS:
+            for other in [k for k in _POOLS if k[0] != key[0]]:
+                del _POOLS[other]
+            _POOLS[key] = cf.ThreadPoolExecutor(helpers, thread_name_prefix="mmlib-fused")
+        return _POOLS[key]
+
+
+def _run_ranges(B: int, block: int, count: int) -> list:
+    """The runs ``[start, stop)`` of each thread of a fused step over B runs in blocks of ``block``: ``min(count,
+    blocks)`` ranges of whole blocks (the last block may end short) whose numbers of blocks differ by at most one,
+    covering 0..B-1 once, in order."""
+    blocks = -(-B // block)
+    k = max(1, min(count, blocks))
+    q, extra = divmod(blocks, k)
+    edges = [0]
+    for i in range(k):
+        edges.append(edges[-1] + q + (i < extra))
+    return [(a * block, min(B, b * block)) for a, b in zip(edges, edges[1:])]
+
+
+def _over_threads(step: Callable, args: tuple, outputs: tuple, B: int) -> tuple:
+    """``step(*args, *outputs, start, stop, FUSED_BLOCK)`` for the ranges of runs of :func:`_run_ranges` at
+    :func:`threads`, the first in this thread and the others at once in the pool's; returns ``outputs``, every run's
+    rows written.  An exception of any range is raised once every range has finished."""
+    ranges = _run_ranges(B, FUSED_BLOCK, threads())
+    if len(ranges) == 1:
+        step(*args, *outputs, 0, B, FUSED_BLOCK)
+        return outputs
+    pool = _pool(len(ranges) - 1)
+    futures = [pool.submit(step, *args, *outputs, start, stop, FUSED_BLOCK) for start, stop in ranges[1:]]
+    try:
+        step(*args, *outputs, ranges[0][0], ranges[0][1], FUSED_BLOCK)
+    finally:
+        cf.wait(futures)
+    for f in futures:
+        f.result()
+    return outputs
+
+
 #: Runs per block of the fused steps: every intermediate of a step for this many runs (a few tens of KB for n = 4,
 #: r = 3) stays in a core's L1/L2 cache while the loops over the runs stay long enough to vectorise.  A tuning choice
 #: only: a run's numbers do not depend on it (``tests/test_fused.py``).
@@ -979,12 +1074,12 @@ def imm_sigma_step(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, co
     means, covs = _stack(means, 2, (B,)), _stack(covs, 3, (B,))
     angular = np.asarray(angular, dtype=np.bool_)
     _check_shapes("imm_sigma_step", B, (mu, transition, means, covs, xi, wm, wc, F, z, R, angular, Q))
-    out = _compiled_module().imm_sigma_step(
+    kernels, m = _compiled_module(), z.shape[-1]
+    out = _over_threads(kernels.imm_sigma_step, (
         _contiguous(mu), _contiguous(transition), _contiguous(means), _contiguous(covs), _contiguous(xi),
         _contiguous(wm), _contiguous(wc), _contiguous(F), _periodic(Q, 2, lead), _contiguous(z),
-        *_measure_args(measure, n, z.shape[-1]), angular, _periodic(R, 2, lead),
-        bool(with_cov),
-        float(log_2pi), FUSED_BLOCK)
+        *_measure_args(measure, n, m), angular, _periodic(R, 2, lead), bool(with_cov), float(log_2pi)),
+        kernels._imm_outputs(B, r, n, m, bool(with_cov)), B)
     return out[:6] + ((out[6] if with_cov else None),) + out[7:]
 
 
@@ -1001,11 +1096,11 @@ def sigma_step(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray
     cov = _stack(cov, 2, (B,))                 # a covariance shared by the runs: every run's own copy
     angular = np.asarray(angular, dtype=np.bool_)
     _check_shapes("sigma_step", B, (mean, cov, xi, wm, wc, F, z, R, angular, Q))
-    return _compiled_module().sigma_step(
+    kernels, m = _compiled_module(), z.shape[-1]
+    return _over_threads(kernels.sigma_step, (
         _contiguous(mean), _contiguous(cov), _contiguous(xi), _contiguous(wm), _contiguous(wc), _contiguous(F),
-        _periodic(Q, 2, (B,)), _contiguous(z), *_measure_args(measure, n, z.shape[-1]),
-        angular,
-        _periodic(R, 2, (B,)), float(log_2pi), FUSED_BLOCK)
+        _periodic(Q, 2, (B,)), _contiguous(z), *_measure_args(measure, n, m), angular, _periodic(R, 2, (B,)),
+        float(log_2pi)), kernels._step_outputs(B, n, m), B)
 
 
 def strong_tracking_step(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray, wc: np.ndarray,
@@ -1025,10 +1120,12 @@ def strong_tracking_step(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: 
     angular = np.asarray(angular, dtype=np.bool_)
     Vs = np.zeros((1, m, m)) if V is None else _stack(V, 2, (B,))
     _check_shapes("strong_tracking_step", B, (mean, cov, xi, wm, wc, F, z, R, angular, Q, Vs))
-    return _compiled_module().strong_tracking_step(
+    kernels = _compiled_module()
+    return _over_threads(kernels.strong_tracking_step, (
         _contiguous(mean), _contiguous(cov), _contiguous(xi), _contiguous(wm), _contiguous(wc), _contiguous(F),
         _periodic(Q, 2, (B,)), _contiguous(z), *_measure_args(measure, n, m), angular, _periodic(R, 2, (B,)),
-        _contiguous(Vs), V is None, float(rho), float(beta), float(log_2pi), FUSED_BLOCK)
+        _contiguous(Vs), V is None, float(rho), float(beta), float(log_2pi)),
+        kernels._step_outputs(B, n, m) + (np.empty((B, m, m)), np.empty(B)), B)
 
 
 def _measure_args(measure: tuple, n: int, m: int) -> tuple:

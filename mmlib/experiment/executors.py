@@ -111,9 +111,13 @@ def in_task() -> bool:
 
 @contextlib.contextmanager
 def _task_scope():
+    """The body runs as a task: :func:`in_task` is true, and the fused filter steps use one thread
+    (:func:`mmlib.core.linalg.use_threads`): the workers are the parallelism."""
+    from mmlib.core import linalg
     _local.depth = getattr(_local, "depth", 0) + 1
     try:
-        yield
+        with linalg.use_threads(1):
+            yield
     finally:
         _local.depth -= 1
 
