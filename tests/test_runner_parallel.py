@@ -22,6 +22,7 @@ ENV_CELL = '''
 # %%
 import os
 print("kernel env: WORKERS=" + os.environ.get("WORKERS", "")
+      + " MMLIB_THREADS=" + os.environ.get("MMLIB_THREADS", "")
       + " MMLIB_SCHEDULER=" + os.environ.get("MMLIB_SCHEDULER", ""))
 '''
 
@@ -128,7 +129,7 @@ def test_notebooks_execute_at_once_and_each_promotion_is_whole(repo):  # noqa: F
     for stem in ("alpha2001_fake", "beta2002_fake"):
         assert sum(bool(re.fullmatch(rf"\[\d/2\] {stem}: executing .*", ln)) for ln in lines) == 1
         assert sum(bool(re.fullmatch(rf"\[\d/2\] {stem}: done in \d+\.\d s -> .*", ln)) for ln in lines) == 1
-        assert f"[{stem}] kernel env: WORKERS=1 MMLIB_SCHEDULER=" in lines       # prefixed, in its environment
+        assert f"[{stem}] kernel env: WORKERS=1 MMLIB_THREADS=1 MMLIB_SCHEDULER=" in lines  # its environment, prefixed
     first_done = next(i for i, ln in enumerate(lines) if ": done in " in ln)
     assert sum(": executing " in ln for ln in lines[:first_done]) == 2          # both started before either ended
     assert_whole(repo, alpha2001="new", beta2002="new")                         # the last README has both papers
@@ -138,7 +139,7 @@ def test_notebooks_execute_at_once_and_each_promotion_is_whole(repo):  # noqa: F
 def test_workers_never_send_the_outputs_to_custom(repo):  # noqa: F811 -- fixtures of test_runner
     report_environment(repo)
     proc = run(repo, "-p", "WORKERS=3", "alpha2001", check=0)
-    assert "kernel env: WORKERS=3 " in proc.stdout and "build/custom" not in proc.stdout
+    assert "kernel env: WORKERS=3 MMLIB_THREADS=3 " in proc.stdout and "build/custom" not in proc.stdout
     assert not (repo / "build" / "custom").exists()
     assert_whole(repo, alpha2001="new", beta2002="old")
 
@@ -204,7 +205,7 @@ def test_an_exclusive_notebook_runs_after_the_others_with_every_worker(repo):  #
     beta_done = next(i for i, ln in enumerate(lines) if re.fullmatch(r"\[\d/2\] beta2002_fake: done in .*", ln))
     alpha_start = next(i for i, ln in enumerate(lines) if re.fullmatch(r"\[\d/2\] alpha2001_fake: executing .*", ln))
     assert alpha_start > beta_done                                    # after the others
-    assert "kernel env: WORKERS=2 MMLIB_SCHEDULER=" in proc.stdout    # every worker
+    assert "kernel env: WORKERS=2 MMLIB_THREADS=2 MMLIB_SCHEDULER=" in proc.stdout    # every worker
     assert_whole(repo, alpha2001="new", beta2002="new")
     assert_no_leftovers(repo)
 
@@ -241,7 +242,7 @@ def test_an_exclusive_notebook_starts_on_the_first_lane_to_free_once_the_others_
     second = "x2" if first == "x1" else "x1"
     assert started_all <= at[("start", first)] < at[("end", "long")]      # a core freed before the long one ended
     assert at[("start", second)] >= at[("end", first)]                    # one exclusive notebook at a time
-    assert env["x1"] == env["x2"] == {"WORKERS": "2"} and env["a"] == env["long"] == {}
+    assert env["x1"] == env["x2"] == {"WORKERS": "2", "MMLIB_THREADS": "2"} and env["a"] == env["long"] == {}
     # after a failure nothing further starts, the exclusive notebooks included, on one lane and on two
     paths["fail"] = tmp_path / "fail.py"
     for jobs in (1, 2):

@@ -743,7 +743,8 @@ def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, tim
         with print_lock:
             print(text, file=file or sys.stdout, flush=True)
 
-    exclusive_env = {} if exclusive_workers is None else {"WORKERS": str(exclusive_workers)}
+    exclusive_env = {} if exclusive_workers is None else dict.fromkeys(("WORKERS", "MMLIB_THREADS"),
+                                                                          str(exclusive_workers))
     exclusive_lock = threading.Lock()               # the exclusive notebooks one at a time
 
     def one(i: int, src: Path, kernel_env: dict | None = None) -> None:
@@ -955,8 +956,9 @@ def main(argv=None) -> int:
                   f"{makespan([times[s.stem] for s in ordered], jobs):.0f} s instead of "
                   f"{makespan([times[s.stem] for s in sources], jobs):.0f} s in the given order", flush=True)
             sources = ordered
-        # the kernels inherit this environment: their worker count, and the scheduler (or none)
-        os.environ["WORKERS"] = str(kernel_workers if sources else workers)
+        # the kernels inherit this environment: their worker count, as many threads for the fused filter steps they
+        # run themselves (mmlib.core.linalg.threads), and the scheduler (or none)
+        os.environ["WORKERS"] = os.environ["MMLIB_THREADS"] = str(kernel_workers if sources else workers)
         if scheduler:
             os.environ["MMLIB_SCHEDULER"] = scheduler
         else:
