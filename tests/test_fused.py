@@ -345,6 +345,37 @@ def test_fused_steps_reject_mismatched_shapes():
             linalg.imm_sigma_step(**{**args, "measure": measure})
 
 
+def _frozen(a):
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+def test_read_only_operands_compile_nothing_more():
+    """A read-only operand (a model's frozen matrix, a memoised measurement batch) is handed to the compiled kernels
+    as a writable copy: the same numbers, and no second compilation of the kernel for the read-only type (which
+    would also compile again every loop it calls)."""
+    from mmlib.core import _kernels
+    B, r, n, m = 4, 3, 4, 2
+    up = RULES["UKF"].unit_points(n)
+    args = dict(mu=np.full((B, r), 1 / 3), transition=TRANSITION, means=np.tile(X0, (B, r, 1)),
+                covs=np.tile(P0, (B, r, 1, 1)), xi=up.xi, wm=up.wm, wc=up.wc, F=np.tile(np.eye(n), (r, 1, 1)),
+                Q=np.eye(n), z=np.tile([25000.0, 0.6], (B, 1)),
+                measure=(linalg.MEASURE_RANGE_BEARING, np.zeros((1, 1)), (0, 2), np.zeros(2)),
+                angular=np.array([False, True]), R=np.eye(m), with_cov=True, log_2pi=np.log(2 * np.pi))
+    writable = linalg.imm_sigma_step(**args)
+    chol = linalg.cholesky(np.tile(P0, (B, 1, 1)))
+    counts = (len(_kernels.imm_sigma_step.signatures), len(_kernels.cholesky.signatures))
+    frozen = {k: _frozen(v) if isinstance(v, np.ndarray) else v for k, v in args.items()}
+    frozen["measure"] = (linalg.MEASURE_RANGE_BEARING, _frozen(np.zeros((1, 1))), (0, 2), _frozen(np.zeros(2)))
+    assert not frozen["z"].flags.writeable
+    for a, b in zip(writable, linalg.imm_sigma_step(**frozen)):
+        assert _same(a, b)
+    for a, b in zip(chol, linalg.cholesky(_frozen(np.tile(P0, (B, 1, 1))))):
+        assert _same(a, b)
+    assert (len(_kernels.imm_sigma_step.signatures), len(_kernels.cholesky.signatures)) == counts
+
+
 def _same_steps(est, state, zs, models_k=None, **step_kw) -> tuple:
     """Step ``est`` through the measurements ``zs`` (K, B, m) (or a list of (B, m_k), with ``models_k`` the
     measurement model of each step) with the fused steps off and on: ``(mismatches, fused estimates, fused

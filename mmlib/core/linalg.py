@@ -280,12 +280,22 @@ def _check_shapes(name: str, n_runs: int, args) -> None:
     _CHECKED.add(key)
 
 
+def _writable(args) -> list:
+    """The operands ``args`` of a compiled kernel with every read-only array replaced by a writable copy.  Numba
+    compiles a kernel once per signature, and a read-only array is another type than a writable one: the models'
+    frozen matrices and the simulation memo's read-only batches would otherwise each add a compilation of the kernel
+    and of every loop it calls.  The kernels never write their operands, so the copy changes no number; read-only
+    operands are few and small (a model's matrices, a step's measurements)."""
+    return [a.copy() if isinstance(a, np.ndarray) and not a.flags.writeable else a for a in args]
+
+
 def _call(name: str, n_runs: int, *args):
     """Call compiled kernel ``name`` on stacks of ``n_runs`` runs, in blocks of about :data:`BLOCK` runs (every
     argument with ``n_runs`` rows is sliced; the others -- rule constants, operands periodic over the runs --
     are passed whole, the block length being a multiple of their period); outputs are concatenated.  A run's
     numbers do not depend on the blocking (the kernels compute every run from its own operands)."""
     _check_shapes(name, n_runs, args)
+    args = _writable(args)
     fn = getattr(_compiled_module(), name)
     if n_runs <= 2 * BLOCK:
         return fn(*args)
@@ -844,7 +854,7 @@ def _range_bearing_compiled(x, i, j, sensor):
     n = x.shape[-1]
     i, j = _last_axis_index(x, i, "i"), _last_axis_index(x, j, "j")     # the kernel does not check bounds
     flat = _contiguous(x).reshape(-1, n)
-    out = _compiled_module().range_bearing(flat, i, j, float(sensor[0]), float(sensor[1]))
+    out = _compiled_module().range_bearing(*_writable([flat]), i, j, float(sensor[0]), float(sensor[1]))
     return out.reshape(x.shape[:-1] + (2,))
 
 
@@ -905,7 +915,8 @@ def _pseudorange_operands(x, satellites, position, bias) -> tuple:
 def _pseudoranges_compiled(x, satellites, position, bias):
     x, satellites, (i0, i1, i2), bias = _pseudorange_operands(x, satellites, position, bias)
     n = x.shape[-1]
-    out = _compiled_module().pseudoranges(_contiguous(x).reshape(-1, n), _contiguous(satellites), i0, i1, i2, bias)
+    out = _compiled_module().pseudoranges(*_writable([_contiguous(x).reshape(-1, n), _contiguous(satellites)]), i0, i1,
+                                          i2, bias)
     return out.reshape(x.shape[:-1] + (satellites.shape[0],))
 
 
@@ -1020,6 +1031,7 @@ def _over_threads(step: Callable, args: tuple, outputs: tuple, B: int) -> tuple:
     """``step(*args, *outputs, start, stop, FUSED_BLOCK)`` for the ranges of runs of :func:`_run_ranges` at
     :func:`threads`, the first in this thread and the others at once in the pool's; returns ``outputs``, every run's
     rows written.  An exception of any range is raised once every range has finished."""
+    args = _writable(args)
     ranges = _run_ranges(B, FUSED_BLOCK, threads())
     if len(ranges) == 1:
         step(*args, *outputs, 0, B, FUSED_BLOCK)
