@@ -61,7 +61,13 @@ def _env_float(name: str, default: float) -> float:
 def time_per_step(estimator, init, z, repeats: int, measurement_models=None) -> dict:
     """CPU seconds per run-step of ``run(estimator, init, z, keep_cov=False)``: the fastest of ``repeats`` timed
     calls after one untimed call, and the median; ``z`` (B, K, m), or with per-step ``measurement_models`` a list of
-    K arrays (B, m_k)."""
+    K arrays (B, m_k).  One thread's CPU time: the fused steps are held to this thread."""
+    from mmlib.core import linalg
+    with linalg.use_threads(1):
+        return _time_per_step(estimator, init, z, repeats, measurement_models)
+
+
+def _time_per_step(estimator, init, z, repeats: int, measurement_models) -> dict:
     from mmlib.core.estimation import run
 
     B = (z[0] if measurement_models is not None else z).shape[0]

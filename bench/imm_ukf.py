@@ -202,7 +202,8 @@ def main(argv=None) -> int:
         "mmlib_10000_runs_peak_rss_mib": large["peak_rss_mib"] if large else None,
         "mmlib_10000_runs_note": "from the scaling curve (data/bench/scaling.json): the filter's time in a "
                                  "fresh process, chunks of 2000 runs, estimates of every run kept; peak "
-                                 "resident memory of that process (VmHWM, imports included); one core",
+                                 "resident memory of that process (VmHWM, imports included); BENCH_THREADS "
+                                 "threads (default 1)",
         "mmlib_10000_runs_every_core_s": (curve["every_core_10000_runs"] or {}).get("filter_seconds"),
         "mmlib_10000_runs_every_core_threads": (curve["every_core_10000_runs"] or {}).get("threads"),
         "mmlib_10000_runs_every_core_note": "the same job with the fused steps' blocks of runs split over every core "

@@ -114,20 +114,23 @@ def scaling_report(sizes=SIZES, say=print) -> dict:
     every_core = None
     if cores > 1 and 10_000 in sizes:
         # the same job on every core: the fused steps split their blocks of runs over MMLIB_THREADS threads (BLAS
-        # stays pinned); the points above are one core's
+        # stays pinned); the points above use BENCH_THREADS (default 1)
         every_core = run_child(10_000, {"MMLIB_THREADS": str(cores)})
         every_core["threads"] = cores
-        every_core["ratio_to_one_core"] = next(p for p in points if p["runs"] == 10_000)["filter_seconds"] \
+        every_core["speedup_over_pinned"] = next(p for p in points if p["runs"] == 10_000)["filter_seconds"] \
             / every_core["filter_seconds"]
         say(f"   10000 runs on {cores} threads: filter {every_core['filter_seconds']:.2f} s "
-            f"({every_core['ratio_to_one_core']:.2f}x one core), peak RSS {every_core['peak_rss_mib']:.0f} MiB")
+            f"({every_core['speedup_over_pinned']:.2f}x the point at BENCH_THREADS), "
+            f"peak RSS {every_core['peak_rss_mib']:.0f} MiB")
     return {
         "job": JOB, "what": "mmlib, time per run-step and peak resident memory against the number of runs; one "
                             "process per size (a fresh interpreter: peak RSS includes the imports)",
         "points": points,
         "every_core_10000_runs": every_core,
         "every_core_note": "10,000 runs with the fused steps' blocks split over every core this process may use "
-                           "(MMLIB_THREADS); the same bits as one thread (tests/test_fused.py)",
+                           "(MMLIB_THREADS; BLAS pinned as for the points); the same bits as one thread "
+                           "(tests/test_fused.py); speedup_over_pinned: the 10,000-run point's filter time over "
+                           "this one's",
         "flops_per_run_step": flops,
         "flops_convention": "bench/flops.py: the equations of mmlib's IMM-UKF evaluated densely, unscented points "
                             "as mean +/- scaled Cholesky columns; +,-,*,/, comparisons, sqrt, floor, log, exp, "

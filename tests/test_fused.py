@@ -355,6 +355,8 @@ def test_read_only_operands_compile_nothing_more():
     """A read-only operand (a model's frozen matrix, a memoised measurement batch) is handed to the compiled kernels
     as a writable copy: the same numbers, and no second compilation of the kernel for the read-only type (which
     would also compile again every loop it calls)."""
+    from numba.core import types
+
     from mmlib.core import _kernels
     B, r, n, m = 4, 3, 4, 2
     up = RULES["UKF"].unit_points(n)
@@ -374,6 +376,8 @@ def test_read_only_operands_compile_nothing_more():
     for a, b in zip(chol, linalg.cholesky(_frozen(np.tile(P0, (B, 1, 1))))):
         assert _same(a, b)
     assert (len(_kernels.imm_sigma_step.signatures), len(_kernels.cholesky.signatures)) == counts
+    for fn in (_kernels.imm_sigma_step, _kernels.cholesky):
+        assert not any(isinstance(t, types.Array) and not t.mutable for sig in fn.signatures for t in sig)
 
 
 def _same_steps(est, state, zs, models_k=None, **step_kw) -> tuple:
@@ -747,6 +751,61 @@ def test_run_ranges_cover_every_run_once_in_whole_blocks(block):
             assert sum(sizes) == blocks and max(sizes) - min(sizes) <= 1
 
 
+def test_per_run_noise_over_threads_is_read_at_each_runs_own_rows(monkeypatch):
+    """Q and R per run and mode (period B r over the flattened stack) and one Q per mode (period r): the rows a
+    thread's runs read are their own, whatever range the thread starts at (7 blocks of 7 runs over 1, 2 and 3
+    threads give the same bits)."""
+    B, r, n = 45, 3, 4
+    rng = np.random.default_rng(5)
+    up = RULES["CKF"].unit_points(n)
+    args = dict(mu=rng.dirichlet(np.ones(r), size=B), transition=TRANSITION,
+                means=X0 + rng.normal(0.0, 20.0, size=(B, r, n)), covs=np.tile(P0, (B, r, 1, 1)), xi=up.xi,
+                wm=up.wm, wc=up.wc, F=np.stack([m_.F for m_ in _modes()]),
+                Q=np.stack([m_.Q for m_ in _modes()])[None] * rng.uniform(0.5, 4.0, size=(B, r, 1, 1)),
+                z=np.column_stack([rng.uniform(2e4, 3e4, B), rng.uniform(0.5, 0.8, B)]),
+                measure=(linalg.MEASURE_RANGE_BEARING, np.zeros((1, 1)), (0, 2), np.zeros(2)),
+                angular=np.array([False, True]),
+                R=np.diag([100.0, 1e-4])[None, None] * rng.uniform(0.5, 4.0, size=(B, r, 1, 1)), with_cov=True,
+                log_2pi=np.log(2 * np.pi))
+    monkeypatch.setattr(linalg, "FUSED_BLOCK", 7)
+    for Q in (args["Q"], np.stack([m_.Q for m_ in _modes()])):   # per run and mode; one per mode
+        outs = []
+        for count in (1, 2, 3):
+            with linalg.use_threads(count):
+                outs.append(linalg.imm_sigma_step(**{**args, "Q": Q}))
+        for other in outs[1:]:
+            for a, b in zip(outs[0], other):
+                assert _same(a, b)
+        assert np.isfinite(outs[0][5]).all()
+    # the per-run operands matter: runs given each other's noise change
+    with linalg.use_threads(3):
+        swapped = linalg.imm_sigma_step(**{**args, "R": args["R"][::-1].copy()})
+    assert not _same(swapped[5], outs[0][5])
+
+
+def test_an_error_in_the_callers_range_waits_for_the_others(monkeypatch):
+    """The caller's own range raising: the other ranges finish (nothing writes to the outputs after the step has
+    returned), then the error is raised."""
+    import time
+    from mmlib.core import _kernels
+    kernel, done = _kernels.sigma_step, []
+
+    def failing(*args):
+        if args[-3] == 0:
+            raise RuntimeError("first range failed")
+        time.sleep(0.2)
+        out = kernel(*args)
+        done.append(args[-3])
+        return out
+    monkeypatch.setattr(_kernels, "sigma_step", failing)
+    monkeypatch.setattr(linalg, "FUSED_BLOCK", 4)
+    est = THREADED["sigma_step"](MEASUREMENTS["linear"])
+    z = _problem(MEASUREMENTS["linear"], 12)
+    with linalg.use_threads(3), pytest.raises(RuntimeError, match="first range failed"):
+        _track(est, z, True)
+    assert sorted(done) == [4, 8]
+
+
 def test_an_error_in_a_helper_thread_is_raised(monkeypatch):
     """A range that raises in a helper thread fails the step (after the other ranges finish), never a silent gap."""
     from mmlib.core import _kernels
@@ -783,9 +842,36 @@ def test_use_threads_and_environment_reject_bad_values(monkeypatch):
 
 
 def test_tasks_run_their_fused_steps_on_one_thread():
-    """A task of the experiment layer (here serially in this process) uses one thread: the workers are the
-    parallelism, and a task never fans out again."""
+    """A task of the experiment layer (here serially in this process, and a lone task) uses one thread: the workers
+    are the parallelism, a task never fans out again, and its CPU time is one thread's."""
     from mmlib.experiment import executors
     with linalg.use_threads(4):
         assert executors.run_tasks(lambda: linalg.threads(), [(), ()], workers=1) == [1, 1]
+        assert executors.run_tasks(lambda: linalg.threads(), [()]) == [1]          # a lone task, in this process
         assert linalg.threads() == 4
+
+
+def test_timed_filters_run_on_one_thread(monkeypatch):
+    """Every CPU time the library and the bench measure is one thread's (``time.thread_time``): the fused steps
+    of a timed call keep to the timing thread, whatever the caller's setting."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from bench import cost_model
+    from mmlib.experiment import evaluation
+    seen, ranges = [], linalg._run_ranges
+
+    def spy(B, block, count):
+        seen.append(len(ranges(B, block, count)))
+        return ranges(B, block, count)
+    monkeypatch.setattr(linalg, "_run_ranges", spy)
+    monkeypatch.setattr(linalg, "FUSED_BLOCK", 2)                  # 6 runs: 3 blocks
+    measurement = MEASUREMENTS["range-bearing"]
+    imm = IMM(SigmaPointFilter(RULES["UKF"]), _modes(), measurement, TRANSITION)
+    z = _problem(measurement, 6)[:, :4]
+    init = imm.init(np.tile(X0, (6, 1)), P0)
+    with linalg.use_threads(4):
+        evaluation.time_algorithms({"IMM": imm}, {"IMM": init}, z, repeats=2, per_repeat=1)
+        cost_model.time_per_step(imm, init, z, 2)
+        run(imm, init, z)
+    assert seen[-4:] == [3] * 4 and set(seen[:-4]) == {1}      # a call outside: 3 blocks on 3 of the caller's 4

@@ -87,9 +87,10 @@ def write_notebooks(root: Path, generation: str, papers=tuple(PAPERS)) -> None:
 
 
 def run(root: Path, *args, env=None, check=None) -> subprocess.CompletedProcess:
-    """The runner on ``root`` (one worker, extra environment ``env``); asserts the exit status ``check`` if given."""
+    """The runner on ``root`` (one worker, no MMLIB_THREADS of the caller's, extra environment ``env``); asserts the
+    exit status ``check`` if given."""
     proc = subprocess.run([sys.executable, str(RUNNER), "--root", str(root), *args], capture_output=True, text=True,
-                          env={**os.environ, "WORKERS": "1", **(env or {})}, timeout=600)
+                          env={**os.environ, "WORKERS": "1", "MMLIB_THREADS": "", **(env or {})}, timeout=600)
     if check is not None:
         assert proc.returncode == check, proc.stdout + proc.stderr
     return proc

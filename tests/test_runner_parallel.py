@@ -142,6 +142,9 @@ def test_workers_never_send_the_outputs_to_custom(repo):  # noqa: F811 -- fixtur
     assert "kernel env: WORKERS=3 MMLIB_THREADS=3 " in proc.stdout and "build/custom" not in proc.stdout
     assert not (repo / "build" / "custom").exists()
     assert_whole(repo, alpha2001="new", beta2002="old")
+    # a user's own MMLIB_THREADS (make figures MMLIB_THREADS=1) stands
+    proc = run(repo, "-p", "WORKERS=3", "alpha2001", env={"MMLIB_THREADS": "1"}, check=0)
+    assert "kernel env: WORKERS=3 MMLIB_THREADS=1 " in proc.stdout
 
 
 def test_a_failure_stops_no_running_notebook_and_promotes_nothing_of_itself(repo):  # noqa: F811 -- fixtures of test_runner
@@ -231,6 +234,7 @@ def test_an_exclusive_notebook_starts_on_the_first_lane_to_free_once_the_others_
         return []
 
     monkeypatch.setattr(runner, "run_one", fake_run_one)
+    monkeypatch.setattr(runner, "USER_THREADS", "")                    # no MMLIB_THREADS of the caller's
     layout = runner.Layout(tmp_path, tmp_path, tmp_path, "executed")
     paths = {name: tmp_path / f"{name}.py" for name in seconds}
     assert runner.run_all([paths["long"], paths["a"], paths["b"]], layout, "full", {}, 60, 2,

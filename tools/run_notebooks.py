@@ -724,6 +724,16 @@ def lane_order(sources: list[Path], jobs: int, times: dict[str, float]) -> list[
     return best
 
 
+#: MMLIB_THREADS as the user set it when the runner started (a command line's ``make figures MMLIB_THREADS=1``)
+USER_THREADS = os.environ.get("MMLIB_THREADS", "").strip()
+
+
+def kernel_threads(workers: int) -> dict:
+    """The fused-step threads of a kernel given ``workers`` (:func:`mmlib.core.linalg.threads`): as many as its
+    workers, its share of the cores, unless the user set MMLIB_THREADS, which stands."""
+    return {"MMLIB_THREADS": USER_THREADS or str(workers)}
+
+
 def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, timeout: int, jobs: int = 1,
             exclusive: list[Path] = (), exclusive_workers: int | None = None) -> int:
     """Run the notebooks, up to ``jobs`` at a time (in threads; each kernel is its own process), each promoted as
@@ -743,8 +753,8 @@ def run_all(sources: list[Path], layout: Layout, profile: str, params: dict, tim
         with print_lock:
             print(text, file=file or sys.stdout, flush=True)
 
-    exclusive_env = {} if exclusive_workers is None else dict.fromkeys(("WORKERS", "MMLIB_THREADS"),
-                                                                          str(exclusive_workers))
+    exclusive_env = {} if exclusive_workers is None else {"WORKERS": str(exclusive_workers),
+                                                          **kernel_threads(exclusive_workers)}
     exclusive_lock = threading.Lock()               # the exclusive notebooks one at a time
 
     def one(i: int, src: Path, kernel_env: dict | None = None) -> None:
@@ -958,7 +968,8 @@ def main(argv=None) -> int:
             sources = ordered
         # the kernels inherit this environment: their worker count, as many threads for the fused filter steps they
         # run themselves (mmlib.core.linalg.threads), and the scheduler (or none)
-        os.environ["WORKERS"] = os.environ["MMLIB_THREADS"] = str(kernel_workers if sources else workers)
+        os.environ["WORKERS"] = str(kernel_workers if sources else workers)
+        os.environ.update(kernel_threads(kernel_workers if sources else workers))
         if scheduler:
             os.environ["MMLIB_SCHEDULER"] = scheduler
         else:

@@ -18,7 +18,8 @@ compiled call; their numpy bodies compose the generic operations exactly as a fi
 (:func:`sigma_step`, :func:`imm_sigma_step`, :func:`strong_tracking_step`) go further: a whole step of a plain
 sigma-point filter, of its IMM or of its strong-tracking layer on linear dynamics in one call, with the bits of
 composing those operations (``tests/test_fused.py``); the estimators
-of :mod:`mmlib.core.estimation` take them where they apply (:func:`fused`, ``MMLIB_FUSED=0`` turns them off).  The
+of :mod:`mmlib.core.estimation` take them where they apply (:func:`fused`, ``MMLIB_FUSED=0`` turns them off) and
+spread their blocks of runs over :func:`threads` threads (``MMLIB_THREADS``; a run's bits do not depend on it).  The
 numpy and compiled paths agree to round-off, not bit for bit (BLAS and LAPACK sum in other orders;
 ``tests/test_kernels.py``); each gives a run the same bits in any batch (``tests/test_batch_independence.py``).
 
@@ -980,7 +981,7 @@ def threads() -> int:
     this process may use.  The blocks of :data:`FUSED_BLOCK` runs are split between the threads, which run the compiled
     step at once (it holds no GIL); a run's numbers do not depend on the split (``tests/test_fused.py``).  The
     experiment layer runs every task of :func:`mmlib.experiment.executors.run_tasks` with one thread (the workers are
-    the parallelism)."""
+    the parallelism), and times every filter it times on one thread (a CPU time of one thread)."""
     return getattr(_THREADS_HERE, "count", None) or _THREADS[0]
 
 
@@ -998,20 +999,30 @@ def use_threads(count: int) -> Iterator[None]:
         _THREADS_HERE.count = previous
 
 
-_POOLS: dict = {}                           # (pid, helpers) -> the helper threads of the fused steps
-_POOLS_LOCK = threading.Lock()
+_POOL: list = []                            # [(pid, helpers, executor)]: the helper threads of the fused steps
+_POOL_LOCK = threading.Lock()
 
 
 def _pool(helpers: int) -> cf.ThreadPoolExecutor:
-    """This process's pool of ``helpers`` threads, made on first use; a forked child, which has the pool objects but
-    not their threads, makes its own."""
-    key = (os.getpid(), helpers)
-    with _POOLS_LOCK:
-        if key not in _POOLS:
-            for other in [k for k in _POOLS if k[0] != key[0]]:
-                del _POOLS[other]
-            _POOLS[key] = cf.ThreadPoolExecutor(helpers, thread_name_prefix="mmlib-fused")
-        return _POOLS[key]
+    """This process's pool of at least ``helpers`` threads, made on first use and made again, larger, when a step
+    needs more (the old pool's idle threads end once no step holds it: a thread pool's workers exit when it is
+    garbage collected)."""
+    with _POOL_LOCK:
+        if not _POOL or _POOL[0][0] != os.getpid() or _POOL[0][1] < helpers:
+            _POOL[:] = [(os.getpid(), helpers, cf.ThreadPoolExecutor(helpers, thread_name_prefix="mmlib-fused"))]
+        return _POOL[0][2]
+
+
+def _forget_pool_after_fork() -> None:
+    """In a forked child: a new lock (the parent's may have been held at the fork) and no pool (its threads were
+    not forked)."""
+    global _POOL_LOCK
+    _POOL_LOCK = threading.Lock()
+    _POOL.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pool_after_fork)
 
 
 def _run_ranges(B: int, block: int, count: int) -> list:
@@ -1030,7 +1041,9 @@ def _run_ranges(B: int, block: int, count: int) -> list:
 def _over_threads(step: Callable, args: tuple, outputs: tuple, B: int) -> tuple:
     """``step(*args, *outputs, start, stop, FUSED_BLOCK)`` for the ranges of runs of :func:`_run_ranges` at
     :func:`threads`, the first in this thread and the others at once in the pool's; returns ``outputs``, every run's
-    rows written.  An exception of any range is raised once every range has finished."""
+    rows written.  An exception of any range is raised once every range has finished.  The helper threads compute
+    in the process's default floating-point environment (round to nearest, subnormals kept), as the caller's
+    thread does: nothing in the library changes it."""
     args = _writable(args)
     ranges = _run_ranges(B, FUSED_BLOCK, threads())
     if len(ranges) == 1:

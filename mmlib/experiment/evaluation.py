@@ -12,6 +12,7 @@ from typing import Any, Callable, Iterable, NamedTuple, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mmlib.core import linalg
 from mmlib.experiment import metrics
 from mmlib.core._validate import (as_float_array, check_bool, check_finite, check_finite_runs, check_has,
                                   check_index, check_mask, check_positive_int)
@@ -514,7 +515,8 @@ def time_algorithms(estimators: dict, init: dict, measurements: ArrayLike, *, re
     value per repeat, for ratios between estimators taken per repeat (their standard error from the
     repeats, as the verdict rule needs).
 
-    CPU time of the timing thread (``time.thread_time``: the filters are single-threaded numpy), with the
+    CPU time of the timing thread (``time.thread_time``; the fused filter steps held to that one thread,
+    :func:`mmlib.core.linalg.use_threads`), with the
     garbage collector paused as ``timeit`` does, so that neither other processes nor a notebook kernel's
     own threads enter the timing.  One untimed warm-up run per estimator comes first.  In every repeat the
     estimators take turns run by run, their order rotated from repeat to repeat so that none is always
@@ -546,17 +548,19 @@ def time_algorithms(estimators: dict, init: dict, measurements: ArrayLike, *, re
     was_enabled = gc.isenabled()
     gc.disable()
     try:
-        for r in range(repeats):
-            order = names[r % len(names):] + names[:r % len(names)]
-            for b in range(per_repeat):
+        with linalg.use_threads(1):
+            for r in range(repeats):
+                order = names[r % len(names):] + names[:r % len(names)]
+                for b in range(per_repeat):
+                    for a in order:
+                        t0 = time.thread_time()
+                        run(estimators[a], select_runs(init[a], slice(b, b + 1)), measurements[b:b + 1],
+                            keep_cov=False)
+                        single[a][r, b] = time.thread_time() - t0
                 for a in order:
                     t0 = time.thread_time()
-                    run(estimators[a], select_runs(init[a], slice(b, b + 1)), measurements[b:b + 1], keep_cov=False)
-                    single[a][r, b] = time.thread_time() - t0
-            for a in order:
-                t0 = time.thread_time()
-                run(estimators[a], init[a], measurements, keep_cov=False)
-                batched[a][r] = (time.thread_time() - t0) / n
+                    run(estimators[a], init[a], measurements, keep_cov=False)
+                    batched[a][r] = (time.thread_time() - t0) / n
     finally:
         if was_enabled:
             gc.enable()

@@ -12,6 +12,9 @@ The one execution policy of :func:`mmlib.experiment.evaluation.evaluate` (a task
 * else ``workers`` local processes (default ``$WORKERS``, else every core this process may use), or this process
   when that is 1.
 
+Wherever a task runs, its fused filter steps keep to one thread (:func:`mmlib.core.linalg.use_threads`): the workers
+are the parallelism, and a task's CPU time is one thread's.
+
 The local pool is created on first use, kept for the life of the process and shut down at exit (a pool of another
 size replaces it).  Its workers are spawned -- fresh interpreters started with one BLAS thread each -- which costs
 an interpreter start and the imports of numpy, scipy and numba once per process (a fork would start faster, but
@@ -342,12 +345,13 @@ def run_tasks(fn: Callable, tasks: Sequence[tuple], *, shared: tuple = (), worke
         raise ValueError(f"shared: expected a tuple of arguments common to every task, got {shared!r}")
     if on_result is not None and not callable(on_result):
         raise ValueError(f"on_result: expected None or a function (index, result), got {type(on_result).__name__}")
+    from mmlib.core import linalg
     tasks = [tuple(t) for t in tasks]
     ex, where = choose_executor(len(tasks), workers=workers, executor=executor)
     results: list = [None] * len(tasks)
     if ex is None or isinstance(ex, SerialExecutor):
         for i, task in enumerate(tasks):
-            with (contextlib.nullcontext() if ex is None else _task_scope()):
+            with (linalg.use_threads(1) if ex is None else _task_scope()):
                 results[i] = fn(*shared, *task)
             if on_result is not None:
                 on_result(i, results[i])
