@@ -949,20 +949,45 @@ def linear_predict(mean, cov, F, Q):
 
 
 # --------------------------------------------------------------------------- a whole IMM sigma-point step
+#: lanes per tile of the transpositions between the run-first arrays and the batch-innermost blocks: a tile's rows
+#: of both sides (a few KB) stay in the L1 cache, where a whole block's (tens of KB) would not
+_TILE = 16
+
+
 @njit(**_OPTS)
 def _lanes(a, b0, N, period_of, out):
     """out (..., N) <- rows of ``a`` (P, ...) (C-contiguous) for the N lanes of a block starting at run b0: lane l
     takes row ``((b0 + l) * stride + offset) % P`` with ``period_of = (stride, offset)``: (1, 0) the runs b0..b0+N-1
-    themselves, (r, j) mode j of the flattened (runs, r modes) stack, a shared or periodic operand either way."""
+    themselves, (r, j) mode j of the flattened (runs, r modes) stack, a shared or periodic operand either way.
+    Copied :data:`_TILE` lanes at a time."""
     P = a.shape[0]
     flat = a.reshape((P, a.size // P))
     k = flat.shape[1]
     o = out.reshape((k, N))
     stride, offset = period_of
-    for lane in range(N):
-        src = ((b0 + lane) * stride + offset) % P
+    rows = np.empty(_TILE, dtype=np.int64)
+    for t0 in range(0, N, _TILE):
+        t = min(_TILE, N - t0)
+        for lane in range(t):
+            rows[lane] = ((b0 + t0 + lane) * stride + offset) % P
         for i in range(k):
-            o[i, lane] = flat[src, i]
+            for lane in range(t):
+                o[i, t0 + lane] = flat[rows[lane], i]
+
+
+@njit(**_OPTS)
+def _unlanes(src, b0, out):
+    """Rows b0..b0+N-1 of ``out`` (B, ...) (C-contiguous) <- the N lanes of ``src`` (..., N), the inverse of
+    :func:`_lanes` over the runs themselves, :data:`_TILE` lanes at a time."""
+    N = src.shape[-1]
+    s = src.reshape((src.size // N, N))
+    k = s.shape[0]
+    o = out.reshape((out.shape[0], k))
+    for t0 in range(0, N, _TILE):
+        t = min(_TILE, N - t0)
+        for i in range(k):
+            for lane in range(t):
+                o[b0 + t0 + lane, i] = s[i, t0 + lane]
 
 
 @njit(**_OPTS)
@@ -1172,10 +1197,9 @@ def _block_operands(mean, cov, F, Q, R, z, b0, N):
     the one F (n, n) copied into every lane, Q and R periodic over the runs (:func:`_lanes`) and z (B, m)."""
     n, m = mean.shape[1], z.shape[1]
     Fb = np.empty((n, n, N))
-    for lane in range(N):
-        for i in range(n):
-            for k in range(n):
-                Fb[i, k, lane] = F[i, k]
+    for i in range(n):
+        for k in range(n):
+            Fb[i, k, :] = F[i, k]
     Qb = np.empty((n, n, N))
     _lanes(Q, b0, N, (1, 0), Qb)
     Rb = np.empty((m, m, N))
@@ -1201,20 +1225,13 @@ def _step_outputs(B, n, m):
 def _store_block(b0, mean, cov, ll, nu, S, failed, mean_out, cov_out, ll_out, nu_out, S_out, failed_out):
     """A single-model fused step's results for the block of runs starting at b0 (batch innermost: mean (n, N), cov
     (n, n, N), ll, failed (N,), nu (m, N), S (m, m, N)) written to the runs' rows of the outputs (run axis first)."""
-    n, N = mean.shape
-    m = nu.shape[0]
-    for lane in range(N):
-        b = b0 + lane
-        ll_out[b] = ll[lane]
-        failed_out[b] = failed[lane]
-        for i in range(n):
-            mean_out[b, i] = mean[i, lane]
-            for k in range(n):
-                cov_out[b, i, k] = cov[i, k, lane]
-        for i in range(m):
-            nu_out[b, i] = nu[i, lane]
-            for k in range(m):
-                S_out[b, i, k] = S[i, k, lane]
+    for lane in range(mean.shape[1]):
+        ll_out[b0 + lane] = ll[lane]
+        failed_out[b0 + lane] = failed[lane]
+    _unlanes(mean, b0, mean_out)
+    _unlanes(cov, b0, cov_out)
+    _unlanes(nu, b0, nu_out)
+    _unlanes(S, b0, S_out)
 
 
 @njit(**_OPTS)
@@ -1279,9 +1296,7 @@ def strong_tracking_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, a
         _store_block(b0, prior, post_cov, ll, nu, S, failed, mean_out, cov_out, ll_out, nu_out, S_out, failed_out)
         for lane in range(N):
             lam_out[b0 + lane] = lam[lane]
-            for i in range(m):
-                for k in range(m):
-                    V_out[b0 + lane, i, k] = Vb[i, k, lane]
+        _unlanes(Vb, b0, V_out)
 
 
 @njit(**_OPTS)
@@ -1338,13 +1353,9 @@ def imm_sigma_step(mu, T, means, covs, xi, wm, wc, F, Q, z, kind, A, idx, sensor
         mub = np.empty((r, N))
         Xb = np.empty((r, n, N))
         Pb = np.empty((r, n, n, N))
-        for j in range(r):
-            for lane in range(N):
-                mub[j, lane] = mu[b0 + lane, j]
-                for i in range(n):
-                    Xb[j, i, lane] = means[b0 + lane, j, i]
-                    for k in range(n):
-                        Pb[j, i, k, lane] = covs[b0 + lane, j, i, k]
+        _lanes(mu, b0, N, (1, 0), mub)
+        _lanes(means, b0, N, (1, 0), Xb)
+        _lanes(covs, b0, N, (1, 0), Pb)
         c = np.empty((1, r, N))
         mm = np.empty((r, n, N))
         mc = np.empty((r, n, n, N))
@@ -1361,10 +1372,9 @@ def imm_sigma_step(mu, T, means, covs, xi, wm, wc, F, Q, z, kind, A, idx, sensor
         S = np.empty((r, m, m, N))
         f_upd = np.empty(N, dtype=np.bool_)
         for j in range(r):
-            for lane in range(N):
-                for i in range(n):
-                    for k in range(n):
-                        Fb[i, k, lane] = F[j, i, k]
+            for i in range(n):
+                for k in range(n):
+                    Fb[i, k, :] = F[j, i, k]
             _lanes(Q, b0, N, (r, j), Qb)
             _lanes(R, b0, N, (r, j), Rb)
             _filter_step(mm[j], mc[j], xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi,
@@ -1374,24 +1384,16 @@ def imm_sigma_step(mu, T, means, covs, xi, wm, wc, F, Q, z, kind, A, idx, sensor
         mu_b, marg, under, fused, fcov, innov, icov = _output_buffers(r, n, m, N, with_cov)
         _output_core(ll, c, post_mean, post_cov, nu, S, with_cov, mu_b, marg, under, fused, fcov, innov, icov)
         for lane in range(N):
-            b = b0 + lane
-            marginal[b] = marg[lane]
-            underflow[b] = under[lane]
-            for j in range(r):
-                mu_out[b, j] = mu_b[0, j, lane]
-                for i in range(n):
-                    means_out[b, j, i] = post_mean[j, i, lane]
-                    for k in range(n):
-                        covs_out[b, j, i, k] = post_cov[j, i, k, lane]
-            for i in range(n):
-                mean_out[b, i] = fused[0, i, lane]
-                if with_cov:
-                    for k in range(n):
-                        cov_out[b, i, k] = fcov[0, i, k, lane]
-            for i in range(m):
-                innov_out[b, i] = innov[0, i, lane]
-                for k in range(m):
-                    icov_out[b, i, k] = icov[0, i, k, lane]
+            marginal[b0 + lane] = marg[lane]
+            underflow[b0 + lane] = under[lane]
+        _unlanes(mu_b, b0, mu_out)
+        _unlanes(post_mean, b0, means_out)
+        _unlanes(post_cov, b0, covs_out)
+        _unlanes(fused, b0, mean_out)
+        if with_cov:
+            _unlanes(fcov, b0, cov_out)
+        _unlanes(innov, b0, innov_out)
+        _unlanes(icov, b0, icov_out)
 
 
 @njit(**_OPTS)
