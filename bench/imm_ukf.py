@@ -143,13 +143,20 @@ def headline(repeats: int, say=print) -> dict:
 
 def verdicts(head: dict, large: dict | None, every_core: dict | None = None, floor_us: float | None = None) -> dict:
     """Pass/fail of each target of :data:`TARGETS` (None where not measured): the speed-up of the headline, and at
-    10^4 runs (the scaling curve's point ``large``) the time on BENCH_THREADS threads and on every core
-    (``every_core``), the peak memory and the ratio to the flop floor ``floor_us`` (µs per run-step)."""
+    10^4 runs (the scaling curve's point ``large``) the time on one thread and on every core (``every_core``; the
+    point itself on a one-core machine), the peak memory and the ratio to the one-core flop floor ``floor_us`` (µs
+    per run-step).  With BENCH_THREADS above 1 the one-thread time and the floor ratio are None: not measured."""
     def check(value, ok):
         return {"value": value, "pass": None if value is None else bool(ok(value))}
     seconds = large["filter_seconds"] if large else None
     memory = large["peak_rss_mib"] if large else None
-    ratio = large["us_per_run_step"] / floor_us if large and floor_us else None
+    one_thread = os.environ.get("MMLIB_THREADS", "1").strip() == "1"        # pinned to BENCH_THREADS
+    # the floor is one core's: a time on several threads is not compared with it
+    ratio = large["us_per_run_step"] / floor_us if large and floor_us and one_thread else None
+    if every_core is None and large is not None and _cores() == 1:
+        every_core = large                                                  # one core: the point is every core
+    if not one_thread:
+        seconds = None                                                      # not a one-thread time
     return {
         "speedup_min": check(head["speedup_median"], lambda v: v >= TARGETS["speedup_min"]),
         "speedup_goal": check(head["speedup_median"], lambda v: v >= TARGETS["speedup_goal"]),
@@ -159,6 +166,10 @@ def verdicts(head: dict, large: dict | None, every_core: dict | None = None, flo
         "peak_memory_max_mib": check(memory, lambda v: v <= TARGETS["peak_memory_max_mib"]),
         "floor_ratio_max": check(ratio, lambda v: v <= TARGETS["floor_ratio_max"]),
     }
+
+
+def _cores() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
 def _env_int(name: str, default: int) -> int:

@@ -163,7 +163,8 @@ def figure(doc: dict, out_dir: Path) -> list:
     every = doc.get("every_core_10000_runs")
     if every:
         ax1.loglog([every["runs"]], [every["us_per_run_step"]], "D", color="C1", ms=6,
-                   label=f"mmlib, 10,000 runs on {every['threads']} threads (every core)")
+                   label=f"mmlib, 10,000 runs on {every['threads']} threads (every core; wall time, against a "
+                         f"floor of one core)")
     if doc.get("filterpy_us_per_run_step"):
         ax1.axhline(doc["filterpy_us_per_run_step"], color="C3", ls="-.", lw=1,
                     label=f"FilterPy 2.0, one run at a time ({doc['filterpy_us_per_run_step']:.0f} µs, 100 runs)")

@@ -859,3 +859,23 @@ def test_timed_filters_run_on_one_thread(monkeypatch):
         cost_model.time_per_step(imm, init, z, 2)
         run(imm, init, z)
     assert seen[-4:] == [3] * 4 and set(seen[:-4]) == {1}      # a call outside: 3 blocks on 3 of the caller's 4
+
+
+@pytest.mark.parametrize("N", [1, 15, 16, 17, 45])
+def test_lanes_and_unlanes_copy_every_lane_once(N):
+    """The tiled transpositions of the fused steps (16 lanes at a time): every lane of a block read from its own row
+    (the runs themselves, or mode j of a (runs, modes) stack read with period B r, across tile boundaries), and
+    written back to its own row and nowhere else."""
+    from mmlib.core import _kernels
+    B, r, n, b0 = 60, 3, 4, 7
+    a = np.arange(B * r * n * n, dtype=float).reshape(B * r, n, n)
+    for j in range(r):
+        out = np.full((n, n, N), np.nan)
+        _kernels._lanes(a, b0, N, (r, j), out)
+        assert np.array_equal(out, np.moveaxis(a[[((b0 + lane) * r + j) % (B * r) for lane in range(N)]], 0, -1))
+    own = np.full((n, n, N), np.nan)
+    _kernels._lanes(a[:B], b0, N, (1, 0), own)
+    back = np.full((B, n, n), -1.0)
+    _kernels._unlanes(own, b0, back)
+    assert np.array_equal(back[b0:b0 + N], a[b0:b0 + N])
+    assert (back[:b0] == -1.0).all() and (back[b0 + N:] == -1.0).all()
