@@ -42,6 +42,7 @@ import numpy as np                     # noqa: E402
 # the job, its models and targets (shared with the scaling curve, whose child processes import it alone)
 from bench.job import (JOB, K, N_MODES, N_STATE, TARGETS, TARGETS_SOURCE, UKF, Estimates, mmlib_run,  # noqa: E402
                        problem)
+from mmlib.core._env import usable_cores  # noqa: E402
 from mmlib.experiment.simulate import simulate  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
@@ -153,7 +154,7 @@ def verdicts(head: dict, large: dict | None, every_core: dict | None = None, flo
     one_thread = os.environ.get("MMLIB_THREADS", "1").strip() == "1"        # pinned to BENCH_THREADS
     # the floor is one core's: a time on several threads is not compared with it
     ratio = large["us_per_run_step"] / floor_us if large and floor_us and one_thread else None
-    if every_core is None and large is not None and _cores() == 1:
+    if every_core is None and large is not None and usable_cores() == 1:
         every_core = large                                                  # one core: the point is every core
     if not one_thread:
         seconds = None                                                      # not a one-thread time
@@ -166,10 +167,6 @@ def verdicts(head: dict, large: dict | None, every_core: dict | None = None, flo
         "peak_memory_max_mib": check(memory, lambda v: v <= TARGETS["peak_memory_max_mib"]),
         "floor_ratio_max": check(ratio, lambda v: v <= TARGETS["floor_ratio_max"]),
     }
-
-
-def _cores() -> int:
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
 def _env_int(name: str, default: int) -> int:

@@ -110,7 +110,8 @@ def scaling_report(sizes=SIZES, say=print) -> dict:
             f"(baseline {p['baseline_rss_mib']:.0f}, estimates {p['estimates_mib']:.1f}); "
             f"process {p['process_seconds']:.0f} s")
     large = [p for p in points if p["runs"] >= 10_000]
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    from mmlib.core._env import usable_cores
+    cores = usable_cores()
     every_core = None
     if cores > 1 and 10_000 in sizes:
         # the same job on every core: the fused steps split their blocks of runs over MMLIB_THREADS threads (BLAS

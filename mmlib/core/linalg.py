@@ -29,9 +29,10 @@ divergence propagates to that run only and is *reported* by the caller
 (:func:`mmlib.core.estimation.run`) instead of being patched.
 
 This module imports nothing else of :mod:`mmlib` but :mod:`mmlib.core._elementary` (range and bearing from the
-four operations, numpy only) and :mod:`mmlib.core._kernels`, the compiled twins (when loaded, to see whether numba
-imports; that module imports nothing of :mod:`mmlib` but :mod:`mmlib.core._elementary`'s constants): it is the bottom
-of the estimation core's imports.
+four operations, numpy only), :mod:`mmlib.core._env` (counts from the environment, the standard library only) and
+:mod:`mmlib.core._kernels`, the compiled twins (when loaded, to see whether numba imports; that module imports
+nothing of :mod:`mmlib` but :mod:`mmlib.core._elementary`'s constants): it is the bottom of the estimation core's
+imports.
 """
 from __future__ import annotations
 
@@ -46,7 +47,7 @@ from collections.abc import Callable, Iterator
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mmlib.core import _elementary
+from mmlib.core import _elementary, _env
 
 __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused", "threads", "use_threads",
            "THREADS_VARIABLE", "sigma_points", "offset_points",
@@ -963,12 +964,7 @@ THREADS_VARIABLE = "MMLIB_THREADS"
 def _initial_threads() -> int:
     """``$MMLIB_THREADS`` (a positive integer; anything else is a ValueError naming it), else the cores this process
     may use."""
-    env = os.environ.get(THREADS_VARIABLE, "").strip()
-    if env:
-        if not (env.isascii() and env.isdigit()) or int(env) < 1:
-            raise ValueError(f"{THREADS_VARIABLE}: expected a positive integer (threads), got {env!r}")
-        return int(env)
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return _env.count_from_env(THREADS_VARIABLE, "threads")
 
 
 _THREADS = [_initial_threads()]

@@ -44,6 +44,7 @@ import threading
 import time
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
+from mmlib.core._env import count_from_env
 from mmlib.core._validate import check_positive_int
 from mmlib.experiment.source import source_hash
 
@@ -79,13 +80,7 @@ class SchedulerError(RuntimeError):
 def default_workers() -> int:
     """``$WORKERS`` if set (a positive integer; anything else is a ValueError naming WORKERS), else the number of
     cores this process may use."""
-    env = os.environ.get(WORKERS_VARIABLE, "").strip()
-    if env:
-        if not (env.isascii() and env.isdigit()) or int(env) < 1:
-            raise ValueError(f"{WORKERS_VARIABLE}: expected a positive integer (number of worker processes), "
-                             f"got {env!r}")
-        return int(env)
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return count_from_env(WORKERS_VARIABLE, "number of worker processes")
 
 
 def worker_count(workers: int | None = None) -> int:
