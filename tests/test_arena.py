@@ -649,8 +649,9 @@ def test_cost_is_measured_on_per_step_sensors():
 @pytest.mark.parametrize("name", ["tseng2011", "ladder-nl1"])
 def test_cost_warm_up_is_one_run_over_the_first_steps_then_every_step_is_timed(name):
     """The untimed warm-up steps one run over WARM_UP_STEPS steps (not the whole run: its per-step Python cost was as
-    large as the timed run's at a few runs), the timed run every run over every step; with per-step sensors
-    (tseng2011) and one sensor (a ladder rung)."""
+    large as the timed run's at a few runs), the timed run every run over the first COST_STEPS steps (tseng2011: 200
+    of 1800) or every step of a shorter scenario (a ladder rung: 100); with per-step sensors (tseng2011) and one
+    sensor (a ladder rung)."""
     s = study.scenario(name)
     mc = MonteCarlo(s.root_seed, 3)
     inner = recipes.build("UKF", s)
@@ -669,7 +670,8 @@ def test_cost_warm_up_is_one_run_over_the_first_steps_then_every_step_is_timed(n
             return inner.step(state, z, **kwargs)
 
     study.cost_per_run_step(Counting(), make_batch, s, 3)
-    assert batches == [1] * study.WARM_UP_STEPS + [3] * s.n_steps
+    assert batches == [1] * study.WARM_UP_STEPS + [3] * min(study.COST_STEPS, s.n_steps)
+    assert len(batches) - study.WARM_UP_STEPS == (study.COST_STEPS if name == "tseng2011" else s.n_steps)
 
 
 # ============================================================ 9. who takes part, and what is pooled (issue 24)

@@ -33,8 +33,9 @@ Metrics per cell (units: m, m/s; Bar-Shalom, Li & Kirubarajan 2001, Sec. 5.4.2 f
   per-run averages beyond the white band);
 * ``diverged``: runs that diverged (excluded from every other metric) and the summary of their steps and causes;
 * ``cost_us_per_run_step``: CPU time per run and step in microseconds of one batched run of the first
-  :data:`COST_RUNS` runs without the NEES/NIS bookkeeping, after an untimed warm-up (thread time, simulation
-  excluded) -- a measurement, reported, never tested, never part of a rank or digest;
+  :data:`COST_RUNS` runs over the first :data:`COST_STEPS` steps (every step of a shorter scenario; Tseng et al.
+  2011's first 200 of its 1800 epochs) without the NEES/NIS bookkeeping, after an untimed warm-up (thread time,
+  simulation excluded) -- a measurement, reported, never tested, never part of a rank or digest;
 * ``rank``: for the cells none of whose runs diverged, 1 + the number of them whose position error is detectably and
   not negligibly smaller (:func:`rank_scenario`); ``versus_best``: the paired difference to the scenario's best
   algorithm with its standard error and verdict ("no detectable difference" where the interval covers zero,
@@ -94,8 +95,8 @@ __all__ = [
     "per_run_values", "rank_scenario", "cost_per_run_step", "scenario", "known_scenarios", "seed_of",
     "measurement_only_errors", "measurement_only_mse", "measurement_only_rmse", "degenerate_reason", "exclusions",
     "digest", "paper_names", "ArenaVerdict", "ARENA_READING", "VERSUS_BEST", "BASELINE_WHAT", "PAPER", "STUDY",
-    "SCENARIOS", "ALGORITHMS", "CHUNK_SIZE", "COST_RUNS", "WARM_UP_STEPS", "RESULT_KEYS", "SIMULATION_MEMO",
-    "SIMULATION_MEMO_BYTES"
+    "SCENARIOS", "ALGORITHMS", "CHUNK_SIZE", "COST_RUNS", "COST_STEPS", "WARM_UP_STEPS", "RESULT_KEYS",
+    "SIMULATION_MEMO", "SIMULATION_MEMO_BYTES"
 ]
 
 
@@ -116,6 +117,10 @@ SCENARIOS = paper_names() + ladder.NAMES
 ALGORITHMS = recipes.ALGORITHMS
 CHUNK_SIZE = 250
 COST_RUNS = 100           #: runs of the batched run that measures a cell's cost (the same batch for every algorithm)
+#: at most this many steps of that run, the first ones: 2 x 10^4 run-steps time a cell's cost well enough (it is shown,
+#: never judged), and a whole run of Tseng et al. 2011's 1800 epochs was 29-39 % of the CPU time of its cells at the
+#: smoke profile's 20 runs (every other scenario has 200 steps or fewer and is timed whole)
+COST_STEPS = 200
 WARM_UP_STEPS = 2         #: steps of the untimed one-run warm-up before that run (:func:`cost_per_run_step`)
 RESULT_KEYS = ("metrics", "reason", "n_runs", "diverged", "per_run")
 #: the simulated batches a process keeps, the most recently used (:func:`simulated`; the limits of its memo, built at
@@ -234,12 +239,13 @@ def evaluate_cell(algorithm: str, s: Scenario, mc: MonteCarlo, consistency: bool
 
 def cost_per_run_step(est: Estimator, make_batch: Callable[[Sequence[int]], tuple], s: Scenario,
                       n: int) -> float:
-    """Thread CPU seconds per run and step of one batched run of ``est`` over the first ``n`` runs (no NEES/NIS),
-    after an untimed warm-up of one run over the first :data:`WARM_UP_STEPS` steps, which compiles what those steps
-    call and fills the caches.  What only later steps call is compiled by the cell's evaluation before it in the same
-    process (:func:`evaluate_cell`); a caller timing an estimator that has run nowhere else in its process may see
-    that compilation in the time.  A whole warm-up run would cost the Python of every step: as much as the timed run
-    itself at a few runs (the per-step cost of a batch hardly depends on its size)."""
+    """Thread CPU seconds per run and step of one batched run of ``est`` over the first ``n`` runs and the first
+    ``min(COST_STEPS, s.n_steps)`` steps (no NEES/NIS), after an untimed warm-up of one run over the first
+    :data:`WARM_UP_STEPS` steps, which compiles what those steps call and fills the caches.  What only later steps
+    call is compiled by the cell's evaluation before it in the same process (:func:`evaluate_cell`); a caller timing
+    an estimator that has run nowhere else in its process may see that compilation in the time.  A whole warm-up run
+    would cost the Python of every step: as much as the timed run itself at a few runs (the per-step cost of a batch
+    hardly depends on its size)."""
     recipes._check_scenario(s, "s")
     check_has(est, "est", "an estimator (protocols.Estimator)", ("init", "step", "name"))
     if not callable(make_batch):
@@ -257,10 +263,15 @@ def cost_per_run_step(est: Estimator, make_batch: Callable[[Sequence[int]], tupl
     else:
         first, models = z[:1, :w], None
     run(est, select_runs(state, slice(0, 1)), first, keep_cov=False, measurement_models=models)
+    k = min(COST_STEPS, s.n_steps)
+    if s.measurement_models is not None:
+        timed, models = z[:k], s.measurement_models[:k]
+    else:
+        timed, models = z[:, :k], None
     with linalg.use_threads(1):                                  # one thread's CPU time
         t0 = time.thread_time()
-        run(est, state, z, keep_cov=False, measurement_models=s.measurement_models)
-        return (time.thread_time() - t0) / (n * s.n_steps)
+        run(est, state, timed, keep_cov=False, measurement_models=models)
+        return (time.thread_time() - t0) / (n * k)
 
 
 def _mc_value(v: metrics.MCValue) -> dict:
