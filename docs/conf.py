@@ -15,6 +15,9 @@ from pathlib import Path
 
 REPO = Path(os.environ.get("MMLIB_SITE_REPO", Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(REPO))
+# MyST-NB imports nbformat, and that jsonschema, which would import rfc3987_syntax and compile its grammars (seconds)
+# for format checks no schema here uses: left out as in the notebook runner (tools/run_notebooks.py SKIPPED_IMPORTS)
+sys.modules.setdefault("rfc3987_syntax", None)
 
 import mmlib  # noqa: E402
 

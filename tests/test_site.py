@@ -50,6 +50,7 @@ import re
 import shutil
 import socket
 import subprocess
+import sys
 import threading
 from pathlib import Path
 from urllib.parse import unquote, urljoin, urlsplit
@@ -876,6 +877,24 @@ def test_make_figures_site_step_waits_for_missing_outputs_only(tmp_path, monkeyp
     (tmp_path / "notebooks" / "zhu2016_other.py").write_text("")
     assert builder.main(["--if-complete", "--out", str(tmp_path / "site")]) == 2
     assert "a second notebook of zhu2016" in capsys.readouterr().err
+
+
+def test_the_sphinx_process_leaves_out_the_iri_checker_the_runner_leaves_out():
+    """docs/conf.py, run first in the site's Sphinx process, leaves out the import the notebook runner leaves out
+    (tools/run_notebooks.py SKIPPED_IMPORTS: rfc3987_syntax, jsonschema's optional "iri" format checker, seconds of
+    grammar compiling), so MyST-NB's nbformat imports and validates without it; the control, a process that does not
+    run docs/conf.py, imports it wherever it is installed."""
+    code = (f"import runpy, sys; runpy.run_path({str(REPO / 'docs' / 'conf.py')!r}); import myst_nb, nbformat; "
+            "nbformat.validate(nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell('1')])); "
+            "print(sorted(n for n in ('rfc3987_syntax', 'lark') if sys.modules.get(n) is not None), "
+            "'jsonschema' in sys.modules)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split()[-2:] == ["[]", "True"], proc.stdout
+    if importlib.util.find_spec("rfc3987_syntax") is not None:
+        plain = subprocess.run([sys.executable, "-c", "import nbformat, sys; print('rfc3987_syntax' in sys.modules)"],
+                               capture_output=True, text=True, timeout=120, check=True)
+        assert plain.stdout.strip() == "True"
 
 
 def test_site_before_any_results_says_what_to_run(tmp_path, monkeypatch):
