@@ -646,12 +646,18 @@ def test_cost_is_measured_on_per_step_sensors():
     assert 0 < cost < 1e-2                                # seconds per run-step: positive and finite
 
 
-@pytest.mark.parametrize("name", ["tseng2011", "ladder-nl1"])
-def test_cost_warm_up_is_one_run_over_the_first_steps_then_every_step_is_timed(name):
+@pytest.mark.parametrize("name, cost_steps", [("tseng2011", None), ("ladder-nl1", None), ("tseng2011", 5),
+                                              ("ladder-nl1", 5)])
+def test_cost_warm_up_is_one_run_over_the_first_steps_then_the_first_cost_steps_are_timed(name, cost_steps,
+                                                                                           monkeypatch):
     """The untimed warm-up steps one run over WARM_UP_STEPS steps (not the whole run: its per-step Python cost was as
     large as the timed run's at a few runs), the timed run every run over the first COST_STEPS steps (tseng2011: 200
-    of 1800) or every step of a shorter scenario (a ladder rung: 100); with per-step sensors (tseng2011) and one
-    sensor (a ladder rung)."""
+    of 1800; 5 when set so, which cuts the ladder rung's 100 too) or every step of a shorter scenario (a ladder rung:
+    100); with per-step sensors (tseng2011) and one sensor (a ladder rung).  The time, from a fake thread clock, is
+    divided by the runs and the steps timed."""
+    import time
+    if cost_steps is not None:
+        monkeypatch.setattr(study, "COST_STEPS", cost_steps)
     s = study.scenario(name)
     mc = MonteCarlo(s.root_seed, 3)
     inner = recipes.build("UKF", s)
@@ -669,9 +675,12 @@ def test_cost_warm_up_is_one_run_over_the_first_steps_then_every_step_is_timed(n
             batches.append(np.shape(z)[0])
             return inner.step(state, z, **kwargs)
 
-    study.cost_per_run_step(Counting(), make_batch, s, 3)
-    assert batches == [1] * study.WARM_UP_STEPS + [3] * min(study.COST_STEPS, s.n_steps)
-    assert len(batches) - study.WARM_UP_STEPS == (study.COST_STEPS if name == "tseng2011" else s.n_steps)
+    ticks = iter([10.0, 16.0])                            # the clock read before and after the timed run, only
+    monkeypatch.setattr(time, "thread_time", lambda: next(ticks))
+    cost = study.cost_per_run_step(Counting(), make_batch, s, 3)
+    timed = {("tseng2011", None): 200, ("ladder-nl1", None): 100}.get((name, cost_steps), cost_steps)
+    assert batches == [1] * study.WARM_UP_STEPS + [3] * timed
+    assert cost == 6.0 / (3 * timed)
 
 
 # ============================================================ 9. who takes part, and what is pooled (issue 24)
