@@ -329,6 +329,97 @@ def test_takagi_sugeno_bad_inputs():
         gap(np.array([[5.0]]))
 
 
+def _mixed_system(d: int, k: int, seed: int) -> TakagiSugeno:
+    """d inputs of k trapezoids each: ramp sets (shoulders and triangles), and in the first input a step (a = b)
+    and a plateau in place of two of them, so every branch of a membership is taken."""
+    rng = np.random.default_rng(seed)
+    sets = []
+    for i in range(d):
+        bp = np.cumsum(rng.uniform(0.3, 1.5, k))
+        ss = list(ramp_sets([f"s{j}" for j in range(k)], bp))
+        if i == 0 and k >= 3:
+            ss[1] = Trapezoid("step", bp[0], bp[0], bp[1], bp[1])
+            ss[2] = Trapezoid("plateau", bp[0], bp[1], bp[1] + 0.2, bp[2])
+        sets.append(tuple(ss))
+    return TakagiSugeno(tuple(sets), rng.standard_normal((k,) * d + (2,)) * 10.0 ** rng.uniform(-3, 3, (k,) * d + (2,)))
+
+
+@pytest.mark.parametrize("d, k", [(1, 2), (1, 9), (2, 3), (2, 5), (2, 12), (3, 4)])
+def test_the_compiled_rule_base_gives_the_bits_of_the_numpy_one(d, k):
+    """linalg.trapezoid_rules, compiled, against its numpy body on the compiled kernels (whose matmul_rows the
+    numpy body calls), and against the system evaluated as before it existed (firing strengths, their sum,
+    matmul_rows): output and total, bit for bit, at random inputs, at every breakpoint, at -0.0 and far out; with
+    1 to 3 inputs and 2 to 144 rules (above 128 the compiled form hands the sum to numpy, whose order it then
+    would have to recurse)."""
+    from mmlib.core import linalg
+    from mmlib.core.linalg import trapezoid_rules
+    ts = _mixed_system(d, k, seed=10 * d + k)
+    rng = np.random.default_rng(d * 100 + k)
+    points = sorted({v for sets in ts.inputs for t in sets for v in (t.a, t.b, t.c, t.d) if math.isfinite(v)})
+    x = np.concatenate([rng.uniform(-1.0, points[-1] + 1.0, (400, d)),
+                        np.repeat(np.array(points + [-0.0, 0.0, -1e300, 1e300])[:, None], d, axis=1)])
+    with linalg.use_kernel("numba"):
+        ref = trapezoid_rules.implementations["numpy"](x, *ts._trapezoids, ts._rule_consequents)
+        got = trapezoid_rules.implementations["numba"](x, *ts._trapezoids, ts._rule_consequents)
+        wf = ts.firing_strengths(x).reshape(len(x), -1)
+        with np.errstate(invalid="ignore", divide="ignore"):      # rows firing no rule (the step and plateau)
+            before = linalg.matmul_rows(wf, ts._rule_consequents) / wf.sum(axis=1, keepdims=True)
+        fired = ref[1] > 0
+        assert fired.any()
+        assert got[1].tobytes() == ref[1].tobytes()
+        assert got[0][fired].tobytes() == ref[0][fired].tobytes() == before[fired].tobytes()
+        if fired.all():
+            assert ts(x).tobytes() == got[0].tobytes()
+
+
+def test_the_fuzzy_system_takes_the_compiled_rule_base_and_numpys_sum_order():
+    """On the compiled kernels a system of trapezoids is evaluated by the compiled kernel (a spy on the kernel
+    module sees the call; on the numpy kernels it is not called, and the result is the numpy body's), and the kernel
+    sums in numpy's order: ``_numpy_sum`` equals ``numpy.sum`` bit for bit for 0 to 128 terms of mixed magnitudes
+    and signs with a signed zero among them; a sum of negative zeros is +0.0 as numpy's is."""
+    from mmlib.core import _kernels, linalg
+    rng = np.random.default_rng(7)
+    for n in range(_kernels.NUMPY_SUM_MAX + 1):
+        a = rng.standard_normal(n) * 10.0 ** rng.uniform(-8, 8, n)
+        if n:
+            a[rng.integers(n)] = -0.0
+        total = _kernels._numpy_sum(a, 0, n)
+        assert total == np.sum(a) and np.signbit(total) == np.signbit(np.sum(a)), n
+        assert _kernels._numpy_sum(np.concatenate([[5.0, 7.0], a]), 2, n) == total       # an offset start
+    assert not np.signbit(_kernels._numpy_sum(np.full(9, -0.0), 0, 9)) and not np.signbit(np.sum(np.full(9, -0.0)))
+    ts = two_input_system()
+    x = np.random.default_rng(3).uniform(-1, 6, (50, 2))
+    calls = []
+    real = _kernels.trapezoid_rules
+
+    def spy(*args):
+        calls.append(args[0].shape)
+        return real(*args)
+
+    try:
+        _kernels.trapezoid_rules = spy
+        with linalg.use_kernel("numba"):
+            compiled = ts(x)
+        assert calls == [(50, 2)]
+        with linalg.use_kernel("numpy"):
+            reference = ts(x)
+        assert calls == [(50, 2)]
+    finally:
+        _kernels.trapezoid_rules = real
+    np.testing.assert_allclose(compiled, reference, rtol=1e-14, atol=0)   # the kernels agree to round-off
+
+
+@pytest.mark.parametrize("kernel", ["numba", "numpy"])
+def test_an_input_firing_no_rule_is_refused_on_either_kernel(kernel):
+    from mmlib.core import linalg
+    gap = TakagiSugeno(((Trapezoid("low", -math.inf, -math.inf, 0.0, 1.0),),
+                        (Trapezoid("all", -math.inf, -math.inf, math.inf, math.inf),)), np.zeros((1, 1, 1)))
+    with linalg.use_kernel(kernel):
+        assert gap(np.array([[0.5, 3.0]])).shape == (1, 1)
+        with pytest.raises(ValueError, match=r"input \[5.0, 3.0\] \(row 1\) fires no rule"):
+            gap(np.array([[0.5, 3.0], [5.0, 3.0]]))
+
+
 def test_degree_of_divergence_definitions():
     nu = np.array([[3.0, -3.0, 3.0, -3.0], [0.0, 0.0, 0.0, 6.0]])
     dod = degree_of_divergence(nu, 9.0)

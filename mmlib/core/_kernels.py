@@ -819,6 +819,105 @@ def range_bearing(x, i, j, sx, sy):
     return out
 
 
+#: the most terms :func:`_numpy_sum` adds in numpy's order (numpy splits a longer sum in halves, recursively: a
+#: recursive kernel would not survive numba's on-disk cache, numba issue 6061)
+NUMPY_SUM_MAX = 128
+
+
+@njit(**_OPTS)
+def _numpy_sum(a, lo, n):
+    """``a[lo:lo + n].sum()`` in numpy's order of summation for n <= :data:`NUMPY_SUM_MAX` (``np.add.reduce`` of a
+    row: its pairwise sum, added to 0.0): one term at a time below eight terms, else eight running sums combined as
+    ((0+1)+(2+3))+((4+5)+(6+7)), then the remainder one at a time.  The same bits as numpy, signed zeros included
+    (``tests/test_kernels.py``)."""
+    if n < 8:
+        res = -0.0
+        for i in range(lo, lo + n):
+            res += a[i]
+        return 0.0 + res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    top = n - n % 8
+    for i in range(lo + 8, lo + top, 8):
+        r0 += a[i]
+        r1 += a[i + 1]
+        r2 += a[i + 2]
+        r3 += a[i + 3]
+        r4 += a[i + 4]
+        r5 += a[i + 5]
+        r6 += a[i + 6]
+        r7 += a[i + 7]
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    for i in range(lo + top, lo + n):
+        res += a[i]
+    return 0.0 + res
+
+
+@njit(**_OPTS)
+def _trapezoid(x, a, b, c, d):
+    """One trapezoid's membership at x, as numpy evaluates it (:func:`mmlib.core.linalg.trapezoid_memberships`):
+    ``clip(minimum(up, down), 0, 1)`` with numpy's ``minimum`` (NaN from either side) and ``clip`` (a NaN kept, a
+    signed zero kept where it is not below 0)."""
+    if a == -np.inf:
+        up = 1.0
+    elif b == a:
+        up = 1.0 if x >= b else 0.0
+    else:
+        up = (x - a) / (b - a)
+    if d == np.inf:
+        down = 1.0
+    elif d == c:
+        down = 1.0 if x <= c else 0.0
+    else:
+        down = (d - x) / (d - c)
+    v = up if (up <= down or up != up) else down
+    if v != v:
+        return v
+    if v < 0.0:
+        return 0.0
+    if v > 1.0:
+        return 1.0
+    return v
+
+
+@njit(**_OPTS)
+def trapezoid_rules(x, bounds, sizes, cons):
+    """A zero-order Takagi-Sugeno system whose input sets are all trapezoids: for inputs x (B, d), the sets of input
+    i ``bounds[i, :, :sizes[i]]`` (rows a, b, c, d; (d, 4, k_max)) and the consequents cons (K, p) of the K = prod(k_i)
+    rules in C order (the last input's set fastest; K <= :data:`NUMPY_SUM_MAX`), ``(output (B, p), total weight
+    (B,))``: rule weights
+    ``((1 * mu_0) * mu_1) * ...``, their sum in numpy's order (:func:`_numpy_sum`), and ``sum_r w_r cons_r`` one rule
+    at a time from 0 (:func:`matmul_rows`'s order) over that sum."""
+    B, d = x.shape
+    K, p = cons.shape
+    mu = np.empty((d, bounds.shape[2]))
+    w = np.empty(K)
+    digit = np.empty(d, dtype=np.int64)
+    out = np.empty((B, p))
+    total = np.empty(B)
+    for row in range(B):
+        for i in range(d):
+            for s in range(sizes[i]):
+                mu[i, s] = _trapezoid(x[row, i], bounds[i, 0, s], bounds[i, 1, s], bounds[i, 2, s], bounds[i, 3, s])
+        for r in range(K):
+            rest = r
+            for i in range(d - 1, -1, -1):
+                digit[i] = rest % sizes[i]
+                rest //= sizes[i]
+            v = 1.0
+            for i in range(d):
+                v = v * mu[i, digit[i]]
+            w[r] = v
+        t = _numpy_sum(w, 0, K)
+        total[row] = t
+        for c in range(p):
+            acc = 0.0
+            for r in range(K):
+                acc += w[r] * cons[r, c]
+            out[row, c] = acc / t
+    return out, total
+
+
 @njit(**_OPTS)
 def pseudoranges(x, sats, i0, i1, i2, ib):
     r"""Pseudoranges :math:`\lVert s_c - p\rVert + b` of the points x (N, n) to the satellites ``sats`` (m, 3),

@@ -23,7 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from mmlib.core._validate import as_float_array, check_finite, check_scalar
-from mmlib.core.linalg import matmul_rows
+from mmlib.core.linalg import matmul_rows, rule_weights, trapezoid_rules
+from mmlib.core.linalg import trapezoid_memberships as _trapezoid_memberships
 
 __all__ = ["TakagiSugeno", "Trapezoid", "ramp_sets"]
 
@@ -65,20 +66,6 @@ class Trapezoid:
         x = check_finite(as_float_array(x, "x"), "x")
         bounds = np.array([[self.a], [self.b], [self.c], [self.d]])
         return _trapezoid_memberships(bounds, x.reshape(-1))[:, 0].reshape(x.shape)[()]     # a scalar for a scalar
-
-
-def _trapezoid_memberships(bounds: np.ndarray, x: np.ndarray) -> np.ndarray:
-    r"""The memberships (B, k) of ``x`` (B,) in k trapezoids at once, ``bounds`` (4, k) their ``a, b, c, d``
-    (:class:`Trapezoid`, which calls it with k = 1): per entry :math:`\min(\mathrm{up}, \mathrm{down})` clipped to
-    [0, 1], with up = 1 for a left shoulder, :math:`[x \ge b]` for a = b, else :math:`(x - a)/(b - a)`, and down = 1
-    for a right shoulder, :math:`[x \le c]` for c = d, else :math:`(d - x)/(d - c)`; each entry's arithmetic depends
-    on its own operands only, so the same bits whatever k and B."""
-    a, b, c, d = bounds
-    X = x[:, None]
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):     # the branches np.where drops
-        up = np.where(a == -math.inf, 1.0, np.where(b == a, (X >= b).astype(float), (X - a) / (b - a)))
-        down = np.where(d == math.inf, 1.0, np.where(d == c, (X <= c).astype(float), (d - X) / (d - c)))
-    return np.clip(np.minimum(up, down), 0.0, 1.0)
 
 
 def ramp_sets(names: Iterable[str], breakpoints: np.ndarray) -> tuple:
@@ -162,6 +149,20 @@ class TakagiSugeno:
             if b is not None:
                 b.setflags(write=False)
         object.__setattr__(self, "_bounds", bounds)
+        # a system whose inputs are all trapezoids is evaluated whole by linalg.trapezoid_rules (compiled on the
+        # compiled kernels, the same bits): every input's bounds padded to (d, 4, max k_i), and the set counts
+        trapezoids = None
+        if all(b is not None for b in bounds):
+            padded = np.zeros((len(sets), 4, max(grid)))
+            for i, b in enumerate(bounds):
+                padded[i, :, :grid[i]] = b
+            trapezoids = (padded, np.array(grid, dtype=np.int64))
+            for a in trapezoids:
+                a.setflags(write=False)
+        object.__setattr__(self, "_trapezoids", trapezoids)
+        rule_consequents = cons.reshape(int(np.prod(grid)), -1)
+        rule_consequents.setflags(write=False)
+        object.__setattr__(self, "_rule_consequents", rule_consequents)
 
     @property
     def n_inputs(self) -> int:
@@ -172,30 +173,31 @@ class TakagiSugeno:
         r"""Rule weights (B, n_sets_1, ..., n_sets_d): product of the memberships,
         :math:`w_r = \prod_i \mu_{A_{ri}}(x_i)`, in [0, 1], for inputs ``x`` (B, d) (each in its sets' units).
         A non-finite ``x`` or one of another shape is a ValueError naming ``x``."""
+        x = self._checked(x)
+        return rule_weights([np.stack([s(x[:, i]) for s in sets], axis=-1) if self._bounds[i] is None
+                             else _trapezoid_memberships(self._bounds[i], x[:, i])        # (B, n_i)
+                             for i, sets in enumerate(self.inputs)])
+
+    def _checked(self, x) -> np.ndarray:
         x = check_finite(as_float_array(x, "x"), "x")
         if x.ndim != 2 or x.shape[1] != self.n_inputs:
             raise ValueError(f"x: expected shape (B, {self.n_inputs}), got {x.shape}")
-        w = np.ones((x.shape[0],) + (1,) * self.n_inputs)
-        for i, sets in enumerate(self.inputs):
-            bounds = self._bounds[i]
-            mu = (np.stack([s(x[:, i]) for s in sets], axis=-1) if bounds is None
-                  else _trapezoid_memberships(bounds, x[:, i]))        # (B, n_i)
-            shape = [x.shape[0]] + [1] * self.n_inputs
-            shape[1 + i] = len(sets)
-            w = w * mu.reshape(shape)
-        return w
+        return x
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        w = self.firing_strengths(x)
-        B = w.shape[0]
-        wf = w.reshape(B, -1)
-        total = wf.sum(axis=1, keepdims=True)
+        x = self._checked(x)
+        out = None
+        if self._trapezoids is not None:         # every input's sets trapezoids: one call (compiled on that kernel)
+            out, total = trapezoid_rules(x, *self._trapezoids, self._rule_consequents)
+        else:
+            wf = self.firing_strengths(x).reshape(x.shape[0], -1)
+            total = wf.sum(axis=1)
         if np.any(total <= 0):
-            b = int(np.argmax(total[:, 0] <= 0))
+            b = int(np.argmax(total <= 0))
             raise ValueError(f"x: input {np.asarray(x)[b].tolist()} (row {b}) fires no rule; the fuzzy sets must "
                              "cover every input value")
         # matmul_rows, not wf @ ...: the same bits for a run whatever the number of runs (one included)
-        return matmul_rows(wf, self.consequents.reshape(wf.shape[1], -1)) / total
+        return out if out is not None else matmul_rows(wf, self._rule_consequents) / total[:, None]
 
     def rules(self) -> Iterator[tuple[tuple[str, ...], np.ndarray]]:
         """Readable rule list: (antecedent set names, consequent vector)."""

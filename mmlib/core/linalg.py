@@ -53,7 +53,8 @@ __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused"
            "THREADS_VARIABLE", "sigma_points", "offset_points",
            "weighted_mean", "weighted_covariances", "kalman_moments", "measurement_moments", "congruence", "cholesky",
            "log_det_from_cholesky", "normalised_square", "solve", "information_fusion", "tril_inverse", "symmetrize",
-           "trace", "wrap_angle", "range_bearing", "pseudoranges", "matmul_rows",
+           "trace", "wrap_angle", "range_bearing", "pseudoranges", "matmul_rows", "trapezoid_memberships",
+           "rule_weights", "trapezoid_rules",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "fading_factor", "strong_tracking_step",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
@@ -920,6 +921,62 @@ def _pseudoranges_compiled(x, satellites, position, bias):
     out = _compiled_module().pseudoranges(*_writable([_contiguous(x).reshape(-1, n), _contiguous(satellites)]), i0, i1,
                                           i2, bias)
     return out.reshape(x.shape[:-1] + (satellites.shape[0],))
+
+
+# --------------------------------------------------------------------------- fuzzy inference
+def trapezoid_memberships(bounds: np.ndarray, x: np.ndarray) -> np.ndarray:
+    r"""The memberships (B, k) of ``x`` (B,) in k trapezoids at once, ``bounds`` (4, k) their ``a, b, c, d``
+    (:class:`mmlib.core.fuzzy.Trapezoid`, which calls it with k = 1): per entry :math:`\min(\mathrm{up},
+    \mathrm{down})` clipped to [0, 1], with up = 1 for a left shoulder, :math:`[x \ge b]` for a = b, else
+    :math:`(x - a)/(b - a)`, and down = 1 for a right shoulder, :math:`[x \le c]` for c = d, else
+    :math:`(d - x)/(d - c)`; each entry's arithmetic depends on its own operands only, so the same bits whatever k
+    and B."""
+    a, b, c, d = bounds
+    X = x[:, None]
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):     # the branches np.where drops
+        up = np.where(a == -math.inf, 1.0, np.where(b == a, (X >= b).astype(float), (X - a) / (b - a)))
+        down = np.where(d == math.inf, 1.0, np.where(d == c, (X <= c).astype(float), (d - X) / (d - c)))
+    return np.clip(np.minimum(up, down), 0.0, 1.0)
+
+
+def rule_weights(memberships: list) -> np.ndarray:
+    r"""The weights (B, k_1, ..., k_d) of the rules of a complete grid, :math:`w_r = \prod_i \mu_{i, r_i}` taken
+    in input order from 1, from each input's memberships (B, k_i) in its sets."""
+    B, d = memberships[0].shape[0], len(memberships)
+    w = np.ones((B,) + (1,) * d)
+    for i, mu in enumerate(memberships):
+        shape = [B] + [1] * d
+        shape[1 + i] = mu.shape[1]
+        w = w * mu.reshape(shape)
+    return w
+
+
+@_operation
+def trapezoid_rules(x: np.ndarray, bounds: np.ndarray, sizes: np.ndarray,
+                    consequents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r"""A zero-order Takagi-Sugeno system whose input sets are all trapezoids (:class:`mmlib.core.fuzzy.TakagiSugeno`
+    calls it): for inputs ``x`` (B, d), input i's ``sizes[i]`` sets ``bounds[i, :, :sizes[i]]`` (rows a, b, c, d of
+    :func:`trapezoid_memberships`; ``bounds`` (d, 4, max k_i)) and the consequents (K, p) of the K = prod k_i rules in
+    C order, ``(output (B, p), total weight (B,))``: the weights of :func:`rule_weights`, their sum and
+    :math:`\sum_r w_r c_r / \sum_r w_r` by :func:`matmul_rows`.  A row whose total is not > 0 fires no rule (its
+    output is then not a number; the caller refuses it).  The compiled form gives the bits of this one on the
+    compiled kernels (``tests/test_kernels.py``): numpy's order of summation for the total, :func:`matmul_rows`'s for
+    the output."""
+    mus = [trapezoid_memberships(bounds[i, :, :sizes[i]], x[:, i]) for i in range(x.shape[1])]
+    wf = rule_weights(mus).reshape(x.shape[0], -1)
+    total = wf.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return matmul_rows(wf, consequents) / total[:, None], total
+
+
+@trapezoid_rules.compiled
+def _trapezoid_rules_compiled(x, bounds, sizes, consequents):
+    kernels = _compiled_module()
+    if consequents.shape[0] > kernels.NUMPY_SUM_MAX:     # the total in numpy's order needs its recursion: numpy's
+        return trapezoid_rules.implementations["numpy"](x, bounds, sizes, consequents)     # (matmul_rows compiled)
+    args = _writable([_contiguous(x), _contiguous(bounds), np.ascontiguousarray(sizes, dtype=np.int64),
+                      _contiguous(consequents)])
+    return kernels.trapezoid_rules(*args)
 
 
 # --------------------------------------------------------------------------- whole fused filter steps (compiled only)
