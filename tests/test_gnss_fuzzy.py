@@ -329,31 +329,36 @@ def test_takagi_sugeno_bad_inputs():
         gap(np.array([[5.0]]))
 
 
-def _mixed_system(d: int, k: int, seed: int) -> TakagiSugeno:
+def _mixed_system(d: int, k: int, seed: int, wide: bool = False) -> TakagiSugeno:
     """d inputs of k trapezoids each: ramp sets (shoulders and triangles), and in the first input a step (a = b)
-    and a plateau in place of two of them, so every branch of a membership is taken."""
+    and a plateau in place of two of them, so every branch of a membership is taken; ``wide``: triangles that all
+    span the whole range instead, so every rule fires and the order of summing the weights shows."""
     rng = np.random.default_rng(seed)
     sets = []
     for i in range(d):
         bp = np.cumsum(rng.uniform(0.3, 1.5, k))
-        ss = list(ramp_sets([f"s{j}" for j in range(k)], bp))
-        if i == 0 and k >= 3:
+        if wide:
+            ss = [Trapezoid(f"w{j}", -1.5, b, b, bp[-1] + 1.5) for j, b in enumerate(bp)]
+        else:
+            ss = list(ramp_sets([f"s{j}" for j in range(k)], bp))
+        if i == 0 and k >= 3 and not wide:
             ss[1] = Trapezoid("step", bp[0], bp[0], bp[1], bp[1])
             ss[2] = Trapezoid("plateau", bp[0], bp[1], bp[1] + 0.2, bp[2])
         sets.append(tuple(ss))
     return TakagiSugeno(tuple(sets), rng.standard_normal((k,) * d + (2,)) * 10.0 ** rng.uniform(-3, 3, (k,) * d + (2,)))
 
 
-@pytest.mark.parametrize("d, k", [(1, 2), (1, 9), (2, 3), (2, 5), (2, 12), (3, 4)])
-def test_the_compiled_rule_base_gives_the_bits_of_the_numpy_one(d, k):
+@pytest.mark.parametrize("d, k, wide", [(1, 2, False), (1, 9, False), (2, 3, False), (2, 5, False), (2, 12, False),
+                                        (3, 4, False), (1, 13, True), (2, 11, True), (2, 12, True)])
+def test_the_compiled_rule_base_gives_the_bits_of_the_numpy_one(d, k, wide):
     """linalg.trapezoid_rules, compiled, against its numpy body on the compiled kernels (whose matmul_rows the
     numpy body calls), and against the system evaluated as before it existed (firing strengths, their sum,
     matmul_rows): output and total, bit for bit, at random inputs, at every breakpoint, at -0.0 and far out; with
-    1 to 3 inputs and 2 to 144 rules (above 128 the compiled form hands the sum to numpy, whose order it then
-    would have to recurse)."""
+    1 to 3 inputs and 2 to 144 rules, with sets that fire at most two rules per input and with sets that all fire
+    (13, 121 and 144 rules of nonzero weight; above 128 the compiled form hands the sum to numpy)."""
     from mmlib.core import linalg
     from mmlib.core.linalg import trapezoid_rules
-    ts = _mixed_system(d, k, seed=10 * d + k)
+    ts = _mixed_system(d, k, seed=10 * d + k, wide=wide)
     rng = np.random.default_rng(d * 100 + k)
     points = sorted({v for sets in ts.inputs for t in sets for v in (t.a, t.b, t.c, t.d) if math.isfinite(v)})
     x = np.concatenate([rng.uniform(-1.0, points[-1] + 1.0, (400, d)),
@@ -365,11 +370,46 @@ def test_the_compiled_rule_base_gives_the_bits_of_the_numpy_one(d, k):
         with np.errstate(invalid="ignore", divide="ignore"):      # rows firing no rule (the step and plateau)
             before = linalg.matmul_rows(wf, ts._rule_consequents) / wf.sum(axis=1, keepdims=True)
         fired = ref[1] > 0
-        assert fired.any()
+        assert fired.sum() > 100
         assert got[1].tobytes() == ref[1].tobytes()
         assert got[0][fired].tobytes() == ref[0][fired].tobytes() == before[fired].tobytes()
-        if fired.all():
-            assert ts(x).tobytes() == got[0].tobytes()
+        assert ts(x[fired]).tobytes() == got[0][fired].tobytes()
+        if wide:        # every rule of a row inside the sets' span fires: the order of the sum matters (numpy's)
+            assert (wf[fired] > 0).all()
+
+
+def test_the_compiled_memberships_are_numpys_bit_for_bit():
+    """The compiled membership of one trapezoid (``_kernels._trapezoid``) against numpy's
+    (``linalg.trapezoid_memberships``), bit for bit: shoulders, triangles, a step, a plateau, a set starting at 0
+    (at x = -0.0 its membership is -0.0 in both), at the breakpoints, between them and far out."""
+    from mmlib.core import _kernels
+    from mmlib.core.linalg import trapezoid_memberships
+    sets = ramp_sets(("N", "M", "L"), (0.5, 1.0, 3.0)) + (Trapezoid("step", 1.0, 1.0, 2.0, 2.0),
+                                                          Trapezoid("tri", 0.2, 0.7, 0.7, 1.5),
+                                                          Trapezoid("at0", 0.0, 1.0, 2.0, 3.0))
+    x = np.concatenate([np.random.default_rng(5).standard_normal(500) * 3,
+                        [0.5, 1.0, 3.0, 2.0, 0.2, 0.7, 1.5, -1e300, 1e300, 0.0, -0.0]])
+    bounds = np.array([[t.a, t.b, t.c, t.d] for t in sets]).T
+    ref = trapezoid_memberships(bounds, x)
+    got = np.array([[_kernels._trapezoid(v, t.a, t.b, t.c, t.d) for t in sets] for v in x.tolist()])
+    assert np.signbit(ref[-1, -1]) and ref[-1, -1] == 0
+    assert got.tobytes() == ref.tobytes()
+
+
+def test_the_rule_base_refuses_operands_that_do_not_fit_by_name_on_either_kernel():
+    from mmlib.core import linalg
+    from mmlib.core.linalg import trapezoid_rules
+    ts = two_input_system()
+    bounds, sizes = ts._trapezoids
+    x = np.ones((4, 2))
+    for kernel in linalg.KERNELS:
+        with linalg.use_kernel(kernel):
+            with pytest.raises(ValueError, match="consequents: 5 rules"):
+                trapezoid_rules(x, bounds, sizes, np.zeros((5, 2)))
+            with pytest.raises(ValueError, match="sizes"):
+                trapezoid_rules(x, bounds, np.array([3, 4]), np.zeros((12, 2)))
+            with pytest.raises(ValueError, match="trapezoid_rules"):
+                trapezoid_rules(np.ones((4, 3)), bounds, sizes, ts._rule_consequents)
 
 
 def test_the_fuzzy_system_takes_the_compiled_rule_base_and_numpys_sum_order():
@@ -396,10 +436,13 @@ def test_the_fuzzy_system_takes_the_compiled_rule_base_and_numpys_sum_order():
         calls.append(args[0].shape)
         return real(*args)
 
+    big = _mixed_system(2, 12, seed=3, wide=True)                 # 144 rules: numpy's sum, not the kernel's
     try:
         _kernels.trapezoid_rules = spy
         with linalg.use_kernel("numba"):
             compiled = ts(x)
+            assert calls == [(50, 2)]
+            big(x)
         assert calls == [(50, 2)]
         with linalg.use_kernel("numpy"):
             reference = ts(x)
@@ -418,6 +461,8 @@ def test_an_input_firing_no_rule_is_refused_on_either_kernel(kernel):
         assert gap(np.array([[0.5, 3.0]])).shape == (1, 1)
         with pytest.raises(ValueError, match=r"input \[5.0, 3.0\] \(row 1\) fires no rule"):
             gap(np.array([[0.5, 3.0], [5.0, 3.0]]))
+        with pytest.raises(ValueError, match=r"input \[5, 3\] \(row 1\) fires no rule"):   # as the caller wrote it
+            gap([[0, 3], [5, 3]])
 
 
 def test_degree_of_divergence_definitions():

@@ -829,7 +829,7 @@ def _numpy_sum(a, lo, n):
     """``a[lo:lo + n].sum()`` in numpy's order of summation for n <= :data:`NUMPY_SUM_MAX` (``np.add.reduce`` of a
     row: its pairwise sum, added to 0.0): one term at a time below eight terms, else eight running sums combined as
     ((0+1)+(2+3))+((4+5)+(6+7)), then the remainder one at a time.  The same bits as numpy, signed zeros included
-    (``tests/test_kernels.py``)."""
+    (``tests/test_gnss_fuzzy.py``)."""
     if n < 8:
         res = -0.0
         for i in range(lo, lo + n):
@@ -856,8 +856,8 @@ def _numpy_sum(a, lo, n):
 @njit(**_OPTS)
 def _trapezoid(x, a, b, c, d):
     """One trapezoid's membership at x, as numpy evaluates it (:func:`mmlib.core.linalg.trapezoid_memberships`):
-    ``clip(minimum(up, down), 0, 1)`` with numpy's ``minimum`` (NaN from either side) and ``clip`` (a NaN kept, a
-    signed zero kept where it is not below 0)."""
+    ``clip(minimum(up, down), 0, 1)`` with numpy's ``minimum`` (NaN from either side, the second of two equal values)
+    and ``clip`` (a NaN kept, a signed zero kept)."""
     if a == -np.inf:
         up = 1.0
     elif b == a:
@@ -870,7 +870,7 @@ def _trapezoid(x, a, b, c, d):
         down = 1.0 if x <= c else 0.0
     else:
         down = (d - x) / (d - c)
-    v = up if (up <= down or up != up) else down
+    v = up if (up < down or up != up) else down             # numpy's minimum: the second on a tie, NaN kept
     if v != v:
         return v
     if v < 0.0:
@@ -882,10 +882,10 @@ def _trapezoid(x, a, b, c, d):
 
 @njit(**_OPTS)
 def trapezoid_rules(x, bounds, sizes, cons):
-    """A zero-order Takagi-Sugeno system whose input sets are all trapezoids: for inputs x (B, d), the sets of input
-    i ``bounds[i, :, :sizes[i]]`` (rows a, b, c, d; (d, 4, k_max)) and the consequents cons (K, p) of the K = prod(k_i)
-    rules in C order (the last input's set fastest; K <= :data:`NUMPY_SUM_MAX`), ``(output (B, p), total weight
-    (B,))``: rule weights
+    """A zero-order Takagi-Sugeno system whose input sets are all trapezoids (:func:`mmlib.core.linalg.trapezoid_rules`,
+    which checks the shapes): for inputs x (B, d), the sets of input i ``bounds[i, :, :sizes[i]]`` (rows a, b, c, d;
+    (d, 4, k_max)) and the consequents cons (K, p) of the K = prod(k_i) rules in C order (the last input's set
+    fastest; K <= :data:`NUMPY_SUM_MAX`), ``(output (B, p), total weight (B,))``: rule weights
     ``((1 * mu_0) * mu_1) * ...``, their sum in numpy's order (:func:`_numpy_sum`), and ``sum_r w_r cons_r`` one rule
     at a time from 0 (:func:`matmul_rows`'s order) over that sum."""
     B, d = x.shape

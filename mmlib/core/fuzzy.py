@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mmlib.core._validate import as_float_array, check_finite, check_scalar
-from mmlib.core.linalg import matmul_rows, rule_weights, trapezoid_rules
+from mmlib.core.linalg import rule_output, rule_weights, trapezoid_rules
 from mmlib.core.linalg import trapezoid_memberships as _trapezoid_memberships
 
 __all__ = ["TakagiSugeno", "Trapezoid", "ramp_sets"]
@@ -185,19 +185,18 @@ class TakagiSugeno:
         return x
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        x = self._checked(x)
-        out = None
+        checked = self._checked(x)
         if self._trapezoids is not None:         # every input's sets trapezoids: one call (compiled on that kernel)
-            out, total = trapezoid_rules(x, *self._trapezoids, self._rule_consequents)
-        else:
-            wf = self.firing_strengths(x).reshape(x.shape[0], -1)
-            total = wf.sum(axis=1)
+            out, total = trapezoid_rules(checked, *self._trapezoids, self._rule_consequents)
+        else:                                    # (rule_output: matmul_rows, the same bits whatever the runs)
+            K = self._rule_consequents.shape[0]
+            out, total = rule_output(self.firing_strengths(checked).reshape(checked.shape[0], K),
+                                     self._rule_consequents)
         if np.any(total <= 0):
             b = int(np.argmax(total <= 0))
             raise ValueError(f"x: input {np.asarray(x)[b].tolist()} (row {b}) fires no rule; the fuzzy sets must "
                              "cover every input value")
-        # matmul_rows, not wf @ ...: the same bits for a run whatever the number of runs (one included)
-        return out if out is not None else matmul_rows(wf, self._rule_consequents) / total[:, None]
+        return out
 
     def rules(self) -> Iterator[tuple[tuple[str, ...], np.ndarray]]:
         """Readable rule list: (antecedent set names, consequent vector)."""

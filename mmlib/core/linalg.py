@@ -54,7 +54,7 @@ __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused"
            "weighted_mean", "weighted_covariances", "kalman_moments", "measurement_moments", "congruence", "cholesky",
            "log_det_from_cholesky", "normalised_square", "solve", "information_fusion", "tril_inverse", "symmetrize",
            "trace", "wrap_angle", "range_bearing", "pseudoranges", "matmul_rows", "trapezoid_memberships",
-           "rule_weights", "trapezoid_rules",
+           "rule_weights", "rule_output", "trapezoid_rules",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "fading_factor", "strong_tracking_step",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
@@ -248,6 +248,7 @@ _SHAPES = {
     "sigma_step": ("N n", "N n n", "M n", "M", "M", "n n", "N m", "... m m", "m", "... n n"),
     "strong_tracking_step": ("N n", "N n n", "M n", "M", "M", "n n", "N m", "... m m", "m", "... n n", "N m m"),
     "fading_factor": ("N n n", "N n n", "N n m", "N m m", "N m m", "N m m", None),
+    "trapezoid_rules": ("N d", "d - -", "d", "- -"),
 }
 _CHECKED: set = set()
 
@@ -951,6 +952,27 @@ def rule_weights(memberships: list) -> np.ndarray:
     return w
 
 
+def rule_output(weights: np.ndarray, consequents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(output (B, p), total (B,))`` of a zero-order Takagi-Sugeno system from its rule weights (B, K) and the
+    consequents (K, p): :math:`\sum_r w_r c_r / \sum_r w_r` by :func:`matmul_rows`, and :math:`\sum_r w_r`.  A row
+    whose total is not > 0 fires no rule (its output is then not a number; the caller refuses it)."""
+    total = weights.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return matmul_rows(weights, consequents) / total[:, None], total
+
+
+def _check_rules(x, bounds, sizes, consequents) -> None:
+    """The operands of :func:`trapezoid_rules`, checked (the compiled kernel does not check bounds): a ValueError
+    naming the argument that does not fit the others, never a read out of bounds."""
+    _check_shapes("trapezoid_rules", x.shape[0], (x, bounds, sizes, consequents))
+    if bounds.shape[1] != 4 or np.any(sizes < 1) or np.any(sizes > bounds.shape[2]):
+        raise ValueError(f"sizes: {np.asarray(sizes).tolist()} sets in bounds of shape {bounds.shape} "
+                         f"(expected (d, 4, k) holding at least one set per input)")
+    if consequents.shape[0] != int(np.prod(sizes)):
+        raise ValueError(f"consequents: {consequents.shape[0]} rules, but the inputs' sets "
+                         f"{np.asarray(sizes).tolist()} make {int(np.prod(sizes))}")
+
+
 @_operation
 def trapezoid_rules(x: np.ndarray, bounds: np.ndarray, sizes: np.ndarray,
                     consequents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -958,19 +980,18 @@ def trapezoid_rules(x: np.ndarray, bounds: np.ndarray, sizes: np.ndarray,
     calls it): for inputs ``x`` (B, d), input i's ``sizes[i]`` sets ``bounds[i, :, :sizes[i]]`` (rows a, b, c, d of
     :func:`trapezoid_memberships`; ``bounds`` (d, 4, max k_i)) and the consequents (K, p) of the K = prod k_i rules in
     C order, ``(output (B, p), total weight (B,))``: the weights of :func:`rule_weights`, their sum and
-    :math:`\sum_r w_r c_r / \sum_r w_r` by :func:`matmul_rows`.  A row whose total is not > 0 fires no rule (its
-    output is then not a number; the caller refuses it).  The compiled form gives the bits of this one on the
-    compiled kernels (``tests/test_kernels.py``): numpy's order of summation for the total, :func:`matmul_rows`'s for
-    the output."""
+    :func:`rule_output` of them.  A row whose total is not > 0 fires no rule (its output is then not a number; the
+    caller refuses it).  The compiled form gives the bits of this one on the compiled kernels
+    (``tests/test_gnss_fuzzy.py``): numpy's order of summation for the total, :func:`matmul_rows`'s for the output.
+    Operands that do not fit each other are a ValueError naming the argument."""
+    _check_rules(x, bounds, sizes, consequents)
     mus = [trapezoid_memberships(bounds[i, :, :sizes[i]], x[:, i]) for i in range(x.shape[1])]
-    wf = rule_weights(mus).reshape(x.shape[0], -1)
-    total = wf.sum(axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return matmul_rows(wf, consequents) / total[:, None], total
+    return rule_output(rule_weights(mus).reshape(x.shape[0], consequents.shape[0]), consequents)
 
 
 @trapezoid_rules.compiled
 def _trapezoid_rules_compiled(x, bounds, sizes, consequents):
+    _check_rules(x, bounds, sizes, consequents)
     kernels = _compiled_module()
     if consequents.shape[0] > kernels.NUMPY_SUM_MAX:     # the total in numpy's order needs its recursion: numpy's
         return trapezoid_rules.implementations["numpy"](x, bounds, sizes, consequents)     # (matmul_rows compiled)
