@@ -463,6 +463,9 @@ def test_an_input_firing_no_rule_is_refused_on_either_kernel(kernel):
             gap(np.array([[0.5, 3.0], [5.0, 3.0]]))
         with pytest.raises(ValueError, match=r"input \[5, 3\] \(row 1\) fires no rule"):   # as the caller wrote it
             gap([[0, 3], [5, 3]])
+        for system in (gap, TakagiSugeno(((lambda v: np.ones_like(v),),), np.zeros((1, 1)))):   # trapezoids or not
+            with pytest.raises(ValueError, match=r"x: expected shape \(B, \d\) with B >= 1"):
+                system(np.zeros((0, system.n_inputs)))
 
 
 def test_degree_of_divergence_definitions():

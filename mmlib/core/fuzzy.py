@@ -180,8 +180,8 @@ class TakagiSugeno:
 
     def _checked(self, x) -> np.ndarray:
         x = check_finite(as_float_array(x, "x"), "x")
-        if x.ndim != 2 or x.shape[1] != self.n_inputs:
-            raise ValueError(f"x: expected shape (B, {self.n_inputs}), got {x.shape}")
+        if x.ndim != 2 or x.shape[1] != self.n_inputs or x.shape[0] == 0:
+            raise ValueError(f"x: expected shape (B, {self.n_inputs}) with B >= 1, got {x.shape}")
         return x
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
