@@ -886,16 +886,16 @@ def trapezoid_rules(x, bounds, sizes, cons):
     which checks the shapes): for inputs x (B, d), the sets of input i ``bounds[i, :, :sizes[i]]`` (rows a, b, c, d;
     (d, 4, k_max)) and the consequents cons (K, p) of the K = prod(k_i) rules in C order (the last input's set
     fastest; K <= :data:`NUMPY_SUM_MAX`), ``(output (B, p), total weight (B,))``: rule weights
-    ``((1 * mu_0) * mu_1) * ...``, their sum in numpy's order (:func:`_numpy_sum`), and ``sum_r w_r cons_r`` one rule
-    at a time from 0 (:func:`matmul_rows`'s order) over that sum."""
+    ``((1 * mu_0) * mu_1) * ...``, their sum in numpy's order (:func:`_numpy_sum`), and :func:`matmul_rows` of the
+    weights and the consequents over that sum."""
     B, d = x.shape
-    K, p = cons.shape
+    K = cons.shape[0]
     mu = np.empty((d, bounds.shape[2]))
-    w = np.empty(K)
+    weights = np.empty((B, K))
     digit = np.empty(d, dtype=np.int64)
-    out = np.empty((B, p))
     total = np.empty(B)
     for row in range(B):
+        w = weights[row]
         for i in range(d):
             for s in range(sizes[i]):
                 mu[i, s] = _trapezoid(x[row, i], bounds[i, 0, s], bounds[i, 1, s], bounds[i, 2, s], bounds[i, 3, s])
@@ -908,13 +908,11 @@ def trapezoid_rules(x, bounds, sizes, cons):
             for i in range(d):
                 v = v * mu[i, digit[i]]
             w[r] = v
-        t = _numpy_sum(w, 0, K)
-        total[row] = t
-        for c in range(p):
-            acc = 0.0
-            for r in range(K):
-                acc += w[r] * cons[r, c]
-            out[row, c] = acc / t
+        total[row] = _numpy_sum(w, 0, K)
+    out = matmul_rows(weights, cons)
+    for row in range(B):
+        for c in range(out.shape[1]):
+            out[row, c] = out[row, c] / total[row]
     return out, total
 
 
