@@ -59,13 +59,26 @@ def notebook_time(path: Path) -> dict:
 def _throughput(doc: dict, t: dict) -> dict:
     """The reading space's universes of a paper's results (``multiverse.universes``), those computed in this run (the
     rest came from the cache) and the computed ones per minute of the multiverse part's wall time (with its pool of
-    workers: per minute of the machine, not of one core); {} without a multiverse."""
+    workers: per minute of the machine, not of one core); {} without a multiverse.  Where the run recorded how it
+    obtained its universes (the provenance's ``multiverse_computed``, ``multiverse_from_cache`` and
+    ``multiverse_cpu_s``, from :func:`mmlib.experiment.grid.run_grid`'s ``stats``), those counts replace the ones
+    parsed from the notebook (``universes_from_cache``), and the computed universes per CPU-minute of their own jobs
+    follow (``universes_per_cpu_minute``: the rate of the computation itself, whatever the workers and the load)."""
     universes = (doc.get("multiverse") or {}).get("universes")
     if not isinstance(universes, list) or not t.get("multiverse_s"):
         return {}
-    computed = len(universes) - int(t.get("universes_from_cache") or 0)
+    prov = doc.get("provenance") or {}
+    out = {}
+    recorded = all(isinstance(prov.get(k), (int, float)) and not isinstance(prov.get(k), bool)
+                   for k in ("multiverse_computed", "multiverse_from_cache", "multiverse_cpu_s"))
+    if recorded:
+        computed, cpu = int(prov["multiverse_computed"]), float(prov["multiverse_cpu_s"])
+        out.update(universes_from_cache=int(prov["multiverse_from_cache"]), multiverse_cpu_s=cpu,
+                   universes_per_cpu_minute=60.0 * computed / cpu if computed > 0 and cpu > 0 else None)
+    else:
+        computed = len(universes) - int(t.get("universes_from_cache") or 0)
     return {"universes": len(universes), "universes_computed": computed,
-            "universes_per_minute": 60.0 * computed / t["multiverse_s"] if computed > 0 else None}
+            "universes_per_minute": 60.0 * computed / t["multiverse_s"] if computed > 0 else None, **out}
 
 
 def notebook_times(executed_dir: Path, results_dir: Path | None = None) -> dict:
@@ -92,15 +105,19 @@ def notebook_times(executed_dir: Path, results_dir: Path | None = None) -> dict:
     starts = [t["start_time"] for t in papers.values() if t["start_time"]]
     ends = [t["end_time"] for t in papers.values() if t["end_time"]]
     return {
-        "what": "wall times of the run that produced the committed executed notebooks (notebooks/executed/), "
-                "read from papermill's metadata; not times of this benchmark's run. headline = the cells before "
-                "the first code cell calling nb.multiverse() ; multiverse = that cell and all later ones; "
-                "papermill_overhead = wall - sum of the cells (kernel start-up). The multiverse's universes run in "
-                "a pool of $WORKERS processes (default: the usable cores) with one BLAS thread each; the "
-                "notebooks do not record the worker count. universes_from_cache: universes read from the "
-                "multiverse cache instead of computed (0: all computed); universes_per_minute: the computed universes "
-                "per minute of the multiverse part's wall time (all its workers together). Written by make figures "
-                "after the notebooks run (python -m bench.notebooks) and by make bench.",
+        "what": "wall times of the run that produced the committed executed notebooks (notebooks/executed/), read "
+                "from papermill's metadata; not times of this benchmark's run. headline = the cells before the first "
+                "code cell calling nb.multiverse() ; multiverse = that cell and all later ones; papermill_overhead = "
+                "wall - sum of the cells (kernel start-up). The multiverse's universes run in a pool of $WORKERS "
+                "processes (default: the usable cores) with one BLAS thread each; the notebooks do not record the "
+                "worker count. universes_from_cache: universes read from the multiverse cache instead of computed (0:"
+                " all computed); universes_per_minute: the computed universes per minute of the multiverse part's "
+                "wall time (all its workers together, the run-count stability check's universes included in that "
+                "time); multiverse_cpu_s: the CPU seconds of the computed universes' own jobs (each on one thread, "
+                "where it ran), universes_per_cpu_minute: the computed universes per minute of that CPU time (the "
+                "rate of the computation, whatever the workers and the load; from the results' provenance, where the "
+                "run recorded it). Written by make figures after the notebooks run (python -m bench.notebooks) and by"
+                " make bench.",
         "papers": papers,
         "studies": studies,
         "sum": {"wall_s": total("wall_s"), "headline_s": total("headline_s"), "multiverse_s": total("multiverse_s"),
@@ -122,9 +139,10 @@ def main() -> int:
     (repo / "data" / "bench").mkdir(parents=True, exist_ok=True)
     atomic_write_text(repo / "data" / "bench" / "notebooks.json", json.dumps(doc, indent=1) + "\n")
     for paper, t in doc["papers"].items():
-        rate = t.get("universes_per_minute")
+        rate, cpu_rate = t.get("universes_per_minute"), t.get("universes_per_cpu_minute")
         print(f"  {paper}: {t['wall_s']:.0f} s wall" + (f", {t['universes_computed']} universes computed, "
-                                                        f"{rate:.1f} per minute" if rate else ""))
+                                                        f"{rate:.1f} per minute" if rate else "")
+              + (f", {cpu_rate:.1f} per CPU-minute" if cpu_rate else ""))
     return 0
 
 

@@ -1,6 +1,7 @@
 """A small reading space and module-level jobs for the experiment-layer tests (importable by the
 spawned worker processes of the grid runner, hence a module of its own)."""
 import dataclasses
+import time
 
 import numpy as np
 
@@ -39,6 +40,18 @@ def toy_universe(reading, n_runs, seed):
                                         ("T1", "alg", "sd", sd, sd / np.sqrt(2 * n_runs))],
                                 claims=claims, effects=[("mean", m.value, m.stderr, 1.0)],
                                 diverged={"alg": int(ch["c"] == 2)}, n_runs=n_runs)
+
+
+#: CPU seconds each :func:`spinning_universe` spends on its own thread
+SPIN = 0.02
+
+
+def spinning_universe(reading, n_runs, seed):
+    """:func:`toy_universe` after spinning for :data:`SPIN` CPU-seconds of its thread (a job of known CPU time)."""
+    start = time.thread_time()
+    while time.thread_time() - start < SPIN:
+        pass
+    return toy_universe(reading, n_runs, seed)
 
 
 def not_a_dict(reading, n_runs, seed):

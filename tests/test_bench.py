@@ -242,3 +242,12 @@ def test_notebook_times_split_at_the_reading_space_and_count_universes_per_minut
     rate = notebooks._throughput({"multiverse": {"universes": [{}] * 12}}, t)
     assert rate == {"universes": 12, "universes_computed": 10, "universes_per_minute": 60.0 * 10 / 33.0}
     assert notebooks._throughput({"rows": []}, t) == {}
+    # where the run recorded how it obtained its universes (the provenance, from run_grid's stats), its counts replace
+    # the parsed one and the computed universes per CPU-minute of their jobs follow
+    prov = {"multiverse_computed": 9, "multiverse_from_cache": 3, "multiverse_cpu_s": 45.0}
+    rate = notebooks._throughput({"provenance": prov, "multiverse": {"universes": [{}] * 12}}, t)
+    assert rate == {"universes": 12, "universes_computed": 9, "universes_per_minute": 60.0 * 9 / 33.0,
+                    "universes_from_cache": 3, "multiverse_cpu_s": 45.0, "universes_per_cpu_minute": 60.0 * 9 / 45.0}
+    none = notebooks._throughput({"provenance": dict(prov, multiverse_computed=0, multiverse_from_cache=12),
+                                  "multiverse": {"universes": [{}] * 12}}, t)
+    assert none["universes_per_minute"] is None and none["universes_per_cpu_minute"] is None

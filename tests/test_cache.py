@@ -93,14 +93,16 @@ def test_another_machine_fingerprint_is_not_served(tmp_path, monkeypatch):
     monkeypatch.setattr(grid, "fingerprint_id", lambda fp=None: "another-cpu")
     calls = []
     monkeypatch.setattr(grid, "_run_job", lambda *a: calls.append(a) or {"result": toy.toy_universe(*a[1:]),
-                                                                         "machine": machine.fingerprint()})
+                                                                         "machine": machine.fingerprint(),
+                                                                         "cpu_s": 0.0})
     _run(toy.toy_universe, tmp_path)
     assert len(calls) == len(READINGS)
 
 
 def test_a_result_from_another_machine_says_so(tmp_path, monkeypatch):
     other = {**machine.fingerprint(), "openblas_core": "Prescott"}
-    monkeypatch.setattr(grid, "_run_job", lambda *a: {"result": toy.toy_universe(*a[1:]), "machine": other})
+    monkeypatch.setattr(grid, "_run_job", lambda *a: {"result": toy.toy_universe(*a[1:]), "machine": other,
+                                                           "cpu_s": 0.0})
     got = _run(toy.toy_universe, tmp_path)
     assert all(r.machine == other for r in got)
     monkeypatch.undo()

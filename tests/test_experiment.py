@@ -5,6 +5,7 @@ import dataclasses
 import itertools
 import json
 import math
+import time
 
 import numpy as np
 import pytest
@@ -123,13 +124,38 @@ def test_changes_merge_and_conflict():
 # -- grid runner and cache -------------------------------------------------------------------------------------
 def _counting(calls):
     """A stand-in for grid._run_job that records its calls and runs the toy universe here."""
-    return lambda *a: calls.append(a) or {"result": toy.toy_universe(*a[1:]), "machine": machine.fingerprint()}
+    return lambda *a: calls.append(a) or {"result": toy.toy_universe(*a[1:]), "machine": machine.fingerprint(),
+                                          "cpu_s": 0.0}
 
 
 def _grid(tmp_path, **kw):
     opts = dict(paper="toy", algorithms=["alg"], n_runs=50, seed=7, cache_dir=tmp_path, progress=False)
     opts.update(kw)
     return run_grid(toy.toy_universe, toy.SPACE.full(), **opts)
+
+
+def test_run_grid_counts_the_computed_and_cached_jobs_and_their_cpu_seconds(tmp_path):
+    """``stats`` says how the results were obtained: every job computed the first time, each with the CPU seconds of
+    its own thread (a job that spins for SPIN CPU-seconds adds at least that, in this process or in a worker's, and the
+    jobs' sum cannot exceed the CPU the whole call used); all read from the cache the second time, with no CPU."""
+    n = len(toy.SPACE.full())
+    for workers in (1, 2):
+        cache = tmp_path / f"w{workers}"
+        stats = {}
+        wall = time.perf_counter()
+        first = run_grid(toy.spinning_universe, toy.SPACE.full(), paper="toy", algorithms=[], n_runs=5, seed=3,
+                         cache_dir=cache, progress=False, workers=workers, stats=stats)
+        wall = time.perf_counter() - wall
+        assert set(stats) == {"computed", "from_cache", "cpu_s"}
+        assert (stats["computed"], stats["from_cache"]) == (n, 0)
+        assert n * toy.SPIN <= stats["cpu_s"] <= workers * wall, (stats, wall)
+        again = {}
+        assert run_grid(toy.spinning_universe, toy.SPACE.full(), paper="toy", algorithms=[], n_runs=5, seed=3,
+                        cache_dir=cache, progress=False, workers=workers, stats=again) == first
+        assert again == {"computed": 0, "from_cache": n, "cpu_s": 0.0}
+    with pytest.raises(ValueError, match="^stats: "):
+        run_grid(toy.toy_universe, [toy.SPACE.headline], paper="toy", algorithms=[], n_runs=5, seed=3,
+                 cache_dir=tmp_path, progress=False, stats=[])
 
 
 def test_results_independent_of_executor_and_worker_count(tmp_path):

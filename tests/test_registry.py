@@ -168,6 +168,10 @@ def test_minimal_paper_runs_through_the_registry(minimal, tmp_path, monkeypatch)
     prov = doc["provenance"]
     assert prov["paper_citation"] == paper.citation and prov["multiverse_design"] == mv.design.kind == "star"
     assert prov["multiverse_runs"] == runs and "timing_runs" not in prov          # the profile times nothing
+    # how the run obtained its universes (bench/notebooks.py's universes per CPU-minute): the grid runner's counts
+    assert prov["multiverse_computed"] + prov["multiverse_from_cache"] == len(mv.universes) == 2
+    assert prov["multiverse_computed"] == mv.compute["computed"] and prov["multiverse_cpu_s"] >= 0.0
+    assert "compute" not in doc["multiverse"]          # a measurement of the machine: provenance only
     assert doc["multiverse"]["n_universes"] == 2 and doc["claims"][0]["claim"] == claims.as_list()[0]["claim"]
     page = make_report.render(doc, tmp_path, tmp_path / "reports")
     assert "example2026" in page and "Table 1" in page and "Reading space" in page

@@ -450,8 +450,11 @@ def _write_json_atomic(path: Path, doc) -> None:
 
 
 def _run_job(job, reading, n_runs, seed):
-    """Run a job where the executor put it; its result with the fingerprint of the machine that computed it."""
-    return {"result": job(dict(reading), n_runs, seed), "machine": fingerprint()}
+    """Run a job where the executor put it; its result with the fingerprint of the machine that computed it and the
+    CPU seconds of the thread that ran it (``cpu_s``: every task computes on one thread, :func:`run_tasks`)."""
+    start = time.thread_time()
+    result = job(dict(reading), n_runs, seed)
+    return {"result": result, "machine": fingerprint(), "cpu_s": time.thread_time() - start}
 
 
 def _plain_reading(reading, name: str) -> dict:
@@ -467,7 +470,7 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
              executor: cf.Executor | None = None, workers: int | None = None,
              cache_dir: str | Path | None = None, use_cache: bool = True,
              progress: bool | Callable = True, label: str = "", result_keys: Sequence[str] = RESULT_KEYS,
-             unit: str = "universe", result_type: type | None = UniverseResult) -> list:
+             unit: str = "universe", result_type: type | None = UniverseResult, stats: dict | None = None) -> list:
     """Run ``job(reading, n_runs, seed)`` for every reading; results in the order of ``readings``.
 
     ``executor``: any ``concurrent.futures.Executor`` (it is not shut down here); by default
@@ -484,7 +487,10 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
     ("universe", "cell").  ``result_type``: a class with ``as_json()`` and
     ``from_json(doc)`` that every job returns (default :class:`~mmlib.experiment.universe.UniverseResult`): results
     are JSON only in the cache and are returned as ``result_type`` objects; None: jobs return plain JSON dicts
-    (the arena's cells), returned as such.
+    (the arena's cells), returned as such.  ``stats``: None, or a dict this call fills with how the results were
+    obtained -- ``computed`` jobs run, ``from_cache`` jobs read from the cache and ``cpu_s``, the CPU seconds of the
+    computed jobs (each job's thread time where it ran: a measurement of the machine, never part of a result)
+    (``make figures`` reports universes per CPU-minute from it, ``bench/notebooks.py``).
     """
     if isinstance(readings, (str, bytes, Mapping)) or not isinstance(readings, Iterable):
         raise ValueError(f"readings: expected a sequence of readings (dicts), got {type(readings).__name__}")
@@ -506,6 +512,8 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
     if isinstance(cache_dir, bool) or (cache_dir is not None and not isinstance(cache_dir, (str, os.PathLike))):
         raise ValueError(f"cache_dir: expected a folder path, got {cache_dir!r}")
     use_cache = check_bool(use_cache, "use_cache")
+    if stats is not None and not isinstance(stats, dict):
+        raise ValueError(f"stats: expected None or a dict to fill, got {type(stats).__name__}")
     if not (isinstance(progress, bool) or callable(progress)):
         raise ValueError(f"progress: expected True, False or a callable receiving each line, got {progress!r}")
     cache = Path(cache_dir) if cache_dir is not None else default_cache_dir()
@@ -524,6 +532,9 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
                 continue
         todo.append(i)
     n_cached = len(readings) - len(todo)
+    counts = {"computed": len(todo), "from_cache": n_cached, "cpu_s": 0.0}
+    if stats is not None:
+        stats.update(counts)
     if say and n_cached:
         say(f"  [{tag}] {n_cached}/{len(readings)} {unit}s from the cache ({_shown(cache / paper)})")
     if result_type is not None:
@@ -536,6 +547,9 @@ def run_grid(job: Callable, readings: Iterable[Mapping[str, Any]], *, paper: str
     def finished(k, out):
         i = todo[k]
         res, machine = out["result"], out["machine"]
+        counts["cpu_s"] += out["cpu_s"]
+        if stats is not None:
+            stats["cpu_s"] = counts["cpu_s"]
         if result_type is not None:
             if not isinstance(res, result_type):
                 raise ValueError(f"job: {job_name(job)} returned {type(res).__name__}, expected a "

@@ -115,6 +115,9 @@ class Multiverse:
     n_runs_paper: int | None = None
     #: the run-count stability check (:func:`mmlib.experiment.stability.run_count_stability`), when run
     stability: dict | None = None
+    #: how the universes were obtained (:func:`run_grid`'s ``stats``: ``computed``, ``from_cache``, ``cpu_s``), when
+    #: recorded: a measurement of the machine, written to the results' provenance, never to the ``multiverse`` object
+    compute: dict | None = None
 
     def __post_init__(self):
         if not isinstance(self.space, ReadingSpace):
@@ -136,6 +139,8 @@ class Multiverse:
             raise ValueError("design: the counted universes repeat a reading (a uniform sample is drawn without "
                              "replacement)")
         _check_published(self.published)
+        if self.compute is not None and not isinstance(self.compute, dict):
+            raise ValueError(f"compute: expected None or a dict (run_grid's stats), got {type(self.compute).__name__}")
         check_positive_int(self.n_runs, "n_runs")
         if self.n_runs_paper is not None:
             check_positive_int(self.n_runs_paper, "n_runs_paper")
@@ -781,9 +786,10 @@ def run_multiverse(space: ReadingSpace, job: Callable, *, published: Iterable[Pu
     if n_runs_paper is not None:
         check_positive_int(n_runs_paper, "n_runs_paper")
     d = space.design(design, sample_size=sample_size, seed=sample_seed)
+    compute: dict = {}
     results = run_grid(job, d.readings, paper=space.paper, algorithms=algorithms, n_runs=n_runs, seed=seed,
-                       result_type=UniverseResult, **grid_options)
-    return Multiverse(space, d, results, published, n_runs, n_runs_paper)
+                       result_type=UniverseResult, stats=compute, **grid_options)
+    return Multiverse(space, d, results, published, n_runs, n_runs_paper, compute=compute)
 
 
 def _check_published(published) -> tuple:

@@ -274,6 +274,11 @@ class NotebookRun:
                           "multiverse_design": mv.design.kind if hasattr(mv, "design") else self.mv_design})
             if hasattr(mv, "design") and mv.design.kind == "sampled":     # the sample actually drawn
                 extra.update({"multiverse_universes": len(mv.design.sample), "multiverse_sample_seed": mv.design.seed})
+            compute = getattr(mv, "compute", None)
+            if compute:      # how this run obtained the universes: bench/notebooks.py's universes per CPU-minute
+                extra.update({"multiverse_computed": int(compute["computed"]),
+                              "multiverse_from_cache": int(compute["from_cache"]),
+                              "multiverse_cpu_s": round(float(compute["cpu_s"]), 1)})
         clash = sorted(set(provenance or {}) & (set(extra) | CORE_PROVENANCE))
         if clash:
             raise ValueError(f"provenance: {clash} are written by NotebookRun itself")
