@@ -4,6 +4,11 @@ computes the same bits as the composed step (mixing, time update, fresh points, 
 Kalman update, IMM output, each its own compiled call), whatever the batch and the block size; the fused path is
 really taken where it applies and never where it does not.
 
+A whole run of such an estimator is one compiled call (:func:`mmlib.core.linalg.sigma_run`,
+:func:`mmlib.core.linalg.imm_sigma_run`, from :func:`mmlib.core.estimation.run`): every step the fused step's body on
+the posterior of the step before, the same bits as the run step by step with the fused steps (:func:`_per_step`
+turns the whole-run path off) and as the composed run.
+
 The comparisons are exact (raw bits, NaN == NaN): the fused kernel runs the same loop bodies (``_*_core`` of
 :mod:`mmlib.core._kernels`) on the same operands, so any difference is a defect, not round-off.
 """
@@ -67,6 +72,11 @@ def _track(imm, z, fused: bool, **kw):
 def _assert_same_track(a, b):
     for field in ("mean", "cov", "mode_probabilities", "diverged_step", "divergence_cause", "nees", "nis"):
         assert _same(getattr(a, field), getattr(b, field)), field
+
+
+def _per_step(monkeypatch):
+    """run() step by step, each step the fused step (the whole-run kernels turned off for this test)."""
+    monkeypatch.setattr(estimation, "_whole_run", lambda *a, **k: None)
 
 
 @pytest.mark.parametrize("rule", sorted(RULES))
@@ -187,8 +197,14 @@ def test_fused_path_is_taken(monkeypatch):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from bench import job
     calls = _spy(monkeypatch)
+    whole = []
+    real = linalg.imm_sigma_run
+    monkeypatch.setattr(linalg, "imm_sigma_run", lambda *a, **k: whole.append(1) or real(*a, **k))
     est = job.mmlib_run(5, 12)
-    assert len(calls) == 12 and np.isfinite(est.mean).all()
+    assert len(whole) == 1 and not calls and np.isfinite(est.mean).all()     # the whole run: one call
+    _per_step(monkeypatch)
+    est = job.mmlib_run(5, 12)
+    assert len(calls) == 12 and len(whole) == 1 and np.isfinite(est.mean).all()     # step by step: one per step
 
 
 @pytest.mark.parametrize("why", ["numpy kernels", "fusion off", "central differences", "mixing strategy",
@@ -313,11 +329,16 @@ def test_single_model_fused_equals_composed_bit_for_bit(rule, meas, monkeypatch)
     est = SingleModel(SigmaPointFilter(RULES[rule]), models.constant_velocity(T, 1.0), measurement)
     z = _problem(measurement, 21)
     composed = _track(est, z, False)
-    calls = []
-    real = linalg.sigma_step
+    calls, whole = [], []
+    real, real_run = linalg.sigma_step, linalg.sigma_run
     monkeypatch.setattr(linalg, "sigma_step", lambda *a, **k: calls.append(1) or real(*a, **k))
+    monkeypatch.setattr(linalg, "sigma_run", lambda *a, **k: whole.append(1) or real_run(*a, **k))
+    at_once = _track(est, z, True)
+    assert len(whole) == 1 and not calls
+    _assert_same_track(composed, at_once)
+    _per_step(monkeypatch)
     fused = _track(est, z, True)
-    assert len(calls) == K
+    assert len(calls) == K and len(whole) == 1
     _assert_same_track(composed, fused)
 
 
@@ -712,6 +733,8 @@ THREADED = {
     "imm_sigma_step": lambda m: IMM(SigmaPointFilter(RULES["UKF"]), _modes(), m, TRANSITION),
     "sigma_step": lambda m: SingleModel(SigmaPointFilter(RULES["5CKF"]), models.constant_velocity(T, 1.0), m),
     "strong_tracking_step": lambda m: _strong_tracking("CKF", m),
+    "imm_sigma_run": lambda m: IMM(SigmaPointFilter(RULES["UKF"]), _modes(), m, TRANSITION),
+    "sigma_run": lambda m: SingleModel(SigmaPointFilter(RULES["5CKF"]), models.constant_velocity(T, 1.0), m),
 }
 
 
@@ -719,23 +742,26 @@ THREADED = {
 @pytest.mark.parametrize("count", [2, 3, 8])
 def test_thread_count_changes_no_bit(step, count, monkeypatch):
     """The blocks of runs split over 2, 3 or 8 threads (7 blocks of 7 runs, the last short): the track of one thread
-    bit for bit, each range of runs computed once, the first in the caller's thread and the others in helper threads
-    (the split is really taken)."""
+    bit for bit, each range of runs computed once (per step, or once for the whole run), the first in the caller's
+    thread and the others in helper threads (the split is really taken)."""
     measurement = MEASUREMENTS["range-bearing off-centre"]
     est = THREADED[step](measurement)
     z = _problem(measurement, 45)[:, :10]
     monkeypatch.setattr(linalg, "FUSED_BLOCK", 7)
+    if not step.endswith("_run"):
+        _per_step(monkeypatch)
     with linalg.use_threads(1):
         reference = _track(est, z, True)
     seen = _spy_ranges(monkeypatch, step)
     with linalg.use_threads(count):
         got = _track(est, z, True)
     _assert_same_track(reference, got)
+    calls = 1 if step.endswith("_run") else 10
     ranges = linalg._run_ranges(45, 7, count)
-    assert len(ranges) == min(count, 7) and len(seen) == 10 * len(ranges)
-    assert sorted((a, b) for a, b, _ in seen) == sorted(ranges * 10)
+    assert len(ranges) == min(count, 7) and len(seen) == calls * len(ranges)
+    assert sorted((a, b) for a, b, _ in seen) == sorted(ranges * calls)
     here = [(a, b) for a, b, name in seen if name == "MainThread"]
-    assert here == [ranges[0]] * 10                # the other ranges at once in the helper threads
+    assert here == [ranges[0]] * calls             # the other ranges at once in the helper threads
 
 
 @pytest.mark.parametrize("block", [1, 3, 128])
@@ -783,13 +809,17 @@ def test_per_run_noise_over_threads_is_read_at_each_runs_own_rows(monkeypatch):
     assert not _same(swapped[5], outs[0][5])
 
 
+@pytest.mark.parametrize("step", ["sigma_step", "sigma_run"])
 @pytest.mark.parametrize("where", ["the caller's range", "a helper's range"])
-def test_an_error_in_any_range_is_raised_once_the_others_finish(where, monkeypatch):
-    """A range that raises, in the caller's thread or in a helper thread, fails the step -- never a silent gap --
-    and only once the other ranges have finished (nothing writes to the outputs after the step has returned)."""
+def test_an_error_in_any_range_is_raised_once_the_others_finish(where, step, monkeypatch):
+    """A range that raises, in the caller's thread or in a helper thread, fails the step (or the whole run) -- never a
+    silent gap -- and only once the other ranges have finished (nothing writes to the outputs after it has
+    returned)."""
     import time
     from mmlib.core import _kernels
-    kernel, done, failing_start = _kernels.sigma_step, [], 0 if where == "the caller's range" else 4
+    kernel, done, failing_start = getattr(_kernels, step), [], 0 if where == "the caller's range" else 4
+    if step == "sigma_step":
+        _per_step(monkeypatch)
 
     def failing(*args):
         if args[-3] == failing_start:
@@ -798,7 +828,7 @@ def test_an_error_in_any_range_is_raised_once_the_others_finish(where, monkeypat
         out = kernel(*args)
         done.append(args[-3])
         return out
-    monkeypatch.setattr(_kernels, "sigma_step", failing)
+    monkeypatch.setattr(_kernels, step, failing)
     monkeypatch.setattr(linalg, "FUSED_BLOCK", 4)
     est = THREADED["sigma_step"](MEASUREMENTS["linear"])
     z = _problem(MEASUREMENTS["linear"], 12)
@@ -858,7 +888,8 @@ def test_timed_filters_run_on_one_thread(monkeypatch):
         evaluation.time_algorithms({"IMM": imm}, {"IMM": init}, z, repeats=2, per_repeat=1)
         cost_model.time_per_step(imm, init, z, 2)
         run(imm, init, z)
-    assert seen[-4:] == [3] * 4 and set(seen[:-4]) == {1}      # a call outside: 3 blocks on 3 of the caller's 4
+    # the run outside a timing: 3 blocks on 3 of the caller's 4 threads, in one call for the whole run
+    assert seen[-1] == 3 and set(seen[:-1]) == {1} and len(seen) > 1
 
 
 @pytest.mark.parametrize("N", [1, 15, 16, 17, 45])
@@ -879,3 +910,184 @@ def test_lanes_and_unlanes_copy_every_lane_once(N):
     _kernels._unlanes(own, b0, back)
     assert np.array_equal(back[b0:b0 + N], a[b0:b0 + N])
     assert (back[:b0] == -1.0).all() and (back[b0 + N:] == -1.0).all()
+
+
+# ------------------------------------------------------------------------------------------ whole runs in one call
+def _wild(z, run_index: int, step: int):
+    """``z`` with one run's first component at one step 1e200 off: its NIS overflows, so every mode's likelihood
+    underflows there."""
+    z = z.copy()
+    z[run_index, step, 0] += 1e200
+    return z
+
+
+def _whole_and_per_step(est, state, z, monkeypatch, **kw):
+    """run() of ``est`` from ``state`` as one compiled call (checked to be taken) and step by step with the fused
+    steps: the two Tracks."""
+    calls = []
+    for name in ("sigma_run", "imm_sigma_run"):
+        real = getattr(linalg, name)
+        monkeypatch.setattr(linalg, name, lambda *a, _real=real, **k: calls.append(1) or _real(*a, **k))
+    with linalg.use_fused(True):
+        whole = run(est, state, z, **kw)
+    assert calls == [1], "the whole run was not one compiled call"
+    with monkeypatch.context() as m:
+        _per_step(m)
+        with linalg.use_fused(True):
+            steps = run(est, state, z, **kw)
+    assert calls == [1]
+    return whole, steps
+
+
+@pytest.mark.parametrize("kind", ["IMM", "single model"])
+@pytest.mark.parametrize("meas", sorted(MEASUREMENTS))
+@pytest.mark.parametrize("keep_cov", [True, False])
+def test_whole_run_equals_the_run_step_by_step(kind, meas, keep_cov, monkeypatch):
+    """Every field of the Track -- estimates, covariances, mode probabilities, NIS, NEES, the step and cause of each
+    divergence -- bit for bit, with runs that fail at the first step (a covariance that is not positive definite) and
+    runs whose every mode's likelihood underflows at a later step (a wild measurement)."""
+    measurement = MEASUREMENTS[meas]
+    B = 13
+    sched = ManeuverSchedule(_modes(), [(8, 16, 1)], 0, T, K, truncate=True)
+    sim = simulate(sched, X0, measurement, MonteCarlo(11, B), range(B))
+    z = _wild(_wild(sim.measurements, 4, 9), 7, 17)
+    cov = np.tile(P0, (B, 1, 1))
+    cov[[2, 10], 0, 0] = -1.0
+    if kind == "IMM":
+        est = IMM(SigmaPointFilter(RULES["UKF"]), _modes(), measurement, TRANSITION)
+        state = est.init(np.tile(X0, (B, 1)), P0)
+        state = state._replace(modes=state.modes._replace(cov=np.repeat(cov[:, None], 3, axis=1)))
+    else:
+        est = SingleModel(SigmaPointFilter(RULES["CKF"]), models.constant_velocity(T, 1.0), measurement)
+        state = est.init(np.tile(X0, (B, 1)), P0)._replace(cov=cov)
+    whole, steps = _whole_and_per_step(est, state, z, monkeypatch, keep_cov=keep_cov, consistency=True,
+                                       truth=sim.truth)
+    _assert_same_track(whole, steps)
+    assert _same(whole.nis_dof, steps.nis_dof)
+    assert {2, 10} <= set(np.flatnonzero(whole.diverged))
+    if kind == "IMM":
+        assert whole.diverged_step[4] == 9 and whole.divergence_cause[4] == estimation.Failure.LIKELIHOOD
+        assert whole.diverged_step[7] == 17
+    assert np.isnan(whole.nis[2]).all() and np.isfinite(whole.nis[0]).all() and np.isfinite(whole.nees[0]).all()
+
+
+@pytest.mark.parametrize("batch", [1, 2, 3, 64])
+@pytest.mark.parametrize("block", [2, 128])
+def test_whole_run_changes_no_bit_with_the_batch_or_the_block(batch, block, monkeypatch):
+    """A run's numbers from a whole-run call are those of its batch of 64, whatever the batch (1, 2, 3, 64) and the
+    block (2: several blocks of a run; 128: one), as the step by step run gives them."""
+    measurement = MEASUREMENTS["range-bearing off-centre"]
+    imm = IMM(SigmaPointFilter(RULES["CKF"]), _modes(), measurement, TRANSITION)
+    z = _problem(measurement, 64)
+    reference = _track(imm, z, True)
+    monkeypatch.setattr(linalg, "FUSED_BLOCK", block)
+    part, steps = _whole_and_per_step(imm, imm.init(np.tile(X0, (batch, 1)), P0), z[:batch], monkeypatch)
+    _assert_same_track(part, steps)
+    for field in ("mean", "cov", "mode_probabilities"):
+        assert _same(getattr(reference, field)[:batch], getattr(part, field)), field
+
+
+@pytest.mark.parametrize("name", ["UKF", "IMMUKF"])
+def test_whole_run_over_gnss_epochs_equals_the_run_step_by_step(name, monkeypatch):
+    """Tseng et al. 2011's filters over the epochs up to 40 past the first change of the satellites in view (each epoch
+    its own satellites, the measurement dimension changing):
+    the epochs are packed into one call (:func:`mmlib.core.linalg.packed_steps`), the same bits as epoch by epoch."""
+    paper = REGISTRY["tseng2011"]
+    make_batch, estimators, per_step = paper.batch(paper.headline_setup(), MonteCarlo(paper.root_seed, 5))
+    truth, z, init = make_batch(range(5))
+    dims = [zk.shape[1] for zk in z]
+    K = next(k for k in range(1, len(dims)) if dims[k] != dims[k - 1]) + 40     # 40 epochs past the first change
+    whole, steps = _whole_and_per_step(estimators[name], init[name], z[:K], monkeypatch,
+                                       measurement_models=per_step[:K], consistency=True, truth=truth[:, :K + 1])
+    _assert_same_track(whole, steps)
+    assert _same(whole.nis_dof, steps.nis_dof) and np.isfinite(whole.mean).all()
+
+
+def test_whole_run_raises_at_the_same_run_and_step(monkeypatch):
+    """``on_divergence='raise'`` names the run and the step the step-by-step run would stop at (the first step at
+    which a run fails, the lowest run failing there)."""
+    measurement = MEASUREMENTS["range-bearing"]
+    imm = IMM(SigmaPointFilter(RULES["UKF"]), _modes(), measurement, TRANSITION)
+    z = _wild(_wild(_problem(measurement, 9), 6, 5), 3, 5)
+    state = imm.init(np.tile(X0, (9, 1)), P0)
+    messages = []
+    for whole in (True, False):
+        with monkeypatch.context() as m:
+            if not whole:
+                _per_step(m)
+            with pytest.raises(estimation.FilterDivergence) as err:
+                run(imm, state, z, on_divergence="raise")
+        messages.append(str(err.value))
+    assert messages[0] == messages[1] and "run 3 diverged at step 5" in messages[0]
+
+
+class _OwnSingleModel(SingleModel):
+    """A subclass (it may override a step): never run as a whole-run call."""
+
+
+@pytest.mark.parametrize("why", ["fusion off", "numpy kernels", "known mode sequence", "layer", "subclass",
+                                 "mixed measurement kinds"])
+def test_whole_run_is_not_taken_where_it_does_not_apply(why, monkeypatch):
+    """Where a run's steps are not all fused steps, or one call cannot take its measurement steps, run() goes step by
+    step (and gives the Track it always gave)."""
+    calls = []
+    for name in ("sigma_run", "imm_sigma_run"):
+        real = getattr(linalg, name)
+        monkeypatch.setattr(linalg, name, lambda *a, _real=real, **k: calls.append(1) or _real(*a, **k))
+    measurement = MEASUREMENTS["linear"]
+    cv = models.constant_velocity(T, 1.0)
+    est = SingleModel(SigmaPointFilter(RULES["UKF"]), cv, measurement)
+    z, kw = _problem(measurement, 4), {}
+    if why == "known mode sequence":
+        est = estimation.KnownModeSequence(SigmaPointFilter(RULES["UKF"]), _modes(), np.zeros(K, dtype=int),
+                                           measurement)
+    elif why == "layer":
+        est = _strong_tracking("CKF", measurement)
+    elif why == "subclass":
+        est = _OwnSingleModel(SigmaPointFilter(RULES["UKF"]), cv, measurement)
+    elif why == "mixed measurement kinds":
+        est = SingleModel(SigmaPointFilter(RULES["UKF"]), cv, None)
+        bearing = MEASUREMENTS["range-bearing"]
+        zb = _problem(bearing, 4)
+        kw = dict(measurement_models=[measurement if k % 2 else bearing for k in range(K)])
+        z = [z[:, k] if k % 2 else zb[:, k] for k in range(K)]
+    state = est.init(np.tile(X0, (4, 1)), P0)
+    with linalg.use_fused(why != "fusion off"), linalg.use_kernel("numpy" if why == "numpy kernels" else "numba"):
+        track = run(est, state, z, **kw)
+    assert not calls and np.isfinite(track.mean).all()
+
+
+def test_whole_run_truth_of_another_dimension_is_named_as_step_by_step():
+    measurement = MEASUREMENTS["linear"]
+    est = SingleModel(SigmaPointFilter(RULES["UKF"]), models.constant_velocity(T, 1.0), measurement)
+    z = _problem(measurement, 3)
+    with pytest.raises(ValueError, match="^truth: state dimension 6"):
+        run(est, est.init(np.tile(X0, (3, 1)), P0), z, consistency=True, truth=np.zeros((3, K + 1, 6)))
+
+
+def test_packed_steps_keep_each_steps_rows_and_refuse_what_one_call_cannot_take():
+    """Step k's measurements, matrix, R and angular flags at rows zoff[k]..zoff[k+1]-1; None for steps of different
+    kinds or sensors; the run kernels refuse offsets that do not describe the packed rows (they read without bounds
+    checks)."""
+    rng = np.random.default_rng(2)
+    B, n = 3, 8
+    sats = [rng.normal(size=(m, 3)) * 2e7 for m in (5, 7, 6)]
+    zs = [rng.normal(size=(B, s.shape[0])) for s in sats]
+    measures = [(linalg.MEASURE_PSEUDORANGES, s, (0, 2, 4, 6), np.zeros(2)) for s in sats]
+    Rs = [np.eye(s.shape[0]) * (k + 1.0) for k, s in enumerate(sats)]
+    packed = linalg.packed_steps(zs, measures, [np.zeros(s.shape[0], bool) for s in sats], Rs, n)
+    z, zoff, kind, A, idx, sensor, angular, R = packed
+    assert zoff.tolist() == [0, 5, 12, 18] and kind == linalg.MEASURE_PSEUDORANGES and idx.tolist() == [0, 2, 4, 6]
+    for k in range(3):
+        lo, hi = zoff[k], zoff[k + 1]
+        assert _same(z[:, lo:hi], zs[k]) and _same(A[lo:hi], sats[k]) and _same(R[lo:hi, :hi - lo], Rs[k])
+    assert R.shape == (18, 7) and angular.shape == (18,) and not angular.any()
+    other = (linalg.MEASURE_PSEUDORANGES, sats[1], (0, 2, 4, 7), np.zeros(2))
+    assert linalg.packed_steps(zs, [measures[0], other, measures[2]], [None] * 3, Rs, n) is None
+    assert linalg.packed_steps(zs, measures, [None] * 3, [Rs[0], Rs[1][None], Rs[2]], n) is None
+    up = RULES["UKF"].unit_points(n)
+    bad = (z, np.array([0, 5, 13, 18], dtype=np.int64)) + packed[2:]
+    for wrong in (bad, (z, zoff[:1]) + packed[2:], (z, zoff.astype(np.int32)) + packed[2:]):
+        with pytest.raises(ValueError, match="^packed: "):
+            linalg.sigma_run(np.zeros((B, n)), np.tile(np.eye(n), (B, 1, 1)), up.xi, up.wm, up.wc, np.eye(n),
+                             np.eye(n), wrong, 1.8, keep_cov=False, nis=False)

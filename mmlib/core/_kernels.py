@@ -1501,3 +1501,190 @@ def _imm_outputs(B, r, n, m, with_cov):
     return (np.empty((B, r, n)), np.empty((B, r, n, n)), np.empty((B, r)), np.empty(B), np.zeros(B, dtype=np.bool_),
             np.empty((B, n)), np.empty((B, n, n) if with_cov else (B, 0, 0)), np.empty((B, m)), np.empty((B, m, m)),
             np.zeros((B, r), dtype=np.bool_))
+
+
+# --------------------------------------------------------------------------- whole runs: every step of a block of runs
+@njit(**_OPTS)
+def _nsq_lanes(v, S, out):
+    r""":math:`v^T S^{-1} v` for each lane of v (d, N) and S (d, d, N) into out (N,): for every lane the operations
+    :func:`normalised_square` does for that run (the same bits)."""
+    d, N = v.shape
+    A = np.empty((d, d))
+    x = np.empty((d, 1))
+    for b in range(N):
+        for i in range(d):
+            x[i, 0] = v[i, b]
+            for j in range(d):
+                A[i, j] = S[i, j, b]
+        if not _lu_solve(A, x):
+            out[b] = np.nan
+            continue
+        t = 0.0
+        for i in range(d):
+            t += v[i, b] * x[i, 0]
+        out[b] = t
+
+
+@njit(**_OPTS)
+def _step_measurement(k, z, zoff, A, R, angular, b0, N):
+    """The measurement operands of step k for the N lanes of a block starting at run b0: ``(zb (m, N), A_k, Rb (m, m,
+    N), angular_k)`` from the packed steps -- z (B, sum m_k), A (sum m_k, a) and R (sum m_k, max m_k) with step k's
+    rows zoff[k]..zoff[k+1]-1, angular (sum m_k,) -- R_k copied into every lane (one R per step, shared by the runs)."""
+    lo, hi = zoff[k], zoff[k + 1]
+    m = hi - lo
+    zb = np.empty((m, N))
+    for i in range(m):
+        for lane in range(N):
+            zb[i, lane] = z[b0 + lane, lo + i]
+    Rb = np.empty((m, m, N))
+    for i in range(m):
+        for j in range(m):
+            Rb[i, j, :] = R[lo + i, j]
+    # copies, C-contiguous as sigma_step's operands: the step's cores then run as compiled for it (no other layout)
+    return zb, A[lo:hi].copy(), Rb, angular[lo:hi].copy()
+
+
+@njit(**_OPTS)
+def _store_step(src, b0, k, out):
+    """Step k of the runs b0.. of ``out`` (B, K, ...) (C-contiguous) <- the lanes of ``src`` (..., N)."""
+    N = src.shape[-1]
+    s = src.reshape((src.size // N, N))
+    q = s.shape[0]
+    o = out.reshape((out.shape[0], out.shape[1], q))
+    for i in range(q):
+        for lane in range(N):
+            o[b0 + lane, k, i] = s[i, lane]
+
+
+@njit(**_OPTS)
+def _consistency_step(k, b0, mean, cov, nu, S, nis_on, truth, nis_out, nees_out):
+    """The NIS of step k (``nu`` (m, N), ``S`` (m, m, N)) when ``nis_on`` and, when ``truth`` (B, K, n) is given (not
+    empty), the NEES of ``mean`` (n, N) and ``cov`` (n, n, N) against truth[:, k], for the lanes of the runs b0..:
+    what ``run(..., consistency=True)`` computes per step with :func:`normalised_square`."""
+    n, N = mean.shape
+    if nis_on:
+        out = np.empty(N)
+        _nsq_lanes(nu, S, out)
+        for lane in range(N):
+            nis_out[b0 + lane, k] = out[lane]
+    if truth.shape[0] > 0:
+        err = np.empty((n, N))
+        for i in range(n):
+            for lane in range(N):
+                err[i, lane] = mean[i, lane] - truth[b0 + lane, k, i]
+        out = np.empty(N)
+        _nsq_lanes(err, cov, out)
+        for lane in range(N):
+            nees_out[b0 + lane, k] = out[lane]
+
+
+@njit(**_OPTS)
+def sigma_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angular, R, log_2pi, truth, nis_on,
+              keep_cov, mean_out, cov_out, failed_out, nis_out, nees_out, start, stop, block):
+    r"""Every step of a single-model sigma-point filter on linear dynamics over K packed measurement steps, for blocks
+    of ``block`` runs: step k is :func:`sigma_step`'s body (:func:`_filter_step`) on the posterior of step k - 1, the
+    state kept batch innermost from step to step, hence the bits of K calls of :func:`sigma_step`.
+
+    mean (B, n), cov (B, n, n), the rule xi, wm, wc, F (n, n), Q (P, n, n) periodic over the runs; the measurements of
+    step k z[:, zoff[k]:zoff[k+1]] of z (B, sum m_k), with the rows zoff[k]..zoff[k+1]-1 of A (the measurement
+    function's matrix, :func:`_measure` ``kind``, ``idx``, ``sensor``), of R (sum m_k, max m_k) (step k's R, shared by
+    the runs) and of angular (sum m_k,).  ``truth`` (B, K, n) for the NEES or (0, 0, 0), ``nis_on`` for the NIS.
+    Writes, for the runs start..stop-1: the posterior means mean_out (B, K, n), covariances cov_out (B, K, n, n) (if
+    ``keep_cov``), ``failed_out`` (B, K) (:func:`_filter_step`), nis_out and nees_out (B, K) (when computed)."""
+    n = mean.shape[1]
+    K = zoff.shape[0] - 1
+    for b0 in range(start, stop, block):
+        N = min(block, stop - b0)
+        mb = np.empty((n, N))
+        Pb = np.empty((n, n, N))
+        _lanes(mean, b0, N, (1, 0), mb)
+        _lanes(cov, b0, N, (1, 0), Pb)
+        Fb = np.empty((n, n, N))
+        for i in range(n):
+            for j in range(n):
+                Fb[i, j, :] = F[i, j]
+        Qb = np.empty((n, n, N))
+        _lanes(Q, b0, N, (1, 0), Qb)
+        ll = np.empty(N)
+        failed = np.empty(N, dtype=np.bool_)
+        for k in range(K):
+            zb, Ak, Rb, ang = _step_measurement(k, z, zoff, A, R, angular, b0, N)
+            m = zb.shape[0]
+            post_mean = np.empty((n, N))
+            post_cov = np.empty((n, n, N))
+            nu = np.empty((m, N))
+            S = np.empty((m, m, N))
+            _filter_step(mb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, Ak, idx, sensor, ang, log_2pi, post_mean, post_cov,
+                         nu, S, ll, failed)
+            _store_step(post_mean, b0, k, mean_out)
+            if keep_cov:
+                _store_step(post_cov, b0, k, cov_out)
+            for lane in range(N):
+                failed_out[b0 + lane, k] = failed[lane]
+            _consistency_step(k, b0, post_mean, post_cov, nu, S, nis_on, truth, nis_out, nees_out)
+            mb, Pb = post_mean, post_cov
+
+
+@njit(**_OPTS)
+def imm_sigma_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angular, R, with_cov, log_2pi,
+                  truth, nis_on, keep_cov, mean_out, cov_out, mu_out, failed_out, underflow_out, nis_out, nees_out,
+                  start, stop, block):
+    r"""Every IMM cycle of a sigma-point filter with linear mode dynamics over K packed measurement steps, for blocks
+    of ``block`` runs: cycle k is :func:`imm_sigma_step`'s body on the mode probabilities and mode posteriors of
+    cycle k - 1, kept batch innermost from step to step, hence the bits of K calls of :func:`imm_sigma_step`.
+
+    mu (B, r), T (r, r), means (B, r, n), covs (B, r, n, n), the rule, F (r, n, n), Q (P, n, n) periodic over the
+    flattened (runs, modes) stack, the packed measurement steps z, zoff, A, R, angular (:func:`sigma_run`), the
+    measurement function ``kind``, ``idx``, ``sensor``; ``with_cov`` the fused covariance; truth, nis_on as
+    :func:`sigma_run`.  Writes, for the runs start..stop-1: the fused means mean_out (B, K, n), covariances cov_out
+    (B, K, n, n) (if ``keep_cov``), the mode probabilities mu_out (B, K, r), ``failed_out`` (B, K) (some mode filter
+    failed), ``underflow_out`` (B, K) (every mode's likelihood underflowed), nis_out and nees_out (B, K) (when
+    computed: the NIS of the mixture prior's innovation, the NEES of the fused estimate)."""
+    r = mu.shape[1]
+    n = means.shape[2]
+    K = zoff.shape[0] - 1
+    for b0 in range(start, stop, block):
+        N = min(block, stop - b0)
+        mub = np.empty((r, N))
+        Xb = np.empty((r, n, N))
+        Pb = np.empty((r, n, n, N))
+        _lanes(mu, b0, N, (1, 0), mub)
+        _lanes(means, b0, N, (1, 0), Xb)
+        _lanes(covs, b0, N, (1, 0), Pb)
+        Fb = np.empty((r, n, n, N))
+        Qb = np.empty((r, n, n, N))
+        for j in range(r):
+            for i in range(n):
+                for q in range(n):
+                    Fb[j, i, q, :] = F[j, i, q]
+            _lanes(Q, b0, N, (r, j), Qb[j])
+        f_upd = np.empty(N, dtype=np.bool_)
+        for k in range(K):
+            zb, Ak, Rb, ang = _step_measurement(k, z, zoff, A, R, angular, b0, N)
+            m = zb.shape[0]
+            c = np.empty((1, r, N))
+            mm = np.empty((r, n, N))
+            mc = np.empty((r, n, n, N))
+            _mix_core(mub, T, Xb, Pb, c[0], mm, mc)
+            ll = np.empty((r, N))
+            post_mean = np.empty((r, n, N))
+            post_cov = np.empty((r, n, n, N))
+            nu = np.empty((r, m, N))
+            S = np.empty((r, m, m, N))
+            for lane in range(N):
+                failed_out[b0 + lane, k] = False
+            for j in range(r):
+                _filter_step(mm[j], mc[j], xi, wm, wc, Fb[j], Qb[j], Rb, zb, kind, Ak, idx, sensor, ang, log_2pi,
+                             post_mean[j], post_cov[j], nu[j], S[j], ll[j], f_upd)
+                for lane in range(N):
+                    failed_out[b0 + lane, k] = failed_out[b0 + lane, k] or f_upd[lane]
+            mu_b, marg, under, fused, fcov, innov, icov = _output_buffers(r, n, m, N, with_cov)
+            _output_core(ll, c, post_mean, post_cov, nu, S, with_cov, mu_b, marg, under, fused, fcov, innov, icov)
+            _store_step(fused[0], b0, k, mean_out)
+            if keep_cov:
+                _store_step(fcov[0], b0, k, cov_out)
+            _store_step(mu_b[0], b0, k, mu_out)
+            for lane in range(N):
+                underflow_out[b0 + lane, k] = under[lane]
+            _consistency_step(k, b0, fused[0], fcov[0], innov[0], icov[0], nis_on, truth, nis_out, nees_out)
+            mub, Xb, Pb = mu_b[0], post_mean, post_cov

@@ -761,6 +761,11 @@ def run(estimator: protocols.Estimator, state: tuple, measurements: ArrayLike | 
     # overrides step() (the fast path is taken only where step() is this module's own)
     split = getattr(type(estimator), "step", None) in (SingleModel.step, KnownModeSequence.step, IMM.step)
     check, advance = (estimator._check_step, estimator._step) if split else (None, None)
+    if check is not None:
+        track = _whole_run(estimator, state, steps, check, with_cov, keep_cov, consistency, x_true, name,
+                           on_divergence)
+        if track is not None:
+            return track
     models: dict = {}                       # id(a step's measurement model; None: the default) -> the model
     for k, (z_k, model_k) in enumerate(steps):
         if check is None or advance is None:
@@ -801,6 +806,80 @@ def run(estimator: protocols.Estimator, state: tuple, measurements: ArrayLike | 
         nis_arr = np.where(after, np.nan, np.stack(nis, axis=1))
         nees_arr = np.where(after, np.nan, np.stack(nees, axis=1)) if nees else None
         track = track._replace(nees=nees_arr, nis=nis_arr, nis_dof=np.array([z.shape[1] for z, _ in steps]))
+    return track
+
+
+def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, consistency: bool, x_true,
+               name: str, on_divergence: str) -> Track | None:
+    """:func:`run` in one compiled call (:func:`mmlib.core.linalg.sigma_run`, :func:`~mmlib.core.linalg.imm_sigma_run`)
+    where every step of it would be a fused step: a :class:`SingleModel` (exactly, not a subclass) whose steps
+    :meth:`SingleModel._step` fuses (:func:`_fusable`, one ``F``), or an :class:`IMM` whose steps
+    :meth:`IMM._fused_step` fuses (moment mixing), with measurement models whose function the kernels evaluate
+    (:func:`_fused_measure`) and that one call can take (:func:`mmlib.core.linalg.packed_steps`: one kind, one R per
+    step).  The steps' inputs are checked as the step-by-step loop checks them (``check`` once per model), the kernel
+    computes every step as the fused step does, and the divergences, NIS and NEES follow from its per-step outputs as
+    the loop records them: the same Track, bit for bit (``tests/test_fused.py``).  None where it does not apply
+    (the loop runs)."""
+    imm = type(estimator) is IMM
+    if not linalg.fused() or not (imm or type(estimator) is SingleModel):
+        return None
+    if imm:
+        if type(estimator.mixing) is not MomentMixing or not isinstance(state, IMMState) \
+                or not _fusable(estimator.filter, state.modes, estimator.stacked):
+            return None
+        dynamics = estimator.stacked
+    else:
+        if not _fusable(estimator.filter, state, estimator.dynamics) or np.ndim(estimator.dynamics.F) != 2:
+            return None
+        dynamics = estimator.dynamics
+    if x_true is not None and x_true.shape[-1] != dynamics.dim:
+        return None                     # the loop names the mismatch
+    zs, measures, angulars, Rs, models = [], [], [], [], {}
+    for z_k, model_k in steps:
+        if id(model_k) not in models:
+            z_k, models[id(model_k)] = check(state, z_k, with_cov, model_k)
+        model = models[id(model_k)]
+        measure = _fused_measure(model)
+        if measure is None:
+            return None
+        zs.append(z_k)
+        measures.append(measure)
+        angulars.append(model.angular)
+        Rs.append(model.R)
+    packed = linalg.packed_steps(zs, measures, angulars, Rs, dynamics.dim)
+    if packed is None:
+        return None
+    up = estimator.filter.rule.unit_points(dynamics.dim)
+    if imm:
+        means, covs, mus, failed, underflow, nis, nees = linalg.imm_sigma_run(
+            state.mode_probabilities, estimator.transition, state.modes.mean, state.modes.cov, up.xi, up.wm, up.wc,
+            dynamics.F, dynamics.Q, packed, with_cov, LOG_2PI, keep_cov=keep_cov, nis=consistency, truth=x_true)
+        failure = np.where(failed, _COVARIANCE, _NONE)
+        failure = np.where(underflow & (failure == _NONE), _LIKELIHOOD, failure)
+    else:
+        means, covs, failed, nis, nees = linalg.sigma_run(
+            state.mean, state.cov, up.xi, up.wm, up.wc, dynamics.F, dynamics.Q, packed, LOG_2PI, keep_cov=keep_cov,
+            nis=consistency, truth=x_true)
+        mus, failure = None, np.where(failed, _COVARIANCE, _NONE)
+    B, K = failure.shape
+    # the loop's record: a run diverges at the first step whose estimate is not finite or whose filter failed
+    bad = ~np.isfinite(means).all(axis=2) | (failure != _NONE)
+    hit = bad.any(axis=1)
+    first = np.argmax(bad, axis=1)
+    diverged_step = np.where(hit, first, -1)
+    cause = np.zeros(B, dtype=np.int8)
+    rows = np.flatnonzero(hit)
+    at = failure[rows, first[rows]]
+    cause[rows] = np.where(at != _NONE, at, _NONFINITE)
+    if on_divergence == "raise" and rows.size:
+        k = int(diverged_step[rows].min())
+        r = int(np.flatnonzero(diverged_step == k)[0])
+        raise FilterDivergence(f"{name}: run {r} diverged at step {k} ({FAILURE_CAUSES[Failure(int(cause[r]))]})")
+    track = Track(means, covs, mus, diverged_step, None, cause)
+    if consistency:
+        after = np.arange(K)[None, :] >= np.where(diverged_step >= 0, diverged_step, K)[:, None]
+        track = track._replace(nees=None if nees is None else np.where(after, np.nan, nees),
+                               nis=np.where(after, np.nan, nis), nis_dof=np.array([z.shape[1] for z, _ in steps]))
     return track
 
 

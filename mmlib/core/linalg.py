@@ -42,7 +42,7 @@ import functools
 import math
 import os
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -56,7 +56,7 @@ __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused"
            "trace", "wrap_angle", "range_bearing", "pseudoranges", "matmul_rows", "trapezoid_memberships",
            "rule_weights", "rule_output", "trapezoid_rules",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
-           "fading_factor", "strong_tracking_step",
+           "fading_factor", "strong_tracking_step", "packed_steps", "sigma_run", "imm_sigma_run",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
            "FUSED_STEPS",
            "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES",
@@ -247,6 +247,9 @@ _SHAPES = {
     "imm_sigma_step": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N m", "... m m", "m", "... n n"),
     "sigma_step": ("N n", "N n n", "M n", "M", "M", "n n", "N m", "... m m", "m", "... n n"),
     "strong_tracking_step": ("N n", "N n n", "M n", "M", "M", "n n", "N m", "... m m", "m", "... n n", "N m m"),
+    # (z, A, R, angular) of packed_steps: t = the steps' measurements in all, w >= the largest step's
+    "sigma_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n"),
+    "imm_sigma_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N t", "t a", "t w", "t", "... n n"),
     "fading_factor": ("N n n", "N n n", "N n m", "N m m", "N m m", "N m m", None),
     "trapezoid_rules": ("N d", "d - -", "d", "- -"),
 }
@@ -1141,7 +1144,7 @@ FUSED_BLOCK = 128
 
 #: the names of the fused steps below, each a whole filter step in one compiled call (what a caller spies on to see
 #: whether one was taken: ``bench/papers.py``, ``tests/test_fused.py``)
-FUSED_STEPS = ("imm_sigma_step", "sigma_step", "strong_tracking_step")
+FUSED_STEPS = ("imm_sigma_step", "sigma_step", "strong_tracking_step", "sigma_run", "imm_sigma_run")
 
 #: the measurement functions the fused steps evaluate themselves (:func:`mmlib.core._kernels._measure`)
 MEASURE_LINEAR, MEASURE_RANGE_BEARING, MEASURE_PSEUDORANGES = 0, 1, 2
@@ -1225,6 +1228,128 @@ def strong_tracking_step(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: 
         _periodic(Q, 2, (B,)), _contiguous(z), *_measure_args(measure, n, m), angular, _periodic(R, 2, (B,)),
         _contiguous(Vs), V is None, float(rho), float(beta), float(log_2pi)),
         kernels._step_outputs(B, n, m) + (np.empty((B, m, m)), np.empty(B)), B)
+
+
+def packed_steps(zs: Sequence[np.ndarray], measures: Sequence[tuple], angulars: Sequence[ArrayLike],
+                 Rs: Sequence[np.ndarray], n: int) -> tuple | None:
+    r"""K measurement steps packed for a whole run in one compiled call (:func:`sigma_run`, :func:`imm_sigma_run`):
+    step k's measurements ``zs[k]`` (B, m_k), measurement function ``measures[k]`` = ``(kind, A, idx, sensor)``
+    (:func:`imm_sigma_step`), ``angulars[k]`` (m_k,) and covariance ``Rs[k]`` (m_k, m_k) shared by the runs, for an
+    n-state.  Returns ``(z (B, sum m_k), zoff (K+1,), kind, A (sum m_k, a), idx, sensor, angular (sum m_k,),
+    R (sum m_k, max m_k))`` -- step k's rows zoff[k]..zoff[k+1]-1 -- or None where one call cannot take the steps:
+    a kind, position index or sensor that changes between steps, or an R that is not one (m_k, m_k) matrix.  A
+    measurement function that does not fit its step is a ValueError naming ``measure`` (:func:`_measure_args`)."""
+    if not zs:
+        return None
+    kind0, idx0, sensor0 = None, None, None
+    As, offsets = [], [0]
+    for z, measure, R in zip(zs, measures, Rs):
+        m = z.shape[-1]
+        kind, A, idx, sensor = _measure_args(measure, n, m)
+        if kind0 is None:
+            kind0, idx0, sensor0 = kind, idx, sensor
+        elif kind != kind0 or not np.array_equal(idx, idx0) or not np.array_equal(sensor, sensor0):
+            return None
+        if np.shape(R) != (m, m):
+            return None
+        As.append(A if kind != MEASURE_RANGE_BEARING else np.zeros((m, 1)))
+        offsets.append(offsets[-1] + m)
+    widths = {A.shape[1] for A in As}
+    if len(widths) != 1:
+        return None
+    mmax = max(z.shape[-1] for z in zs)
+    R_all = np.zeros((offsets[-1], mmax))
+    for k, R in enumerate(Rs):
+        R_all[offsets[k]:offsets[k + 1], :offsets[k + 1] - offsets[k]] = R
+    angular = np.concatenate([np.broadcast_to(np.asarray(a, dtype=np.bool_), (z.shape[-1],))
+                              for a, z in zip(angulars, zs)])
+    z_all = np.ascontiguousarray(np.concatenate([np.asarray(z, dtype=np.float64) for z in zs], axis=-1))
+    return (z_all, np.array(offsets, dtype=np.int64), kind0, np.ascontiguousarray(np.concatenate(As)), idx0,
+            sensor0, angular, R_all)
+
+
+def _check_offsets(zoff: np.ndarray, R: np.ndarray) -> None:
+    """The step offsets of :func:`packed_steps`: int64 from 0 to R's rows, at least one step, none wider than R (the
+    kernels read step k's rows zoff[k]..zoff[k+1]-1 without checking bounds); else a ValueError naming ``packed``."""
+    widths = np.diff(zoff) if isinstance(zoff, np.ndarray) and zoff.ndim == 1 and zoff.dtype == np.int64 else None
+    if widths is None or widths.size == 0 or zoff[0] != 0 or zoff[-1] != R.shape[0] or (widths < 1).any() \
+            or widths.max() > R.shape[1]:
+        raise ValueError(f"packed: step offsets {zoff!r} do not describe the {R.shape[0]} packed measurements")
+
+
+def _run_outputs(B: int, K: int, n: int, keep_cov: bool, nis: bool, nees: bool) -> tuple:
+    """The outputs of a whole run (:func:`sigma_run`), run axis first: means (B, K, n), covariances (B, K, n, n) or
+    empty, failed (B, K), NIS and NEES (B, K) or empty (every computed entry written by the kernel)."""
+    return (np.empty((B, K, n)), np.empty((B, K, n, n) if keep_cov else (0, 0, 0, 0)),
+            np.zeros((B, K), dtype=np.bool_), np.empty((B, K) if nis else (0, 0)),
+            np.empty((B, K) if nees else (0, 0)))
+
+
+def _truth_operand(truth, B: int, K: int, n: int) -> np.ndarray:
+    """``truth`` x_1..x_K (B, K, n) as the kernels read it, or an empty (0, 0, 0) without one."""
+    if truth is None:
+        return np.zeros((0, 0, 0))
+    truth = np.ascontiguousarray(truth, dtype=np.float64)
+    if truth.shape != (B, K, n):
+        raise ValueError(f"truth: expected shape ({B}, {K}, {n}) (x_1..x_K), got {truth.shape}")
+    return truth
+
+
+def sigma_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray, wc: np.ndarray, F: np.ndarray,
+              Q: np.ndarray, packed: tuple, log_2pi: float, *, keep_cov: bool, nis: bool,
+              truth: np.ndarray | None = None) -> tuple:
+    r"""Every step of a single-model sigma-point filter over linear dynamics in one compiled call (compiled kernels
+    only; :func:`fused`): step k is what :func:`sigma_step` computes on step k - 1's posterior, the same bits, the
+    state never leaving the compiled loop.  ``mean`` (B, n), ``cov`` (B, n, n), the rule ``xi``, ``wm``, ``wc``,
+    ``F`` (n, n), ``Q`` broadcasting against (B, n, n), ``packed`` the K measurement steps (:func:`packed_steps`),
+    ``log_2pi``.  Returns ``(means (B, K, n), covs (B, K, n, n) or None without ``keep_cov``, failed (B, K),
+    nis (B, K) or None, nees (B, K) or None)``: the NIS of each step's innovation with ``nis``, the NEES of each
+    posterior against ``truth`` x_1..x_K (B, K, n) when given, each as :func:`normalised_square` computes it."""
+    B, n = mean.shape
+    z, zoff, kind, A, idx, sensor, angular, R = packed
+    K = zoff.shape[0] - 1
+    cov = _stack(cov, 2, (B,))
+    _check_shapes("sigma_run", B, (mean, cov, xi, wm, wc, F, z, A, R, angular, Q))
+    _check_offsets(zoff, R)
+    out = _over_threads(_compiled_module().sigma_run, (
+        _contiguous(mean), _contiguous(cov), _contiguous(xi), _contiguous(wm), _contiguous(wc), _contiguous(F),
+        _periodic(Q, 2, (B,)), z, zoff, kind, A, idx, sensor, angular, R, float(log_2pi),
+        _truth_operand(truth, B, K, n), bool(nis), bool(keep_cov)),
+        _run_outputs(B, K, n, keep_cov, nis, truth is not None), B)
+    means, covs, failed, nis_out, nees_out = out
+    return means, covs if keep_cov else None, failed, nis_out if nis else None, nees_out if truth is not None else None
+
+
+def imm_sigma_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, covs: np.ndarray, xi: np.ndarray,
+                  wm: np.ndarray, wc: np.ndarray, F: np.ndarray, Q: np.ndarray, packed: tuple, with_cov: bool,
+                  log_2pi: float, *, keep_cov: bool, nis: bool, truth: np.ndarray | None = None) -> tuple:
+    r"""Every IMM cycle of a sigma-point filter over linear mode dynamics in one compiled call (compiled kernels only;
+    :func:`fused`): cycle k is what :func:`imm_sigma_step` computes from cycle k - 1's mode probabilities and mode
+    posteriors, the same bits.  ``mu`` (B, r), ``transition`` (r, r) rows "from", ``means`` (B, r, n), ``covs``
+    (B, r, n, n), the rule, ``F`` (r, n, n), ``Q`` broadcasting against (B, r, n, n), ``packed`` the K measurement steps
+    (:func:`packed_steps`), ``with_cov`` the fused covariance (needed by ``keep_cov`` and ``truth``), ``log_2pi``.
+    Returns ``(means (B, K, n), covs (B, K, n, n) or None, mu (B, K, r), failed (B, K) (some mode filter failed),
+    underflow (B, K) (every mode's likelihood underflowed), nis (B, K) or None, nees (B, K) or None)``: the fused
+    estimates, the NIS of the mixture prior's innovation and the NEES of the fused estimate (:func:`sigma_run`)."""
+    B, r, n = mu.shape[0], mu.shape[1], means.shape[-1]
+    z, zoff, kind, A, idx, sensor, angular, R = packed
+    K = zoff.shape[0] - 1
+    if (keep_cov or truth is not None) and not with_cov:
+        raise ValueError("with_cov: the fused covariance is needed to keep it or for the NEES")
+    means, covs = _stack(means, 2, (B,)), _stack(covs, 3, (B,))
+    _check_shapes("imm_sigma_run", B, (mu, transition, means, covs, xi, wm, wc, F, z, A, R, angular, Q))
+    _check_offsets(zoff, R)
+    nees = truth is not None
+    means_out, covs_out, failed, nis_out, nees_out = _run_outputs(B, K, n, keep_cov, nis, nees)
+    outputs = (means_out, covs_out, np.empty((B, K, r)), failed, np.zeros((B, K), dtype=np.bool_), nis_out, nees_out)
+    out = _over_threads(_compiled_module().imm_sigma_run, (
+        _contiguous(mu), _contiguous(transition), _contiguous(means), _contiguous(covs), _contiguous(xi),
+        _contiguous(wm), _contiguous(wc), _contiguous(F), _periodic(Q, 2, (B, r)), z, zoff, kind, A, idx, sensor,
+        angular, R, bool(with_cov), float(log_2pi), _truth_operand(truth, B, K, n), bool(nis), bool(keep_cov)),
+        outputs, B)
+    means_k, covs_k, mu_k, failed, underflow, nis_out, nees_out = out
+    return (means_k, covs_k if keep_cov else None, mu_k, failed, underflow, nis_out if nis else None,
+            nees_out if nees else None)
 
 
 def _measure_args(measure: tuple, n: int, m: int) -> tuple:
