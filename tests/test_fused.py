@@ -735,6 +735,7 @@ THREADED = {
     "strong_tracking_step": lambda m: _strong_tracking("CKF", m),
     "imm_sigma_run": lambda m: IMM(SigmaPointFilter(RULES["UKF"]), _modes(), m, TRANSITION),
     "sigma_run": lambda m: SingleModel(SigmaPointFilter(RULES["5CKF"]), models.constant_velocity(T, 1.0), m),
+    "strong_tracking_run": lambda m: _strong_tracking("CKF", m),
 }
 
 
@@ -913,6 +914,9 @@ def test_lanes_and_unlanes_copy_every_lane_once(N):
 
 
 # ------------------------------------------------------------------------------------------ whole runs in one call
+WHOLE_RUNS = ("sigma_run", "imm_sigma_run", "strong_tracking_run")
+
+
 def _wild(z, run_index: int, step: int):
     """``z`` with one run's first component at one step 1e200 off: its NIS overflows, so every mode's likelihood
     underflows there."""
@@ -925,7 +929,7 @@ def _whole_and_per_step(est, state, z, monkeypatch, **kw):
     """run() of ``est`` from ``state`` as one compiled call (checked to be taken) and step by step with the fused
     steps: the two Tracks."""
     calls = []
-    for name in ("sigma_run", "imm_sigma_run"):
+    for name in WHOLE_RUNS:
         real = getattr(linalg, name)
         monkeypatch.setattr(linalg, name, lambda *a, _real=real, **k: calls.append(1) or _real(*a, **k))
     with linalg.use_fused(True):
@@ -1026,12 +1030,12 @@ class _OwnSingleModel(SingleModel):
 
 
 @pytest.mark.parametrize("why", ["fusion off", "numpy kernels", "known mode sequence", "layer", "subclass",
-                                 "mixed measurement kinds"])
+                                 "mixed measurement kinds", "float32 V"])
 def test_whole_run_is_not_taken_where_it_does_not_apply(why, monkeypatch):
     """Where a run's steps are not all fused steps, or one call cannot take its measurement steps, run() goes step by
     step (and gives the Track it always gave)."""
     calls = []
-    for name in ("sigma_run", "imm_sigma_run"):
+    for name in WHOLE_RUNS:
         real = getattr(linalg, name)
         monkeypatch.setattr(linalg, name, lambda *a, _real=real, **k: calls.append(1) or _real(*a, **k))
     measurement = MEASUREMENTS["linear"]
@@ -1042,7 +1046,7 @@ def test_whole_run_is_not_taken_where_it_does_not_apply(why, monkeypatch):
         est = estimation.KnownModeSequence(SigmaPointFilter(RULES["UKF"]), _modes(), np.zeros(K, dtype=int),
                                            measurement)
     elif why == "layer":
-        est = _strong_tracking("CKF", measurement)
+        est = SingleModel(StrongTracking(SigmaPointFilter(ST_RULES["CKF"]), form="jacobian"), cv, measurement)
     elif why == "subclass":
         est = _OwnSingleModel(SigmaPointFilter(RULES["UKF"]), cv, measurement)
     elif why == "mixed measurement kinds":
@@ -1052,6 +1056,9 @@ def test_whole_run_is_not_taken_where_it_does_not_apply(why, monkeypatch):
         kw = dict(measurement_models=[measurement if k % 2 else bearing for k in range(K)])
         z = [z[:, k] if k % 2 else zb[:, k] for k in range(K)]
     state = est.init(np.tile(X0, (4, 1)), P0)
+    if why == "float32 V":            # the composed update computes Eq. 17 in float32 at the first step
+        est = _strong_tracking("CKF", measurement)
+        state = est.init(np.tile(X0, (4, 1)), P0, V=np.array([[100.3, 7.1], [7.1, 0.37]], dtype=np.float32))
     with linalg.use_fused(why != "fusion off"), linalg.use_kernel("numpy" if why == "numpy kernels" else "numba"):
         track = run(est, state, z, **kw)
     assert not calls and np.isfinite(track.mean).all()
@@ -1091,3 +1098,62 @@ def test_packed_steps_keep_each_steps_rows_and_refuse_what_one_call_cannot_take(
         with pytest.raises(ValueError, match="^packed: "):
             linalg.sigma_run(np.zeros((B, n)), np.tile(np.eye(n), (B, 1, 1)), up.xi, up.wm, up.wc, np.eye(n),
                              np.eye(n), wrong, 1.8, keep_cov=False, nis=False)
+
+
+@pytest.mark.parametrize("rule", sorted(ST_RULES))
+@pytest.mark.parametrize("meas", sorted(MEASUREMENTS))
+@pytest.mark.parametrize("q", [0.01, 30.0])
+def test_strong_tracking_whole_run_equals_the_run_step_by_step(rule, meas, q, monkeypatch):
+    """The strong-tracking layer's whole run (:meth:`StrongTracking.whole_run`): every Track field the bits of the run
+    step by step with its fused steps, through steps whose fading factor exceeds 1 and steps where it is 1 (q 0.01),
+    with a run failing at the first step and one whose measurement is wild at a later step, a given float64 V and
+    none."""
+    measurement = MEASUREMENTS[meas]
+    est = _strong_tracking(rule, measurement, q)
+    B = 9
+    sched = ManeuverSchedule(_modes(), [(8, 16, 1)], 0, T, K, truncate=True)
+    sim = simulate(sched, X0, measurement, MonteCarlo(5, B), range(B))
+    z = _wild(sim.measurements, 6, 12)
+    state = est.init(np.tile(X0, (B, 1)), P0)
+    cov = state.cov.copy()
+    cov[3, 0, 0] = -1.0
+    state = state._replace(cov=cov)
+    whole, steps = _whole_and_per_step(est, state, z, monkeypatch, consistency=True, truth=sim.truth)
+    _assert_same_track(whole, steps)
+    assert whole.diverged[3] and not whole.diverged[0]
+    if q == 0.01:
+        lam = _fading_factors(est, est.init(np.tile(X0, (B, 1)), P0), np.swapaxes(sim.measurements, 0, 1))
+        assert (lam > 1.0).any() and (lam == 1.0).any()          # both branches of Eq. 28 are taken
+    V = np.tile(np.diag([100.0, 0.5]), (B, 1, 1)) + 0.1
+    given = est.init(np.tile(X0, (B, 1)), P0, V=V)
+    whole, steps = _whole_and_per_step(est, given, z, monkeypatch, keep_cov=False)
+    _assert_same_track(whole, steps)
+
+
+def test_strong_tracking_whole_run_restarts_V_where_the_satellites_change(monkeypatch):
+    """Pseudoranges whose satellite set changes size (V restarts, Eq. 17) for four epochs, a run whose covariance fails
+    at the first step: one call for the whole run, the bits of the run epoch by epoch."""
+    from mmlib.arena import recipes, study
+    from mmlib.experiment import evaluation
+    s = study.scenario("tseng2011")
+    est = recipes.build("STUKF", s)
+    mc = MonteCarlo(s.root_seed, 5)
+    make_batch = evaluation.with_initial_states(s.simulator(mc), {"STUKF": est},
+                                                lambda e, start, runs: recipes.initial_state(e, s, start, runs, mc))
+    _, z, init = make_batch(range(5))
+    zs, models_k = [], []
+    for k in range(30):
+        model, zk = s.measurement_models[k], z[k]
+        if 4 <= k < 8:                          # one satellite fewer for four epochs, then all again
+            model = gnss.Pseudoranges(model.satellites[:-1], np.asarray(model.R)[:-1, :-1])
+            zk = zk[:, :-1]
+        zs.append(zk)
+        models_k.append(model)
+    state = init["STUKF"]
+    cov = state.cov.copy()
+    cov[1, 6, 6] = -1.0
+    whole, steps = _whole_and_per_step(est, state._replace(cov=cov), zs, monkeypatch, measurement_models=models_k,
+                                       consistency=True)
+    _assert_same_track(whole, steps)
+    assert whole.diverged[1] and not whole.diverged[[0, 2, 3, 4]].any()
+    assert sorted(set(whole.nis_dof.tolist())) == [zs[0].shape[1] - 1, zs[0].shape[1]]

@@ -1332,6 +1332,48 @@ def _store_block(b0, mean, cov, ll, nu, S, failed, mean_out, cov_out, ll_out, nu
 
 
 @njit(**_OPTS)
+def _strong_tracking_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb, zb, Vb, restart, rho, beta,
+                          log_2pi, prior, post_cov, nu, S, ll, failed, lam):
+    r"""One strong-tracking step for the N lanes of a block, batch innermost (:func:`strong_tracking_step`'s body):
+    from the prior mb (n, N), Pb (n, n, N), with Fb, Qb (n, n, N), Rb (m, m, N) and zb (m, N), the posterior mean
+    ``prior`` (n, N) (overwritten from the predicted mean), ``post_cov`` (n, n, N), ``nu`` (m, N), ``S`` (m, m, N),
+    ``ll``, ``failed`` and the fading factor ``lam`` (N,); ``Vb`` (m, m, N) holds the last smoothed innovation outer
+    product on entry (read only without ``restart``) and this step's on exit (Eq. 17)."""
+    n, N = mb.shape
+    m = zb.shape[0]
+    scale = 1.0 + rho
+    Pl = np.empty((n, n, N))
+    zp = np.empty((m, N))
+    Pxz = np.empty((n, m, N))
+    _predict_and_moments(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb, prior, Pl, zp, S, Pxz)
+    v = np.empty((m, N))
+    _residual_core(zb, zp, angular, v)
+    if restart:
+        for i in range(m):
+            for k in range(m):
+                for lane in range(N):
+                    Vb[i, k, lane] = v[i, lane] * v[k, lane]
+    else:
+        for i in range(m):
+            for k in range(m):
+                for lane in range(N):
+                    Vb[i, k, lane] = (rho * Vb[i, k, lane] + v[i, lane] * v[k, lane]) / scale
+    _fading_core(Pl, Qb, Pxz, Vb, S, Rb, beta, lam)
+    inflate = False
+    for lane in range(N):
+        inflate = inflate or lam[lane] > 1.0
+    if inflate:
+        for i in range(n):
+            for k in range(n):
+                for lane in range(N):
+                    if lam[lane] > 1.0:
+                        Pl[i, k, lane] = lam[lane] * (Pl[i, k, lane] - Qb[i, k, lane]) + Qb[i, k, lane]
+        _moments_core(prior, Pl, xi, wm, wc, kind, A, idx, sensor, angular, Rb, zp, S, Pxz)
+    _residual_core(zb, zp, angular, nu)
+    _update_core(prior, Pl, nu, S, Pxz, log_2pi, post_cov, ll, failed)
+
+
+@njit(**_OPTS)
 def strong_tracking_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, angular, R, V, restart, rho, beta,
                          log_2pi, mean_out, cov_out, ll_out, nu_out, S_out, failed_out, V_out, lam_out, start, stop,
                          block):
@@ -1342,54 +1384,28 @@ def strong_tracking_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, a
     :math:`(\rho V_{k-1} + vv^T)/(1 + \rho)` (Eq. 17), the fading factor :math:`\lambda` (:func:`_fading_core`), and
     where :math:`\lambda > 1` the prior :math:`\lambda(P^l - Q) + Q` (Eq. 28) predicted again (the whole block when one
     of its runs inflates: the others get their own bits again), then the Kalman update (:func:`_update_core`): the
-    operations the layer composes, the same bits.  mean (B, n), cov (B, n, n), the rule xi (M, n), wm, wc (M,),
-    F (n, n), Q (P, n, n) and R (P', m, m) periodic over the runs, z (B, m), the measurement function
-    (:func:`_measure`), V (B, m, m) (read only without ``restart``).  Writes the runs start..stop-1 of ``(mean+, cov+,
-    loglik, innovation, S, failed, V, fading)`` into ``mean_out`` ... ``lam_out`` (B, ...) (:func:`_step_outputs`)."""
+    operations the layer composes, the same bits (:func:`_strong_tracking_core`).  mean (B, n), cov (B, n, n), the
+    rule xi (M, n), wm, wc (M,), F (n, n), Q (P, n, n) and R (P', m, m) periodic over the runs, z (B, m), the
+    measurement function (:func:`_measure`), V (B, m, m) (read only without ``restart``).  Writes the runs
+    start..stop-1 of ``(mean+, cov+, loglik, innovation, S, failed, V, fading)`` into ``mean_out`` ... ``lam_out``
+    (B, ...) (:func:`_step_outputs`)."""
     n = mean.shape[1]
     m = z.shape[1]
-    scale = 1.0 + rho
     for b0 in range(start, stop, block):
         N = min(block, stop - b0)
         mb, Pb, Fb, Qb, Rb, zb = _block_operands(mean, cov, F, Q, R, z, b0, N)
-        prior = np.empty((n, N))
-        Pl = np.empty((n, n, N))
-        zp = np.empty((m, N))
-        S = np.empty((m, m, N))
-        Pxz = np.empty((n, m, N))
-        _predict_and_moments(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb, prior, Pl, zp, S, Pxz)
-        v = np.empty((m, N))
-        _residual_core(zb, zp, angular, v)
         Vb = np.empty((m, m, N))
-        if restart:
-            for i in range(m):
-                for k in range(m):
-                    for lane in range(N):
-                        Vb[i, k, lane] = v[i, lane] * v[k, lane]
-        else:
+        if not restart:
             _lanes(V, b0, N, (1, 0), Vb)
-            for i in range(m):
-                for k in range(m):
-                    for lane in range(N):
-                        Vb[i, k, lane] = (rho * Vb[i, k, lane] + v[i, lane] * v[k, lane]) / scale
-        lam = np.empty(N)
-        _fading_core(Pl, Qb, Pxz, Vb, S, Rb, beta, lam)
-        inflate = False
-        for lane in range(N):
-            inflate = inflate or lam[lane] > 1.0
-        if inflate:
-            for i in range(n):
-                for k in range(n):
-                    for lane in range(N):
-                        if lam[lane] > 1.0:
-                            Pl[i, k, lane] = lam[lane] * (Pl[i, k, lane] - Qb[i, k, lane]) + Qb[i, k, lane]
-            _moments_core(prior, Pl, xi, wm, wc, kind, A, idx, sensor, angular, Rb, zp, S, Pxz)
-        nu = np.empty((m, N))
-        _residual_core(zb, zp, angular, nu)
+        prior = np.empty((n, N))
         post_cov = np.empty((n, n, N))
+        nu = np.empty((m, N))
+        S = np.empty((m, m, N))
         ll = np.empty(N)
         failed = np.empty(N, dtype=np.bool_)
-        _update_core(prior, Pl, nu, S, Pxz, log_2pi, post_cov, ll, failed)
+        lam = np.empty(N)
+        _strong_tracking_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb, zb, Vb, restart, rho,
+                              beta, log_2pi, prior, post_cov, nu, S, ll, failed, lam)
         _store_block(b0, prior, post_cov, ll, nu, S, failed, mean_out, cov_out, ll_out, nu_out, S_out, failed_out)
         for lane in range(N):
             lam_out[b0 + lane] = lam[lane]
@@ -1688,3 +1704,56 @@ def imm_sigma_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, s
                 underflow_out[b0 + lane, k] = under[lane]
             _consistency_step(k, b0, fused[0], fcov[0], innov[0], icov[0], nis_on, truth, nis_out, nees_out)
             mub, Xb, Pb = mu_b[0], post_mean, post_cov
+
+
+@njit(**_OPTS)
+def strong_tracking_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angular, R, V, restart, rho, beta,
+                        log_2pi, truth, nis_on, keep_cov, mean_out, cov_out, failed_out, nis_out, nees_out, start,
+                        stop, block):
+    r"""Every step of a strong-tracking sigma-point filter on linear dynamics over K packed measurement steps, for
+    blocks of ``block`` runs: step k is :func:`strong_tracking_step`'s body (:func:`_strong_tracking_core`) on step
+    k - 1's posterior and smoothed innovation outer product V, which restarts (Eq. 17, :math:`V = vv^T`) at the first
+    step when ``restart`` and wherever the measurement dimension changes, as the layer restarts it: the bits of K
+    calls of :func:`strong_tracking_step`.  mean ... R, truth, nis_on, keep_cov and the outputs as
+    :func:`sigma_run`; V (B, m_0, m_0) the state's V (read only without ``restart``), ``rho`` and ``beta`` the
+    layer's forgetting and softening factors."""
+    n = mean.shape[1]
+    K = zoff.shape[0] - 1
+    for b0 in range(start, stop, block):
+        N = min(block, stop - b0)
+        mb = np.empty((n, N))
+        Pb = np.empty((n, n, N))
+        _lanes(mean, b0, N, (1, 0), mb)
+        _lanes(cov, b0, N, (1, 0), Pb)
+        Fb = np.empty((n, n, N))
+        for i in range(n):
+            for j in range(n):
+                Fb[i, j, :] = F[i, j]
+        Qb = np.empty((n, n, N))
+        _lanes(Q, b0, N, (1, 0), Qb)
+        m0 = zoff[1] - zoff[0]
+        Vb = np.empty((m0, m0, N))
+        if not restart:
+            _lanes(V, b0, N, (1, 0), Vb)
+        ll = np.empty(N)
+        failed = np.empty(N, dtype=np.bool_)
+        lam = np.empty(N)
+        for k in range(K):
+            zb, Ak, Rb, ang = _step_measurement(k, z, zoff, A, R, angular, b0, N)
+            m = zb.shape[0]
+            fresh = restart if k == 0 else m != Vb.shape[0]
+            if fresh and m != Vb.shape[0]:
+                Vb = np.empty((m, m, N))
+            post_mean = np.empty((n, N))
+            post_cov = np.empty((n, n, N))
+            nu = np.empty((m, N))
+            S = np.empty((m, m, N))
+            _strong_tracking_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, Ak, idx, sensor, ang, Rb, zb, Vb, fresh, rho,
+                                  beta, log_2pi, post_mean, post_cov, nu, S, ll, failed, lam)
+            _store_step(post_mean, b0, k, mean_out)
+            if keep_cov:
+                _store_step(post_cov, b0, k, cov_out)
+            for lane in range(N):
+                failed_out[b0 + lane, k] = failed[lane]
+            _consistency_step(k, b0, post_mean, post_cov, nu, S, nis_on, truth, nis_out, nees_out)
+            mb, Pb = post_mean, post_cov

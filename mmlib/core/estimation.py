@@ -813,7 +813,8 @@ def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, c
                name: str, on_divergence: str) -> Track | None:
     """:func:`run` in one compiled call (:func:`mmlib.core.linalg.sigma_run`, :func:`~mmlib.core.linalg.imm_sigma_run`)
     where every step of it would be a fused step: a :class:`SingleModel` (exactly, not a subclass) whose steps
-    :meth:`SingleModel._step` fuses (:func:`_fusable`, one ``F``), or an :class:`IMM` whose steps
+    :meth:`SingleModel._step` fuses (:func:`_fusable`, one ``F``; or a layer offering a ``whole_run`` of its own, e.g.
+    :meth:`mmlib.core.layers.strong_tracking.StrongTracking.whole_run`, which decides), or an :class:`IMM` whose steps
     :meth:`IMM._fused_step` fuses (moment mixing), with measurement models whose function the kernels evaluate
     (:func:`_fused_measure`) and that one call can take (:func:`mmlib.core.linalg.packed_steps`: one kind, one R per
     step).  The steps' inputs are checked as the step-by-step loop checks them (``check`` once per model), the kernel
@@ -829,9 +830,14 @@ def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, c
             return None
         dynamics = estimator.stacked
     else:
-        if not _fusable(estimator.filter, state, estimator.dynamics) or np.ndim(estimator.dynamics.F) != 2:
-            return None
         dynamics = estimator.dynamics
+        if not bool(getattr(dynamics, "is_linear", False)) or np.ndim(dynamics.F) != 2:
+            return None
+        # a plain sigma-point filter, or a layer with a whole run of its own (it decides whether its state allows it)
+        plain = _fusable(estimator.filter, state, dynamics)
+        layer_run = None if plain else getattr(estimator.filter, "whole_run", None)
+        if not plain and layer_run is None:
+            return None
     if x_true is not None and x_true.shape[-1] != dynamics.dim:
         return None                     # the loop names the mismatch
     zs, measures, angulars, Rs, models = [], [], [], [], {}
@@ -849,17 +855,23 @@ def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, c
     packed = linalg.packed_steps(zs, measures, angulars, Rs, dynamics.dim)
     if packed is None:
         return None
-    up = estimator.filter.rule.unit_points(dynamics.dim)
     if imm:
+        up = estimator.filter.rule.unit_points(dynamics.dim)
         means, covs, mus, failed, underflow, nis, nees = linalg.imm_sigma_run(
             state.mode_probabilities, estimator.transition, state.modes.mean, state.modes.cov, up.xi, up.wm, up.wc,
             dynamics.F, dynamics.Q, packed, with_cov, LOG_2PI, keep_cov=keep_cov, nis=consistency, truth=x_true)
         failure = np.where(failed, _COVARIANCE, _NONE)
         failure = np.where(underflow & (failure == _NONE), _LIKELIHOOD, failure)
     else:
-        means, covs, failed, nis, nees = linalg.sigma_run(
-            state.mean, state.cov, up.xi, up.wm, up.wc, dynamics.F, dynamics.Q, packed, LOG_2PI, keep_cov=keep_cov,
-            nis=consistency, truth=x_true)
+        if layer_run is not None:
+            out = layer_run(state, dynamics, packed, keep_cov=keep_cov, nis=consistency, truth=x_true)
+            if out is None:
+                return None
+        else:
+            up = estimator.filter.rule.unit_points(dynamics.dim)
+            out = linalg.sigma_run(state.mean, state.cov, up.xi, up.wm, up.wc, dynamics.F, dynamics.Q, packed, LOG_2PI,
+                                   keep_cov=keep_cov, nis=consistency, truth=x_true)
+        means, covs, failed, nis, nees = out
         mus, failure = None, np.where(failed, _COVARIANCE, _NONE)
     B, K = failure.shape
     # the loop's record: a run diverges at the first step whose estimate is not finite or whose filter failed

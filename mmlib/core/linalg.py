@@ -56,7 +56,7 @@ __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused"
            "trace", "wrap_angle", "range_bearing", "pseudoranges", "matmul_rows", "trapezoid_memberships",
            "rule_weights", "rule_output", "trapezoid_rules",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
-           "fading_factor", "strong_tracking_step", "packed_steps", "sigma_run", "imm_sigma_run",
+           "fading_factor", "strong_tracking_step", "packed_steps", "sigma_run", "imm_sigma_run", "strong_tracking_run",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
            "FUSED_STEPS",
            "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES",
@@ -250,6 +250,7 @@ _SHAPES = {
     # (z, A, R, angular) of packed_steps: t = the steps' measurements in all, w >= the largest step's
     "sigma_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n"),
     "imm_sigma_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N t", "t a", "t w", "t", "... n n"),
+    "strong_tracking_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n", "N v v"),
     "fading_factor": ("N n n", "N n n", "N n m", "N m m", "N m m", "N m m", None),
     "trapezoid_rules": ("N d", "d - -", "d", "- -"),
 }
@@ -1144,7 +1145,8 @@ FUSED_BLOCK = 128
 
 #: the names of the fused steps below, each a whole filter step in one compiled call (what a caller spies on to see
 #: whether one was taken: ``bench/papers.py``, ``tests/test_fused.py``)
-FUSED_STEPS = ("imm_sigma_step", "sigma_step", "strong_tracking_step", "sigma_run", "imm_sigma_run")
+FUSED_STEPS = ("imm_sigma_step", "sigma_step", "strong_tracking_step", "sigma_run", "imm_sigma_run",
+               "strong_tracking_run")
 
 #: the measurement functions the fused steps evaluate themselves (:func:`mmlib.core._kernels._measure`)
 MEASURE_LINEAR, MEASURE_RANGE_BEARING, MEASURE_PSEUDORANGES = 0, 1, 2
@@ -1315,6 +1317,33 @@ def sigma_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray,
         _contiguous(mean), _contiguous(cov), _contiguous(xi), _contiguous(wm), _contiguous(wc), _contiguous(F),
         _periodic(Q, 2, (B,)), z, zoff, kind, A, idx, sensor, angular, R, float(log_2pi),
         _truth_operand(truth, B, K, n), bool(nis), bool(keep_cov)),
+        _run_outputs(B, K, n, keep_cov, nis, truth is not None), B)
+    means, covs, failed, nis_out, nees_out = out
+    return means, covs if keep_cov else None, failed, nis_out if nis else None, nees_out if truth is not None else None
+
+
+def strong_tracking_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray, wc: np.ndarray,
+                        F: np.ndarray, Q: np.ndarray, packed: tuple, V: np.ndarray | None, rho: float, beta: float,
+                        log_2pi: float, *, keep_cov: bool, nis: bool, truth: np.ndarray | None = None) -> tuple:
+    r"""Every step of a strong-tracking sigma-point filter over linear dynamics in one compiled call (compiled kernels
+    only; :func:`fused`): step k is what :func:`strong_tracking_step` computes from step k - 1's posterior and smoothed
+    innovation outer product, restarted where the measurement dimension changes (the same bits).  ``mean`` ...
+    ``packed`` and ``log_2pi`` as :func:`sigma_run`; ``V`` (B, m_0, m_0) the state's last smoothed outer product, or
+    None to restart it at the first step (as where its dimension is not the first step's); ``rho``, ``beta`` the
+    forgetting and softening factors.  Returns :func:`sigma_run`'s ``(means, covs, failed, nis, nees)``."""
+    B, n = mean.shape
+    z, zoff, kind, A, idx, sensor, angular, R = packed
+    K = zoff.shape[0] - 1
+    m0 = int(zoff[1] - zoff[0]) if zoff.shape[0] > 1 else 0
+    cov = _stack(cov, 2, (B,))
+    restart = V is None or np.shape(V)[-1] != m0
+    Vs = np.zeros((1, 1, 1)) if restart else _stack(V, 2, (B,))
+    _check_shapes("strong_tracking_run", B, (mean, cov, xi, wm, wc, F, z, A, R, angular, Q, Vs))
+    _check_offsets(zoff, R)
+    out = _over_threads(_compiled_module().strong_tracking_run, (
+        _contiguous(mean), _contiguous(cov), _contiguous(xi), _contiguous(wm), _contiguous(wc), _contiguous(F),
+        _periodic(Q, 2, (B,)), z, zoff, kind, A, idx, sensor, angular, R, _contiguous(Vs), bool(restart), float(rho),
+        float(beta), float(log_2pi), _truth_operand(truth, B, K, n), bool(nis), bool(keep_cov)),
         _run_outputs(B, K, n, keep_cov, nis, truth is not None), B)
     means, covs, failed, nis_out, nees_out = out
     return means, covs if keep_cov else None, failed, nis_out if nis else None, nees_out if truth is not None else None

@@ -125,6 +125,31 @@ class StrongTracking(FilterLayer):
         new, info = kalman_update(state, pred, z, measurement)
         return new._replace(V=V, fading=lam), info
 
+    def _fuses(self, state) -> bool:
+        """Whether a fused step (:meth:`fused_step`, :meth:`whole_run`) computes this layer's step from ``state``:
+        this class itself (a subclass may override a step), the Jacobian-free form, a base that a fused step computes
+        (:attr:`mmlib.core.filters.SigmaPointFilter.fusable`), and a ``V`` that is None or float64 (one of another
+        precision: the composed update computes Eq. 17 in it)."""
+        return (type(self) is StrongTracking and self.form == "statistical" and isinstance(self.base, SigmaPointFilter)
+                and self.base.fusable and type(state) is StrongTrackingState
+                and (state.V is None or np.asarray(state.V).dtype == np.float64))
+
+    def whole_run(self, state: StrongTrackingState, dynamics: Any, packed: tuple, *, keep_cov: bool, nis: bool,
+                  truth: np.ndarray | None = None) -> tuple | None:
+        """Every step of a run from ``state`` through ``dynamics`` (linear, one (n, n) ``F``) over the packed
+        measurement steps ``packed`` (:func:`mmlib.core.linalg.packed_steps`) in one compiled call
+        (:func:`mmlib.core.linalg.strong_tracking_run`): what :meth:`fused_step` computes step after step, V restarted
+        where the measurement dimension changes, the same bits.  Returns ``(means (B, K, n), covs (B, K, n, n) or None,
+        failed (B, K), nis (B, K) or None, nees (B, K) or None)`` (NIS with ``nis``, NEES against ``truth`` when
+        given), or None where a fused step does not apply (:meth:`_fuses`: :func:`mmlib.core.estimation.run` then
+        goes step by step)."""
+        if not self._fuses(state):
+            return None
+        up = self.base.rule.unit_points(dynamics.dim)
+        return linalg.strong_tracking_run(state.mean, state.cov, up.xi, up.wm, up.wc, dynamics.F, dynamics.Q, packed,
+                                          state.V, self.rho, self.beta, LOG_2PI, keep_cov=keep_cov, nis=nis,
+                                          truth=truth)
+
     def fused_step(self, state: StrongTrackingState, dynamics: Any, z: np.ndarray, measurement: MeasurementModel,
                    measure: tuple) -> tuple | None:
         """:meth:`predict` through ``dynamics`` then :meth:`update` with ``z`` (B, m) in one compiled call
@@ -135,10 +160,8 @@ class StrongTracking(FilterLayer):
         (:attr:`mmlib.core.filters.SigmaPointFilter.fusable`), and a ``V`` that is None or float64.
         Returns ``(StrongTrackingState, loglik (B,), innovation (B, m), S (B, m, m), failed (B,))``, or None where it
         does not apply (the composed step runs)."""
-        if not (type(self) is StrongTracking and self.form == "statistical" and isinstance(self.base, SigmaPointFilter)
-                and self.base.fusable and type(state) is StrongTrackingState
-                and (state.V is None or np.asarray(state.V).dtype == np.float64)):
-            return None         # (a V of another precision: the composed update computes Eq. 17 in it)
+        if not self._fuses(state):
+            return None
         up = self.base.rule.unit_points(dynamics.dim)
         m = np.shape(z)[-1]
         V = None if state.V is None or state.V.shape[-1] != m else state.V      # Eq. 17 restarts, as in update()
