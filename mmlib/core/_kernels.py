@@ -10,7 +10,9 @@ lanes that LLVM turns into SIMD instructions, with no temporaries and one call p
 operation's loop nest is a ``_*_core`` function on batch-innermost operands; the public kernel wraps it in the
 layout changes, and the *fused steps* (:func:`sigma_step`, :func:`imm_sigma_step`, :func:`strong_tracking_step`) chain
 the same cores for a block of runs at a time, so a whole filter, IMM or strong-tracking step is one call with one
-layout change of the state, and gives the bits of the composed operations.
+layout change of the state, and gives the bits of the composed operations.  The *whole runs* (:func:`sigma_run`,
+:func:`imm_sigma_run`, :func:`strong_tracking_run`) chain those steps over every measurement step of a run, the state
+kept batch innermost from step to step: a run is one call, with the bits of its steps.
 
 Conventions shared with the numpy path (:mod:`mmlib.core.linalg`), and tested against it
 (``tests/test_kernels.py``):

@@ -1019,7 +1019,8 @@ _FUSED = [_initial_fused()]
 
 def fused() -> bool:
     """Whether a filter or IMM step that can be fused (:func:`sigma_step`, :func:`imm_sigma_step`,
-    :func:`strong_tracking_step`) is: fusion on and
+    :func:`strong_tracking_step`) is, and a run all of whose steps can be is one call (:func:`sigma_run`,
+    :func:`imm_sigma_run`, :func:`strong_tracking_run`, from :func:`mmlib.core.estimation.run`): fusion on and
     the compiled kernels in use."""
     return _FUSED[0] and _KERNEL[0] == "numba"
 
