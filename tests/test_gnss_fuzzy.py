@@ -755,3 +755,108 @@ def test_fuzzy_imm_starts_at_the_first_rule_and_windows_by_request():
                      frozen=True, name="F")
     assert isinstance(four, WindowedNoiseAdaptiveIMM) and four.window == 4 and four.frozen and four.name == "F"
     assert four.controller.normalise == "measurement"
+
+
+# --------------------------------------------------------------------------- the whole run in one compiled call
+def _runs_both_ways(est, state, z, models, monkeypatch, **kw):
+    """run() of a noise-adaptive IMM as one compiled call (checked to be taken) and step by step: the two Tracks."""
+    from mmlib.core import linalg
+    calls = []
+    real = linalg.fuzzy_imm_run
+    monkeypatch.setattr(linalg, "fuzzy_imm_run", lambda *a, **k: calls.append(1) or real(*a, **k))
+    whole = run(est, state, z, measurement_models=models, **kw)
+    assert calls == [1], "the whole run was not one compiled call"
+    with monkeypatch.context() as m:
+        m.setattr(type(est), "whole_run", lambda *a, **k: None)
+        steps = run(est, state, z, measurement_models=models, **kw)
+    return whole, steps
+
+
+def _same_bits(a, b) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and np.array_equal(a.view(np.uint8), b.view(np.uint8))
+
+
+@pytest.mark.parametrize("fields", [{}, {"dod_window": 4}, {"dod_window": 16}, {"dod_normalise": "measurement"},
+                                    {"mf_scale": 0.5}, {"frozen": True}])
+def test_the_fuzzy_imm_whole_run_gives_the_bits_of_its_steps(fields, monkeypatch):
+    """Tseng et al. 2011's noise-adaptive IMM up to 60 epochs past the first change of the satellites in view: one
+    compiled call gives every Track field -- estimates, covariances, mode probabilities, levels, NIS, NEES,
+    divergences -- the bits of the layer step by step, with the DOD of one epoch or averaged over 4 or 16, normalised by the innovation's or the
+    measurement's variance, sharper membership functions, or the levels frozen; a run broken before the first step
+    diverges at step 0 and the others go on."""
+    fields = dict(fields)
+    frozen = fields.pop("frozen", False)
+    setup = dataclasses.replace(Setup(), **fields)
+    ex = experiment(setup, names=("FUZZY-IMMUKF",), frozen_fuzzy=frozen)
+    est = ex.estimators["FUZZY-IMMUKF"]
+    mc = MonteCarlo(ROOT_SEED, 6)
+    truth, z, init = make_batch_fn(ex, mc)(range(6))
+    dims = [zk.shape[1] for zk in z]
+    K = next(k for k in range(1, len(dims)) if dims[k] != dims[k - 1]) + 60      # 60 epochs past the first change
+    st = init["FUZZY-IMMUKF"]
+    bad = st.imm.modes.mean.copy()
+    bad[2] = np.nan
+    st = st._replace(imm=st.imm._replace(modes=st.imm.modes._replace(mean=bad)))
+    whole, steps = _runs_both_ways(est, st, z[:K], ex.measurement_models[:K], monkeypatch, consistency=True,
+                                   truth=truth[:, :K + 1])
+    for field in whole._fields:
+        assert _same_bits(getattr(whole, field), getattr(steps, field)), field
+    assert whole.diverged_step.tolist() == [-1, -1, 0, -1, -1, -1]
+    levels = whole.diagnostics[[0, 1, 3, 4, 5]]
+    assert np.isfinite(levels).all() and (frozen or len(np.unique(levels[:, :, 1])) > 10)
+
+
+@pytest.mark.parametrize("batch", [1, 2, 3])
+def test_the_fuzzy_imm_whole_run_changes_no_bit_with_the_batch(batch, monkeypatch):
+    from mmlib.core import linalg
+    ex = experiment(SHORT, names=("FUZZY-IMMUKF",))
+    est = ex.estimators["FUZZY-IMMUKF"]
+    mc = MonteCarlo(ROOT_SEED, 8)
+    truth, z, init = make_batch_fn(ex, mc)(range(8))
+    monkeypatch.setattr(linalg, "FUSED_BLOCK", 3)
+    full = run(est, init["FUZZY-IMMUKF"], z, measurement_models=ex.measurement_models)
+    part = run(est, init["FUZZY-IMMUKF"]._replace(imm=_first(init["FUZZY-IMMUKF"].imm, batch),
+                                                   levels=init["FUZZY-IMMUKF"].levels[:batch]),
+               [zk[:batch] for zk in z], measurement_models=ex.measurement_models)
+    for field in ("mean", "mode_probabilities", "diagnostics"):
+        assert _same_bits(getattr(full, field)[:batch], getattr(part, field)), field
+
+
+def _first(imm_state, batch):
+    from mmlib.core.estimation import select_runs
+    return select_runs(imm_state, slice(0, batch))
+
+
+def test_the_fuzzy_imm_whole_run_falls_back_where_the_controller_refuses_or_does_not_apply(monkeypatch):
+    """A rule base whose sets do not cover the degrees of divergence fires no rule: the whole run declines and the
+    steps raise the layer's error; a controller subclass, a noise family that is not affine in its level and fusion
+    off run step by step (the compiled call not made)."""
+    from mmlib.core import linalg
+    ex = experiment(SHORT, names=("FUZZY-IMMUKF",))
+    est = ex.estimators["FUZZY-IMMUKF"]
+    mc = MonteCarlo(ROOT_SEED, 3)
+    truth, z, init = make_batch_fn(ex, mc)(range(3))
+    narrow = (Trapezoid("low", -np.inf, -np.inf, 1e-9, 2e-9),)
+    system = TakagiSugeno((narrow, narrow), np.zeros((1, 1, 2)))
+    refusing = dataclasses.replace(est, controller=FuzzyNoiseBounds(system))
+    with pytest.raises(ValueError, match="fires no rule"):
+        run(refusing, init["FUZZY-IMMUKF"], z[:10], measurement_models=ex.measurement_models[:10])
+
+    class OwnBounds(FuzzyNoiseBounds):
+        pass
+
+    noise = est.noise.__self__
+    calls = []
+    real = linalg.fuzzy_imm_run
+    monkeypatch.setattr(linalg, "fuzzy_imm_run", lambda *a, **k: calls.append(1) or real(*a, **k))
+    for other in (dataclasses.replace(est, controller=OwnBounds(est.controller.system)),
+                  dataclasses.replace(est, noise=lambda levels: noise.Q(levels))):
+        run(other, init["FUZZY-IMMUKF"], z[:10], measurement_models=ex.measurement_models[:10])
+    with linalg.use_fused(False):
+        run(est, init["FUZZY-IMMUKF"], z[:10], measurement_models=ex.measurement_models[:10])
+    assert not calls
+    run(est, init["FUZZY-IMMUKF"], z[:10], measurement_models=ex.measurement_models[:10])
+    assert calls == [1]

@@ -1644,12 +1644,79 @@ def sigma_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angula
 
 
 @njit(**_OPTS)
+def _imm_cycle(mub, T, Xb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, with_cov, failed):
+    r"""One IMM cycle for the N lanes of a block, batch innermost (:func:`imm_sigma_step`'s body): mixing
+    (:func:`_mix_core`) of mub (r, N), Xb (r, n, N), Pb (r, n, n, N), every mode's filter step (:func:`_filter_step`,
+    Fb, Qb (r, n, n, N) per mode, Rb (m, m, N) and zb (m, N) shared), the output (:func:`_output_core`).  ``failed``
+    (N,) becomes whether some mode filter failed.  Returns ``(mu (1, r, N), underflow (N,), fused (1, n, N), fcov
+    (1, n, n, N) or (1, 0, 0, N), innovation (1, m, N), its covariance (1, m, m, N), the modes' posterior means
+    (r, n, N) and covariances (r, n, n, N))``."""
+    r, n, N = Xb.shape
+    m = zb.shape[0]
+    c = np.empty((1, r, N))
+    mm = np.empty((r, n, N))
+    mc = np.empty((r, n, n, N))
+    _mix_core(mub, T, Xb, Pb, c[0], mm, mc)
+    ll = np.empty((r, N))
+    post_mean = np.empty((r, n, N))
+    post_cov = np.empty((r, n, n, N))
+    nu = np.empty((r, m, N))
+    S = np.empty((r, m, m, N))
+    f_upd = np.empty(N, dtype=np.bool_)
+    failed[:] = False
+    for j in range(r):
+        _filter_step(mm[j], mc[j], xi, wm, wc, Fb[j], Qb[j], Rb, zb, kind, A, idx, sensor, angular, log_2pi,
+                     post_mean[j], post_cov[j], nu[j], S[j], ll[j], f_upd)
+        for lane in range(N):
+            failed[lane] = failed[lane] or f_upd[lane]
+    mu_b, marg, under, fused, fcov, innov, icov = _output_buffers(r, n, m, N, with_cov)
+    _output_core(ll, c, post_mean, post_cov, nu, S, with_cov, mu_b, marg, under, fused, fcov, innov, icov)
+    return mu_b, under, fused, fcov, innov, icov, post_mean, post_cov
+
+
+@njit(**_OPTS)
+def _run_block_start(mu, means, covs, F, b0, N):
+    """The state of a block of N runs from run b0, batch innermost, at the start of an IMM run: ``(mub (r, N),
+    Xb (r, n, N), Pb (r, n, n, N), Fb (r, n, n, N))``, each mode's F copied into every lane."""
+    r, n = mu.shape[1], means.shape[2]
+    mub = np.empty((r, N))
+    Xb = np.empty((r, n, N))
+    Pb = np.empty((r, n, n, N))
+    _lanes(mu, b0, N, (1, 0), mub)
+    _lanes(means, b0, N, (1, 0), Xb)
+    _lanes(covs, b0, N, (1, 0), Pb)
+    Fb = np.empty((r, n, n, N))
+    for j in range(r):
+        for i in range(n):
+            for q in range(n):
+                Fb[j, i, q, :] = F[j, i, q]
+    return mub, Xb, Pb, Fb
+
+
+@njit(**_OPTS)
+def _store_imm_step(k, b0, under, fused, fcov, innov, icov, mu_b, failed, keep_cov, nis_on, truth, mean_out, cov_out,
+                    mu_out, failed_out, underflow_out, nis_out, nees_out):
+    """An IMM cycle's outputs of step k for the lanes of the runs b0..: the fused estimate (and covariance with
+    ``keep_cov``), the mode probabilities, failed, underflow, the NIS and NEES (:func:`_consistency_step`)."""
+    N = failed.shape[0]
+    _store_step(fused[0], b0, k, mean_out)
+    if keep_cov:
+        _store_step(fcov[0], b0, k, cov_out)
+    _store_step(mu_b[0], b0, k, mu_out)
+    for lane in range(N):
+        failed_out[b0 + lane, k] = failed[lane]
+        underflow_out[b0 + lane, k] = under[lane]
+    _consistency_step(k, b0, fused[0], fcov[0], innov[0], icov[0], nis_on, truth, nis_out, nees_out)
+
+
+@njit(**_OPTS)
 def imm_sigma_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angular, R, with_cov, log_2pi,
                   truth, nis_on, keep_cov, mean_out, cov_out, mu_out, failed_out, underflow_out, nis_out, nees_out,
                   start, stop, block):
     r"""Every IMM cycle of a sigma-point filter with linear mode dynamics over K packed measurement steps, for blocks
-    of ``block`` runs: cycle k is :func:`imm_sigma_step`'s body on the mode probabilities and mode posteriors of
-    cycle k - 1, kept batch innermost from step to step, hence the bits of K calls of :func:`imm_sigma_step`.
+    of ``block`` runs: cycle k is :func:`imm_sigma_step`'s body (:func:`_imm_cycle`) on the mode probabilities and mode
+    posteriors of cycle k - 1, kept batch innermost from step to step, hence the bits of K calls of
+    :func:`imm_sigma_step`.
 
     mu (B, r), T (r, r), means (B, r, n), covs (B, r, n, n), the rule, F (r, n, n), Q (P, n, n) periodic over the
     flattened (runs, modes) stack, the packed measurement steps z, zoff, A, R, angular (:func:`sigma_run`), the
@@ -1663,48 +1730,17 @@ def imm_sigma_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, s
     K = zoff.shape[0] - 1
     for b0 in range(start, stop, block):
         N = min(block, stop - b0)
-        mub = np.empty((r, N))
-        Xb = np.empty((r, n, N))
-        Pb = np.empty((r, n, n, N))
-        _lanes(mu, b0, N, (1, 0), mub)
-        _lanes(means, b0, N, (1, 0), Xb)
-        _lanes(covs, b0, N, (1, 0), Pb)
-        Fb = np.empty((r, n, n, N))
+        mub, Xb, Pb, Fb = _run_block_start(mu, means, covs, F, b0, N)
         Qb = np.empty((r, n, n, N))
         for j in range(r):
-            for i in range(n):
-                for q in range(n):
-                    Fb[j, i, q, :] = F[j, i, q]
             _lanes(Q, b0, N, (r, j), Qb[j])
-        f_upd = np.empty(N, dtype=np.bool_)
+        failed = np.empty(N, dtype=np.bool_)
         for k in range(K):
             zb, Ak, Rb, ang = _step_measurement(k, z, zoff, A, R, angular, b0, N)
-            m = zb.shape[0]
-            c = np.empty((1, r, N))
-            mm = np.empty((r, n, N))
-            mc = np.empty((r, n, n, N))
-            _mix_core(mub, T, Xb, Pb, c[0], mm, mc)
-            ll = np.empty((r, N))
-            post_mean = np.empty((r, n, N))
-            post_cov = np.empty((r, n, n, N))
-            nu = np.empty((r, m, N))
-            S = np.empty((r, m, m, N))
-            for lane in range(N):
-                failed_out[b0 + lane, k] = False
-            for j in range(r):
-                _filter_step(mm[j], mc[j], xi, wm, wc, Fb[j], Qb[j], Rb, zb, kind, Ak, idx, sensor, ang, log_2pi,
-                             post_mean[j], post_cov[j], nu[j], S[j], ll[j], f_upd)
-                for lane in range(N):
-                    failed_out[b0 + lane, k] = failed_out[b0 + lane, k] or f_upd[lane]
-            mu_b, marg, under, fused, fcov, innov, icov = _output_buffers(r, n, m, N, with_cov)
-            _output_core(ll, c, post_mean, post_cov, nu, S, with_cov, mu_b, marg, under, fused, fcov, innov, icov)
-            _store_step(fused[0], b0, k, mean_out)
-            if keep_cov:
-                _store_step(fcov[0], b0, k, cov_out)
-            _store_step(mu_b[0], b0, k, mu_out)
-            for lane in range(N):
-                underflow_out[b0 + lane, k] = under[lane]
-            _consistency_step(k, b0, fused[0], fcov[0], innov[0], icov[0], nis_on, truth, nis_out, nees_out)
+            mu_b, under, fused, fcov, innov, icov, post_mean, post_cov = _imm_cycle(
+                mub, T, Xb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, Ak, idx, sensor, ang, log_2pi, with_cov, failed)
+            _store_imm_step(k, b0, under, fused, fcov, innov, icov, mu_b, failed, keep_cov, nis_on, truth, mean_out,
+                            cov_out, mu_out, failed_out, underflow_out, nis_out, nees_out)
             mub, Xb, Pb = mu_b[0], post_mean, post_cov
 
 
@@ -1759,3 +1795,143 @@ def strong_tracking_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sens
                 failed_out[b0 + lane, k] = failed[lane]
             _consistency_step(k, b0, post_mean, post_cov, nu, S, nis_on, truth, nis_out, nees_out)
             mb, Pb = post_mean, post_cov
+
+
+@njit(**_OPTS)
+def power(base, x):
+    """``base ** x`` elementwise for x (N,): the C library's ``pow`` one value at a time, ``base`` a run-time operand
+    (a literal 10 could let the compiler call another function, ``exp10``)."""
+    out = np.empty(x.shape[0])
+    for i in range(x.shape[0]):
+        out[i] = math.pow(base, x[i])
+    return out
+
+
+@njit(**_OPTS)
+def _degrees_of_divergence(innov, icov, ref, norm_innov, dod):
+    r"""The degrees of divergence :math:`[\xi/\bar s, \eta/\sqrt{\bar s}]` of the lanes of innov (m, N) into dod (2, N),
+    as :meth:`mmlib.core.layers.fuzzy_noise.FuzzyNoiseBounds.dod` computes them in numpy (sums in numpy's order,
+    :func:`_numpy_sum`): :math:`\bar s` the trace of icov (m, m, N) over m (1 where it is not finite) with
+    ``norm_innov``, else ``ref``.  False where some lane's :math:`\bar s` is not > 0 (the numpy path refuses it)."""
+    m, N = innov.shape
+    tmp = np.empty(m)
+    ok = True
+    for lane in range(N):
+        if norm_innov:
+            for i in range(m):
+                tmp[i] = icov[i, i, lane]
+            s = _numpy_sum(tmp, 0, m) / m
+            if not math.isfinite(s):
+                s = 1.0
+        else:
+            s = ref
+        if not s > 0.0:
+            ok = False
+        for i in range(m):
+            tmp[i] = innov[i, lane] * innov[i, lane]
+        dod[0, lane] = _numpy_sum(tmp, 0, m) / m / s
+        for i in range(m):
+            tmp[i] = abs(innov[i, lane])
+        dod[1, lane] = _numpy_sum(tmp, 0, m) / m / math.sqrt(s)
+    return ok
+
+
+@njit(**_OPTS)
+def fuzzy_imm_run(mu, T, means, covs, xi, wm, wc, F, unit, base, levels, initial, z, zoff, kind, A, idx, sensor,
+                  angular, R, with_cov, log_2pi, truth, nis_on, keep_cov, frozen, norm_innov, refs, history0, filled0,
+                  bounds, sizes, cons, ten, mean_out, cov_out, mu_out, failed_out, underflow_out, diag_out, nis_out,
+                  nees_out, refused, start, stop, block):
+    r"""Every cycle of a noise-adaptive IMM (:class:`mmlib.core.layers.adaptive_imm.NoiseAdaptiveIMM`, or its windowed
+    form) of a sigma-point filter over linear mode dynamics, with an affine noise family and the FLAS controller
+    (:class:`mmlib.core.layers.fuzzy_noise.FuzzyNoiseBounds`), over K packed measurement steps, for blocks of runs:
+    at step k each mode's :math:`Q_j = \ell_j\,\mathrm{unit} + \mathrm{base}` from the levels (a level that is not
+    finite replaced by ``initial``), one IMM cycle (:func:`_imm_cycle`), then (unless ``frozen``) the next levels:
+    the degrees of divergence of the mixture prior's innovation (:func:`_degrees_of_divergence`, the reference
+    variance ``refs[k]`` without ``norm_innov``), averaged over the last ``min(k, W)`` epochs in the history (W =
+    history0's second axis, numpy's order: the epochs one after the other), and ``ten ** TS(dod)``
+    (:func:`trapezoid_rules`, :func:`power`) where both degrees are finite, NaN elsewhere.  The operations of the layer
+    step by step, the same bits.
+
+    Operands as :func:`imm_sigma_run`, plus unit, base (n, n), levels (B, r), initial (r,), history0 (B, W, 2),
+    filled0 (B,) int64, the rule base bounds (2, 4, k), sizes (2,), cons (K_r, r); outputs as :func:`imm_sigma_run`
+    plus diag_out (B, K, r) (each step's levels as the state held them) and ``refused`` (B,): a run of a block in which
+    the controller refused its input (a reference variance not > 0, a degree firing no rule), where the layer step by
+    step raises."""
+    r = mu.shape[1]
+    n = means.shape[2]
+    K = zoff.shape[0] - 1
+    W = history0.shape[1]
+    for b0 in range(start, stop, block):
+        N = min(block, stop - b0)
+        mub, Xb, Pb, Fb = _run_block_start(mu, means, covs, F, b0, N)
+        lev = np.empty((r, N))
+        _lanes(levels, b0, N, (1, 0), lev)
+        hist = np.empty((W, 2, N))
+        _lanes(history0, b0, N, (1, 0), hist)
+        filled = np.empty(N, dtype=np.int64)
+        for lane in range(N):
+            filled[lane] = filled0[b0 + lane]
+        Qb = np.empty((r, n, n, N))
+        failed = np.empty(N, dtype=np.bool_)
+        dod = np.empty((2, N))
+        avg = np.empty((2, N))
+        x = np.empty((N, 2))
+        rows = np.empty(N, dtype=np.int64)
+        for k in range(K):
+            zb, Ak, Rb, ang = _step_measurement(k, z, zoff, A, R, angular, b0, N)
+            _store_step(lev, b0, k, diag_out)
+            for j in range(r):
+                for lane in range(N):
+                    level = lev[j, lane] if math.isfinite(lev[j, lane]) else initial[j]
+                    for i in range(n):
+                        for q in range(n):
+                            Qb[j, i, q, lane] = level * unit[i, q] + base[i, q]
+            mu_b, under, fused, fcov, innov, icov, post_mean, post_cov = _imm_cycle(
+                mub, T, Xb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, Ak, idx, sensor, ang, log_2pi, with_cov, failed)
+            _store_imm_step(k, b0, under, fused, fcov, innov, icov, mu_b, failed, keep_cov, nis_on, truth, mean_out,
+                            cov_out, mu_out, failed_out, underflow_out, nis_out, nees_out)
+            mub, Xb, Pb = mu_b[0], post_mean, post_cov
+            if frozen:
+                continue
+            if not _degrees_of_divergence(innov[0], icov[0], refs[k], norm_innov, dod):
+                for lane in range(N):
+                    refused[b0 + lane] = True
+            for w in range(W - 1):
+                for c in range(2):
+                    for lane in range(N):
+                        hist[w, c, lane] = hist[w + 1, c, lane]
+            for c in range(2):
+                for lane in range(N):
+                    hist[W - 1, c, lane] = dod[c, lane]
+            for lane in range(N):
+                filled[lane] = min(filled[lane] + 1, W)
+            if W == 1:
+                for c in range(2):
+                    for lane in range(N):
+                        avg[c, lane] = hist[0, c, lane]
+            else:
+                for c in range(2):
+                    for lane in range(N):
+                        t = hist[0, c, lane] if 0 >= W - filled[lane] else 0.0
+                        for w in range(1, W):
+                            t += hist[w, c, lane] if w >= W - filled[lane] else 0.0
+                        avg[c, lane] = t / filled[lane]
+            count = 0
+            for lane in range(N):
+                if math.isfinite(avg[0, lane]) and math.isfinite(avg[1, lane]):
+                    x[count, 0] = avg[0, lane]
+                    x[count, 1] = avg[1, lane]
+                    rows[count] = lane
+                    count += 1
+                else:
+                    for j in range(r):
+                        lev[j, lane] = np.nan
+            if count:
+                out, total = trapezoid_rules(x[:count], bounds, sizes, cons)
+                for q in range(count):
+                    if not total[q] > 0.0:
+                        for lane in range(N):
+                            refused[b0 + lane] = True
+                    lane = rows[q]
+                    for j in range(r):
+                        lev[j, lane] = math.pow(ten, out[q, j])

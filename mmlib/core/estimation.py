@@ -38,7 +38,7 @@ from mmlib.core._validate import (check_finite, as_float_array, check_applies, c
 __all__ = ["IMM", "SingleModel", "run", "Track", "Estimate", "IMMState", "MomentMixing", "KnownModeSequence",
            "SwitchingState", "FilterDivergence", "summarise_divergence", "select_runs",
            "batch_size", "Failure", "FAILURE_CAUSES", "FILTER_METHODS", "DYNAMICS_METHODS", "MEASUREMENT_METHODS",
-           "ESTIMATOR_METHODS"]
+           "ESTIMATOR_METHODS", "packed_imm_steps"]
 
 
 class Failure(IntEnum):
@@ -766,6 +766,13 @@ def run(estimator: protocols.Estimator, state: tuple, measurements: ArrayLike | 
                            on_divergence)
         if track is not None:
             return track
+    elif callable(getattr(estimator, "whole_run", None)) and linalg.fused():
+        # an estimator with a compiled whole run of its own (e.g. NoiseAdaptiveIMM.whole_run, which checks its inputs
+        # as its steps would, or returns None where the loop must run: step by step)
+        parts = estimator.whole_run(state, steps, with_cov=with_cov, keep_cov=keep_cov, nis=consistency,
+                                    truth=x_true)
+        if parts is not None:
+            return _assemble(*parts, steps, consistency, name, on_divergence)
     models: dict = {}                       # id(a step's measurement model; None: the default) -> the model
     for k, (z_k, model_k) in enumerate(steps):
         if check is None or advance is None:
@@ -819,27 +826,50 @@ def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, c
     (:func:`_fused_measure`) and that one call can take (:func:`mmlib.core.linalg.packed_steps`: one kind, one R per
     step).  The steps' inputs are checked as the step-by-step loop checks them (``check`` once per model), the kernel
     computes every step as the fused step does, and the divergences, NIS and NEES follow from its per-step outputs as
-    the loop records them: the same Track, bit for bit (``tests/test_fused.py``).  None where it does not apply
-    (the loop runs)."""
+    the loop records them (:func:`_assemble`): the same Track, bit for bit (``tests/test_fused.py``).  None where it
+    does not apply (the loop runs)."""
     imm = type(estimator) is IMM
     if not linalg.fused() or not (imm or type(estimator) is SingleModel):
         return None
-    if imm:
-        if type(estimator.mixing) is not MomentMixing or not isinstance(state, IMMState) \
-                or not _fusable(estimator.filter, state.modes, estimator.stacked):
-            return None
-        dynamics = estimator.stacked
-    else:
-        dynamics = estimator.dynamics
-        if not bool(getattr(dynamics, "is_linear", False)) or np.ndim(dynamics.F) != 2:
-            return None
-        # a plain sigma-point filter, or a layer with a whole run of its own (it decides whether its state allows it)
-        plain = _fusable(estimator.filter, state, dynamics)
-        layer_run = None if plain else getattr(estimator.filter, "whole_run", None)
-        if not plain and layer_run is None:
-            return None
-    if x_true is not None and x_true.shape[-1] != dynamics.dim:
+    if x_true is not None and x_true.shape[-1] != (estimator.stacked if imm else estimator.dynamics).dim:
         return None                     # the loop names the mismatch
+    if imm:
+        packed = packed_imm_steps(estimator, state, steps, with_cov, check)
+        if packed is None:
+            return None
+        up = estimator.filter.rule.unit_points(estimator.stacked.dim)
+        means, covs, mus, failed, underflow, nis, nees = linalg.imm_sigma_run(
+            state.mode_probabilities, estimator.transition, state.modes.mean, state.modes.cov, up.xi, up.wm, up.wc,
+            estimator.stacked.F, estimator.stacked.Q, packed, with_cov, LOG_2PI, keep_cov=keep_cov, nis=consistency,
+            truth=x_true)
+        return _assemble(means, covs, mus, failed, underflow, None, nis, nees, steps, consistency, name, on_divergence)
+    dynamics = estimator.dynamics
+    if not bool(getattr(dynamics, "is_linear", False)) or np.ndim(dynamics.F) != 2:
+        return None
+    # a plain sigma-point filter, or a layer with a whole run of its own (it decides whether its state allows it)
+    plain = _fusable(estimator.filter, state, dynamics)
+    layer_run = None if plain else getattr(estimator.filter, "whole_run", None)
+    if not plain and layer_run is None:
+        return None
+    packed = _packed(state, steps, with_cov, check, dynamics.dim)
+    if packed is None:
+        return None
+    if layer_run is not None:
+        out = layer_run(state, dynamics, packed, keep_cov=keep_cov, nis=consistency, truth=x_true)
+        if out is None:
+            return None
+    else:
+        up = estimator.filter.rule.unit_points(dynamics.dim)
+        out = linalg.sigma_run(state.mean, state.cov, up.xi, up.wm, up.wc, dynamics.F, dynamics.Q, packed, LOG_2PI,
+                               keep_cov=keep_cov, nis=consistency, truth=x_true)
+    means, covs, failed, nis, nees = out
+    return _assemble(means, covs, None, failed, None, None, nis, nees, steps, consistency, name, on_divergence)
+
+
+def _packed(state, steps, with_cov: bool, check, n: int) -> tuple | None:
+    """The measurement steps of a run packed for one compiled call (:func:`mmlib.core.linalg.packed_steps`), each
+    model checked once with ``check(state, z, with_cov, model)`` as the step-by-step loop checks it; None where a
+    model's function is not one the kernels evaluate (:func:`_fused_measure`) or one call cannot take the steps."""
     zs, measures, angulars, Rs, models = [], [], [], [], {}
     for z_k, model_k in steps:
         if id(model_k) not in models:
@@ -852,29 +882,34 @@ def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, c
         measures.append(measure)
         angulars.append(model.angular)
         Rs.append(model.R)
-    packed = linalg.packed_steps(zs, measures, angulars, Rs, dynamics.dim)
-    if packed is None:
+    return linalg.packed_steps(zs, measures, angulars, Rs, n)
+
+
+def packed_imm_steps(imm: "IMM", state: "IMMState", steps: Sequence[tuple], with_cov: bool,
+                     check=None) -> tuple | None:
+    """The measurement steps ``steps`` ((z_k (B, m_k), model_k or None) pairs, as :func:`run` holds them) of a run of
+    ``imm`` from ``state`` packed for one compiled call (:func:`mmlib.core.linalg.packed_steps`), each model checked as
+    :meth:`IMM.step` checks it (``check``: that check, default ``imm._check_step``); None where the IMM's steps would
+    not be fused steps (exactly an :class:`IMM`, moment mixing, :func:`_fusable`) or one call cannot take the
+    steps.  For the layers that run an IMM's cycles in a compiled whole run of their own (e.g.
+    :meth:`mmlib.core.layers.adaptive_imm.NoiseAdaptiveIMM.whole_run`)."""
+    if not linalg.fused() or type(imm) is not IMM or type(imm.mixing) is not MomentMixing \
+            or not isinstance(state, IMMState) or not _fusable(imm.filter, state.modes, imm.stacked):
         return None
-    if imm:
-        up = estimator.filter.rule.unit_points(dynamics.dim)
-        means, covs, mus, failed, underflow, nis, nees = linalg.imm_sigma_run(
-            state.mode_probabilities, estimator.transition, state.modes.mean, state.modes.cov, up.xi, up.wm, up.wc,
-            dynamics.F, dynamics.Q, packed, with_cov, LOG_2PI, keep_cov=keep_cov, nis=consistency, truth=x_true)
-        failure = np.where(failed, _COVARIANCE, _NONE)
+    return _packed(state, steps, with_cov, imm._check_step if check is None else check, imm.stacked.dim)
+
+
+def _assemble(means, covs, mus, failed, underflow, diagnostics, nis, nees, steps, consistency: bool, name: str,
+              on_divergence: str) -> Track:
+    """The Track of a whole run from its per-step outputs (means (B, K, n), covs or None, mode probabilities or None,
+    failed (B, K) (a filter failed), underflow (B, K) or None (every mode's likelihood underflowed), diagnostics
+    (B, K, d) or None, NIS and NEES (B, K) or None), as the step-by-step loop of :func:`run` records them: a run
+    diverges at the first step whose estimate is not finite or whose filter failed, with that cause; the NIS and NEES
+    NaN from its divergence on; ``on_divergence='raise'`` names the first run failing at the first such step."""
+    failure = np.where(failed, _COVARIANCE, _NONE)
+    if underflow is not None:
         failure = np.where(underflow & (failure == _NONE), _LIKELIHOOD, failure)
-    else:
-        if layer_run is not None:
-            out = layer_run(state, dynamics, packed, keep_cov=keep_cov, nis=consistency, truth=x_true)
-            if out is None:
-                return None
-        else:
-            up = estimator.filter.rule.unit_points(dynamics.dim)
-            out = linalg.sigma_run(state.mean, state.cov, up.xi, up.wm, up.wc, dynamics.F, dynamics.Q, packed, LOG_2PI,
-                                   keep_cov=keep_cov, nis=consistency, truth=x_true)
-        means, covs, failed, nis, nees = out
-        mus, failure = None, np.where(failed, _COVARIANCE, _NONE)
     B, K = failure.shape
-    # the loop's record: a run diverges at the first step whose estimate is not finite or whose filter failed
     bad = ~np.isfinite(means).all(axis=2) | (failure != _NONE)
     hit = bad.any(axis=1)
     first = np.argmax(bad, axis=1)
@@ -887,7 +922,7 @@ def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, c
         k = int(diverged_step[rows].min())
         r = int(np.flatnonzero(diverged_step == k)[0])
         raise FilterDivergence(f"{name}: run {r} diverged at step {k} ({FAILURE_CAUSES[Failure(int(cause[r]))]})")
-    track = Track(means, covs, mus, diverged_step, None, cause)
+    track = Track(means, covs, mus, diverged_step, diagnostics, cause)
     if consistency:
         after = np.arange(K)[None, :] >= np.where(diverged_step >= 0, diverged_step, K)[:, None]
         track = track._replace(nees=None if nees is None else np.where(after, np.nan, nees),

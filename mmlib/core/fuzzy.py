@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mmlib.core._validate import as_float_array, check_finite, check_scalar
-from mmlib.core.linalg import rule_output, rule_weights, trapezoid_rules
+from mmlib.core.linalg import compiled_rule_count, rule_output, rule_weights, trapezoid_rules
 from mmlib.core.linalg import trapezoid_memberships as _trapezoid_memberships
 
 __all__ = ["TakagiSugeno", "Trapezoid", "ramp_sets"]
@@ -163,6 +163,14 @@ class TakagiSugeno:
         rule_consequents = cons.reshape(int(np.prod(grid)), -1)
         rule_consequents.setflags(write=False)
         object.__setattr__(self, "_rule_consequents", rule_consequents)
+
+    def trapezoid_form(self) -> tuple | None:
+        """``(bounds (d, 4, k_max), sizes (d,), consequents (K, p))`` of :func:`mmlib.core.linalg.trapezoid_rules` when
+        every input's sets are trapezoids and the K rules are few enough for a compiled call to sum them in numpy's
+        order; None otherwise."""
+        if self._trapezoids is None or not compiled_rule_count(self._rule_consequents.shape[0]):
+            return None
+        return self._trapezoids + (self._rule_consequents,)
 
     @property
     def n_inputs(self) -> int:

@@ -355,6 +355,11 @@ class PVClockNoise:
                              f"that does not: about {np.finfo(float).max / self.unit.max():.3g})")
         return Q
 
+    def affine(self) -> tuple[np.ndarray, np.ndarray]:
+        r"""``(unit, base)``, each (8, 8): :meth:`Q` is ``levels[..., None, None] * unit + base``, entry by entry (what
+        a compiled whole run of a noise-adaptive IMM computes itself, :func:`mmlib.core.linalg.fuzzy_imm_run`)."""
+        return self.unit, self.base
+
     def dynamics(self, level: float, name: str = "") -> LinearGaussianDynamics:
         """The 8-state model with one level (m^2/s^3, finite, >= 0): ``x_k = F x_{k-1} + w``,
         ``w ~ N(0, Q(level))``; ``name`` a string (default ``PV(S_p=level)``)."""

@@ -57,6 +57,7 @@ __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused"
            "rule_weights", "rule_output", "trapezoid_rules",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "fading_factor", "strong_tracking_step", "packed_steps", "sigma_run", "imm_sigma_run", "strong_tracking_run",
+           "fuzzy_imm_run", "power", "compiled_rule_count",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
            "FUSED_STEPS",
            "GEMM_MAX_INNER", "MEASURE_LINEAR", "MEASURE_RANGE_BEARING", "MEASURE_PSEUDORANGES",
@@ -251,6 +252,8 @@ _SHAPES = {
     "sigma_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n"),
     "imm_sigma_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N t", "t a", "t w", "t", "... n n"),
     "strong_tracking_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n", "N v v"),
+    "fuzzy_imm_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "n n", "n n", "N r", "r", "N t",
+                      "t a", "t w", "t", "N h c", "N"),
     "fading_factor": ("N n n", "N n n", "N n m", "N m m", "N m m", "N m m", None),
     "trapezoid_rules": ("N d", "d - -", "d", "- -"),
 }
@@ -993,6 +996,12 @@ def trapezoid_rules(x: np.ndarray, bounds: np.ndarray, sizes: np.ndarray,
     return rule_output(rule_weights(mus).reshape(x.shape[0], consequents.shape[0]), consequents)
 
 
+def compiled_rule_count(count: int) -> bool:
+    """Whether the compiled :func:`trapezoid_rules` sums ``count`` rule weights itself in numpy's order (more fall
+    back to the numpy body, whose sum is numpy's recursion)."""
+    return count <= _compiled_module().NUMPY_SUM_MAX
+
+
 @trapezoid_rules.compiled
 def _trapezoid_rules_compiled(x, bounds, sizes, consequents):
     _check_rules(x, bounds, sizes, consequents)
@@ -1002,6 +1011,20 @@ def _trapezoid_rules_compiled(x, bounds, sizes, consequents):
     args = _writable([_contiguous(x), _contiguous(bounds), np.ascontiguousarray(sizes, dtype=np.int64),
                       _contiguous(consequents)])
     return kernels.trapezoid_rules(*args)
+
+
+@_operation
+def power(base: float, x: np.ndarray) -> np.ndarray:
+    """``base ** x`` elementwise for any array ``x`` (e.g. the FLAS's levels from their base-10 logarithms): numpy's
+    power on this path, the C library's ``pow`` one value at a time on the compiled one (numpy may evaluate it with a
+    vector library on some CPUs: a whole run, :func:`fuzzy_imm_run`, then gives its step-by-step bits on every CPU)."""
+    return float(base) ** np.asarray(x, dtype=float)
+
+
+@power.compiled
+def _power_compiled(base, x):
+    x = np.asarray(x, dtype=np.float64)
+    return _compiled_module().power(float(base), np.ascontiguousarray(x).reshape(-1)).reshape(x.shape)
 
 
 # --------------------------------------------------------------------------- whole fused filter steps (compiled only)
@@ -1147,7 +1170,7 @@ FUSED_BLOCK = 128
 #: the names of the fused steps below, each a whole filter step in one compiled call (what a caller spies on to see
 #: whether one was taken: ``bench/papers.py``, ``tests/test_fused.py``)
 FUSED_STEPS = ("imm_sigma_step", "sigma_step", "strong_tracking_step", "sigma_run", "imm_sigma_run",
-               "strong_tracking_run")
+               "strong_tracking_run", "fuzzy_imm_run")
 
 #: the measurement functions the fused steps evaluate themselves (:func:`mmlib.core._kernels._measure`)
 MEASURE_LINEAR, MEASURE_RANGE_BEARING, MEASURE_PSEUDORANGES = 0, 1, 2
@@ -1321,6 +1344,63 @@ def sigma_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray,
         _run_outputs(B, K, n, keep_cov, nis, truth is not None), B)
     means, covs, failed, nis_out, nees_out = out
     return means, covs if keep_cov else None, failed, nis_out if nis else None, nees_out if truth is not None else None
+
+
+def fuzzy_imm_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, covs: np.ndarray, xi: np.ndarray,
+                  wm: np.ndarray, wc: np.ndarray, F: np.ndarray, affine: tuple, levels: np.ndarray,
+                  initial: np.ndarray, packed: tuple, with_cov: bool, log_2pi: float, *, frozen: bool,
+                  normalise_innovation: bool, refs: np.ndarray, history: np.ndarray, filled: np.ndarray,
+                  rule_base: tuple, keep_cov: bool, nis: bool, truth: np.ndarray | None = None) -> tuple | None:
+    r"""Every cycle of a noise-adaptive IMM of a sigma-point filter over linear mode dynamics whose modes' process
+    noise is affine in their levels, :math:`Q(\ell) = \ell\,U + B` (``affine`` = (U, B), each (n, n)), and whose
+    controller is the FLAS (Tseng et al. 2011; :class:`mmlib.core.layers.fuzzy_noise.FuzzyNoiseBounds`), in one
+    compiled call (compiled kernels only; :func:`fused`): what the layer computes step by step
+    (:class:`mmlib.core.layers.adaptive_imm.NoiseAdaptiveIMM`, :class:`~mmlib.core.layers.adaptive_imm.
+    WindowedNoiseAdaptiveIMM`), the same bits.  ``mu`` ... ``F``, ``packed``, ``with_cov``, ``log_2pi``, ``keep_cov``,
+    ``nis``, ``truth`` as :func:`imm_sigma_run`; ``levels`` (B, r) the state's levels, ``initial`` (r,) those that
+    replace a level that is not finite; ``frozen`` keeps the levels; the degrees of divergence over the mixture prior's
+    predicted innovation variance (``normalise_innovation``) or ``refs[k]`` (K,) at step k, averaged over the last
+    epochs of ``history`` (B, W, 2) (``filled`` (B,) of them real); ``rule_base`` = (bounds, sizes, consequents) of
+    :func:`trapezoid_rules`.  Returns ``(means, covs or None, mu, failed, underflow, nis or None, nees or None,
+    levels (B, K, r))``, each step's levels as the state held them; None where the controller refuses an input (a
+    reference variance not > 0, a degree of divergence firing no rule: the layer step by step raises)."""
+    B, r, n = mu.shape[0], mu.shape[1], means.shape[-1]
+    z, zoff, kind, A, idx, sensor, angular, R = packed
+    K = zoff.shape[0] - 1
+    if (keep_cov or truth is not None) and not with_cov:
+        raise ValueError("with_cov: the fused covariance is needed to keep it or for the NEES")
+    unit, base = (_contiguous(a) for a in affine)
+    bounds, sizes, cons = rule_base
+    bounds, sizes, cons = _contiguous(bounds), np.ascontiguousarray(sizes, dtype=np.int64), _contiguous(cons)
+    means, covs = _stack(means, 2, (B,)), _stack(covs, 3, (B,))
+    history, filled = _contiguous(history), np.ascontiguousarray(filled, dtype=np.int64)
+    refs = _contiguous(refs)
+    _check_shapes("fuzzy_imm_run", B, (mu, transition, means, covs, xi, wm, wc, F, unit, base, levels, initial, z, A,
+                                       R, angular, history, filled))
+    _check_offsets(zoff, R)
+    kernels = _compiled_module()
+    if history.shape[2] != 2 or refs.shape != (K,) or cons.shape[1] != r or bounds.shape[:2] != (2, 4) \
+            or sizes.shape != (2,) or int(np.prod(sizes)) != cons.shape[0] or cons.shape[0] > kernels.NUMPY_SUM_MAX \
+            or (sizes > bounds.shape[2]).any() or (sizes < 1).any():
+        raise ValueError(f"rule_base: bounds {bounds.shape}, sizes {sizes.tolist()}, consequents {cons.shape} with "
+                         f"history {history.shape} and refs {refs.shape} do not describe a two-input rule base of "
+                         f"{r} outputs")
+    nees = truth is not None
+    means_out, covs_out, failed, nis_out, nees_out = _run_outputs(B, K, n, keep_cov, nis, nees)
+    refused = np.zeros(B, dtype=np.bool_)
+    outputs = (means_out, covs_out, np.empty((B, K, r)), failed, np.zeros((B, K), dtype=np.bool_), np.empty((B, K, r)),
+               nis_out, nees_out, refused)
+    out = _over_threads(kernels.fuzzy_imm_run, (
+        _contiguous(mu), _contiguous(transition), _contiguous(means), _contiguous(covs), _contiguous(xi),
+        _contiguous(wm), _contiguous(wc), _contiguous(F), unit, base, _contiguous(levels), _contiguous(initial), z,
+        zoff, kind, A, idx, sensor, angular, R, bool(with_cov), float(log_2pi), _truth_operand(truth, B, K, n),
+        bool(nis), bool(keep_cov), bool(frozen), bool(normalise_innovation), refs, history, filled, bounds, sizes,
+        cons, 10.0), outputs, B)
+    means_k, covs_k, mu_k, failed, underflow, diag, nis_out, nees_out, refused = out
+    if refused.any():
+        return None
+    return (means_k, covs_k if keep_cov else None, mu_k, failed, underflow, nis_out if nis else None,
+            nees_out if nees else None, diag)
 
 
 def strong_tracking_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray, wc: np.ndarray,

@@ -30,7 +30,9 @@ from typing import Any, Callable, NamedTuple
 import numpy as np
 
 from mmlib.core._validate import as_float_array, check_bool, check_has, check_name, check_positive_int
-from mmlib.core.estimation import IMM, IMMState
+from mmlib.core import linalg
+from mmlib.core.estimation import IMM, IMMState, packed_imm_steps
+from mmlib.core.filters import LOG_2PI
 from mmlib.core.models import is_psd_by_construction
 from mmlib.core.protocols import MeasurementModel
 
@@ -111,6 +113,23 @@ class NoiseAdaptiveIMM:
         B = s.mode_probabilities.shape[0]
         return NoiseAdaptiveState(s, np.tile(self.initial_levels, (B, 1)))
 
+    def whole_run(self, state: NoiseAdaptiveState, steps, *, with_cov: bool, keep_cov: bool, nis: bool,
+                  truth: np.ndarray | None = None) -> tuple | None:
+        """Every step of a run (:func:`mmlib.core.estimation.run` calls this with its checked ``steps``, (z_k (B, m_k),
+        model_k or None) pairs) in one compiled call (:func:`mmlib.core.linalg.fuzzy_imm_run`), where the layer is this
+        class itself (a subclass may override a step), its IMM's cycles are fused steps
+        (:func:`mmlib.core.estimation.packed_imm_steps`), its noise family is affine in the level (``affine()``,
+        e.g. :meth:`mmlib.core.gnss.PVClockNoise.affine`) and its controller has a compiled form (``compiled_form()``,
+        e.g. :meth:`mmlib.core.layers.fuzzy_noise.FuzzyNoiseBounds.compiled_form`) or the layer is frozen.  Returns
+        ``(means, covs, mode probabilities, failed, underflow, levels (B, K, r), nis, nees)`` per step, the bits of the
+        run step by step (``tests/test_gnss_fuzzy.py``), or None where it does not apply or the controller would refuse
+        an input (then the steps run, and raise)."""
+        if type(self) is not NoiseAdaptiveIMM or type(state) is not NoiseAdaptiveState or not linalg.fused():
+            return None
+        B = state.levels.shape[0]
+        return _whole_run(self, state, steps, np.zeros((B, 1, 2)), np.zeros(B, dtype=np.int64), with_cov=with_cov,
+                          keep_cov=keep_cov, nis=nis, truth=truth)
+
     def step(self, state: NoiseAdaptiveState, z: np.ndarray, *, with_cov: bool = True,
              measurement: MeasurementModel | None = None) -> tuple:
         r"""One IMM cycle with the modes' noise :math:`Q_j = Q(\ell_{k,j})` from this step's levels (B, r) (a
@@ -134,6 +153,49 @@ class NoiseAdaptiveIMM:
             if levels.shape != state.levels.shape:
                 raise ValueError(f"controller: expected levels of shape {state.levels.shape}, got {levels.shape}")
         return NoiseAdaptiveState(imm_state, levels), est._replace(diagnostics=state.levels)
+
+
+def _whole_run(layer, state, steps, history, filled, *, with_cov: bool, keep_cov: bool, nis: bool,
+               truth) -> tuple | None:
+    """:meth:`NoiseAdaptiveIMM.whole_run` for a layer (exactly :class:`NoiseAdaptiveIMM` or
+    :class:`WindowedNoiseAdaptiveIMM`) from its ``state`` with the DOD ``history`` (B, W, 2) and ``filled`` (B,)."""
+    owner = getattr(layer.noise, "__self__", None)
+    affine = getattr(owner, "affine", None)
+    if not callable(affine) or layer.noise != getattr(owner, "Q", None):
+        return None                                     # a noise family the kernel does not compute
+    form = None if layer.frozen else getattr(layer.controller, "compiled_form", lambda: None)()
+    if not layer.frozen and form is None:
+        return None
+    normalise, rule_base = form if form is not None else (True, _NO_RULES)
+    unit, base = affine()
+    top = max(float(np.max(layer.initial_levels)), float(10.0 ** np.max(rule_base[2])) if form is not None else 0.0)
+    with np.errstate(over="ignore"):
+        if not np.isfinite(2.0 * top * np.asarray(unit) + base).all():
+            return None                                 # a level whose Q overflows: the step names it
+    B, r, n = state.imm.modes.mean.shape
+    if truth is not None and truth.shape[-1] != n:
+        return None
+    packed = packed_imm_steps(layer.imm, state.imm, [(z, layer.imm.measurement if m is None else m) for z, m in steps],
+                              with_cov)
+    if packed is None:
+        return None
+    refs = np.zeros(len(steps)) if normalise else np.array(
+        [float(np.mean(np.diag((layer.imm.measurement if m is None else m).R))) for _, m in steps])
+    imm = layer.imm
+    up = imm.filter.rule.unit_points(n)
+    out = linalg.fuzzy_imm_run(
+        state.imm.mode_probabilities, imm.transition, state.imm.modes.mean, state.imm.modes.cov, up.xi, up.wm, up.wc,
+        imm.stacked.F, (unit, base), state.levels, layer.initial_levels, packed, with_cov, LOG_2PI, frozen=layer.frozen,
+        normalise_innovation=normalise, refs=refs, history=history, filled=filled, rule_base=rule_base,
+        keep_cov=keep_cov, nis=nis, truth=truth)
+    if out is None:
+        return None
+    means, covs, mus, failed, underflow, nis_k, nees_k, levels = out
+    return means, covs, mus, failed, underflow, levels, nis_k, nees_k
+
+
+#: a rule base for a frozen layer's whole run (never evaluated)
+_NO_RULES = (np.zeros((2, 4, 1)), np.ones(2, dtype=np.int64), np.zeros((1, 2)))
 
 
 def _array_of(value, method: str, shape: tuple, what: str) -> np.ndarray:
@@ -188,6 +250,16 @@ class WindowedNoiseAdaptiveIMM(NoiseAdaptiveIMM):
         s = NoiseAdaptiveIMM.init(self, mean, cov, mode_probabilities, **filter_init)
         B = s.levels.shape[0]
         return WindowedNoiseAdaptiveState(s.imm, s.levels, np.zeros((B, int(self.window), 2)), np.zeros(B, dtype=int))
+
+    def whole_run(self, state: WindowedNoiseAdaptiveState, steps, *, with_cov: bool, keep_cov: bool, nis: bool,
+                  truth: np.ndarray | None = None) -> tuple | None:
+        """:meth:`NoiseAdaptiveIMM.whole_run` with the DOD averaged over the window (its history and count in
+        ``state``), for this class itself."""
+        if type(self) is not WindowedNoiseAdaptiveIMM or type(state) is not WindowedNoiseAdaptiveState \
+                or not linalg.fused():
+            return None
+        return _whole_run(self, state, steps, state.dod, state.filled, with_cov=with_cov, keep_cov=keep_cov, nis=nis,
+                          truth=truth)
 
     def step(self, state: WindowedNoiseAdaptiveState, z: np.ndarray, *, with_cov: bool = True,
              measurement: MeasurementModel | None = None) -> tuple:

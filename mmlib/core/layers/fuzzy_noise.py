@@ -42,6 +42,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from mmlib.core import linalg
 from mmlib.core._validate import as_float_array, check_choice, check_has, check_positive_int, check_scalar
 from mmlib.core.estimation import IMM, Estimate
 from mmlib.core.fuzzy import TakagiSugeno, ramp_sets
@@ -122,8 +123,17 @@ class FuzzyNoiseBounds:
         ok = np.isfinite(dod).all(axis=1)
         out = np.full((dod.shape[0], 2), np.nan)
         if ok.any():
-            out[ok] = 10.0 ** self.system(dod[ok])
+            out[ok] = linalg.power(10.0, self.system(dod[ok]))
         return out
+
+    def compiled_form(self) -> tuple | None:
+        """``(normalise_innovation, (bounds, sizes, consequents))``: this controller as a compiled whole run of its IMM
+        computes it (:func:`mmlib.core.linalg.fuzzy_imm_run`), for a rule base whose sets are all trapezoids and
+        whose rules a compiled call sums in numpy's order; None otherwise (the IMM then runs step by step)."""
+        if type(self) is not FuzzyNoiseBounds:          # a subclass may compute its degrees or levels otherwise
+            return None
+        form = self.system.trapezoid_form()
+        return None if form is None else (self.normalise == "innovation", form)
 
 
 def fuzzy_imm(filter: MomentFilter, noise: Any, lower: float, upper: float, transition: np.ndarray, *,
