@@ -784,9 +784,9 @@ def _same_bits(a, b) -> bool:
 def test_the_fuzzy_imm_whole_run_gives_the_bits_of_its_steps(fields, monkeypatch):
     """Tseng et al. 2011's noise-adaptive IMM up to 60 epochs past the first change of the satellites in view: one
     compiled call gives every Track field -- estimates, covariances, mode probabilities, levels, NIS, NEES,
-    divergences -- the bits of the layer step by step, with the DOD of one epoch or averaged over 4 or 16, normalised by the innovation's or the
-    measurement's variance, sharper membership functions, or the levels frozen; a run broken before the first step
-    diverges at step 0 and the others go on."""
+    divergences -- the bits of the layer step by step, with the DOD of one epoch or averaged over 4 or 16,
+    normalised by the innovation's or the measurement's variance, sharper membership functions, or the levels frozen;
+    a run broken before the first step diverges at step 0 and the others go on."""
     fields = dict(fields)
     frozen = fields.pop("frozen", False)
     setup = dataclasses.replace(Setup(), **fields)
