@@ -842,8 +842,13 @@ def test_the_fuzzy_imm_whole_run_falls_back_where_the_controller_refuses_or_does
     narrow = (Trapezoid("low", -np.inf, -np.inf, 1e-9, 2e-9),)
     system = TakagiSugeno((narrow, narrow), np.zeros((1, 1, 2)))
     refusing = dataclasses.replace(est, controller=FuzzyNoiseBounds(system))
-    with pytest.raises(ValueError, match="fires no rule"):
-        run(refusing, init["FUZZY-IMMUKF"], z[:10], measurement_models=ex.measurement_models[:10])
+    tried = []
+    real = linalg.fuzzy_imm_run
+    with monkeypatch.context() as m:
+        m.setattr(linalg, "fuzzy_imm_run", lambda *a, **k: tried.append(real(*a, **k)) or tried[-1])
+        with pytest.raises(ValueError, match="fires no rule"):
+            run(refusing, init["FUZZY-IMMUKF"], z[:10], measurement_models=ex.measurement_models[:10])
+    assert tried == [None]                     # attempted, declined, then the steps raised
 
     class OwnBounds(FuzzyNoiseBounds):
         pass
@@ -860,3 +865,78 @@ def test_the_fuzzy_imm_whole_run_falls_back_where_the_controller_refuses_or_does
     assert not calls
     run(est, init["FUZZY-IMMUKF"], z[:10], measurement_models=ex.measurement_models[:10])
     assert calls == [1]
+
+
+def test_the_fuzzy_imm_whole_run_carries_a_given_history_and_any_mode_count(monkeypatch):
+    """A windowed layer started from a carried-in DOD history (some epochs filled, non-zero degrees) with a NaN level
+    (replaced by the initial one, kept in the diagnostics), and a frozen layer of three modes: the whole run gives
+    the bits of the steps."""
+    ex = experiment(dataclasses.replace(SHORT, dod_window=4), names=("FUZZY-IMMUKF",))
+    est = ex.estimators["FUZZY-IMMUKF"]
+    mc = MonteCarlo(ROOT_SEED, 4)
+    truth, z, init = make_batch_fn(ex, mc)(range(4))
+    st = init["FUZZY-IMMUKF"]
+    rng = np.random.default_rng(3)
+    levels = st.levels.copy()
+    levels[1, 0] = np.nan
+    st = st._replace(levels=levels, dod=rng.uniform(0.5, 3.0, st.dod.shape), filled=np.array([0, 2, 4, 3]))
+    whole, steps = _runs_both_ways(est, st, z[:60], ex.measurement_models[:60], monkeypatch)
+    for field in whole._fields:
+        assert _same_bits(getattr(whole, field), getattr(steps, field)), field
+    assert np.isnan(whole.diagnostics[1, 0, 0]) and np.isfinite(whole.mean).all()
+    noise = est.noise.__self__
+    three = IMM(est.imm.filter, [noise.dynamics(v) for v in (0.01, 0.1, 1.0)], None,
+                np.full((3, 3), 0.05) + np.eye(3) * 0.85)
+    frozen = NoiseAdaptiveIMM(three, noise.Q, None, (0.01, 0.1, 1.0), frozen=True)
+    state = frozen.init(truth[:, 0], np.diag(np.square(SHORT.p0_sd)))
+    whole, steps = _runs_both_ways(frozen, state, z[:60], ex.measurement_models[:60], monkeypatch)
+    for field in whole._fields:
+        assert _same_bits(getattr(whole, field), getattr(steps, field)), field
+
+
+def test_the_fuzzy_imm_whole_run_leaves_what_it_does_not_compute_to_the_steps(monkeypatch):
+    """A noise family whose subclass overrides Q (and inherits affine) and starting levels the noise family refuses
+    are left to the steps: the first gives the steps' bits, the second the steps' error naming the levels."""
+    from mmlib.core import linalg
+    ex = experiment(SHORT, names=("FUZZY-IMMUKF",))
+    est = ex.estimators["FUZZY-IMMUKF"]
+    mc = MonteCarlo(ROOT_SEED, 3)
+    truth, z, init = make_batch_fn(ex, mc)(range(3))
+
+    class Louder(gnss.PVClockNoise):
+        def Q(self, levels):
+            return 100.0 * super().Q(levels)
+
+    noise = est.noise.__self__
+    louder = dataclasses.replace(est, noise=Louder(noise.T, noise.clock).Q)
+    calls = []
+    real = linalg.fuzzy_imm_run
+    monkeypatch.setattr(linalg, "fuzzy_imm_run", lambda *a, **k: calls.append(1) or real(*a, **k))
+    got = run(louder, init["FUZZY-IMMUKF"], z[:20], measurement_models=ex.measurement_models[:20])
+    assert not calls
+    plain = run(est, init["FUZZY-IMMUKF"], z[:20], measurement_models=ex.measurement_models[:20])
+    assert calls == [1] and not np.array_equal(got.mean, plain.mean)
+    negative = init["FUZZY-IMMUKF"]._replace(levels=np.full_like(init["FUZZY-IMMUKF"].levels, -5.0))
+    with pytest.raises(ValueError, match="^levels: "):
+        run(est, negative, z[:20], measurement_models=ex.measurement_models[:20])
+    assert calls == [1]
+
+
+@pytest.mark.parametrize("count", [2, 3])
+def test_the_fuzzy_imm_whole_run_split_over_threads_changes_no_bit(count, monkeypatch):
+    """Blocks of two runs split over 2 or 3 threads: the bits of one thread, each range once (the split taken)."""
+    from mmlib.core import _kernels, linalg
+    ex = experiment(dataclasses.replace(SHORT, dod_window=4), names=("FUZZY-IMMUKF",))
+    est = ex.estimators["FUZZY-IMMUKF"]
+    mc = MonteCarlo(ROOT_SEED, 7)
+    truth, z, init = make_batch_fn(ex, mc)(range(7))
+    monkeypatch.setattr(linalg, "FUSED_BLOCK", 2)
+    with linalg.use_threads(1):
+        one = run(est, init["FUZZY-IMMUKF"], z, measurement_models=ex.measurement_models)
+    seen, kernel = [], _kernels.fuzzy_imm_run
+    monkeypatch.setattr(_kernels, "fuzzy_imm_run", lambda *a: seen.append((a[-3], a[-2])) or kernel(*a))
+    with linalg.use_threads(count):
+        split = run(est, init["FUZZY-IMMUKF"], z, measurement_models=ex.measurement_models)
+    for field in one._fields:
+        assert _same_bits(getattr(one, field), getattr(split, field)), field
+    assert sorted(seen) == linalg._run_ranges(7, 2, count) and len(seen) == count

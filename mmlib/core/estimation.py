@@ -20,7 +20,7 @@ from __future__ import annotations
 import weakref
 from dataclasses import dataclass, field
 from enum import IntEnum
-from typing import Any, NamedTuple, Sequence
+from typing import Any, Callable, NamedTuple, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -827,7 +827,9 @@ def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, c
     step).  The steps' inputs are checked as the step-by-step loop checks them (``check`` once per model), the kernel
     computes every step as the fused step does, and the divergences, NIS and NEES follow from its per-step outputs as
     the loop records them (:func:`_assemble`): the same Track, bit for bit (``tests/test_fused.py``).  None where it
-    does not apply (the loop runs)."""
+    does not apply (the loop runs).  Every step's model is checked before the first step runs: a model that does not
+    fit is named even where, step by step, a run diverging earlier would have stopped ``on_divergence='raise'``
+    first."""
     imm = type(estimator) is IMM
     if not linalg.fused() or not (imm or type(estimator) is SingleModel):
         return None
@@ -886,7 +888,7 @@ def _packed(state, steps, with_cov: bool, check, n: int) -> tuple | None:
 
 
 def packed_imm_steps(imm: "IMM", state: "IMMState", steps: Sequence[tuple], with_cov: bool,
-                     check=None) -> tuple | None:
+                     check: Callable | None = None) -> tuple | None:
     """The measurement steps ``steps`` ((z_k (B, m_k), model_k or None) pairs, as :func:`run` holds them) of a run of
     ``imm`` from ``state`` packed for one compiled call (:func:`mmlib.core.linalg.packed_steps`), each model checked as
     :meth:`IMM.step` checks it (``check``: that check, default ``imm._check_step``); None where the IMM's steps would

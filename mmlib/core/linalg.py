@@ -1294,13 +1294,16 @@ def packed_steps(zs: Sequence[np.ndarray], measures: Sequence[tuple], angulars: 
             sensor0, angular, R_all)
 
 
-def _check_offsets(zoff: np.ndarray, R: np.ndarray) -> None:
-    """The step offsets of :func:`packed_steps`: int64 from 0 to R's rows, at least one step, none wider than R (the
-    kernels read step k's rows zoff[k]..zoff[k+1]-1 without checking bounds); else a ValueError naming ``packed``."""
+def _check_offsets(zoff: np.ndarray, R: np.ndarray, z: np.ndarray, B: int) -> None:
+    """The step offsets of :func:`packed_steps`: int64 from 0 to R's rows, at least one step, none wider than R, and
+    measurements of every one of the B runs (the kernels read step k's rows zoff[k]..zoff[k+1]-1 and each run's own
+    row without checking bounds); else a ValueError naming ``packed``."""
     widths = np.diff(zoff) if isinstance(zoff, np.ndarray) and zoff.ndim == 1 and zoff.dtype == np.int64 else None
     if widths is None or widths.size == 0 or zoff[0] != 0 or zoff[-1] != R.shape[0] or (widths < 1).any() \
             or widths.max() > R.shape[1]:
         raise ValueError(f"packed: step offsets {zoff!r} do not describe the {R.shape[0]} packed measurements")
+    if z.shape[0] != B:
+        raise ValueError(f"packed: measurements of {z.shape[0]} runs for a state of {B} runs")
 
 
 def _run_outputs(B: int, K: int, n: int, keep_cov: bool, nis: bool, nees: bool) -> tuple:
@@ -1336,7 +1339,7 @@ def sigma_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray,
     K = zoff.shape[0] - 1
     cov = _stack(cov, 2, (B,))
     _check_shapes("sigma_run", B, (mean, cov, xi, wm, wc, F, z, A, R, angular, Q))
-    _check_offsets(zoff, R)
+    _check_offsets(zoff, R, z, B)
     out = _over_threads(_compiled_module().sigma_run, (
         _contiguous(mean), _contiguous(cov), _contiguous(xi), _contiguous(wm), _contiguous(wc), _contiguous(F),
         _periodic(Q, 2, (B,)), z, zoff, kind, A, idx, sensor, angular, R, float(log_2pi),
@@ -1377,9 +1380,10 @@ def fuzzy_imm_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, cov
     refs = _contiguous(refs)
     _check_shapes("fuzzy_imm_run", B, (mu, transition, means, covs, xi, wm, wc, F, unit, base, levels, initial, z, A,
                                        R, angular, history, filled))
-    _check_offsets(zoff, R)
+    _check_offsets(zoff, R, z, B)
     kernels = _compiled_module()
-    if history.shape[2] != 2 or refs.shape != (K,) or cons.shape[1] != r or bounds.shape[:2] != (2, 4) \
+    if history.shape[1] < 1 or history.shape[2] != 2 or history.shape[0] != B or filled.shape != (B,) \
+            or refs.shape != (K,) or cons.shape[1] != r or bounds.shape[:2] != (2, 4) \
             or sizes.shape != (2,) or int(np.prod(sizes)) != cons.shape[0] or cons.shape[0] > kernels.NUMPY_SUM_MAX \
             or (sizes > bounds.shape[2]).any() or (sizes < 1).any():
         raise ValueError(f"rule_base: bounds {bounds.shape}, sizes {sizes.tolist()}, consequents {cons.shape} with "
@@ -1420,7 +1424,7 @@ def strong_tracking_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: n
     restart = V is None or np.shape(V)[-1] != m0
     Vs = np.zeros((1, 1, 1)) if restart else _stack(V, 2, (B,))
     _check_shapes("strong_tracking_run", B, (mean, cov, xi, wm, wc, F, z, A, R, angular, Q, Vs))
-    _check_offsets(zoff, R)
+    _check_offsets(zoff, R, z, B)
     out = _over_threads(_compiled_module().strong_tracking_run, (
         _contiguous(mean), _contiguous(cov), _contiguous(xi), _contiguous(wm), _contiguous(wc), _contiguous(F),
         _periodic(Q, 2, (B,)), z, zoff, kind, A, idx, sensor, angular, R, _contiguous(Vs), bool(restart), float(rho),
@@ -1448,7 +1452,7 @@ def imm_sigma_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, cov
         raise ValueError("with_cov: the fused covariance is needed to keep it or for the NEES")
     means, covs = _stack(means, 2, (B,)), _stack(covs, 3, (B,))
     _check_shapes("imm_sigma_run", B, (mu, transition, means, covs, xi, wm, wc, F, z, A, R, angular, Q))
-    _check_offsets(zoff, R)
+    _check_offsets(zoff, R, z, B)
     nees = truth is not None
     means_out, covs_out, failed, nis_out, nees_out = _run_outputs(B, K, n, keep_cov, nis, nees)
     outputs = (means_out, covs_out, np.empty((B, K, r)), failed, np.zeros((B, K), dtype=np.bool_), nis_out, nees_out)

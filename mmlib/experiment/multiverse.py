@@ -50,7 +50,7 @@ named) are reported apart from every share; ``stability`` holds the run-count ch
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field as dataclass_field
 from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
@@ -117,7 +117,7 @@ class Multiverse:
     stability: dict | None = None
     #: how the universes were obtained (:func:`run_grid`'s ``stats``: ``computed``, ``from_cache``, ``cpu_s``), when
     #: recorded: a measurement of the machine, written to the results' provenance, never to the ``multiverse`` object
-    compute: dict | None = None
+    compute: dict | None = dataclass_field(default=None, compare=False)
 
     def __post_init__(self):
         if not isinstance(self.space, ReadingSpace):

@@ -25,7 +25,7 @@ variance instead (mean :math:`1 + \mathrm{tr}(HPH^T)/(m\sigma^2) > 1`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable, NamedTuple
+from typing import Any, Callable, NamedTuple, Sequence
 
 import numpy as np
 
@@ -113,7 +113,7 @@ class NoiseAdaptiveIMM:
         B = s.mode_probabilities.shape[0]
         return NoiseAdaptiveState(s, np.tile(self.initial_levels, (B, 1)))
 
-    def whole_run(self, state: NoiseAdaptiveState, steps, *, with_cov: bool, keep_cov: bool, nis: bool,
+    def whole_run(self, state: NoiseAdaptiveState, steps: Sequence[tuple], *, with_cov: bool, keep_cov: bool, nis: bool,
                   truth: np.ndarray | None = None) -> tuple | None:
         """Every step of a run (:func:`mmlib.core.estimation.run` calls this with its checked ``steps``, (z_k (B, m_k),
         model_k or None) pairs) in one compiled call (:func:`mmlib.core.linalg.fuzzy_imm_run`), where the layer is this
@@ -160,21 +160,28 @@ def _whole_run(layer, state, steps, history, filled, *, with_cov: bool, keep_cov
     """:meth:`NoiseAdaptiveIMM.whole_run` for a layer (exactly :class:`NoiseAdaptiveIMM` or
     :class:`WindowedNoiseAdaptiveIMM`) from its ``state`` with the DOD ``history`` (B, W, 2) and ``filled`` (B,)."""
     owner = getattr(layer.noise, "__self__", None)
-    affine = getattr(owner, "affine", None)
-    if not callable(affine) or layer.noise != getattr(owner, "Q", None):
+    own = vars(type(owner)) if owner is not None else {}
+    # the class that defines Q defines affine() too (a subclass overriding Q alone computes another Q)
+    if "affine" not in own or "Q" not in own or layer.noise != getattr(owner, "Q", None):
         return None                                     # a noise family the kernel does not compute
     form = None if layer.frozen else getattr(layer.controller, "compiled_form", lambda: None)()
     if not layer.frozen and form is None:
         return None
-    normalise, rule_base = form if form is not None else (True, _NO_RULES)
-    unit, base = affine()
-    top = max(float(np.max(layer.initial_levels)), float(10.0 ** np.max(rule_base[2])) if form is not None else 0.0)
-    with np.errstate(over="ignore"):
+    B, r, n = state.imm.modes.mean.shape
+    normalise, rule_base = form if form is not None else (True, _no_rules(r))
+    unit, base = owner.affine()
+    levels = np.asarray(state.levels)
+    if levels.shape != (B, r) or levels.dtype != np.float64 or history.shape[1:] != (getattr(layer, "window", 1), 2) \
+            or np.shape(filled) != (B,) or (truth is not None and truth.shape[-1] != n):
+        return None                                     # a state the steps would refuse or read otherwise
+    now = np.where(np.isfinite(levels), levels, layer.initial_levels)
+    if (now < 0).any() or (np.asarray(filled) < 0).any() or (np.asarray(filled) > history.shape[1]).any():
+        return None                                     # the steps name it
+    top = max(float(np.max(layer.initial_levels)), float(np.max(now)),
+              float(10.0 ** np.max(rule_base[2])) if form is not None else 0.0)
+    with np.errstate(over="ignore", invalid="ignore"):
         if not np.isfinite(2.0 * top * np.asarray(unit) + base).all():
             return None                                 # a level whose Q overflows: the step names it
-    B, r, n = state.imm.modes.mean.shape
-    if truth is not None and truth.shape[-1] != n:
-        return None
     packed = packed_imm_steps(layer.imm, state.imm, [(z, layer.imm.measurement if m is None else m) for z, m in steps],
                               with_cov)
     if packed is None:
@@ -194,8 +201,9 @@ def _whole_run(layer, state, steps, history, filled, *, with_cov: bool, keep_cov
     return means, covs, mus, failed, underflow, levels, nis_k, nees_k
 
 
-#: a rule base for a frozen layer's whole run (never evaluated)
-_NO_RULES = (np.zeros((2, 4, 1)), np.ones(2, dtype=np.int64), np.zeros((1, 2)))
+def _no_rules(r: int) -> tuple:
+    """A rule base of the right shape for a frozen layer's whole run, of r modes (never evaluated)."""
+    return np.zeros((2, 4, 1)), np.ones(2, dtype=np.int64), np.zeros((1, r))
 
 
 def _array_of(value, method: str, shape: tuple, what: str) -> np.ndarray:
@@ -251,7 +259,8 @@ class WindowedNoiseAdaptiveIMM(NoiseAdaptiveIMM):
         B = s.levels.shape[0]
         return WindowedNoiseAdaptiveState(s.imm, s.levels, np.zeros((B, int(self.window), 2)), np.zeros(B, dtype=int))
 
-    def whole_run(self, state: WindowedNoiseAdaptiveState, steps, *, with_cov: bool, keep_cov: bool, nis: bool,
+    def whole_run(self, state: WindowedNoiseAdaptiveState, steps: Sequence[tuple], *, with_cov: bool, keep_cov: bool,
+                  nis: bool,
                   truth: np.ndarray | None = None) -> tuple | None:
         """:meth:`NoiseAdaptiveIMM.whole_run` with the DOD averaged over the window (its history and count in
         ``state``), for this class itself."""
