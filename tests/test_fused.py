@@ -582,9 +582,10 @@ def test_strong_tracking_batch_size_changes_no_bit(batch):
         assert a is None and b is None or _same(a, b[:batch]), field
 
 
-def test_strong_tracking_restart_failures_and_gnss_equal_composed():
-    """Pseudoranges whose satellite set changes size (V restarts, Eq. 17), a run whose covariance fails at the first
-    step and one that fails later: the same bits as the composed layer, and the failures reported at their steps."""
+def _gnss_strong_tracking(K: int) -> tuple:
+    """The arena's STUKF on Tseng et al. 2011's scenario, 5 runs, its first K epochs with one satellite fewer at epochs
+    4-7 (V restarts there and after, Eq. 17), run 1 not positive definite from the start: ``(estimator, state,
+    measurements, models)``."""
     from mmlib.arena import recipes, study
     from mmlib.experiment import evaluation
     s = study.scenario("tseng2011")
@@ -594,7 +595,7 @@ def test_strong_tracking_restart_failures_and_gnss_equal_composed():
                                                 lambda e, start, runs: recipes.initial_state(e, s, start, runs, mc))
     _, z, init = make_batch(range(5))
     zs, models_k = [], []
-    for k in range(12):
+    for k in range(K):
         model, zk = s.measurement_models[k], z[k]
         if 4 <= k < 8:                          # one satellite fewer for four epochs, then all again
             model = gnss.Pseudoranges(model.satellites[:-1], np.asarray(model.R)[:-1, :-1])
@@ -604,7 +605,13 @@ def test_strong_tracking_restart_failures_and_gnss_equal_composed():
     state = init["STUKF"]
     cov = state.cov.copy()
     cov[1, 6, 6] = -1.0                         # run 1: not positive definite from the start
-    state = state._replace(cov=cov)
+    return est, state._replace(cov=cov), zs, models_k
+
+
+def test_strong_tracking_restart_failures_and_gnss_equal_composed():
+    """Pseudoranges whose satellite set changes size (V restarts, Eq. 17), a run whose covariance fails at the first
+    step and one that fails later: the same bits as the composed layer, and the failures reported at their steps."""
+    est, state, zs, models_k = _gnss_strong_tracking(12)
     mismatches, estimates, calls = _same_steps(est, state, zs, models_k)
     assert not mismatches and calls == len(zs)
     assert estimates[0].failure[1] != 0 and np.isfinite(estimates[-1].mean[[0, 2, 3, 4]]).all()
@@ -1133,27 +1140,8 @@ def test_strong_tracking_whole_run_equals_the_run_step_by_step(rule, meas, q, mo
 def test_strong_tracking_whole_run_restarts_V_where_the_satellites_change(monkeypatch):
     """Pseudoranges whose satellite set changes size (V restarts, Eq. 17) for four epochs, a run whose covariance fails
     at the first step: one call for the whole run, the bits of the run epoch by epoch."""
-    from mmlib.arena import recipes, study
-    from mmlib.experiment import evaluation
-    s = study.scenario("tseng2011")
-    est = recipes.build("STUKF", s)
-    mc = MonteCarlo(s.root_seed, 5)
-    make_batch = evaluation.with_initial_states(s.simulator(mc), {"STUKF": est},
-                                                lambda e, start, runs: recipes.initial_state(e, s, start, runs, mc))
-    _, z, init = make_batch(range(5))
-    zs, models_k = [], []
-    for k in range(30):
-        model, zk = s.measurement_models[k], z[k]
-        if 4 <= k < 8:                          # one satellite fewer for four epochs, then all again
-            model = gnss.Pseudoranges(model.satellites[:-1], np.asarray(model.R)[:-1, :-1])
-            zk = zk[:, :-1]
-        zs.append(zk)
-        models_k.append(model)
-    state = init["STUKF"]
-    cov = state.cov.copy()
-    cov[1, 6, 6] = -1.0
-    whole, steps = _whole_and_per_step(est, state._replace(cov=cov), zs, monkeypatch, measurement_models=models_k,
-                                       consistency=True)
+    est, state, zs, models_k = _gnss_strong_tracking(30)
+    whole, steps = _whole_and_per_step(est, state, zs, monkeypatch, measurement_models=models_k, consistency=True)
     _assert_same_track(whole, steps)
     assert whole.diverged[1] and not whole.diverged[[0, 2, 3, 4]].any()
     assert sorted(set(whole.nis_dof.tolist())) == [zs[0].shape[1] - 1, zs[0].shape[1]]

@@ -333,14 +333,24 @@ def normalised_square(v, S):
             x[i, 0] = v[b, i]
             for j in range(d):
                 A[i, j] = S[b, i, j]
-        if not _lu_solve(A, x):
-            out[b] = np.nan
-            continue
-        t = 0.0
-        for i in range(d):
-            t += v[b, i] * x[i, 0]
-        out[b] = t
+        out[b] = _quadratic(A, x)
     return out
+
+
+@njit(**_OPTS)
+def _quadratic(A, x):
+    r""":math:`v^T A^{-1} v` of one run from A (d, d) and x (d, 1) holding v (both overwritten): LU with partial
+    pivoting (:func:`_lu_solve`), then the dot product of the solution with v, summed in index order; NaN where an
+    operand is not finite or A is exactly singular.  The one body of :func:`normalised_square` and
+    :func:`_nsq_lanes`."""
+    d = x.shape[0]
+    v = x[:, 0].copy()
+    if not _lu_solve(A, x):
+        return np.nan
+    t = 0.0
+    for i in range(d):
+        t += v[i] * x[i, 0]
+    return t
 
 
 @njit(**_OPTS)
@@ -1534,13 +1544,7 @@ def _nsq_lanes(v, S, out):
             x[i, 0] = v[i, b]
             for j in range(d):
                 A[i, j] = S[i, j, b]
-        if not _lu_solve(A, x):
-            out[b] = np.nan
-            continue
-        t = 0.0
-        for i in range(d):
-            t += v[i, b] * x[i, 0]
-        out[b] = t
+        out[b] = _quadratic(A, x)
 
 
 @njit(**_OPTS)
@@ -1597,6 +1601,37 @@ def _consistency_step(k, b0, mean, cov, nu, S, nis_on, truth, nis_out, nees_out)
 
 
 @njit(**_OPTS)
+def _single_block_start(mean, cov, F, Q, b0, N):
+    """The state and dynamics of a block of N runs from run b0, batch innermost, at the start of a single model's run:
+    ``(mb (n, N), Pb (n, n, N), Fb (n, n, N), Qb (n, n, N))``, the one F copied into every lane, Q periodic."""
+    n = mean.shape[1]
+    mb = np.empty((n, N))
+    Pb = np.empty((n, n, N))
+    _lanes(mean, b0, N, (1, 0), mb)
+    _lanes(cov, b0, N, (1, 0), Pb)
+    Fb = np.empty((n, n, N))
+    for i in range(n):
+        for j in range(n):
+            Fb[i, j, :] = F[i, j]
+    Qb = np.empty((n, n, N))
+    _lanes(Q, b0, N, (1, 0), Qb)
+    return mb, Pb, Fb, Qb
+
+
+@njit(**_OPTS)
+def _store_single_step(k, b0, mean, cov, nu, S, failed, keep_cov, nis_on, truth, mean_out, cov_out, failed_out,
+                       nis_out, nees_out):
+    """A single model's outputs of step k for the lanes of the runs b0..: the posterior mean (and covariance with
+    ``keep_cov``), failed, the NIS and NEES (:func:`_consistency_step`)."""
+    _store_step(mean, b0, k, mean_out)
+    if keep_cov:
+        _store_step(cov, b0, k, cov_out)
+    for lane in range(failed.shape[0]):
+        failed_out[b0 + lane, k] = failed[lane]
+    _consistency_step(k, b0, mean, cov, nu, S, nis_on, truth, nis_out, nees_out)
+
+
+@njit(**_OPTS)
 def sigma_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angular, R, log_2pi, truth, nis_on,
               keep_cov, mean_out, cov_out, failed_out, nis_out, nees_out, start, stop, block):
     r"""Every step of a single-model sigma-point filter on linear dynamics over K packed measurement steps, for blocks
@@ -1613,16 +1648,7 @@ def sigma_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angula
     K = zoff.shape[0] - 1
     for b0 in range(start, stop, block):
         N = min(block, stop - b0)
-        mb = np.empty((n, N))
-        Pb = np.empty((n, n, N))
-        _lanes(mean, b0, N, (1, 0), mb)
-        _lanes(cov, b0, N, (1, 0), Pb)
-        Fb = np.empty((n, n, N))
-        for i in range(n):
-            for j in range(n):
-                Fb[i, j, :] = F[i, j]
-        Qb = np.empty((n, n, N))
-        _lanes(Q, b0, N, (1, 0), Qb)
+        mb, Pb, Fb, Qb = _single_block_start(mean, cov, F, Q, b0, N)
         ll = np.empty(N)
         failed = np.empty(N, dtype=np.bool_)
         for k in range(K):
@@ -1634,12 +1660,8 @@ def sigma_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angula
             S = np.empty((m, m, N))
             _filter_step(mb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, Ak, idx, sensor, ang, log_2pi, post_mean, post_cov,
                          nu, S, ll, failed)
-            _store_step(post_mean, b0, k, mean_out)
-            if keep_cov:
-                _store_step(post_cov, b0, k, cov_out)
-            for lane in range(N):
-                failed_out[b0 + lane, k] = failed[lane]
-            _consistency_step(k, b0, post_mean, post_cov, nu, S, nis_on, truth, nis_out, nees_out)
+            _store_single_step(k, b0, post_mean, post_cov, nu, S, failed, keep_cov, nis_on, truth, mean_out, cov_out,
+                               failed_out, nis_out, nees_out)
             mb, Pb = post_mean, post_cov
 
 
@@ -1759,16 +1781,7 @@ def strong_tracking_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sens
     K = zoff.shape[0] - 1
     for b0 in range(start, stop, block):
         N = min(block, stop - b0)
-        mb = np.empty((n, N))
-        Pb = np.empty((n, n, N))
-        _lanes(mean, b0, N, (1, 0), mb)
-        _lanes(cov, b0, N, (1, 0), Pb)
-        Fb = np.empty((n, n, N))
-        for i in range(n):
-            for j in range(n):
-                Fb[i, j, :] = F[i, j]
-        Qb = np.empty((n, n, N))
-        _lanes(Q, b0, N, (1, 0), Qb)
+        mb, Pb, Fb, Qb = _single_block_start(mean, cov, F, Q, b0, N)
         m0 = zoff[1] - zoff[0]
         Vb = np.empty((m0, m0, N))
         if not restart:
@@ -1788,12 +1801,8 @@ def strong_tracking_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sens
             S = np.empty((m, m, N))
             _strong_tracking_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, Ak, idx, sensor, ang, Rb, zb, Vb, fresh, rho,
                                   beta, log_2pi, post_mean, post_cov, nu, S, ll, failed, lam)
-            _store_step(post_mean, b0, k, mean_out)
-            if keep_cov:
-                _store_step(post_cov, b0, k, cov_out)
-            for lane in range(N):
-                failed_out[b0 + lane, k] = failed[lane]
-            _consistency_step(k, b0, post_mean, post_cov, nu, S, nis_on, truth, nis_out, nees_out)
+            _store_single_step(k, b0, post_mean, post_cov, nu, S, failed, keep_cov, nis_on, truth, mean_out, cov_out,
+                               failed_out, nis_out, nees_out)
             mb, Pb = post_mean, post_cov
 
 
