@@ -1304,19 +1304,10 @@ def _block_operands(mean, cov, F, Q, R, z, b0, N):
     r"""The operands of a single-model fused step for the N runs of a block starting at run b0, batch innermost:
     ``(mb (n, N), Pb (n, n, N), Fb (n, n, N), Qb (n, n, N), Rb (m, m, N), zb (m, N))`` from mean (B, n), cov (B, n, n),
     the one F (n, n) copied into every lane, Q and R periodic over the runs (:func:`_lanes`) and z (B, m)."""
-    n, m = mean.shape[1], z.shape[1]
-    Fb = np.empty((n, n, N))
-    for i in range(n):
-        for k in range(n):
-            Fb[i, k, :] = F[i, k]
-    Qb = np.empty((n, n, N))
-    _lanes(Q, b0, N, (1, 0), Qb)
+    m = z.shape[1]
+    mb, Pb, Fb, Qb = _single_block_start(mean, cov, F, Q, b0, N)
     Rb = np.empty((m, m, N))
     _lanes(R, b0, N, (1, 0), Rb)
-    mb = np.empty((n, N))
-    _lanes(mean, b0, N, (1, 0), mb)
-    Pb = np.empty((n, n, N))
-    _lanes(cov, b0, N, (1, 0), Pb)
     zb = np.empty((m, N))
     _lanes(z, b0, N, (1, 0), zb)
     return mb, Pb, Fb, Qb, Rb, zb
@@ -1475,42 +1466,24 @@ def imm_sigma_step(mu, T, means, covs, xi, wm, wc, F, Q, z, kind, A, idx, sensor
     m = z.shape[1]
     for b0 in range(start, stop, block):
         N = min(block, stop - b0)
-        mub = np.empty((r, N))
-        Xb = np.empty((r, n, N))
-        Pb = np.empty((r, n, n, N))
-        _lanes(mu, b0, N, (1, 0), mub)
-        _lanes(means, b0, N, (1, 0), Xb)
-        _lanes(covs, b0, N, (1, 0), Pb)
-        c = np.empty((1, r, N))
-        mm = np.empty((r, n, N))
-        mc = np.empty((r, n, n, N))
-        _mix_core(mub, T, Xb, Pb, c[0], mm, mc)
-        Fb = np.empty((n, n, N))
-        Qb = np.empty((n, n, N))
-        Rb = np.empty((m, m, N))
+        mub, Xb, Pb, Fb = _run_block_start(mu, means, covs, F, b0, N)
+        Qb = np.empty((r, n, n, N))
+        Rb = np.empty((r, m, m, N))
+        for j in range(r):
+            _lanes(Q, b0, N, (r, j), Qb[j])
+            _lanes(R, b0, N, (r, j), Rb[j])
         zb = np.empty((m, N))
         _lanes(z, b0, N, (1, 0), zb)
-        ll = np.empty((r, N))
-        post_mean = np.empty((r, n, N))
-        post_cov = np.empty((r, n, n, N))
-        nu = np.empty((r, m, N))
-        S = np.empty((r, m, m, N))
-        f_upd = np.empty(N, dtype=np.bool_)
-        for j in range(r):
-            for i in range(n):
-                for k in range(n):
-                    Fb[i, k, :] = F[j, i, k]
-            _lanes(Q, b0, N, (r, j), Qb)
-            _lanes(R, b0, N, (r, j), Rb)
-            _filter_step(mm[j], mc[j], xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi,
-                         post_mean[j], post_cov[j], nu[j], S[j], ll[j], f_upd)
-            for lane in range(N):
-                failed_out[b0 + lane, j] = f_upd[lane]
-        mu_b, marg, under, fused, fcov, innov, icov = _output_buffers(r, n, m, N, with_cov)
-        _output_core(ll, c, post_mean, post_cov, nu, S, with_cov, mu_b, marg, under, fused, fcov, innov, icov)
+        failed = np.empty(N, dtype=np.bool_)
+        failed_modes = np.empty((r, N), dtype=np.bool_)
+        mu_b, marg, under, fused, fcov, innov, icov, post_mean, post_cov = _imm_cycle(
+            mub, T, Xb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, with_cov, failed,
+            failed_modes)
         for lane in range(N):
             marginal[b0 + lane] = marg[lane]
             underflow[b0 + lane] = under[lane]
+            for j in range(r):
+                failed_out[b0 + lane, j] = failed_modes[j, lane]
         _unlanes(mu_b, b0, mu_out)
         _unlanes(post_mean, b0, means_out)
         _unlanes(post_cov, b0, covs_out)
@@ -1666,11 +1639,13 @@ def sigma_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angula
 
 
 @njit(**_OPTS)
-def _imm_cycle(mub, T, Xb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, with_cov, failed):
-    r"""One IMM cycle for the N lanes of a block, batch innermost (:func:`imm_sigma_step`'s body): mixing
-    (:func:`_mix_core`) of mub (r, N), Xb (r, n, N), Pb (r, n, n, N), every mode's filter step (:func:`_filter_step`,
-    Fb, Qb (r, n, n, N) per mode, Rb (m, m, N) and zb (m, N) shared), the output (:func:`_output_core`).  ``failed``
-    (N,) becomes whether some mode filter failed.  Returns ``(mu (1, r, N), underflow (N,), fused (1, n, N), fcov
+def _imm_cycle(mub, T, Xb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, with_cov, failed,
+               failed_modes):
+    r"""One IMM cycle for the N lanes of a block, batch innermost: mixing (:func:`_mix_core`) of mub (r, N), Xb
+    (r, n, N), Pb (r, n, n, N), every mode's filter step (:func:`_filter_step`; Fb, Qb (r, n, n, N) per mode, Rb
+    (P, m, m, N) mode j's at row j % P, zb (m, N) shared), the output (:func:`_output_core`): the body of
+    :func:`imm_sigma_step` and of the whole runs.  ``failed_modes`` (r, N) becomes which mode filters failed and
+    ``failed`` (N,) whether some did.  Returns ``(mu (1, r, N), marginal (N,), underflow (N,), fused (1, n, N), fcov
     (1, n, n, N) or (1, 0, 0, N), innovation (1, m, N), its covariance (1, m, m, N), the modes' posterior means
     (r, n, N) and covariances (r, n, n, N))``."""
     r, n, N = Xb.shape
@@ -1684,16 +1659,15 @@ def _imm_cycle(mub, T, Xb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, A, idx, sensor,
     post_cov = np.empty((r, n, n, N))
     nu = np.empty((r, m, N))
     S = np.empty((r, m, m, N))
-    f_upd = np.empty(N, dtype=np.bool_)
     failed[:] = False
     for j in range(r):
-        _filter_step(mm[j], mc[j], xi, wm, wc, Fb[j], Qb[j], Rb, zb, kind, A, idx, sensor, angular, log_2pi,
-                     post_mean[j], post_cov[j], nu[j], S[j], ll[j], f_upd)
+        _filter_step(mm[j], mc[j], xi, wm, wc, Fb[j], Qb[j], Rb[j % Rb.shape[0]], zb, kind, A, idx, sensor, angular,
+                     log_2pi, post_mean[j], post_cov[j], nu[j], S[j], ll[j], failed_modes[j])
         for lane in range(N):
-            failed[lane] = failed[lane] or f_upd[lane]
+            failed[lane] = failed[lane] or failed_modes[j, lane]
     mu_b, marg, under, fused, fcov, innov, icov = _output_buffers(r, n, m, N, with_cov)
     _output_core(ll, c, post_mean, post_cov, nu, S, with_cov, mu_b, marg, under, fused, fcov, innov, icov)
-    return mu_b, under, fused, fcov, innov, icov, post_mean, post_cov
+    return mu_b, marg, under, fused, fcov, innov, icov, post_mean, post_cov
 
 
 @njit(**_OPTS)
@@ -1757,10 +1731,12 @@ def imm_sigma_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, s
         for j in range(r):
             _lanes(Q, b0, N, (r, j), Qb[j])
         failed = np.empty(N, dtype=np.bool_)
+        failed_modes = np.empty((r, N), dtype=np.bool_)
         for k in range(K):
             zb, Ak, Rb, ang = _step_measurement(k, z, zoff, A, R, angular, b0, N)
-            mu_b, under, fused, fcov, innov, icov, post_mean, post_cov = _imm_cycle(
-                mub, T, Xb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, Ak, idx, sensor, ang, log_2pi, with_cov, failed)
+            mu_b, _, under, fused, fcov, innov, icov, post_mean, post_cov = _imm_cycle(
+                mub, T, Xb, Pb, xi, wm, wc, Fb, Qb, Rb.reshape((1,) + Rb.shape), zb, kind, Ak, idx, sensor, ang,
+                log_2pi, with_cov, failed, failed_modes)
             _store_imm_step(k, b0, under, fused, fcov, innov, icov, mu_b, failed, keep_cov, nis_on, truth, mean_out,
                             cov_out, mu_out, failed_out, underflow_out, nis_out, nees_out)
             mub, Xb, Pb = mu_b[0], post_mean, post_cov
@@ -1882,6 +1858,7 @@ def fuzzy_imm_run(mu, T, means, covs, xi, wm, wc, F, unit, base, levels, initial
             filled[lane] = filled0[b0 + lane]
         Qb = np.empty((r, n, n, N))
         failed = np.empty(N, dtype=np.bool_)
+        failed_modes = np.empty((r, N), dtype=np.bool_)
         dod = np.empty((2, N))
         avg = np.empty((2, N))
         x = np.empty((N, 2))
@@ -1895,8 +1872,9 @@ def fuzzy_imm_run(mu, T, means, covs, xi, wm, wc, F, unit, base, levels, initial
                     for i in range(n):
                         for q in range(n):
                             Qb[j, i, q, lane] = level * unit[i, q] + base[i, q]
-            mu_b, under, fused, fcov, innov, icov, post_mean, post_cov = _imm_cycle(
-                mub, T, Xb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, Ak, idx, sensor, ang, log_2pi, with_cov, failed)
+            mu_b, _, under, fused, fcov, innov, icov, post_mean, post_cov = _imm_cycle(
+                mub, T, Xb, Pb, xi, wm, wc, Fb, Qb, Rb.reshape((1,) + Rb.shape), zb, kind, Ak, idx, sensor, ang,
+                log_2pi, with_cov, failed, failed_modes)
             _store_imm_step(k, b0, under, fused, fcov, innov, icov, mu_b, failed, keep_cov, nis_on, truth, mean_out,
                             cov_out, mu_out, failed_out, underflow_out, nis_out, nees_out)
             mub, Xb, Pb = mu_b[0], post_mean, post_cov
