@@ -46,13 +46,29 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from llvmlite import ir as _ir
+from numba import njit, types as _types
+from numba.extending import intrinsic
 
 from mmlib.core._elementary import (P0, P1, P2, P3, P4, Q0, Q1, Q2, Q3, Q4, QPI1_HI, QPI1_LO, QPI2_HI, QPI2_LO,
                                     QPI3_HI, QPI3_LO, QPI4_HI, QPI4_LO, REDUCE_ABOVE, REGULAR_MAX, REGULAR_MIN)
 
 _OPTS = dict(cache=True, nogil=True, error_model="numpy")
 _TWO_PI = 2.0 * math.pi
+
+
+# --------------------------------------------------------------------------- fused multiply-add
+@intrinsic
+def _fma(typingctx, a, b, c):
+    """:math:`ab + c` rounded once (LLVM's ``llvm.fma``: the FMA instruction, or the C library's ``fma`` on a CPU
+    without one, the same bits).  Only where the composed path's BLAS product sums this way (:func:`_gram_core`)."""
+    sig = _types.float64(_types.float64, _types.float64, _types.float64)
+
+    def codegen(context, builder, signature, args):
+        d = _ir.DoubleType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [d], _ir.FunctionType(d, [d, d, d]))
+        return builder.call(fn, args)
+    return sig, codegen
 
 
 # --------------------------------------------------------------------------- layout helpers
@@ -1780,6 +1796,218 @@ def strong_tracking_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sens
             _store_single_step(k, b0, post_mean, post_cov, nu, S, failed, keep_cov, nis_on, truth, mean_out, cov_out,
                                failed_out, nis_out, nees_out)
             mb, Pb = post_mean, post_cov
+
+
+@njit(**_OPTS)
+def _gram_core(U, k0, k1, out):
+    r""":math:`\sum_t U_t^T U_t` over the rows t = k0..k1-1 of U (K, m, N), batch innermost, into out (m, m, N): each
+    entry summed over t in order, one fused multiply-add per term from 0, then added to 0 -- how OpenBLAS's ``syrk``
+    and ``gemm`` kernels for AVX2 CPUs (Haswell and later, the reference machine's) sum the product numpy's ``@``
+    hands them (:func:`mmlib.core.linalg.gram`)."""
+    m, N = U.shape[1], U.shape[2]
+    for i in range(m):
+        for j in range(m):
+            acc = out[i, j]
+            acc[:] = 0.0
+            for t in range(k0, k1):
+                ui = U[t, i]
+                uj = U[t, j]
+                for b in range(N):
+                    acc[b] = _fma(ui[b], uj[b], acc[b])
+            for b in range(N):
+                acc[b] = acc[b] + 0.0
+
+
+@njit(**_OPTS)
+def gram(U):
+    r""":math:`U^T U` for a stack U (N, K, m) -> (N, m, m) (:func:`_gram_core`)."""
+    N, K, m = U.shape
+    out = np.empty((m, m, N))
+    _gram_core(_inner(U, N), 0, K, out)
+    return _outer(out)
+
+
+@njit(**_OPTS)
+def _psd_part_lane(D, out):
+    r"""The positive semi-definite part :math:`V\max(\Lambda, 0)V^T` of the symmetric D (m, m) into out (m, m): numpy's
+    ``eigh`` (LAPACK ``syevd``, lower triangle; numba calls the LAPACK of scipy), the eigenvalues clipped at 0 (+0
+    for -0), each column of V scaled by its eigenvalue, then the product with :math:`V^T` summed as
+    :func:`_gram_core` sums (the order of OpenBLAS's ``gemm`` on AVX2 CPUs).  D must be finite."""
+    m = D.shape[0]
+    w, v = np.linalg.eigh(D)
+    a = np.empty((m, m))
+    for k in range(m):
+        c = w[k] if w[k] > 0.0 else 0.0
+        for i in range(m):
+            a[i, k] = v[i, k] * c
+    for i in range(m):
+        for j in range(m):
+            acc = 0.0
+            for k in range(m):
+                acc = _fma(a[i, k], v[j, k], acc)
+            out[i, j] = acc + 0.0
+
+
+@njit(**_OPTS)
+def psd_part(D):
+    r""":func:`_psd_part_lane` of each matrix of a stack D (N, m, m) of finite symmetric matrices -> (N, m, m)."""
+    N, m = D.shape[0], D.shape[1]
+    out = np.empty((N, m, m))
+    Dc = np.empty((m, m))
+    for b in range(N):
+        for i in range(m):
+            for j in range(m):
+                Dc[i, j] = D[b, i, j]
+        _psd_part_lane(Dc, out[b])
+    return out
+
+
+@njit(**_OPTS)
+def _diagonal_sum(M, lane, tmp):
+    """The sum of the diagonal of lane ``lane`` of M (m, m, N) in numpy's order (``np.trace``: :func:`_numpy_sum`)."""
+    m = M.shape[0]
+    for i in range(m):
+        tmp[i] = M[i, i, lane]
+    return _numpy_sum(tmp, 0, m)
+
+
+@njit(**_OPTS)
+def _adaptive_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb, zb, past, n_past, window, psi,
+                   zeta_on, include_current, inflate_only, log_2pi, prior, post_cov, nu, S_used, ll, failed, now):
+    r"""One step of the innovation-adaptive layer (:class:`mmlib.core.layers.adaptive.InnovationAdaptive`) over a
+    sigma-point filter on linear dynamics for the N lanes of a block, batch innermost: the time update and the
+    measurement prediction (:func:`_predict_and_moments`), the innovation ``nu`` (m, N), the window ``now`` (rows
+    0..n_now-1, oldest first) of the last ``window`` innovations -- the ``n_past`` rows of ``past`` (W, m, N) then
+    ``nu`` --, and with ``window`` innovations in the window used (``now``, or ``past`` without ``include_current``)
+    their mean outer product :math:`\hat C` (:func:`_gram_core`, divided by their count) as the innovation
+    covariance (Eqs. 27-28; ``inflate_only``: S plus the PSD part of :math:`\hat C - S`, :func:`_psd_part_lane`); with
+    ``zeta_on``, where :math:`\nu^T\nu > \psi\,\mathrm{tr}S`, the prior :math:`\zeta(P - Q) + Q` with
+    :math:`\zeta = \max(1, \mathrm{tr}(\hat C - R)/\mathrm{tr}(P - Q))` (NaN read as 1, infinities as the largest
+    floats, as ``np.nan_to_num``; Eqs. 32-35); then the Kalman update (:func:`_update_core`) with that covariance
+    ``S_used`` (m, m, N).  The layer's update, the same bits.  Returns ``(n_now, ok)``: ``ok`` False where
+    :math:`\hat C - S` is not finite in some lane (numpy's ``eigh`` raises there: the caller goes step by step)."""
+    n, N = mb.shape
+    m = zb.shape[0]
+    Pl = np.empty((n, n, N))
+    zp = np.empty((m, N))
+    S = np.empty((m, m, N))
+    Pxz = np.empty((n, m, N))
+    _predict_and_moments(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb, prior, Pl, zp, S, Pxz)
+    _residual_core(zb, zp, angular, nu)
+    first = max(0, n_past + 1 - window)
+    n_now = n_past + 1 - first
+    for t in range(first, n_past):
+        now[t - first, :, :] = past[t]
+    now[n_now - 1, :, :] = nu
+    have = n_now if include_current else n_past
+    if have < window:                                   # not enough innovations yet: the base filter's update
+        S_used[:, :, :] = S
+        _update_core(prior, Pl, nu, S, Pxz, log_2pi, post_cov, ll, failed)
+        return n_now, True
+    used = now if include_current else past
+    _gram_core(used, 0, have, S_used)
+    for i in range(m):
+        for j in range(m):
+            for lane in range(N):
+                S_used[i, j, lane] = S_used[i, j, lane] / have          # C, Eqs. 27-28: S_bar = C
+    tmp = np.empty(max(m, n))
+    if zeta_on:
+        tr_c = np.empty(N)
+        d = np.empty((m, m, N))
+        for i in range(m):
+            for j in range(m):
+                for lane in range(N):
+                    d[i, j, lane] = S_used[i, j, lane] - Rb[i, j, lane]
+        for lane in range(N):
+            tr_c[lane] = _diagonal_sum(d, lane, tmp)                     # tr(C - R), before C is modified
+    if inflate_only:
+        D = np.empty((m, m))
+        P = np.empty((m, m))
+        for lane in range(N):
+            for i in range(m):
+                for j in range(m):
+                    D[i, j] = S_used[i, j, lane] - S[i, j, lane]
+                    if not np.isfinite(D[i, j]):
+                        return n_now, False
+        for lane in range(N):
+            for i in range(m):
+                for j in range(m):
+                    D[i, j] = S_used[i, j, lane] - S[i, j, lane]
+            _psd_part_lane(D, P)
+            for i in range(m):
+                for j in range(m):
+                    S_used[i, j, lane] = S[i, j, lane] + P[i, j]
+    if zeta_on:
+        for lane in range(N):
+            for i in range(m):
+                tmp[i] = nu[i, lane] * nu[i, lane]
+            tr_nu = _numpy_sum(tmp, 0, m)
+            matched = tr_nu <= psi * _diagonal_sum(S, lane, tmp)                       # Eq. 32
+            for i in range(n):
+                tmp[i] = Pl[i, i, lane] - Qb[i, i, lane]
+            z0 = tr_c[lane] / _numpy_sum(tmp, 0, n)                                    # Eq. 35
+            if z0 != z0:
+                z0 = 1.0
+            elif z0 == np.inf:
+                z0 = 1.7976931348623157e308
+            elif z0 == -np.inf:
+                z0 = -1.7976931348623157e308
+            zeta = 1.0 if matched else (z0 if z0 > 1.0 else 1.0)                       # Eq. 34
+            if zeta > 1.0:
+                for i in range(n):
+                    for j in range(n):
+                        Pl[i, j, lane] = zeta * (Pl[i, j, lane] - Qb[i, j, lane]) + Qb[i, j, lane]
+    _update_core(prior, Pl, nu, S_used, Pxz, log_2pi, post_cov, ll, failed)
+    return n_now, True
+
+
+@njit(**_OPTS)
+def adaptive_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angular, R, window, psi, zeta_on,
+                 include_current, inflate_only, log_2pi, truth, nis_on, keep_cov, mean_out, cov_out, failed_out,
+                 nis_out, nees_out, declined, start, stop, block):
+    r"""Every step of an innovation-adaptive sigma-point filter (NAUKF / IAE-AUKF,
+    :class:`mmlib.core.layers.adaptive.InnovationAdaptive`) on linear dynamics over K packed measement steps, for
+    blocks of ``block`` runs: step k is :func:`_adaptive_core` on step k - 1's posterior and innovation window, which
+    starts empty and restarts wherever the measurement dimension changes, as the layer's does: the bits of the
+    layer's steps.  mean ... R, truth, nis_on, keep_cov and the outputs as :func:`sigma_run` (the NIS with the
+    covariance the update used); ``window``, ``psi``, ``zeta_on``, ``include_current``, ``inflate_only`` the
+    layer's.  ``declined`` (B,) True for the runs of a block where :func:`_adaptive_core` was not ``ok`` (then none of
+    this call's outputs is used)."""
+    n = mean.shape[1]
+    K = zoff.shape[0] - 1
+    for b0 in range(start, stop, block):
+        N = min(block, stop - b0)
+        mb, Pb, Fb, Qb = _single_block_start(mean, cov, F, Q, b0, N)
+        ll = np.empty(N)
+        failed = np.empty(N, dtype=np.bool_)
+        m_cur = -1
+        n_past = 0
+        past = np.empty((window, 1, N))
+        now = np.empty((window, 1, N))
+        for k in range(K):
+            zb, Ak, Rb, ang = _step_measurement(k, z, zoff, A, R, angular, b0, N)
+            m = zb.shape[0]
+            if m != m_cur:                  # the measurement set changed dimension: the window starts again
+                past = np.empty((window, m, N))
+                now = np.empty((window, m, N))
+                n_past = 0
+                m_cur = m
+            post_mean = np.empty((n, N))
+            post_cov = np.empty((n, n, N))
+            nu = np.empty((m, N))
+            S = np.empty((m, m, N))
+            n_now, ok = _adaptive_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, Ak, idx, sensor, ang, Rb, zb, past, n_past,
+                                       window, psi, zeta_on, include_current, inflate_only, log_2pi, post_mean,
+                                       post_cov, nu, S, ll, failed, now)
+            if not ok:
+                for lane in range(N):
+                    declined[b0 + lane] = True
+                return
+            _store_single_step(k, b0, post_mean, post_cov, nu, S, failed, keep_cov, nis_on, truth, mean_out, cov_out,
+                               failed_out, nis_out, nees_out)
+            mb, Pb = post_mean, post_cov
+            past, now = now, past
+            n_past = n_now
 
 
 @njit(**_OPTS)

@@ -52,11 +52,13 @@ from mmlib.core import _elementary, _env
 __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused", "threads", "use_threads",
            "THREADS_VARIABLE", "sigma_points", "offset_points",
            "weighted_mean", "weighted_covariances", "kalman_moments", "measurement_moments", "congruence", "cholesky",
-           "log_det_from_cholesky", "normalised_square", "solve", "information_fusion", "tril_inverse", "symmetrize",
+           "log_det_from_cholesky", "gram", "psd_part", "normalised_square", "solve", "information_fusion",
+           "tril_inverse", "symmetrize",
            "trace", "wrap_angle", "range_bearing", "pseudoranges", "matmul_rows", "trapezoid_memberships",
            "rule_weights", "rule_output", "trapezoid_rules",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "fading_factor", "strong_tracking_step", "packed_steps", "sigma_run", "imm_sigma_run", "strong_tracking_run",
+           "adaptive_run",
            "fuzzy_imm_run", "power", "compiled_rule_count",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
            "FUSED_STEPS",
@@ -252,9 +254,12 @@ _SHAPES = {
     "sigma_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n"),
     "imm_sigma_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N t", "t a", "t w", "t", "... n n"),
     "strong_tracking_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n", "N v v"),
+    "adaptive_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n"),
     "fuzzy_imm_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "n n", "n n", "N r", "r", "N t",
                       "t a", "t w", "t", "N h c", "N"),
     "fading_factor": ("N n n", "N n n", "N n m", "N m m", "N m m", "N m m", None),
+    "gram": ("N k m",),
+    "psd_part": ("N m m",),
     "trapezoid_rules": ("N d", "d - -", "d", "- -"),
 }
 _CHECKED: set = set()
@@ -366,6 +371,53 @@ def symmetrize(a: np.ndarray) -> np.ndarray:
 def trace(a: np.ndarray) -> np.ndarray:
     """Trace over the last two axes."""
     return np.trace(a, axis1=-2, axis2=-1)
+
+
+@_operation
+def gram(u: np.ndarray) -> np.ndarray:
+    r""":math:`U^TU` of each matrix of a stack ``u`` (..., K, m) -> (..., m, m): numpy's ``@``, which hands it to
+    BLAS ``syrk``.  The compiled twin sums each entry over the K rows in order, one fused multiply-add per term
+    (:func:`mmlib.core._kernels._gram_core`): how OpenBLAS's kernels for AVX2 CPUs sum it, so the two agree bit for bit
+    on the reference machine and to round-off where BLAS sums otherwise (``tests/test_kernels.py``).  For m = 1 or
+    K = 1 (numpy's ``dot``, which sums in another order) both run numpy's product."""
+    u = np.asarray(u, dtype=np.float64)
+    return np.swapaxes(u, -1, -2) @ u
+
+
+@gram.compiled
+def _gram_compiled(u):
+    u = np.asarray(u, dtype=np.float64)
+    if u.ndim < 2:
+        raise ValueError(f"u: expected a stack of matrices (..., K, m), got shape {u.shape}")
+    K, m = u.shape[-2:]
+    if m < 2 or K < 2 or u.size == 0:
+        return gram.implementations["numpy"](u)
+    flat = _stack(u, 2)
+    return _call("gram", flat.shape[0], flat).reshape(u.shape[:-2] + (m, m))
+
+
+@_operation
+def psd_part(d: np.ndarray) -> np.ndarray:
+    r"""The positive semi-definite part :math:`V\max(\Lambda, 0)V^T` of each symmetric matrix of a stack ``d``
+    (..., m, m) (:math:`d = V\Lambda V^T`, numpy's ``eigh``, lower triangle) -> (..., m, m).  A matrix that is not
+    finite raises numpy's LinAlgError in both paths.  The compiled twin runs the same LAPACK routine and sums the
+    product as OpenBLAS's ``gemm`` does on AVX2 CPUs (:func:`mmlib.core._kernels._psd_part_lane`): the same bits on
+    the reference machine, round-off elsewhere (``tests/test_kernels.py``); for m = 1 both run numpy's."""
+    d = np.asarray(d, dtype=np.float64)
+    w, v = np.linalg.eigh(d)
+    return (v * np.clip(w, 0.0, None)[..., None, :]) @ np.swapaxes(v, -1, -2)
+
+
+@psd_part.compiled
+def _psd_part_compiled(d):
+    d = np.asarray(d, dtype=np.float64)
+    if d.ndim < 2 or d.shape[-1] != d.shape[-2]:
+        raise ValueError(f"d: expected a stack of square matrices (..., m, m), got shape {d.shape}")
+    m = d.shape[-1]
+    if m < 2 or d.size == 0 or not np.isfinite(d).all():
+        return psd_part.implementations["numpy"](d)          # m = 1: numpy's dot; not finite: numpy's LinAlgError
+    flat = _stack(d, 2)
+    return _call("psd_part", flat.shape[0], flat).reshape(d.shape)
 
 
 def log_det_from_cholesky(l_factor: np.ndarray) -> np.ndarray:
@@ -1170,7 +1222,7 @@ FUSED_BLOCK = 128
 #: the names of the fused steps below, each a whole filter step in one compiled call (what a caller spies on to see
 #: whether one was taken: ``bench/papers.py``, ``tests/test_fused.py``)
 FUSED_STEPS = ("imm_sigma_step", "sigma_step", "strong_tracking_step", "sigma_run", "imm_sigma_run",
-               "strong_tracking_run", "fuzzy_imm_run")
+               "strong_tracking_run", "adaptive_run", "fuzzy_imm_run")
 
 #: the measurement functions the fused steps evaluate themselves (:func:`mmlib.core._kernels._measure`)
 MEASURE_LINEAR, MEASURE_RANGE_BEARING, MEASURE_PSEUDORANGES = 0, 1, 2
@@ -1431,6 +1483,39 @@ def strong_tracking_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: n
         float(beta), float(log_2pi), _truth_operand(truth, B, K, n), bool(nis), bool(keep_cov)),
         _run_outputs(B, K, n, keep_cov, nis, truth is not None), B)
     means, covs, failed, nis_out, nees_out = out
+    return means, covs if keep_cov else None, failed, nis_out if nis else None, nees_out if truth is not None else None
+
+
+def adaptive_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray, wc: np.ndarray, F: np.ndarray,
+                 Q: np.ndarray, packed: tuple, window: int, psi: float, zeta: bool, include_current: bool,
+                 inflate_only: bool, log_2pi: float, *, keep_cov: bool, nis: bool,
+                 truth: np.ndarray | None = None) -> tuple | None:
+    r"""Every step of an innovation-adaptive sigma-point filter over linear dynamics
+    (:class:`mmlib.core.layers.adaptive.InnovationAdaptive`: NAUKF, IAE-AUKF) in one compiled call (compiled kernels
+    only; :func:`fused`), from an empty innovation window: step k is what the layer's predict and update compute from
+    step k - 1's posterior and window, the same bits.  ``mean`` ... ``packed`` and ``log_2pi`` as :func:`sigma_run`;
+    ``window``, ``psi``, ``zeta``, ``include_current``, ``inflate_only`` the layer's fields.  Returns
+    :func:`sigma_run`'s ``(means, covs, failed, nis, nees)`` (the NIS with the innovation covariance the update
+    used), or None where the layer's steps would not be these: a step measuring one component (the composed product
+    is numpy's ``dot`` there), or a run whose :math:`\hat C - S` is not finite with ``inflate_only`` (numpy's
+    ``eigh`` raises: step by step, the error is the layer's own)."""
+    B, n = mean.shape
+    z, zoff, kind, A, idx, sensor, angular, R = packed
+    K = zoff.shape[0] - 1
+    if (np.diff(zoff) < 2).any():
+        return None
+    cov = _stack(cov, 2, (B,))
+    _check_shapes("adaptive_run", B, (mean, cov, xi, wm, wc, F, z, A, R, angular, Q))
+    _check_offsets(zoff, R, z, B)
+    out = _over_threads(_compiled_module().adaptive_run, (
+        _contiguous(mean), _contiguous(cov), _contiguous(xi), _contiguous(wm), _contiguous(wc), _contiguous(F),
+        _periodic(Q, 2, (B,)), z, zoff, kind, A, idx, sensor, angular, R, int(window), float(psi), bool(zeta),
+        bool(include_current), bool(inflate_only), float(log_2pi), _truth_operand(truth, B, K, n), bool(nis),
+        bool(keep_cov)),
+        _run_outputs(B, K, n, keep_cov, nis, truth is not None) + (np.zeros(B, dtype=np.bool_),), B)
+    means, covs, failed, nis_out, nees_out, declined = out
+    if declined.any():
+        return None
     return means, covs if keep_cov else None, failed, nis_out if nis else None, nees_out if truth is not None else None
 
 

@@ -39,8 +39,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from mmlib.core import linalg
 from mmlib.core._validate import check_bool, check_name, check_positive_int, check_scalar
-from mmlib.core.filters import FilterLayer, MeasurementPrediction, kalman_update
+from mmlib.core.filters import LOG_2PI, FilterLayer, MeasurementPrediction, SigmaPointFilter, kalman_update
 from mmlib.core.linalg import trace
 from mmlib.core.protocols import MeasurementModel
 
@@ -114,13 +115,12 @@ class InnovationAdaptive(FilterLayer):
         if have < self.window:                       # not enough innovations yet: the base filter
             new, info = kalman_update(new_state, pred, z, measurement)
             return new, info
-        C = np.swapaxes(used, -1, -2) @ used / have                        # empirical innovation covariance
+        C = linalg.gram(used) / have                                       # empirical innovation covariance
         S_bar = C                                                          # Eqs. 27-28: P_zz + Delta R = C
         if self.inflate_only:
             # NOT in the paper: S_bar = S + PSD part of (C - S), so the adaptive covariance can only grow.
             # As printed, S_bar = C below H P H^T makes P - Pxz C^-1 Pxz^T indefinite (the filter diverges).
-            w, v = np.linalg.eigh(C - pred.S)
-            S_bar = pred.S + (v * np.clip(w, 0.0, None)[..., None, :]) @ np.swapaxes(v, -1, -2)
+            S_bar = pred.S + linalg.psd_part(C - pred.S)
         if self.zeta:
             if state.Q is None:
                 raise ValueError("state: predict() must run before update() (Q of Eq. 33 unknown)")
@@ -134,3 +134,26 @@ class InnovationAdaptive(FilterLayer):
             new_state = new_state._replace(cov=cov, zeta=zeta)
         new, info = kalman_update(new_state, MeasurementPrediction(pred.z_pred, S_bar, pred.Pxz), z, measurement)
         return new, info
+
+    def _fuses(self, state) -> bool:
+        """Whether :meth:`whole_run` computes this layer's steps from ``state``: this class itself (a subclass may
+        override a step), a base that a fused step computes (:attr:`mmlib.core.filters.SigmaPointFilter.fusable`), and
+        a state from :meth:`init` with no innovation yet (a run's start)."""
+        return (type(self) is InnovationAdaptive and isinstance(self.base, SigmaPointFilter) and self.base.fusable
+                and type(state) is AdaptiveState and state.innovations is None)
+
+    def whole_run(self, state: AdaptiveState, dynamics: Any, packed: tuple, *, keep_cov: bool, nis: bool,
+                  truth: np.ndarray | None = None) -> tuple | None:
+        """Every step of a run from ``state`` through ``dynamics`` (linear, one (n, n) ``F``) over the packed
+        measurement steps ``packed`` (:func:`mmlib.core.linalg.packed_steps`) in one compiled call
+        (:func:`mmlib.core.linalg.adaptive_run`): what :meth:`predict` and :meth:`update` compute step after step, the
+        window restarted where the measurement dimension changes, the same bits.  Returns ``(means (B, K, n), covs
+        (B, K, n, n) or None, failed (B, K), nis (B, K) or None, nees (B, K) or None)``, or None where it does not
+        apply (:meth:`_fuses`, or :func:`~mmlib.core.linalg.adaptive_run` declines): :func:`mmlib.core.estimation.run`
+        then goes step by step."""
+        if not self._fuses(state):
+            return None
+        up = self.base.rule.unit_points(dynamics.dim)
+        return linalg.adaptive_run(state.mean, state.cov, up.xi, up.wm, up.wc, dynamics.F, dynamics.Q, packed,
+                                   self.window, self.psi, self.zeta, self.include_current, self.inflate_only, LOG_2PI,
+                                   keep_cov=keep_cov, nis=nis, truth=truth)
