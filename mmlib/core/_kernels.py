@@ -2011,6 +2011,175 @@ def adaptive_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, ang
 
 
 @njit(**_OPTS)
+def _mixing_weights_core(mub, T, c, W):
+    r"""c (r, N) and W (r, r, N), W[j, i] = :math:`\mu_{i|j}`, from mub (r, N) and T (r, r), batch innermost, as
+    :func:`mmlib.core.linalg.mixing_weights` computes them with the compiled kernels (:func:`_mix_core`'s first
+    part)."""
+    r, N = mub.shape
+    c[:, :] = 0.0
+    for j in range(r):
+        for i in range(r):
+            t = T[i, j]
+            for b in range(N):
+                c[j, b] += mub[i, b] * t
+    for j in range(r):
+        for i in range(r):
+            t = T[i, j]
+            for b in range(N):
+                W[j, i, b] = t * mub[i, b] / c[j, b] if c[j, b] > 0.0 else mub[i, b]
+
+
+@njit(**_OPTS)
+def _cubature_points_core(W, Xb, Pb, mm, out):
+    r"""Cubature-principle IMM interaction (:class:`mmlib.core.mixing.CubatureMixing`, Zhou et al. 2017, Eqs. 14-19),
+    batch innermost, as its composed operations compute it: from the weights W (r, r, N), W[j, i] =
+    :math:`\mu_{i|j}`, and the modes' means Xb (r, n, N) and covs Pb (r, n, n, N): the modes' Cholesky factors
+    (:func:`_chol`, NaN for a failed one), the centre :math:`\sum_i \mu_{i|j}\hat x_i` (summed as :func:`_gram_core`
+    sums, the order of OpenBLAS's ``gemm`` on AVX2 CPUs), the 2rn points centre :math:`\pm\sqrt{rn}\,\mu_{i|j}S_i
+    e_c` (the + points first), their mean (summed in order from the first, over 2rn) and covariance
+    (:func:`_gram_core` of the deviations, over 2rn), symmetrised -> the mixed means mm (r, n, N) and covs out
+    (r, n, n, N)."""
+    r, n, N = Xb.shape
+    l = r * n
+    L = np.empty((r, n, n, N))
+    for i in range(r):
+        bad = np.zeros(N, dtype=np.bool_)
+        _chol(Pb[i], L[i], bad)
+        _nan_lanes(L[i], bad)
+    root = math.sqrt(l)
+    centre = np.empty((n, N))
+    pts = np.empty((2 * l, n, N))
+    cov = np.empty((n, n, N))
+    for j in range(r):
+        for k in range(n):
+            for b in range(N):
+                acc = 0.0
+                for i in range(r):
+                    acc = _fma(W[j, i, b], Xb[i, k, b], acc)
+                centre[k, b] = acc + 0.0
+        for i in range(r):
+            for cc in range(n):
+                p = i * n + cc
+                for k in range(n):
+                    for b in range(N):
+                        shift = (root * W[j, i, b]) * L[i, k, cc, b]
+                        pts[p, k, b] = centre[k, b] + shift
+                        pts[l + p, k, b] = centre[k, b] - shift
+        for k in range(n):
+            for b in range(N):
+                acc = pts[0, k, b]
+                for p in range(1, 2 * l):
+                    acc += pts[p, k, b]
+                mm[j, k, b] = acc / (2 * l)
+        for p in range(2 * l):
+            for k in range(n):
+                for b in range(N):
+                    pts[p, k, b] = pts[p, k, b] - mm[j, k, b]
+        _gram_core(pts, 0, 2 * l, cov)
+        for i in range(n):
+            for k in range(n):
+                for b in range(N):
+                    cov[i, k, b] = cov[i, k, b] / (2 * l)
+        for i in range(n):
+            for k in range(n):
+                for b in range(N):
+                    out[j, i, k, b] = 0.5 * (cov[i, k, b] + cov[k, i, b])
+
+
+@njit(**_OPTS)
+def cubature_mix(means, covs, w):
+    r""":func:`_cubature_points_core` for B runs: means (B, r, n), covs (B, r, n, n), w (B, r_from, r_to) ->
+    ``(mixed means (B, r, n), mixed covs (B, r, n, n))``."""
+    B, r, n = means.shape
+    W = np.empty((r, r, B))
+    for j in range(r):
+        for i in range(r):
+            for b in range(B):
+                W[j, i, b] = w[b, i, j]
+    mm = np.empty((r, n, B))
+    out = np.empty((r, n, n, B))
+    _cubature_points_core(W, _inner(means, B), _inner(covs, B), mm, out)
+    return _outer(mm), _outer(out)
+
+
+@njit(**_OPTS)
+def imm_layer_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angular, R, cubature, adaptive,
+                  window, psi, zeta_on, include_current, inflate_only, with_cov, log_2pi, truth, nis_on, keep_cov,
+                  mean_out, cov_out, mu_out, failed_out, underflow_out, nis_out, nees_out, declined, start, stop,
+                  block):
+    r"""Every IMM cycle over K packed measurement steps, for blocks of ``block`` runs, of an IMM whose interaction is
+    moment matching (:func:`_mix_core`) or, with ``cubature``, the cubature principle (:func:`_mixing_weights_core`,
+    :func:`_cubature_points_core`),
+    and whose mode filters are sigma-point filters on linear dynamics (:func:`_filter_step`) or, with ``adaptive``,
+    innovation-adaptive ones (:func:`_adaptive_core`; ``window`` ... ``inflate_only`` the layer's, one window of
+    innovations per mode, restarted wherever the measurement dimension changes), then the IMM output
+    (:func:`_output_core`): the composed IMM's cycles, the same bits.  Arguments and outputs as
+    :func:`imm_sigma_run`; ``declined`` (B,) as :func:`adaptive_run`."""
+    r = mu.shape[1]
+    n = means.shape[2]
+    K = zoff.shape[0] - 1
+    for b0 in range(start, stop, block):
+        N = min(block, stop - b0)
+        mub, Xb, Pb, Fb = _run_block_start(mu, means, covs, F, b0, N)
+        Qb = np.empty((r, n, n, N))
+        for j in range(r):
+            _lanes(Q, b0, N, (r, j), Qb[j])
+        failed = np.empty(N, dtype=np.bool_)
+        failed_modes = np.empty((r, N), dtype=np.bool_)
+        m_cur = -1
+        n_past = 0
+        past = np.empty((r, window, 1, N))
+        now = np.empty((r, window, 1, N))
+        for k in range(K):
+            zb, Ak, Rb, ang = _step_measurement(k, z, zoff, A, R, angular, b0, N)
+            m = zb.shape[0]
+            if m != m_cur:                  # the measurement set changed dimension: the windows start again
+                past = np.empty((r, window, m, N))
+                now = np.empty((r, window, m, N))
+                n_past = 0
+                m_cur = m
+            c = np.empty((1, r, N))
+            mm = np.empty((r, n, N))
+            mc = np.empty((r, n, n, N))
+            if cubature:
+                W = np.empty((r, r, N))
+                _mixing_weights_core(mub, T, c[0], W)
+                _cubature_points_core(W, Xb, Pb, mm, mc)
+            else:
+                _mix_core(mub, T, Xb, Pb, c[0], mm, mc)
+            ll = np.empty((r, N))
+            post_mean = np.empty((r, n, N))
+            post_cov = np.empty((r, n, n, N))
+            nu = np.empty((r, m, N))
+            S = np.empty((r, m, m, N))
+            failed[:] = False
+            n_now = 0
+            for j in range(r):
+                if adaptive:
+                    n_now, ok = _adaptive_core(mm[j], mc[j], xi, wm, wc, Fb[j], Qb[j], kind, Ak, idx, sensor, ang, Rb,
+                                               zb, past[j], n_past, window, psi, zeta_on, include_current,
+                                               inflate_only, log_2pi, post_mean[j], post_cov[j], nu[j], S[j], ll[j],
+                                               failed_modes[j], now[j])
+                    if not ok:
+                        for lane in range(N):
+                            declined[b0 + lane] = True
+                        return
+                else:
+                    _filter_step(mm[j], mc[j], xi, wm, wc, Fb[j], Qb[j], Rb, zb, kind, Ak, idx, sensor, ang, log_2pi,
+                                 post_mean[j], post_cov[j], nu[j], S[j], ll[j], failed_modes[j])
+                for lane in range(N):
+                    failed[lane] = failed[lane] or failed_modes[j, lane]
+            mu_b, marg, under, fused, fcov, innov, icov = _output_buffers(r, n, m, N, with_cov)
+            _output_core(ll, c, post_mean, post_cov, nu, S, with_cov, mu_b, marg, under, fused, fcov, innov, icov)
+            _store_imm_step(k, b0, under, fused, fcov, innov, icov, mu_b, failed, keep_cov, nis_on, truth, mean_out,
+                            cov_out, mu_out, failed_out, underflow_out, nis_out, nees_out)
+            mub, Xb, Pb = mu_b[0], post_mean, post_cov
+            if adaptive:
+                past, now = now, past
+                n_past = n_now
+
+
+@njit(**_OPTS)
 def power(base, x):
     """``base ** x`` elementwise for x (N,): the C library's ``pow`` one value at a time, ``base`` a run-time operand
     (a literal 10 could let the compiler call another function, ``exp10``)."""

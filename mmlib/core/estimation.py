@@ -838,7 +838,8 @@ def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, c
     if imm:
         packed = packed_imm_steps(estimator, state, steps, with_cov, check)
         if packed is None:
-            return None
+            return _imm_layer_run(estimator, state, steps, check, with_cov, keep_cov, consistency, x_true, name,
+                                  on_divergence)
         up = estimator.filter.rule.unit_points(estimator.stacked.dim)
         means, covs, mus, failed, underflow, nis, nees = linalg.imm_sigma_run(
             state.mode_probabilities, estimator.transition, state.modes.mean, state.modes.cov, up.xi, up.wm, up.wc,
@@ -866,6 +867,39 @@ def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, c
                                keep_cov=keep_cov, nis=consistency, truth=x_true)
     means, covs, failed, nis, nees = out
     return _assemble(means, covs, None, failed, None, None, nis, nees, steps, consistency, name, on_divergence)
+
+
+def _imm_layer_run(imm: "IMM", state, steps, check, with_cov: bool, keep_cov: bool, consistency: bool, x_true,
+                   name: str, on_divergence: str) -> Track | None:
+    """:func:`_whole_run` of an :class:`IMM` (exactly) over linear mode dynamics whose cycles
+    :func:`mmlib.core.linalg.imm_layer_run` computes: moment or cubature-principle mixing (a mixing strategy whose
+    ``fused_form()`` is ``"cubature"``, :class:`mmlib.core.mixing.CubatureMixing`) with plain sigma-point mode filters,
+    or either mixing with innovation-adaptive mode filters (a filter whose ``fused_adaptive_form(state.modes)`` gives
+    its parameters, :class:`mmlib.core.layers.adaptive.InnovationAdaptive`).  The Track of the step-by-step loop, bit
+    for bit, or None where it does not apply (the loop runs)."""
+    if not isinstance(state, IMMState) or not bool(getattr(imm.stacked, "is_linear", False)):
+        return None
+    moment = type(imm.mixing) is MomentMixing
+    form = getattr(imm.mixing, "fused_form", None)
+    cubature = not moment and callable(form) and form() == "cubature"
+    if not (moment or cubature):
+        return None
+    form = getattr(imm.filter, "fused_adaptive_form", None)
+    adaptive = form(state.modes) if callable(form) else None
+    if adaptive is None and (moment or not _fusable(imm.filter, state.modes, imm.stacked)):
+        return None
+    base = imm.filter if adaptive is None else imm.filter.base
+    packed = _packed(state, steps, with_cov, check, imm.stacked.dim)
+    if packed is None:
+        return None
+    up = base.rule.unit_points(imm.stacked.dim)
+    out = linalg.imm_layer_run(state.mode_probabilities, imm.transition, state.modes.mean, state.modes.cov, up.xi,
+                               up.wm, up.wc, imm.stacked.F, imm.stacked.Q, packed, cubature, adaptive, with_cov,
+                               LOG_2PI, keep_cov=keep_cov, nis=consistency, truth=x_true)
+    if out is None:
+        return None
+    means, covs, mus, failed, underflow, nis, nees = out
+    return _assemble(means, covs, mus, failed, underflow, None, nis, nees, steps, consistency, name, on_divergence)
 
 
 def _packed(state, steps, with_cov: bool, check, n: int) -> tuple | None:

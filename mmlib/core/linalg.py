@@ -58,7 +58,7 @@ __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused"
            "rule_weights", "rule_output", "trapezoid_rules",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "fading_factor", "strong_tracking_step", "packed_steps", "sigma_run", "imm_sigma_run", "strong_tracking_run",
-           "adaptive_run",
+           "adaptive_run", "imm_layer_run", "cubature_mix",
            "fuzzy_imm_run", "power", "compiled_rule_count",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
            "FUSED_STEPS",
@@ -255,10 +255,12 @@ _SHAPES = {
     "imm_sigma_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N t", "t a", "t w", "t", "... n n"),
     "strong_tracking_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n", "N v v"),
     "adaptive_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n"),
+    "imm_layer_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N t", "t a", "t w", "t", "... n n"),
     "fuzzy_imm_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "n n", "n n", "N r", "r", "N t",
                       "t a", "t w", "t", "N h c", "N"),
     "fading_factor": ("N n n", "N n n", "N n m", "N m m", "N m m", "N m m", None),
     "gram": ("N k m",),
+    "cubature_mix": ("N r n", "N r n n", "N r r"),
     "psd_part": ("N m m",),
     "trapezoid_rules": ("N d", "d - -", "d", "- -"),
 }
@@ -1222,7 +1224,7 @@ FUSED_BLOCK = 128
 #: the names of the fused steps below, each a whole filter step in one compiled call (what a caller spies on to see
 #: whether one was taken: ``bench/papers.py``, ``tests/test_fused.py``)
 FUSED_STEPS = ("imm_sigma_step", "sigma_step", "strong_tracking_step", "sigma_run", "imm_sigma_run",
-               "strong_tracking_run", "adaptive_run", "fuzzy_imm_run")
+               "strong_tracking_run", "adaptive_run", "imm_layer_run", "fuzzy_imm_run")
 
 #: the measurement functions the fused steps evaluate themselves (:func:`mmlib.core._kernels._measure`)
 MEASURE_LINEAR, MEASURE_RANGE_BEARING, MEASURE_PSEUDORANGES = 0, 1, 2
@@ -1459,6 +1461,47 @@ def fuzzy_imm_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, cov
             nees_out if nees else None, diag)
 
 
+def imm_layer_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, covs: np.ndarray, xi: np.ndarray,
+                  wm: np.ndarray, wc: np.ndarray, F: np.ndarray, Q: np.ndarray, packed: tuple, cubature: bool,
+                  adaptive: tuple | None, with_cov: bool, log_2pi: float, *, keep_cov: bool, nis: bool,
+                  truth: np.ndarray | None = None) -> tuple | None:
+    r"""Every IMM cycle in one compiled call (compiled kernels only; :func:`fused`) of an IMM over linear mode
+    dynamics whose interaction is moment matching or, with ``cubature``, the cubature principle (:func:`cubature_mix`),
+    and whose mode filters are sigma-point filters or, with ``adaptive`` = ``(window, psi, zeta, include_current,
+    inflate_only)``, innovation-adaptive ones (:class:`mmlib.core.layers.adaptive.InnovationAdaptive`, from empty
+    windows): cycle k is what the composed IMM computes from cycle k - 1's state, the same bits.  Arguments and
+    returns as :func:`imm_sigma_run` (the NIS with the innovation covariances the modes' updates used); None where
+    the composed cycles would not be these (cubature mixing of one mode or a one-dimensional state, where numpy's
+    product is ``dot``; an adaptive layer's step measuring one component, or a non-finite :math:`\hat C - S` with
+    ``inflate_only``: :func:`adaptive_run`)."""
+    B, r, n = mu.shape[0], mu.shape[1], means.shape[-1]
+    z, zoff, kind, A, idx, sensor, angular, R = packed
+    K = zoff.shape[0] - 1
+    if (cubature and (r < 2 or n < 2)) or (adaptive is not None and (np.diff(zoff) < 2).any()):
+        return None
+    window, psi, zeta, include_current, inflate_only = (2, 1.0, False, False, False) if adaptive is None \
+        else adaptive
+    if (keep_cov or truth is not None) and not with_cov:
+        raise ValueError("with_cov: the fused covariance is needed to keep it or for the NEES")
+    means, covs = _stack(means, 2, (B,)), _stack(covs, 3, (B,))
+    _check_shapes("imm_layer_run", B, (mu, transition, means, covs, xi, wm, wc, F, z, A, R, angular, Q))
+    _check_offsets(zoff, R, z, B)
+    means_out, covs_out, failed, nis_out, nees_out = _run_outputs(B, K, n, keep_cov, nis, truth is not None)
+    outputs = (means_out, covs_out, np.empty((B, K, r)), failed, np.zeros((B, K), dtype=np.bool_), nis_out, nees_out,
+               np.zeros(B, dtype=np.bool_))
+    out = _over_threads(_compiled_module().imm_layer_run, (
+        _contiguous(mu), _contiguous(transition), _contiguous(means), _contiguous(covs), _contiguous(xi),
+        _contiguous(wm), _contiguous(wc), _contiguous(F), _periodic(Q, 2, (B, r)), z, zoff, kind, A, idx, sensor,
+        angular, R, bool(cubature), adaptive is not None, int(window), float(psi), bool(zeta), bool(include_current),
+        bool(inflate_only), bool(with_cov), float(log_2pi), _truth_operand(truth, B, K, n), bool(nis), bool(keep_cov)),
+        outputs, B)
+    means_k, covs_k, mu_k, failed, underflow, nis_out, nees_out, declined = out
+    if declined.any():
+        return None
+    return (means_k, covs_k if keep_cov else None, mu_k, failed, underflow, nis_out if nis else None,
+            nees_out if truth is not None else None)
+
+
 def strong_tracking_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray, wc: np.ndarray,
                         F: np.ndarray, Q: np.ndarray, packed: tuple, V: np.ndarray | None, rho: float, beta: float,
                         log_2pi: float, *, keep_cov: bool, nis: bool, truth: np.ndarray | None = None) -> tuple:
@@ -1687,6 +1730,40 @@ def mix_moments(means: np.ndarray, covs: np.ndarray, w: np.ndarray) -> tuple[np.
     wt = np.swapaxes(w, -1, -2)                                   # (B, j, i)
     mixed_mean = wt @ means                                       # (B, j, n)
     return mixed_mean, combine_covariances(wt, means, covs, mixed_mean)
+
+
+@_operation
+def cubature_mix(means: np.ndarray, covs: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r"""Cubature-principle IMM interaction (CPIMM, Zhou et al. 2017, Eqs. 14-19; :class:`mmlib.core.mixing.
+    CubatureMixing`, whose docstring has the mathematics), evaluated on the 2rn cubature points of the augmented
+    mode variable: ``means`` (B, r, n), ``covs`` (B, r, n, n), mixing weights ``w`` (B, r_from, r_to)
+    (:func:`mixing_weights`) -> ``(mixed means (B, r, n), mixed covs (B, r, n, n))``.  A mode covariance that is not
+    positive definite gives NaN for that run.  The compiled twin (:func:`mmlib.core._kernels._cubature_points_core`)
+    sums the two products as OpenBLAS's ``gemm`` and ``syrk`` do on AVX2 CPUs: the same bits on the reference
+    machine, round-off elsewhere; for r = 1 or n = 1 (numpy's ``dot`` there) both run numpy's."""
+    B, r, n = means.shape
+    l = r * n
+    chol, _ = cholesky(covs)                # (B, r, n, n) blocks of S; a non-PD block gives NaN (reported)
+    wt = np.swapaxes(w, -1, -2)                                        # (B, j, i)
+    centre = wt @ means                                                # f_j(chi_hat), (B, j, n)
+    # point +-sqrt(l) S e_c in block i moves f_j by +-sqrt(l) mu_{i|j} S_i[:, c]
+    cols = np.swapaxes(chol, -1, -2)                                   # (B, i, c, n): columns as rows
+    shift = math.sqrt(l) * wt[:, :, :, None, None] * cols[:, None]      # (B, j, i, c, n)
+    shift = shift.reshape(B, r, l, n)
+    pts = np.concatenate([centre[:, :, None, :] + shift, centre[:, :, None, :] - shift], axis=2)
+    mean = pts.mean(axis=2)                                            # Eq. 18, weights 1/(2l)
+    d = pts - mean[:, :, None, :]
+    cov = np.swapaxes(d, -1, -2) @ d / (2 * l)                         # Eq. 19
+    return mean, 0.5 * (cov + np.swapaxes(cov, -1, -2))
+
+
+@cubature_mix.compiled
+def _cubature_mix_compiled(means, covs, w):
+    means, covs, w = (np.asarray(a, dtype=np.float64) for a in (means, covs, w))
+    B, r, n = means.shape
+    if r < 2 or n < 2:
+        return cubature_mix.implementations["numpy"](means, covs, w)
+    return _call("cubature_mix", B, _stack(means, 2), _stack(covs, 3), _stack(w, 2))
 
 
 @_operation

@@ -19,7 +19,6 @@ the cubature points literally (as printed); the tests check it against the close
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,7 +30,8 @@ __all__ = ["CubatureMixing"]
 
 @dataclass(frozen=True)
 class CubatureMixing:
-    r"""CPIMM interaction (Zhou et al. 2017, Eqs. 14-19), evaluated on the 2mn cubature points.
+    r"""CPIMM interaction (Zhou et al. 2017, Eqs. 14-19), evaluated on the 2mn cubature points
+    (:func:`mmlib.core.linalg.cubature_mix`).
 
     Called as :class:`mmlib.core.estimation.MomentMixing`: ``means`` (B, r, n), ``covs`` (B, r, n, n), mixing
     weights ``w`` (B, r_from, r_to) -> ``(mixed means (B, r, n), mixed covs (B, r, n, n))``, equal (to
@@ -41,17 +41,9 @@ class CubatureMixing:
     name: str = "cubature-principle"
 
     def __call__(self, means: np.ndarray, covs: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        B, r, n = means.shape
-        l = r * n
-        chol, _ = linalg.cholesky(covs)         # (B, r, n, n) blocks of S; a non-PD block gives NaN (reported)
-        wt = np.swapaxes(w, -1, -2)                                        # (B, j, i)
-        centre = wt @ means                                                # f_j(chi_hat), (B, j, n)
-        # point +-sqrt(l) S e_c in block i moves f_j by +-sqrt(l) mu_{i|j} S_i[:, c]
-        cols = np.swapaxes(chol, -1, -2)                                   # (B, i, c, n): columns as rows
-        shift = math.sqrt(l) * wt[:, :, :, None, None] * cols[:, None]      # (B, j, i, c, n)
-        shift = shift.reshape(B, r, l, n)
-        pts = np.concatenate([centre[:, :, None, :] + shift, centre[:, :, None, :] - shift], axis=2)
-        mean = pts.mean(axis=2)                                            # Eq. 18, weights 1/(2l)
-        d = pts - mean[:, :, None, :]
-        cov = np.swapaxes(d, -1, -2) @ d / (2 * l)                         # Eq. 19
-        return mean, 0.5 * (cov + np.swapaxes(cov, -1, -2))
+        return linalg.cubature_mix(means, covs, w)
+
+    def fused_form(self) -> str | None:
+        """``"cubature"`` where a compiled whole IMM run (:func:`mmlib.core.linalg.imm_layer_run`) computes this
+        interaction: this class itself, not a subclass (which may override it); else None."""
+        return "cubature" if type(self) is CubatureMixing else None

@@ -142,6 +142,14 @@ class InnovationAdaptive(FilterLayer):
         return (type(self) is InnovationAdaptive and isinstance(self.base, SigmaPointFilter) and self.base.fusable
                 and type(state) is AdaptiveState and state.innovations is None)
 
+    def fused_adaptive_form(self, state) -> tuple | None:
+        """``(window, psi, zeta, include_current, inflate_only)`` where a compiled whole run computes this layer's
+        steps from ``state`` (:meth:`_fuses`; e.g. the mode filters of :func:`mmlib.core.linalg.imm_layer_run`), else
+        None."""
+        if not self._fuses(state):
+            return None
+        return self.window, self.psi, self.zeta, self.include_current, self.inflate_only
+
     def whole_run(self, state: AdaptiveState, dynamics: Any, packed: tuple, *, keep_cov: bool, nis: bool,
                   truth: np.ndarray | None = None) -> tuple | None:
         """Every step of a run from ``state`` through ``dynamics`` (linear, one (n, n) ``F``) over the packed
