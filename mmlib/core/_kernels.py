@@ -2011,6 +2011,124 @@ def adaptive_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, ang
 
 
 @njit(**_OPTS)
+def _congruence_core(Ab, Pb, add, out, PAt):
+    r""":func:`congruence`'s body, batch innermost: Ab (d, n, N), Pb (n, n, N), add (d, d, N) -> out (d, d, N) =
+    add + A(PA^T) and PAt (n, d, N) = PA^T, each sum in index order."""
+    d, n, N = Ab.shape
+    for i in range(n):
+        for j in range(d):
+            for b in range(N):
+                PAt[i, j, b] = 0.0
+            for k in range(n):
+                for b in range(N):
+                    PAt[i, j, b] += Pb[i, k, b] * Ab[j, k, b]
+    for i in range(d):
+        for j in range(d):
+            for b in range(N):
+                out[i, j, b] = add[i, j, b]
+            for k in range(n):
+                for b in range(N):
+                    out[i, j, b] += Ab[i, k, b] * PAt[k, j, b]
+
+
+@njit(**_OPTS)
+def _jacobian(mean, kind, A, idx, sensor, H):
+    r"""The measurement Jacobian H (m, n, N) at the means (n, N), as the models' ``jacobian`` computes it: ``kind`` 0
+    the matrix A itself; 1 range and bearing of the position components idx[0], idx[1] seen from ``sensor``
+    (:meth:`mmlib.core.models.RangeBearing.jacobian`); 2 pseudoranges to the satellites A (m, 3) with the clock bias
+    idx[3] (:meth:`mmlib.core.gnss.Pseudoranges.jacobian`: the lines of sight summed as :func:`_measure` sums them)."""
+    m, n, N = H.shape
+    H[:, :, :] = 0.0
+    if kind == 0:
+        for c in range(m):
+            for j in range(n):
+                H[c, j, :] = A[c, j]
+    elif kind == 1:
+        i0, i1 = idx[0], idx[1]
+        for b in range(N):
+            dx = mean[i0, b] - sensor[0]
+            dy = mean[i1, b] - sensor[1]
+            r2 = dx * dx + dy * dy
+            r = math.sqrt(r2)
+            H[0, i0, b] = dx / r
+            H[0, i1, b] = dy / r
+            H[1, i0, b] = -dy / r2
+            H[1, i1, b] = dx / r2
+    else:
+        for c in range(m):
+            for b in range(N):
+                d0 = A[c, 0] - mean[idx[0], b]
+                d1 = A[c, 1] - mean[idx[1], b]
+                d2 = A[c, 2] - mean[idx[2], b]
+                r = math.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+                H[c, idx[0], b] = -d0 / r
+                H[c, idx[1], b] = -d1 / r
+                H[c, idx[2], b] = -d2 / r
+                H[c, idx[3], b] = 1.0
+
+
+@njit(**_OPTS)
+def _ekf_step(mb, Pb, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, mean, cov, nu, S, ll, failed):
+    r"""One step of the extended Kalman filter (:class:`mmlib.core.filters.ExtendedKalmanFilter`) on linear dynamics,
+    batch innermost, as its composed operations compute it: the time update :math:`(Fm, F(PF^T) + Q)`
+    (:func:`linear_predict`), the Jacobian H at the predicted mean (:func:`_jacobian`), the predicted measurement
+    (:func:`_measure` of the mean), :math:`S = R + H(PH^T)` and :math:`P_{xz} = PH^T` (:func:`congruence`), the residual
+    and the Joseph-form Kalman update (:func:`_kalman_core`).  Outputs as :func:`_filter_step`."""
+    n, N = mb.shape
+    m = zb.shape[0]
+    for i in range(n):
+        for b in range(N):
+            mean[i, b] = 0.0
+        for k in range(n):
+            for b in range(N):
+                mean[i, b] += Fb[i, k, b] * mb[k, b]
+    Pl = np.empty((n, n, N))
+    PFt = np.empty((n, n, N))
+    _congruence_core(Fb, Pb, Qb, Pl, PFt)
+    H = np.empty((m, n, N))
+    _jacobian(mean, kind, A, idx, sensor, H)
+    Z = np.empty((1, m, N))
+    _measure(mean.reshape((1, n, N)), kind, A, idx, sensor, Z)
+    Pxz = np.empty((n, m, N))
+    _congruence_core(H, Pl, Rb, S, Pxz)
+    _residual_core(zb, Z[0], angular, nu)
+    nis = np.empty(N)
+    logdet = np.empty(N)
+    _kalman_core(mean, Pl, nu, S, Pxz, H, Rb, True, cov, nis, logdet, failed)
+    _nan_lanes(mean, failed)
+    _nan_lanes(cov, failed)
+    for lane in range(N):
+        ll[lane] = np.nan if failed[lane] else -0.5 * (nis[lane] + logdet[lane] + m * log_2pi)
+
+
+@njit(**_OPTS)
+def ekf_run(mean, cov, F, Q, z, zoff, kind, A, idx, sensor, angular, R, log_2pi, truth, nis_on, keep_cov, mean_out,
+            cov_out, failed_out, nis_out, nees_out, start, stop, block):
+    r"""Every step of an extended Kalman filter on linear dynamics over K packed measurement steps, for blocks of
+    ``block`` runs: step k is :func:`_ekf_step` on step k - 1's posterior, the bits of the filter's composed steps.
+    Arguments and outputs as :func:`sigma_run` without the rule."""
+    n = mean.shape[1]
+    K = zoff.shape[0] - 1
+    for b0 in range(start, stop, block):
+        N = min(block, stop - b0)
+        mb, Pb, Fb, Qb = _single_block_start(mean, cov, F, Q, b0, N)
+        ll = np.empty(N)
+        failed = np.empty(N, dtype=np.bool_)
+        for k in range(K):
+            zb, Ak, Rb, ang = _step_measurement(k, z, zoff, A, R, angular, b0, N)
+            m = zb.shape[0]
+            post_mean = np.empty((n, N))
+            post_cov = np.empty((n, n, N))
+            nu = np.empty((m, N))
+            S = np.empty((m, m, N))
+            _ekf_step(mb, Pb, Fb, Qb, Rb, zb, kind, Ak, idx, sensor, ang, log_2pi, post_mean, post_cov, nu, S, ll,
+                      failed)
+            _store_single_step(k, b0, post_mean, post_cov, nu, S, failed, keep_cov, nis_on, truth, mean_out, cov_out,
+                               failed_out, nis_out, nees_out)
+            mb, Pb = post_mean, post_cov
+
+
+@njit(**_OPTS)
 def _mixing_weights_core(mub, T, c, W):
     r"""c (r, N) and W (r, r, N), W[j, i] = :math:`\mu_{i|j}`, from mub (r, N) and T (r, r), batch innermost, as
     :func:`mmlib.core.linalg.mixing_weights` computes them with the compiled kernels (:func:`_mix_core`'s first
@@ -2104,13 +2222,14 @@ def cubature_mix(means, covs, w):
 
 @njit(**_OPTS)
 def imm_layer_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angular, R, cubature, adaptive,
-                  window, psi, zeta_on, include_current, inflate_only, with_cov, log_2pi, truth, nis_on, keep_cov,
+                  ekf, window, psi, zeta_on, include_current, inflate_only, with_cov, log_2pi, truth, nis_on, keep_cov,
                   mean_out, cov_out, mu_out, failed_out, underflow_out, nis_out, nees_out, declined, start, stop,
                   block):
     r"""Every IMM cycle over K packed measurement steps, for blocks of ``block`` runs, of an IMM whose interaction is
     moment matching (:func:`_mix_core`) or, with ``cubature``, the cubature principle (:func:`_mixing_weights_core`,
     :func:`_cubature_points_core`),
-    and whose mode filters are sigma-point filters on linear dynamics (:func:`_filter_step`) or, with ``adaptive``,
+    and whose mode filters are sigma-point filters on linear dynamics (:func:`_filter_step`), extended Kalman filters
+    (``ekf``, :func:`_ekf_step`; the rule's arguments unused) or, with ``adaptive``,
     innovation-adaptive ones (:func:`_adaptive_core`; ``window`` ... ``inflate_only`` the layer's, one window of
     innovations per mode, restarted wherever the measurement dimension changes), then the IMM output
     (:func:`_output_core`): the composed IMM's cycles, the same bits.  Arguments and outputs as
@@ -2164,6 +2283,9 @@ def imm_layer_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, s
                         for lane in range(N):
                             declined[b0 + lane] = True
                         return
+                elif ekf:
+                    _ekf_step(mm[j], mc[j], Fb[j], Qb[j], Rb, zb, kind, Ak, idx, sensor, ang, log_2pi, post_mean[j],
+                              post_cov[j], nu[j], S[j], ll[j], failed_modes[j])
                 else:
                     _filter_step(mm[j], mc[j], xi, wm, wc, Fb[j], Qb[j], Rb, zb, kind, Ak, idx, sensor, ang, log_2pi,
                                  post_mean[j], post_cov[j], nu[j], S[j], ll[j], failed_modes[j])

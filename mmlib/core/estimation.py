@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 from mmlib.core import linalg, protocols
 from mmlib.core.linalg import (combine_covariances, imm_output, mixing_weights,  # noqa: F401  (public here too)
                                normalised_square)
-from mmlib.core.filters import LOG_2PI, GaussianState, SigmaPointFilter
+from mmlib.core.filters import LOG_2PI, ExtendedKalmanFilter, GaussianState, SigmaPointFilter
 from mmlib.core.gnss import CLOCK_INDEX, POSITION_INDEX, Pseudoranges
 from mmlib.core.models import LinearMeasurement, RangeBearing, StackedDynamics
 from mmlib.core._validate import (check_finite, as_float_array, check_applies, check_batch_vector, check_bool,
@@ -849,15 +849,20 @@ def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, c
     dynamics = estimator.dynamics
     if not bool(getattr(dynamics, "is_linear", False)) or np.ndim(dynamics.F) != 2:
         return None
-    # a plain sigma-point filter, or a layer with a whole run of its own (it decides whether its state allows it)
+    # a plain sigma-point filter, an EKF, or a layer with a whole run of its own (it decides whether its state allows
+    # it)
     plain = _fusable(estimator.filter, state, dynamics)
-    layer_run = None if plain else getattr(estimator.filter, "whole_run", None)
-    if not plain and layer_run is None:
+    ekf = not plain and _ekf_runs(estimator.filter, state)
+    layer_run = None if plain or ekf else getattr(estimator.filter, "whole_run", None)
+    if not plain and not ekf and layer_run is None:
         return None
     packed = _packed(state, steps, with_cov, check, dynamics.dim)
     if packed is None:
         return None
-    if layer_run is not None:
+    if ekf:
+        out = linalg.ekf_run(state.mean, state.cov, dynamics.F, dynamics.Q, packed, LOG_2PI, keep_cov=keep_cov,
+                             nis=consistency, truth=x_true)
+    elif layer_run is not None:
         out = layer_run(state, dynamics, packed, keep_cov=keep_cov, nis=consistency, truth=x_true)
         if out is None:
             return None
@@ -869,14 +874,36 @@ def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, c
     return _assemble(means, covs, None, failed, None, None, nis, nees, steps, consistency, name, on_divergence)
 
 
+class _NoRule(NamedTuple):
+    """The rule operands (unit points and weights of one point, unused) of a whole run whose filters use no rule
+    (:func:`_ekf_runs`), for an n-state."""
+
+    xi: np.ndarray
+    wm: np.ndarray
+    wc: np.ndarray
+
+    @classmethod
+    def of(cls, n: int) -> "_NoRule":
+        return cls(np.zeros((1, n)), np.zeros(1), np.zeros(1))
+
+
+def _ekf_runs(filt, state) -> bool:
+    """Whether a compiled whole run computes the steps of ``filt`` from ``state``: the compiled kernels with fusion
+    on, exactly an :class:`~mmlib.core.filters.ExtendedKalmanFilter` (a subclass may override a step) and a
+    :class:`~mmlib.core.filters.GaussianState` (the caller checks the dynamics: linear, one F)."""
+    return linalg.fused() and type(filt) is ExtendedKalmanFilter and type(state) is GaussianState
+
+
 def _imm_layer_run(imm: "IMM", state, steps, check, with_cov: bool, keep_cov: bool, consistency: bool, x_true,
                    name: str, on_divergence: str) -> Track | None:
     """:func:`_whole_run` of an :class:`IMM` (exactly) over linear mode dynamics whose cycles
-    :func:`mmlib.core.linalg.imm_layer_run` computes: moment or cubature-principle mixing (a mixing strategy whose
-    ``fused_form()`` is ``"cubature"``, :class:`mmlib.core.mixing.CubatureMixing`) with plain sigma-point mode filters,
-    or either mixing with innovation-adaptive mode filters (a filter whose ``fused_adaptive_form(state.modes)`` gives
-    its parameters, :class:`mmlib.core.layers.adaptive.InnovationAdaptive`).  The Track of the step-by-step loop, bit
-    for bit, or None where it does not apply (the loop runs)."""
+    :func:`mmlib.core.linalg.imm_layer_run` computes and :func:`mmlib.core.linalg.imm_sigma_run` does not: moment or
+    cubature-principle mixing (a mixing strategy whose ``fused_form()`` is ``"cubature"``,
+    :class:`mmlib.core.mixing.CubatureMixing`) with extended Kalman mode filters (:func:`_ekf_runs`) or
+    innovation-adaptive ones (a filter whose ``fused_adaptive_form(state.modes)`` gives its parameters,
+    :class:`mmlib.core.layers.adaptive.InnovationAdaptive`), and cubature-principle mixing with plain sigma-point
+    mode filters.  The Track of the step-by-step loop, bit for bit, or None where it does not apply (the loop
+    runs)."""
     if not isinstance(state, IMMState) or not bool(getattr(imm.stacked, "is_linear", False)):
         return None
     moment = type(imm.mixing) is MomentMixing
@@ -886,16 +913,17 @@ def _imm_layer_run(imm: "IMM", state, steps, check, with_cov: bool, keep_cov: bo
         return None
     form = getattr(imm.filter, "fused_adaptive_form", None)
     adaptive = form(state.modes) if callable(form) else None
-    if adaptive is None and (moment or not _fusable(imm.filter, state.modes, imm.stacked)):
+    ekf = adaptive is None and _ekf_runs(imm.filter, state.modes)
+    if adaptive is None and not ekf and (moment or not _fusable(imm.filter, state.modes, imm.stacked)):
         return None
-    base = imm.filter if adaptive is None else imm.filter.base
     packed = _packed(state, steps, with_cov, check, imm.stacked.dim)
     if packed is None:
         return None
-    up = base.rule.unit_points(imm.stacked.dim)
+    n = imm.stacked.dim
+    up = _NoRule.of(n) if ekf else (imm.filter if adaptive is None else imm.filter.base).rule.unit_points(n)
     out = linalg.imm_layer_run(state.mode_probabilities, imm.transition, state.modes.mean, state.modes.cov, up.xi,
                                up.wm, up.wc, imm.stacked.F, imm.stacked.Q, packed, cubature, adaptive, with_cov,
-                               LOG_2PI, keep_cov=keep_cov, nis=consistency, truth=x_true)
+                               LOG_2PI, keep_cov=keep_cov, nis=consistency, truth=x_true, ekf=ekf)
     if out is None:
         return None
     means, covs, mus, failed, underflow, nis, nees = out

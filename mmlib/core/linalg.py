@@ -58,7 +58,7 @@ __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused"
            "rule_weights", "rule_output", "trapezoid_rules",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "fading_factor", "strong_tracking_step", "packed_steps", "sigma_run", "imm_sigma_run", "strong_tracking_run",
-           "adaptive_run", "imm_layer_run", "cubature_mix",
+           "adaptive_run", "imm_layer_run", "ekf_run", "cubature_mix",
            "fuzzy_imm_run", "power", "compiled_rule_count",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
            "FUSED_STEPS",
@@ -255,6 +255,7 @@ _SHAPES = {
     "imm_sigma_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N t", "t a", "t w", "t", "... n n"),
     "strong_tracking_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n", "N v v"),
     "adaptive_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n"),
+    "ekf_run": ("N n", "N n n", "n n", "N t", "t a", "t w", "t", "... n n"),
     "imm_layer_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N t", "t a", "t w", "t", "... n n"),
     "fuzzy_imm_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "n n", "n n", "N r", "r", "N t",
                       "t a", "t w", "t", "N h c", "N"),
@@ -1224,7 +1225,7 @@ FUSED_BLOCK = 128
 #: the names of the fused steps below, each a whole filter step in one compiled call (what a caller spies on to see
 #: whether one was taken: ``bench/papers.py``, ``tests/test_fused.py``)
 FUSED_STEPS = ("imm_sigma_step", "sigma_step", "strong_tracking_step", "sigma_run", "imm_sigma_run",
-               "strong_tracking_run", "adaptive_run", "imm_layer_run", "fuzzy_imm_run")
+               "strong_tracking_run", "adaptive_run", "imm_layer_run", "ekf_run", "fuzzy_imm_run")
 
 #: the measurement functions the fused steps evaluate themselves (:func:`mmlib.core._kernels._measure`)
 MEASURE_LINEAR, MEASURE_RANGE_BEARING, MEASURE_PSEUDORANGES = 0, 1, 2
@@ -1461,14 +1462,35 @@ def fuzzy_imm_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, cov
             nees_out if nees else None, diag)
 
 
+def ekf_run(mean: np.ndarray, cov: np.ndarray, F: np.ndarray, Q: np.ndarray, packed: tuple, log_2pi: float, *,
+            keep_cov: bool, nis: bool, truth: np.ndarray | None = None) -> tuple:
+    r"""Every step of an extended Kalman filter over linear dynamics (:class:`mmlib.core.filters.ExtendedKalmanFilter`,
+    the Joseph-form update) in one compiled call (compiled kernels only; :func:`fused`): step k is what the filter's
+    predict and update compute from step k - 1's posterior with the compiled operations, the same bits.  ``mean``,
+    ``cov``, ``F``, ``Q``, ``packed``, ``log_2pi`` and the returns as :func:`sigma_run`."""
+    B, n = mean.shape
+    z, zoff, kind, A, idx, sensor, angular, R = packed
+    K = zoff.shape[0] - 1
+    cov = _stack(cov, 2, (B,))
+    _check_shapes("ekf_run", B, (mean, cov, F, z, A, R, angular, Q))
+    _check_offsets(zoff, R, z, B)
+    out = _over_threads(_compiled_module().ekf_run, (
+        _contiguous(mean), _contiguous(cov), _contiguous(F), _periodic(Q, 2, (B,)), z, zoff, kind, A, idx, sensor,
+        angular, R, float(log_2pi), _truth_operand(truth, B, K, n), bool(nis), bool(keep_cov)),
+        _run_outputs(B, K, n, keep_cov, nis, truth is not None), B)
+    means, covs, failed, nis_out, nees_out = out
+    return means, covs if keep_cov else None, failed, nis_out if nis else None, nees_out if truth is not None else None
+
+
 def imm_layer_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, covs: np.ndarray, xi: np.ndarray,
                   wm: np.ndarray, wc: np.ndarray, F: np.ndarray, Q: np.ndarray, packed: tuple, cubature: bool,
                   adaptive: tuple | None, with_cov: bool, log_2pi: float, *, keep_cov: bool, nis: bool,
-                  truth: np.ndarray | None = None) -> tuple | None:
+                  truth: np.ndarray | None = None, ekf: bool = False) -> tuple | None:
     r"""Every IMM cycle in one compiled call (compiled kernels only; :func:`fused`) of an IMM over linear mode
     dynamics whose interaction is moment matching or, with ``cubature``, the cubature principle (:func:`cubature_mix`),
-    and whose mode filters are sigma-point filters or, with ``adaptive`` = ``(window, psi, zeta, include_current,
-    inflate_only)``, innovation-adaptive ones (:class:`mmlib.core.layers.adaptive.InnovationAdaptive`, from empty
+    and whose mode filters are sigma-point filters, extended Kalman filters (``ekf``; the rule's arguments are then
+    not used) or, with ``adaptive`` = ``(window, psi, zeta, include_current, inflate_only)``, innovation-adaptive
+    sigma-point ones (:class:`mmlib.core.layers.adaptive.InnovationAdaptive`, from empty
     windows): cycle k is what the composed IMM computes from cycle k - 1's state, the same bits.  Arguments and
     returns as :func:`imm_sigma_run` (the NIS with the innovation covariances the modes' updates used); None where
     the composed cycles would not be these (cubature mixing of one mode or a one-dimensional state, where numpy's
@@ -1492,7 +1514,8 @@ def imm_layer_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, cov
     out = _over_threads(_compiled_module().imm_layer_run, (
         _contiguous(mu), _contiguous(transition), _contiguous(means), _contiguous(covs), _contiguous(xi),
         _contiguous(wm), _contiguous(wc), _contiguous(F), _periodic(Q, 2, (B, r)), z, zoff, kind, A, idx, sensor,
-        angular, R, bool(cubature), adaptive is not None, int(window), float(psi), bool(zeta), bool(include_current),
+        angular, R, bool(cubature), adaptive is not None, bool(ekf), int(window), float(psi), bool(zeta),
+        bool(include_current),
         bool(inflate_only), bool(with_cov), float(log_2pi), _truth_operand(truth, B, K, n), bool(nis), bool(keep_cov)),
         outputs, B)
     means_k, covs_k, mu_k, failed, underflow, nis_out, nees_out, declined = out
