@@ -1352,19 +1352,26 @@ def _store_block(b0, mean, cov, ll, nu, S, failed, mean_out, cov_out, ll_out, nu
 
 @njit(**_OPTS)
 def _strong_tracking_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb, zb, Vb, restart, rho, beta,
-                          log_2pi, prior, post_cov, nu, S, ll, failed, lam):
+                          log_2pi, prior, post_cov, nu, S, ll, failed, lam, ekf, jacobian):
     r"""One strong-tracking step for the N lanes of a block, batch innermost (:func:`strong_tracking_step`'s body):
     from the prior mb (n, N), Pb (n, n, N), with Fb, Qb (n, n, N), Rb (m, m, N) and zb (m, N), the posterior mean
     ``prior`` (n, N) (overwritten from the predicted mean), ``post_cov`` (n, n, N), ``nu`` (m, N), ``S`` (m, m, N),
     ``ll``, ``failed`` and the fading factor ``lam`` (N,); ``Vb`` (m, m, N) holds the last smoothed innovation outer
-    product on entry (read only without ``restart``) and this step's on exit (Eq. 17)."""
+    product on entry (read only without ``restart``) and this step's on exit (Eq. 17).  With ``ekf`` the base filter
+    is the extended Kalman filter (:func:`_ekf_predict_and_moments`, :func:`_ekf_moments`, :func:`_joseph_update_core`;
+    the rule's arguments unused), with ``jacobian`` the fading factor of the Jacobian form
+    (:func:`_jacobian_fading`)."""
     n, N = mb.shape
     m = zb.shape[0]
     scale = 1.0 + rho
     Pl = np.empty((n, n, N))
     zp = np.empty((m, N))
     Pxz = np.empty((n, m, N))
-    _predict_and_moments(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb, prior, Pl, zp, S, Pxz)
+    H = np.empty((m, n, N) if ekf else (0, 0, N))
+    if ekf:
+        _ekf_predict_and_moments(mb, Pb, Fb, Qb, kind, A, idx, sensor, Rb, prior, Pl, zp, S, Pxz, H)
+    else:
+        _predict_and_moments(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb, prior, Pl, zp, S, Pxz)
     v = np.empty((m, N))
     _residual_core(zb, zp, angular, v)
     if restart:
@@ -1377,7 +1384,10 @@ def _strong_tracking_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angu
             for k in range(m):
                 for lane in range(N):
                     Vb[i, k, lane] = (rho * Vb[i, k, lane] + v[i, lane] * v[k, lane]) / scale
-    _fading_core(Pl, Qb, Pxz, Vb, S, Rb, beta, lam)
+    if ekf and jacobian:
+        _jacobian_fading(H, Pl, Qb, Vb, Rb, beta, lam)
+    else:
+        _fading_core(Pl, Qb, Pxz, Vb, S, Rb, beta, lam)
     inflate = False
     for lane in range(N):
         inflate = inflate or lam[lane] > 1.0
@@ -1387,9 +1397,15 @@ def _strong_tracking_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angu
                 for lane in range(N):
                     if lam[lane] > 1.0:
                         Pl[i, k, lane] = lam[lane] * (Pl[i, k, lane] - Qb[i, k, lane]) + Qb[i, k, lane]
-        _moments_core(prior, Pl, xi, wm, wc, kind, A, idx, sensor, angular, Rb, zp, S, Pxz)
+        if ekf:
+            _ekf_moments(prior, Pl, kind, A, idx, sensor, Rb, zp, S, Pxz, H)
+        else:
+            _moments_core(prior, Pl, xi, wm, wc, kind, A, idx, sensor, angular, Rb, zp, S, Pxz)
     _residual_core(zb, zp, angular, nu)
-    _update_core(prior, Pl, nu, S, Pxz, log_2pi, post_cov, ll, failed)
+    if ekf:
+        _joseph_update_core(prior, Pl, nu, S, Pxz, H, Rb, log_2pi, post_cov, ll, failed)
+    else:
+        _update_core(prior, Pl, nu, S, Pxz, log_2pi, post_cov, ll, failed)
 
 
 @njit(**_OPTS)
@@ -1424,7 +1440,7 @@ def strong_tracking_step(mean, cov, xi, wm, wc, F, Q, z, kind, A, idx, sensor, a
         failed = np.empty(N, dtype=np.bool_)
         lam = np.empty(N)
         _strong_tracking_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb, zb, Vb, restart, rho,
-                              beta, log_2pi, prior, post_cov, nu, S, ll, failed, lam)
+                              beta, log_2pi, prior, post_cov, nu, S, ll, failed, lam, False, False)
         _store_block(b0, prior, post_cov, ll, nu, S, failed, mean_out, cov_out, ll_out, nu_out, S_out, failed_out)
         for lane in range(N):
             lam_out[b0 + lane] = lam[lane]
@@ -1760,15 +1776,16 @@ def imm_sigma_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, s
 
 @njit(**_OPTS)
 def strong_tracking_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angular, R, V, restart, rho, beta,
-                        log_2pi, truth, nis_on, keep_cov, mean_out, cov_out, failed_out, nis_out, nees_out, start,
-                        stop, block):
+                        log_2pi, ekf, jacobian, truth, nis_on, keep_cov, mean_out, cov_out, failed_out, nis_out,
+                        nees_out, start, stop, block):
     r"""Every step of a strong-tracking sigma-point filter on linear dynamics over K packed measurement steps, for
     blocks of ``block`` runs: step k is :func:`strong_tracking_step`'s body (:func:`_strong_tracking_core`) on step
     k - 1's posterior and smoothed innovation outer product V, which restarts (Eq. 17, :math:`V = vv^T`) at the first
     step when ``restart`` and wherever the measurement dimension changes, as the layer restarts it: the bits of K
     calls of :func:`strong_tracking_step`.  mean ... R, truth, nis_on, keep_cov and the outputs as
     :func:`sigma_run`; V (B, m_0, m_0) the state's V (read only without ``restart``), ``rho`` and ``beta`` the
-    layer's forgetting and softening factors."""
+    layer's forgetting and softening factors; ``ekf``: over the extended Kalman filter instead (the rule unused), and
+    ``jacobian`` its fading factor's Jacobian form."""
     n = mean.shape[1]
     K = zoff.shape[0] - 1
     for b0 in range(start, stop, block):
@@ -1792,7 +1809,7 @@ def strong_tracking_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sens
             nu = np.empty((m, N))
             S = np.empty((m, m, N))
             _strong_tracking_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, Ak, idx, sensor, ang, Rb, zb, Vb, fresh, rho,
-                                  beta, log_2pi, post_mean, post_cov, nu, S, ll, failed, lam)
+                                  beta, log_2pi, post_mean, post_cov, nu, S, ll, failed, lam, ekf, jacobian)
             _store_single_step(k, b0, post_mean, post_cov, nu, S, failed, keep_cov, nis_on, truth, mean_out, cov_out,
                                failed_out, nis_out, nees_out)
             mb, Pb = post_mean, post_cov
@@ -2068,37 +2085,114 @@ def _jacobian(mean, kind, A, idx, sensor, H):
 
 
 @njit(**_OPTS)
-def _ekf_step(mb, Pb, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, mean, cov, nu, S, ll, failed):
-    r"""One step of the extended Kalman filter (:class:`mmlib.core.filters.ExtendedKalmanFilter`) on linear dynamics,
-    batch innermost, as its composed operations compute it: the time update :math:`(Fm, F(PF^T) + Q)`
-    (:func:`linear_predict`), the Jacobian H at the predicted mean (:func:`_jacobian`), the predicted measurement
-    (:func:`_measure` of the mean), :math:`S = R + H(PH^T)` and :math:`P_{xz} = PH^T` (:func:`congruence`), the residual
-    and the Joseph-form Kalman update (:func:`_kalman_core`).  Outputs as :func:`_filter_step`."""
-    n, N = mb.shape
-    m = zb.shape[0]
-    for i in range(n):
-        for b in range(N):
-            mean[i, b] = 0.0
-        for k in range(n):
-            for b in range(N):
-                mean[i, b] += Fb[i, k, b] * mb[k, b]
-    Pl = np.empty((n, n, N))
-    PFt = np.empty((n, n, N))
-    _congruence_core(Fb, Pb, Qb, Pl, PFt)
-    H = np.empty((m, n, N))
+def _ekf_moments(mean, Pl, kind, A, idx, sensor, Rb, zp, S, Pxz, H):
+    r"""The extended Kalman filter's measurement prediction (:meth:`mmlib.core.filters.ExtendedKalmanFilter.
+    predict_measurement`) at the means (n, N) with the covariances Pl (n, n, N), batch innermost, as its compiled
+    operations compute it: the Jacobian H (m, n, N) (:func:`_jacobian`), the predicted measurement zp (m, N)
+    (:func:`_measure` of the mean), :math:`S = R + H(PH^T)` (m, m, N) and :math:`P_{xz} = PH^T` (n, m, N)
+    (:func:`congruence`)."""
+    n, N = mean.shape
+    m = zp.shape[0]
     _jacobian(mean, kind, A, idx, sensor, H)
     Z = np.empty((1, m, N))
     _measure(mean.reshape((1, n, N)), kind, A, idx, sensor, Z)
-    Pxz = np.empty((n, m, N))
+    zp[:, :] = Z[0]
     _congruence_core(H, Pl, Rb, S, Pxz)
-    _residual_core(zb, Z[0], angular, nu)
+
+
+@njit(**_OPTS)
+def _ekf_predict_and_moments(mb, Pb, Fb, Qb, kind, A, idx, sensor, Rb, prior, Pl, zp, S, Pxz, H):
+    r"""The extended Kalman filter's time update on linear dynamics, :math:`(Fm, F(PF^T) + Q)`
+    (:func:`linear_predict`: the prior ``prior`` (n, N) and ``Pl`` (n, n, N)), then its measurement prediction
+    (:func:`_ekf_moments`), batch innermost."""
+    n, N = mb.shape
+    for i in range(n):
+        for b in range(N):
+            prior[i, b] = 0.0
+        for k in range(n):
+            for b in range(N):
+                prior[i, b] += Fb[i, k, b] * mb[k, b]
+    PFt = np.empty((n, n, N))
+    _congruence_core(Fb, Pb, Qb, Pl, PFt)
+    _ekf_moments(prior, Pl, kind, A, idx, sensor, Rb, zp, S, Pxz, H)
+
+
+@njit(**_OPTS)
+def _joseph_update_core(mean, Pm, nu, S, Pxz, H, Rb, log_2pi, cov, ll, failed):
+    r""":func:`_update_core` in the Joseph form (H (m, n, N) and Rb (m, m, N): :func:`kalman_moments` with H), as
+    :func:`mmlib.core.filters.kalman_update` computes it for the extended Kalman filter."""
+    m, N = nu.shape
     nis = np.empty(N)
     logdet = np.empty(N)
-    _kalman_core(mean, Pl, nu, S, Pxz, H, Rb, True, cov, nis, logdet, failed)
+    _kalman_core(mean, Pm, nu, S, Pxz, H, Rb, True, cov, nis, logdet, failed)
     _nan_lanes(mean, failed)
     _nan_lanes(cov, failed)
     for lane in range(N):
         ll[lane] = np.nan if failed[lane] else -0.5 * (nis[lane] + logdet[lane] + m * log_2pi)
+
+
+@njit(**_OPTS)
+def _jacobian_fading(H, Pl, Qb, Vb, Rb, beta, lam):
+    r"""The strong-tracking fading factor of the Jacobian form (Liu & Wu 2017, Eqs. 15-16; the layer's
+    ``fading_factor`` with ``form="jacobian"``, :func:`mmlib.core.linalg.jacobian_fading_factor`), batch innermost:
+    the diagonals of :math:`N = (V - (HQ)H^T) - \beta R` and :math:`M = (H(P^l - Q))H^T`, each product summed in order
+    with one fused multiply-add per term from 0, then + 0 (as OpenBLAS's ``gemm`` on AVX2 CPUs for most shapes, not
+    its kernel for a last odd row), their traces in numpy's order
+    (:func:`_numpy_sum`), :math:`\lambda = \max(1, \mathrm{tr}N/\mathrm{tr}M)` (1 where tr M is not > 0; NaN where the
+    ratio is, as ``np.maximum``).  H (m, n, N), Pl, Qb (n, n, N), Vb, Rb (m, m, N) -> lam (N,)."""
+    m, n, N = H.shape
+    hq = np.empty(n)
+    hd = np.empty(n)
+    dn = np.empty(m)
+    dm = np.empty(m)
+    for b in range(N):
+        for c in range(m):
+            for k in range(n):
+                a1 = 0.0
+                a2 = 0.0
+                for q in range(n):
+                    a1 = _fma(H[c, q, b], Qb[q, k, b], a1)
+                    a2 = _fma(H[c, q, b], Pl[q, k, b] - Qb[q, k, b], a2)
+                hq[k] = a1 + 0.0
+                hd[k] = a2 + 0.0
+            a1 = 0.0
+            a2 = 0.0
+            for k in range(n):
+                a1 = _fma(hq[k], H[c, k, b], a1)
+                a2 = _fma(hd[k], H[c, k, b], a2)
+            dn[c] = (Vb[c, c, b] - (a1 + 0.0)) - beta * Rb[c, c, b]
+            dm[c] = a2 + 0.0
+        tr_n = _numpy_sum(dn, 0, m)
+        tr_m = _numpy_sum(dm, 0, m)
+        ratio = tr_n / tr_m if tr_m > 0.0 else 1.0
+        lam[b] = ratio if (ratio > 1.0 or ratio != ratio) else 1.0
+
+
+@njit(**_OPTS)
+def jacobian_fading_factor(H, Pl, Q, V, R, beta):
+    r""":func:`_jacobian_fading` for a stack of N runs: H (N, m, n), Pl (N, n, n), Q (P, n, n) and R (P', m, m) periodic
+    over the runs, V (N, m, m) -> lam (N,)."""
+    N = H.shape[0]
+    lam = np.empty(N)
+    _jacobian_fading(_inner(H, N), _inner(Pl, N), _inner(Q, N), _inner(V, N), _inner(R, N), beta, lam)
+    return lam
+
+
+@njit(**_OPTS)
+def _ekf_step(mb, Pb, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, mean, cov, nu, S, ll, failed):
+    r"""One step of the extended Kalman filter (:class:`mmlib.core.filters.ExtendedKalmanFilter`) on linear dynamics,
+    batch innermost, as its composed operations compute it: the time update and the measurement prediction
+    (:func:`_ekf_predict_and_moments`), the residual and the Joseph-form Kalman update (:func:`_joseph_update_core`).
+    Outputs as :func:`_filter_step`."""
+    n, N = mb.shape
+    m = zb.shape[0]
+    Pl = np.empty((n, n, N))
+    zp = np.empty((m, N))
+    Pxz = np.empty((n, m, N))
+    H = np.empty((m, n, N))
+    _ekf_predict_and_moments(mb, Pb, Fb, Qb, kind, A, idx, sensor, Rb, mean, Pl, zp, S, Pxz, H)
+    _residual_core(zb, zp, angular, nu)
+    _joseph_update_core(mean, Pl, nu, S, Pxz, H, Rb, log_2pi, cov, ll, failed)
 
 
 @njit(**_OPTS)

@@ -57,7 +57,8 @@ __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused"
            "trace", "wrap_angle", "range_bearing", "pseudoranges", "matmul_rows", "trapezoid_memberships",
            "rule_weights", "rule_output", "trapezoid_rules",
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
-           "fading_factor", "strong_tracking_step", "packed_steps", "sigma_run", "imm_sigma_run", "strong_tracking_run",
+           "fading_factor", "jacobian_fading_factor", "strong_tracking_step", "packed_steps", "sigma_run",
+           "imm_sigma_run", "strong_tracking_run",
            "adaptive_run", "imm_layer_run", "ekf_run", "cubature_mix",
            "fuzzy_imm_run", "power", "compiled_rule_count",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
@@ -261,6 +262,7 @@ _SHAPES = {
                       "t a", "t w", "t", "N h c", "N"),
     "fading_factor": ("N n n", "N n n", "N n m", "N m m", "N m m", "N m m", None),
     "gram": ("N k m",),
+    "jacobian_fading_factor": ("N m n", "N n n", "N n n", "N m m", "N m m", None),
     "cubature_mix": ("N r n", "N r n n", "N r r"),
     "psd_part": ("N m m",),
     "trapezoid_rules": ("N d", "d - -", "d", "- -"),
@@ -603,6 +605,39 @@ def _fading_factor_compiled(Pl, Q, Pxz, V, S, R, beta):
     flat = _stack(Pl, 2, lead)
     lam = _call("fading_factor", flat.shape[0], flat, _periodic(Q, 2, lead), _stack(Pxz, 2, lead), _stack(V, 2, lead),
                 _stack(S, 2, lead), _periodic(R, 2, lead), float(beta))
+    return lam.reshape(lead)
+
+
+@_operation
+def jacobian_fading_factor(H: np.ndarray, Pl: np.ndarray, Q: np.ndarray, V: np.ndarray, R: np.ndarray,
+                           beta: float) -> np.ndarray:
+    r"""The strong-tracking fading factor of the Jacobian form (Liu & Wu 2017, Eqs. 15-16; the STF of Zhou & Frank):
+    :math:`N = V - HQH^T - \beta R`, :math:`M = H(P^l - Q)H^T`, :math:`\lambda = \max(1, \mathrm{tr}N/\mathrm{tr}M)`,
+    1 where :math:`\mathrm{tr}M` is not > 0 (NaN where the ratio is).  ``H`` (..., m, n) the measurement Jacobian,
+    ``Pl`` (..., n, n) the predicted covariance (Q included), ``Q`` (..., n, n) and ``R`` (..., m, m) broadcasting,
+    ``V`` (..., m, m) the smoothed innovation outer product (Eq. 17), ``beta`` >= 1; returns :math:`\lambda` (...),
+    dimensionless.  numpy's products here; the compiled twin (:func:`mmlib.core._kernels._jacobian_fading`) forms only
+    the diagonals, each product summed in order with one fused multiply-add per term (how OpenBLAS's ``gemm`` sums
+    on AVX2 CPUs for most shapes; to round-off otherwise) -- for m = 1 (numpy's ``gemv``) both run numpy's."""
+    Ht = np.swapaxes(H, -1, -2)
+    N = V - H @ Q @ Ht - beta * R
+    M = H @ (Pl - Q) @ Ht
+    tr_n, tr_m = trace(N), trace(M)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = np.where(tr_m > 0.0, tr_n / tr_m, 1.0)
+    return np.maximum(c, 1.0)
+
+
+@jacobian_fading_factor.compiled
+def _jacobian_fading_factor_compiled(H, Pl, Q, V, R, beta):
+    H = np.asarray(H, dtype=np.float64)
+    if H.ndim < 2 or H.shape[-2] < 2:
+        return jacobian_fading_factor.implementations["numpy"](H, Pl, Q, V, R, beta)
+    lead = np.broadcast_shapes(H.shape[:-2], np.shape(Pl)[:-2], np.shape(Q)[:-2], np.shape(V)[:-2],
+                               np.shape(R)[:-2])
+    flat = _stack(H, 2, lead)
+    lam = _call("jacobian_fading_factor", flat.shape[0], flat, _stack(Pl, 2, lead), _periodic(Q, 2, lead),
+                _stack(V, 2, lead), _periodic(R, 2, lead), float(beta))
     return lam.reshape(lead)
 
 
@@ -1527,16 +1562,22 @@ def imm_layer_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, cov
 
 def strong_tracking_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray, wc: np.ndarray,
                         F: np.ndarray, Q: np.ndarray, packed: tuple, V: np.ndarray | None, rho: float, beta: float,
-                        log_2pi: float, *, keep_cov: bool, nis: bool, truth: np.ndarray | None = None) -> tuple:
+                        log_2pi: float, *, keep_cov: bool, nis: bool, truth: np.ndarray | None = None,
+                        ekf: bool = False, jacobian: bool = False) -> tuple | None:
     r"""Every step of a strong-tracking sigma-point filter over linear dynamics in one compiled call (compiled kernels
     only; :func:`fused`): step k is what :func:`strong_tracking_step` computes from step k - 1's posterior and smoothed
     innovation outer product, restarted where the measurement dimension changes (the same bits).  ``mean`` ...
     ``packed`` and ``log_2pi`` as :func:`sigma_run`; ``V`` (B, m_0, m_0) the state's last smoothed outer product, or
     None to restart it at the first step (as where its dimension is not the first step's); ``rho``, ``beta`` the
-    forgetting and softening factors.  Returns :func:`sigma_run`'s ``(means, covs, failed, nis, nees)``."""
+    forgetting and softening factors; ``ekf``: over the extended Kalman filter (:func:`ekf_run`'s steps; ``xi``, ``wm``,
+    ``wc`` unused), and ``jacobian`` with the fading factor's Jacobian form.  Returns :func:`sigma_run`'s ``(means,
+    covs, failed, nis, nees)``, or None for the Jacobian form with a step measuring one component (numpy's product
+    is ``gemv`` there, which sums in another order)."""
     B, n = mean.shape
     z, zoff, kind, A, idx, sensor, angular, R = packed
     K = zoff.shape[0] - 1
+    if ekf and jacobian and (np.diff(zoff) < 2).any():
+        return None
     m0 = int(zoff[1] - zoff[0]) if zoff.shape[0] > 1 else 0
     cov = _stack(cov, 2, (B,))
     restart = V is None or np.shape(V)[-1] != m0
@@ -1546,7 +1587,8 @@ def strong_tracking_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: n
     out = _over_threads(_compiled_module().strong_tracking_run, (
         _contiguous(mean), _contiguous(cov), _contiguous(xi), _contiguous(wm), _contiguous(wc), _contiguous(F),
         _periodic(Q, 2, (B,)), z, zoff, kind, A, idx, sensor, angular, R, _contiguous(Vs), bool(restart), float(rho),
-        float(beta), float(log_2pi), _truth_operand(truth, B, K, n), bool(nis), bool(keep_cov)),
+        float(beta), float(log_2pi), bool(ekf), bool(jacobian), _truth_operand(truth, B, K, n), bool(nis),
+        bool(keep_cov)),
         _run_outputs(B, K, n, keep_cov, nis, truth is not None), B)
     means, covs, failed, nis_out, nees_out = out
     return means, covs if keep_cov else None, failed, nis_out if nis else None, nees_out if truth is not None else None

@@ -34,9 +34,9 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from mmlib.core._validate import check_choice, check_name, check_scalar
-from mmlib.core.filters import LOG_2PI, FilterLayer, MeasurementPrediction, SigmaPointFilter, kalman_update
+from mmlib.core.filters import (LOG_2PI, ExtendedKalmanFilter, FilterLayer, MeasurementPrediction, SigmaPointFilter,
+                                 kalman_update)
 from mmlib.core import linalg
-from mmlib.core.linalg import trace
 from mmlib.core.protocols import MeasurementModel
 
 __all__ = ["StrongTracking", "StrongTrackingState"]
@@ -83,20 +83,12 @@ class StrongTracking(FilterLayer):
                       measurement: MeasurementModel) -> np.ndarray:
         """lambda_k of Eq. 14 for the predicted ``state`` (P^l (..., n, n), Q) and its measurement prediction
         ``pred``, with the smoothed innovation outer product ``V`` (..., m, m): ``max(1, tr N / tr M)``
-        (1 where ``tr M <= 0``), dimensionless, shape (...).  The Jacobian-free form is
-        :func:`mmlib.core.linalg.fading_factor`."""
+        (1 where ``tr M <= 0``), dimensionless, shape (...): :func:`mmlib.core.linalg.jacobian_fading_factor`, and
+        for the Jacobian-free form :func:`mmlib.core.linalg.fading_factor`."""
         Q, R = state.Q, measurement.R
         if self.form == "jacobian":
-            H = measurement.jacobian(state.mean)
-            Ht = np.swapaxes(H, -1, -2)
-            N = V - H @ Q @ Ht - self.beta * R
-            M = H @ (state.cov - Q) @ Ht
-        else:
-            return linalg.fading_factor(state.cov, Q, pred.Pxz, V, pred.S, R, self.beta)
-        tr_n, tr_m = trace(N), trace(M)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            c = np.where(tr_m > 0.0, tr_n / tr_m, 1.0)
-        return np.maximum(c, 1.0)
+            return linalg.jacobian_fading_factor(measurement.jacobian(state.mean), state.cov, Q, V, R, self.beta)
+        return linalg.fading_factor(state.cov, Q, pred.Pxz, V, pred.S, R, self.beta)
 
     def update(self, state: StrongTrackingState, z: np.ndarray, measurement: MeasurementModel) -> tuple:
         r"""Measurement update with ``z`` (B, m) ((B, 1, m) inside an IMM): innovation of the base filter's
@@ -134,21 +126,36 @@ class StrongTracking(FilterLayer):
                 and self.base.fusable and type(state) is StrongTrackingState
                 and (state.V is None or np.asarray(state.V).dtype == np.float64))
 
+    def _runs_ekf(self, state) -> bool:
+        """Whether :meth:`whole_run` computes this layer's steps over an extended Kalman filter from ``state``: this
+        class itself (either form), exactly an :class:`~mmlib.core.filters.ExtendedKalmanFilter` as the base, and a
+        ``V`` that is None or float64 (:meth:`_fuses`)."""
+        return (type(self) is StrongTracking and type(self.base) is ExtendedKalmanFilter
+                and type(state) is StrongTrackingState
+                and (state.V is None or np.asarray(state.V).dtype == np.float64))
+
     def whole_run(self, state: StrongTrackingState, dynamics: Any, packed: tuple, *, keep_cov: bool, nis: bool,
                   truth: np.ndarray | None = None) -> tuple | None:
         """Every step of a run from ``state`` through ``dynamics`` (linear, one (n, n) ``F``) over the packed
         measurement steps ``packed`` (:func:`mmlib.core.linalg.packed_steps`) in one compiled call
         (:func:`mmlib.core.linalg.strong_tracking_run`): what :meth:`fused_step` computes step after step, V restarted
-        where the measurement dimension changes, the same bits.  Returns ``(means (B, K, n), covs (B, K, n, n) or None,
+        where the measurement dimension changes, the same bits; over an extended Kalman filter (:meth:`_runs_ekf`),
+        what :meth:`predict` and :meth:`update` compute.  Returns ``(means (B, K, n), covs (B, K, n, n) or None,
         failed (B, K), nis (B, K) or None, nees (B, K) or None)`` (NIS with ``nis``, NEES against ``truth`` when
-        given), or None where a fused step does not apply (:meth:`_fuses`: :func:`mmlib.core.estimation.run` then
-        goes step by step)."""
-        if not self._fuses(state):
+        given), or None where neither applies (:meth:`_fuses`, :meth:`_runs_ekf`: :func:`mmlib.core.estimation.run`
+        then goes step by step)."""
+        ekf = self._runs_ekf(state)
+        if not ekf and not self._fuses(state):
             return None
-        up = self.base.rule.unit_points(dynamics.dim)
-        return linalg.strong_tracking_run(state.mean, state.cov, up.xi, up.wm, up.wc, dynamics.F, dynamics.Q, packed,
+        n = dynamics.dim
+        if ekf:
+            xi, wm, wc = np.zeros((1, n)), np.zeros(1), np.zeros(1)
+        else:
+            up = self.base.rule.unit_points(n)
+            xi, wm, wc = up.xi, up.wm, up.wc
+        return linalg.strong_tracking_run(state.mean, state.cov, xi, wm, wc, dynamics.F, dynamics.Q, packed,
                                           state.V, self.rho, self.beta, LOG_2PI, keep_cov=keep_cov, nis=nis,
-                                          truth=truth)
+                                          truth=truth, ekf=ekf, jacobian=self.form == "jacobian")
 
     def fused_step(self, state: StrongTrackingState, dynamics: Any, z: np.ndarray, measurement: MeasurementModel,
                    measure: tuple) -> tuple | None:
