@@ -1819,8 +1819,8 @@ def strong_tracking_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sens
 def _gram_core(U, k0, k1, out):
     r""":math:`\sum_t U_t^T U_t` over the rows t = k0..k1-1 of U (K, m, N), batch innermost, into out (m, m, N): each
     entry summed over t in order, one fused multiply-add per term from 0, then added to 0 -- how OpenBLAS's ``syrk``
-    and ``gemm`` kernels for AVX2 CPUs (Haswell and later, the reference machine's) sum the product numpy's ``@``
-    hands them (:func:`mmlib.core.linalg.gram`)."""
+    kernels for AVX2 CPUs (Haswell and later, the reference machine's) sum the product numpy's ``@`` hands them
+    (:func:`mmlib.core.linalg.gram`), and its ``gemm`` kernels for most shapes (not the one for a last odd row)."""
     m, N = U.shape[1], U.shape[2]
     for i in range(m):
         for j in range(m):
@@ -1849,7 +1849,7 @@ def _psd_part_lane(D, out):
     r"""The positive semi-definite part :math:`V\max(\Lambda, 0)V^T` of the symmetric D (m, m) into out (m, m): numpy's
     ``eigh`` (LAPACK ``syevd``, lower triangle; numba calls the LAPACK of scipy), the eigenvalues clipped at 0 (+0
     for -0), each column of V scaled by its eigenvalue, then the product with :math:`V^T` summed as
-    :func:`_gram_core` sums (the order of OpenBLAS's ``gemm`` on AVX2 CPUs).  D must be finite."""
+    :func:`_gram_core` sums (OpenBLAS's ``gemm`` on AVX2 CPUs for most shapes).  D must be finite."""
     m = D.shape[0]
     w, v = np.linalg.eigh(D)
     a = np.empty((m, m))
@@ -2247,10 +2247,10 @@ def _cubature_points_core(W, Xb, Pb, mm, out):
     batch innermost, as its composed operations compute it: from the weights W (r, r, N), W[j, i] =
     :math:`\mu_{i|j}`, and the modes' means Xb (r, n, N) and covs Pb (r, n, n, N): the modes' Cholesky factors
     (:func:`_chol`, NaN for a failed one), the centre :math:`\sum_i \mu_{i|j}\hat x_i` (summed as :func:`_gram_core`
-    sums, the order of OpenBLAS's ``gemm`` on AVX2 CPUs), the 2rn points centre :math:`\pm\sqrt{rn}\,\mu_{i|j}S_i
-    e_c` (the + points first), their mean (summed in order from the first, over 2rn) and covariance
-    (:func:`_gram_core` of the deviations, over 2rn), symmetrised -> the mixed means mm (r, n, N) and covs out
-    (r, n, n, N)."""
+    sums, the order of OpenBLAS's ``gemm`` on AVX2 CPUs for most shapes), the 2rn points centre
+    :math:`\pm\sqrt{rn}\,\mu_{i|j}S_i e_c` (the + points first), their mean (summed in order from the first, over
+    2rn) and covariance (:func:`_gram_core` of the deviations, over 2rn), symmetrised -> the mixed means mm (r, n, N)
+    and covs out (r, n, n, N)."""
     r, n, N = Xb.shape
     l = r * n
     L = np.empty((r, n, n, N))

@@ -382,9 +382,11 @@ def trace(a: np.ndarray) -> np.ndarray:
 def gram(u: np.ndarray) -> np.ndarray:
     r""":math:`U^TU` of each matrix of a stack ``u`` (..., K, m) -> (..., m, m): numpy's ``@``, which hands it to
     BLAS ``syrk``.  The compiled twin sums each entry over the K rows in order, one fused multiply-add per term
-    (:func:`mmlib.core._kernels._gram_core`): how OpenBLAS's kernels for AVX2 CPUs sum it, so the two agree bit for bit
-    on the reference machine and to round-off where BLAS sums otherwise (``tests/test_kernels.py``).  For m = 1 or
-    K = 1 (numpy's ``dot``, which sums in another order) both run numpy's product."""
+    (:func:`mmlib.core._kernels._gram_core`): how OpenBLAS's ``syrk`` sums it on AVX2 CPUs (the shapes checked on the
+    reference machine), so the two agree bit for bit there and to round-off where BLAS sums otherwise
+    (``tests/test_kernels.py``).  The compiled order is the same on every machine (a fused multiply-add is exact
+    rounding, in hardware or in the C library).  For m = 1 or K = 1 (numpy's ``dot``, which sums in another order)
+    both run numpy's product."""
     u = np.asarray(u, dtype=np.float64)
     return np.swapaxes(u, -1, -2) @ u
 
@@ -405,9 +407,10 @@ def _gram_compiled(u):
 def psd_part(d: np.ndarray) -> np.ndarray:
     r"""The positive semi-definite part :math:`V\max(\Lambda, 0)V^T` of each symmetric matrix of a stack ``d``
     (..., m, m) (:math:`d = V\Lambda V^T`, numpy's ``eigh``, lower triangle) -> (..., m, m).  A matrix that is not
-    finite raises numpy's LinAlgError in both paths.  The compiled twin runs the same LAPACK routine and sums the
-    product as OpenBLAS's ``gemm`` does on AVX2 CPUs (:func:`mmlib.core._kernels._psd_part_lane`): the same bits on
-    the reference machine, round-off elsewhere (``tests/test_kernels.py``); for m = 1 both run numpy's."""
+    finite raises numpy's LinAlgError in both paths.  The compiled twin runs the same LAPACK routine (numba calls
+    scipy's) and sums the product in order with one fused multiply-add per term (:func:`mmlib.core._kernels.
+    _psd_part_lane`), as OpenBLAS's ``gemm`` does on AVX2 CPUs for most shapes (not its kernel for a last odd row,
+    e.g. m = 9): the same bits there, round-off otherwise (``tests/test_kernels.py``); for m = 1 both run numpy's."""
     d = np.asarray(d, dtype=np.float64)
     w, v = np.linalg.eigh(d)
     return (v * np.clip(w, 0.0, None)[..., None, :]) @ np.swapaxes(v, -1, -2)
@@ -1804,8 +1807,9 @@ def cubature_mix(means: np.ndarray, covs: np.ndarray, w: np.ndarray) -> tuple[np
     mode variable: ``means`` (B, r, n), ``covs`` (B, r, n, n), mixing weights ``w`` (B, r_from, r_to)
     (:func:`mixing_weights`) -> ``(mixed means (B, r, n), mixed covs (B, r, n, n))``.  A mode covariance that is not
     positive definite gives NaN for that run.  The compiled twin (:func:`mmlib.core._kernels._cubature_points_core`)
-    sums the two products as OpenBLAS's ``gemm`` and ``syrk`` do on AVX2 CPUs: the same bits on the reference
-    machine, round-off elsewhere; for r = 1 or n = 1 (numpy's ``dot`` there) both run numpy's."""
+    sums the two products in order with one fused multiply-add per term, as OpenBLAS's ``gemm`` and ``syrk`` do on
+    AVX2 CPUs for most shapes (not ``gemm``'s kernel for a last odd row, where a product's inner dimension is 8 or
+    more): the same bits there, round-off otherwise; for r = 1 or n = 1 (numpy's ``dot`` there) both run numpy's."""
     B, r, n = means.shape
     l = r * n
     chol, _ = cholesky(covs)                # (B, r, n, n) blocks of S; a non-PD block gives NaN (reported)
