@@ -26,13 +26,17 @@ Conventions shared with the numpy path (:mod:`mmlib.core.linalg`), and tested ag
   sequence of IEEE operations whatever N (SIMD lanes and the scalar remainder execute the same
   additions, multiplications, divisions and square roots, each correctly rounded); there is no
   ``fastmath``, so LLVM neither reassociates sums nor contracts ``a*b + c`` into a fused multiply-add,
-  and the bits do not depend on the machine's instruction set; the log is the C library's scalar one
+  and the bits do not depend on the machine's instruction set (the explicit fused multiply-adds of :func:`_fma`,
+  which reproduce the order of the BLAS products of the composed layers, are exactly rounded with or without the
+  instruction); the log is the C library's scalar one
   (numba vectorises it only with Intel's SVML, which the lock file does not install, and ``tests/test_fused.py``
   checks that it is not in use); range and bearing are :mod:`mmlib.core._elementary`'s, made of the four operations
   and the square root (the same bits as the numpy path's, in SIMD lanes or not, the C library's ``hypot`` and
   ``atan2`` only for operands outside their regular range);
 * the two paths agree to round-off, not bit for bit (BLAS and LAPACK sum in other orders;
-  ``tests/test_kernels.py`` states the bounds).
+  ``tests/test_kernels.py`` states the bounds), except the operations whose compiled twin sums as OpenBLAS does on
+  the reference machine (:func:`gram`, :func:`psd_part`, :func:`cubature_mix`, :func:`jacobian_fading_factor`:
+  bit for bit there for the shapes the papers use, so that the composed layers' committed numbers keep their bits).
 
 Nothing here is called directly: each public kernel is the compiled twin of one operation of
 :mod:`mmlib.core.linalg`, declared there next to its numpy body, and which of the two runs is decided there
