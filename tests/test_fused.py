@@ -14,6 +14,8 @@ The comparisons are exact (raw bits, NaN == NaN): the fused kernel runs the same
 """
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -21,7 +23,9 @@ from mmlib import MonteCarlo
 from mmlib.core import estimation, gnss, linalg, models, rules
 from mmlib.core.estimation import IMM, MomentMixing, SingleModel, run
 from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
+from mmlib.core.layers.adaptive import InnovationAdaptive
 from mmlib.core.layers.strong_tracking import StrongTracking
+from mmlib.core.mixing import CubatureMixing
 from mmlib.experiment.simulate import ManeuverSchedule, simulate
 from mmlib.papers import REGISTRY
 
@@ -288,8 +292,8 @@ def _headline_tracks(name: str, fused: bool, calls: list) -> dict:
 @pytest.mark.parametrize("name", list(REGISTRY))
 def test_every_paper_headline_fused_equals_composed(name, monkeypatch):
     """Every estimator of every registered paper's headline gives the same bits with the fused step on and off
-    (those that do not take it trivially); a fused step is taken by every IMM or single model of a plain sigma-point
-    filter on linear dynamics with a library measurement model, and by no other estimator."""
+    (those that do not take it trivially); a fused step or a whole run is taken by every estimator
+    :func:`_should_fuse` names, and by no other."""
     calls = []
     for step in linalg.FUSED_STEPS:
         real = getattr(linalg, step)
@@ -305,20 +309,27 @@ def test_every_paper_headline_fused_equals_composed(name, monkeypatch):
 
 
 def _should_fuse(est) -> bool:
-    """What the rule of :func:`mmlib.core.estimation._fusable` says of an estimator (an IMM, a single model, or a
-    layer holding an IMM as ``imm``), written out independently."""
+    """Whether run() of an estimator (an IMM, a single model, or a layer holding an IMM as ``imm``) takes a fused step
+    or a whole run, written out independently: linear dynamics and a library measurement model, and an IMM with
+    moment or cubature-principle mixing, or a single model, whose filter is a plain sigma-point filter with weighted
+    moments, an extended Kalman filter, an innovation-adaptive layer over such a sigma-point filter, or (single model)
+    strong tracking over such a sigma-point filter (the statistical form) or over an EKF (either form)."""
     inner = getattr(est, "imm", est)
     if isinstance(inner, IMM):
-        filt, dyn, mixing_ok = inner.filter, inner.stacked, type(inner.mixing) is MomentMixing
+        filt, dyn = inner.filter, inner.stacked
+        mixing_ok = type(inner.mixing) in (MomentMixing, CubatureMixing)
     elif isinstance(inner, SingleModel):
         filt, dyn, mixing_ok = inner.filter, inner.dynamics, True
-        if type(filt) is StrongTracking and filt.form == "statistical":      # the fused strong-tracking step
+        if type(filt) is StrongTracking and (filt.form == "statistical" or type(filt.base) is ExtendedKalmanFilter):
             filt = filt.base
     else:
         return False
+    if type(filt) is InnovationAdaptive:
+        filt = filt.base
     measurement_ok = inner.measurement is None or type(inner.measurement) in (models.LinearMeasurement,
                                                                               models.RangeBearing, gnss.Pseudoranges)
-    return (mixing_ok and type(filt) is SigmaPointFilter and filt.rule.weighted_moments
+    sigma = type(filt) is SigmaPointFilter and filt.rule.weighted_moments
+    return (mixing_ok and (sigma or type(filt) is ExtendedKalmanFilter)
             and bool(getattr(dyn, "is_linear", False)) and measurement_ok)
 
 
@@ -587,25 +598,32 @@ def _gnss_strong_tracking(K: int) -> tuple:
     4-7 (V restarts there and after, Eq. 17), run 1 not positive definite from the start: ``(estimator, state,
     measurements, models)``."""
     from mmlib.arena import recipes, study
+    est, state, zs, models_k, _ = _gnss_epochs(recipes.build("STUKF", study.scenario("tseng2011")), K, range(4, 8))
+    cov = state.cov.copy()
+    cov[1, 6, 6] = -1.0                         # run 1: not positive definite from the start
+    return est, state._replace(cov=cov), zs, models_k
+
+
+def _gnss_epochs(est, K: int, fewer) -> tuple:
+    """``est`` (a single model on Tseng et al. 2011's scenario) over the scenario's first K epochs, 5 runs, with one
+    satellite fewer at the epochs ``fewer`` (the measurement dimension changes there and after): ``(estimator, state
+    from the arena's initial state, measurements, models, truth (5, K + 1, 8))``."""
+    from mmlib.arena import recipes, study
     from mmlib.experiment import evaluation
     s = study.scenario("tseng2011")
-    est = recipes.build("STUKF", s)
     mc = MonteCarlo(s.root_seed, 5)
-    make_batch = evaluation.with_initial_states(s.simulator(mc), {"STUKF": est},
+    make_batch = evaluation.with_initial_states(s.simulator(mc), {est.name: est},
                                                 lambda e, start, runs: recipes.initial_state(e, s, start, runs, mc))
-    _, z, init = make_batch(range(5))
+    truth, z, init = make_batch(range(5))
     zs, models_k = [], []
     for k in range(K):
         model, zk = s.measurement_models[k], z[k]
-        if 4 <= k < 8:                          # one satellite fewer for four epochs, then all again
+        if k in fewer:                          # one satellite fewer
             model = gnss.Pseudoranges(model.satellites[:-1], np.asarray(model.R)[:-1, :-1])
             zk = zk[:, :-1]
         zs.append(zk)
         models_k.append(model)
-    state = init["STUKF"]
-    cov = state.cov.copy()
-    cov[1, 6, 6] = -1.0                         # run 1: not positive definite from the start
-    return est, state._replace(cov=cov), zs, models_k
+    return est, init[est.name], zs, models_k, truth[:, :K + 1]
 
 
 def test_strong_tracking_restart_failures_and_gnss_equal_composed():
@@ -743,6 +761,7 @@ THREADED = {
     "imm_sigma_run": lambda m: IMM(SigmaPointFilter(RULES["UKF"]), _modes(), m, TRANSITION),
     "sigma_run": lambda m: SingleModel(SigmaPointFilter(RULES["5CKF"]), models.constant_velocity(T, 1.0), m),
     "strong_tracking_run": lambda m: _strong_tracking("CKF", m),
+    "adaptive_run": lambda m: _adaptive((True, True, True), m),
 }
 
 
@@ -921,7 +940,7 @@ def test_lanes_and_unlanes_copy_every_lane_once(N):
 
 
 # ------------------------------------------------------------------------------------------ whole runs in one call
-WHOLE_RUNS = ("sigma_run", "imm_sigma_run", "strong_tracking_run")
+WHOLE_RUNS = ("sigma_run", "imm_sigma_run", "strong_tracking_run", "adaptive_run")
 
 
 def _wild(z, run_index: int, step: int):
@@ -932,21 +951,34 @@ def _wild(z, run_index: int, step: int):
     return z
 
 
-def _whole_and_per_step(est, state, z, monkeypatch, **kw):
-    """run() of ``est`` from ``state`` as one compiled call (checked to be taken) and step by step with the fused
-    steps: the two Tracks."""
+def _spy_whole_runs(monkeypatch) -> list:
+    """Wrap every whole-run call of :data:`WHOLE_RUNS`: the list records, call by call, whether it returned a run (True)
+    or declined (None: False)."""
     calls = []
+
+    def noted(real):
+        def spy(*a, **k):
+            out = real(*a, **k)
+            calls.append(out is not None)
+            return out
+        return spy
     for name in WHOLE_RUNS:
-        real = getattr(linalg, name)
-        monkeypatch.setattr(linalg, name, lambda *a, _real=real, **k: calls.append(1) or _real(*a, **k))
+        monkeypatch.setattr(linalg, name, noted(getattr(linalg, name)))
+    return calls
+
+
+def _whole_and_per_step(est, state, z, monkeypatch, **kw):
+    """run() of ``est`` from ``state`` as one compiled call (checked to be taken, and not declined) and step by step
+    with the fused steps: the two Tracks."""
+    calls = _spy_whole_runs(monkeypatch)
     with linalg.use_fused(True):
         whole = run(est, state, z, **kw)
-    assert calls == [1], "the whole run was not one compiled call"
+    assert calls == [True], "the whole run was not one compiled call"
     with monkeypatch.context() as m:
         _per_step(m)
         with linalg.use_fused(True):
             steps = run(est, state, z, **kw)
-    assert calls == [1]
+    assert calls == [True]
     return whole, steps
 
 
@@ -1145,3 +1177,308 @@ def test_strong_tracking_whole_run_restarts_V_where_the_satellites_change(monkey
     _assert_same_track(whole, steps)
     assert whole.diverged[1] and not whole.diverged[[0, 2, 3, 4]].any()
     assert sorted(set(whole.nis_dof.tolist())) == [zs[0].shape[1] - 1, zs[0].shape[1]]
+
+
+# ------------------------------------------------------------------- the innovation-adaptive layer's whole run
+#: the layer's (zeta, include_current, inflate_only): NAUKF as printed (1, 1, 0), the IAE-AUKF of Mohamed & Schwarz
+#: (0, 0, 0), their inflate-only readings (1, 1, 1), (0, 0, 1), and the four other combinations
+ADAPTIVE_FLAGS = list(itertools.product([False, True], repeat=3))
+ADAPTIVE_IDS = [f"zeta{z:d}-current{c:d}-inflate{i:d}" for z, c, i in ADAPTIVE_FLAGS]
+
+
+def _adaptive(flags, measurement, window: int = 3, psi: float = 1.0, layer=None, dynamics=None) -> SingleModel:
+    """A single model of the innovation-adaptive layer ``layer`` (default :class:`InnovationAdaptive`) over the UKF,
+    ``flags`` = (zeta, include_current, inflate_only), on a CV model (q = 1) or ``dynamics``."""
+    zeta, include_current, inflate_only = flags
+    layer = InnovationAdaptive if layer is None else layer
+    return SingleModel(layer(SigmaPointFilter(RULES["UKF"]), window=window, psi=psi, zeta=zeta,
+                             include_current=include_current, inflate_only=inflate_only),
+                       models.constant_velocity(T, 1.0) if dynamics is None else dynamics, measurement)
+
+
+def _adaptive_branches(est, state, zs, monkeypatch, models_k=None) -> dict:
+    """Step ``est`` from ``state`` through ``zs`` (a sequence of (B, m_k)), as run() steps it, recording the branches of
+    the layer's update: ``windows`` the measurement dimensions at which a window was full (C computed),
+    ``mixed`` how many C - S had eigenvalues of both signs (inflate-only: the PSD part neither 0 nor C - S),
+    ``inflated`` how many (step, run) had a zeta above 1 (Eq. 34), ``huge`` how many a zeta of 1e300 or more
+    (Eq. 35 infinite, read as the largest float)."""
+    seen = {"windows": set(), "mixed": 0, "inflated": 0, "huge": 0}
+    gram, psd_part = linalg.gram, linalg.psd_part
+
+    def counting_gram(u):
+        seen["windows"].add(u.shape[-1])
+        return gram(u)
+
+    def counting_psd_part(d):
+        with np.errstate(invalid="ignore"):
+            w = np.linalg.eigvalsh(np.where(np.isfinite(d), d, 0.0))
+        seen["mixed"] += int(((w > 0).any(axis=-1) & (w < 0).any(axis=-1)).sum())
+        return psd_part(d)
+    with monkeypatch.context() as m, np.errstate(all="ignore"):
+        m.setattr(linalg, "gram", counting_gram)
+        m.setattr(linalg, "psd_part", counting_psd_part)
+        for k, z in enumerate(zs):
+            state, _ = est.step(state, z, **({} if models_k is None else {"measurement": models_k[k]}))
+            if state.zeta is not None:
+                seen["inflated"] += int((state.zeta > 1.0).sum())
+                seen["huge"] += int((state.zeta >= 1e300).sum())
+    return seen
+
+
+#: measurement, window, psi (Eq. 32): a window of 3 (reached at the third or fourth step, the as-printed readings
+#: diverging soon after) with Zhou's psi, and one of 5 over range and bearing (some as-printed runs last, through
+#: inflations of Eqs. 33-35) with a psi of 2
+ADAPTIVE_CASES = {"linear, window 3": ("linear", 3, 1.0), "range-bearing, window 5": ("range-bearing", 5, 2.0)}
+
+
+@pytest.mark.parametrize("flags", ADAPTIVE_FLAGS, ids=ADAPTIVE_IDS)
+@pytest.mark.parametrize("case", sorted(ADAPTIVE_CASES))
+def test_adaptive_whole_run_equals_the_run_step_by_step(case, flags, monkeypatch):
+    """The innovation-adaptive layer's whole run (:meth:`InnovationAdaptive.whole_run`, one call of
+    :func:`mmlib.core.linalg.adaptive_run`) in each of its 8 configurations: every Track field -- estimates,
+    covariances, NIS, NEES, the step and cause of each divergence -- the bits of the run step by step, through full
+    windows, inflated priors (zeta > 1) and, inflate-only, PSD parts of C - S with eigenvalues of both signs.  As
+    printed (not inflate-only) with a run failing at the first step (a covariance that is not positive definite), a
+    run whose measurement is wild at step 15 (Eq. 35 infinite: zeta the largest float) and the divergences of the
+    printed reading (with the current innovation in the window, run 12 lasts until then)."""
+    meas, window, psi = ADAPTIVE_CASES[case]
+    measurement = MEASUREMENTS[meas]
+    zeta, _, inflate_only = flags
+    est = _adaptive(flags, measurement, window, psi)
+    B = 13
+    sched = ManeuverSchedule(_modes(), [(8, 16, 1)], 0, T, K, truncate=True)
+    sim = simulate(sched, X0, measurement, MonteCarlo(11, B), range(B))
+    z, state = sim.measurements, est.init(np.tile(X0, (B, 1)), P0)
+    if not inflate_only:                 # (inflate-only, a run that is not finite is run step by step: below)
+        z = _wild(z, 12, 15)
+        cov = state.cov.copy()
+        cov[2, 0, 0] = -1.0
+        state = state._replace(cov=cov)
+    with np.errstate(all="ignore"):
+        whole, steps = _whole_and_per_step(est, state, z, monkeypatch, consistency=True, truth=sim.truth)
+    _assert_same_track(whole, steps)
+    assert _same(whole.nis_dof, steps.nis_dof)
+    branches = _adaptive_branches(est, state, np.swapaxes(z, 0, 1), monkeypatch)
+    assert branches["windows"] == {2}
+    if inflate_only:
+        assert not whole.diverged.any() and branches["mixed"] > 0
+    else:
+        assert whole.diverged_step[2] == 0 and whole.divergence_cause[2] == estimation.Failure.COVARIANCE
+        assert whole.diverged.sum() > 1 and not whole.diverged.all() or case == "linear, window 3"
+        assert np.isnan(whole.nis[2]).all() and np.isnan(whole.nees[2]).all()
+    if zeta:
+        assert branches["inflated"] > 0
+    if zeta and flags[1] and not inflate_only and case == "range-bearing, window 5":     # the wild innovation in C
+        assert branches["huge"] > 0 and whole.diverged_step[12] == 15
+
+
+@pytest.mark.parametrize("flags", ADAPTIVE_FLAGS, ids=ADAPTIVE_IDS)
+def test_adaptive_whole_run_over_gnss_epochs_restarts_the_window(flags, monkeypatch):
+    """Pseudoranges whose satellite set loses one satellite at epochs 1-2 (the window restarts twice before it is
+    full) and 10-14 (restarts, fills at 6 components, restarts at 7): the layer over Tseng et al. 2011's GNSS model
+    (8 states: the traces of Eq. 35 are numpy's pairwise sums), a window of 3 and a psi of 1.5, one call for the whole
+    run, every Track field the bits of the run epoch by epoch.  As printed with run 1 not positive definite from the
+    start (and the printed reading diverging where the window of 3 innovations, of rank 3 < 7, replaces S)."""
+    from mmlib.arena import recipes, study
+    s = study.scenario("tseng2011")
+    est = SingleModel(InnovationAdaptive(recipes.ukf(s), window=3, psi=1.5, zeta=flags[0], include_current=flags[1],
+                                         inflate_only=flags[2]), s.single, s.measurement, name="adaptive")
+    est, state, zs, models_k, truth = _gnss_epochs(est, 24, {1, 2, 10, 11, 12, 13, 14})
+    if not flags[2]:
+        cov = state.cov.copy()
+        cov[1, 6, 6] = -1.0
+        state = state._replace(cov=cov)
+    with np.errstate(all="ignore"):
+        whole, steps = _whole_and_per_step(est, state, zs, monkeypatch, measurement_models=models_k,
+                                           consistency=True, truth=truth)
+    _assert_same_track(whole, steps)
+    assert _same(whole.nis_dof, steps.nis_dof) and sorted(set(whole.nis_dof.tolist())) == [6, 7]
+    branches = _adaptive_branches(est, state, zs, monkeypatch, models_k)
+    assert branches["windows"] == {6, 7}
+    if flags[2]:
+        assert not whole.diverged.any() and np.isfinite(whole.nees).all() and branches["mixed"] > 0
+    else:
+        assert whole.diverged_step[1] == 0 and whole.diverged.all()
+    if flags[0] and flags[2]:
+        assert branches["inflated"] > 0
+
+
+@pytest.mark.parametrize("flags", [(True, True, False), (False, False, True)], ids=["NAUKF", "AUKF[inflate-only]"])
+@pytest.mark.parametrize("batch", [1, 2, 3, 64])
+@pytest.mark.parametrize("block", [2, 128])
+def test_adaptive_whole_run_changes_no_bit_with_the_batch_or_the_block(flags, batch, block, monkeypatch):
+    """A run's numbers from the adaptive whole run are those of its batch of 64, whatever the batch (1, 2, 3, 64) and
+    the block (2: several blocks, each with its own window; 128: one), as the run step by step gives them."""
+    measurement = MEASUREMENTS["range-bearing off-centre"]
+    est = _adaptive(flags, measurement, 5)
+    z = _problem(measurement, 64)
+    with np.errstate(all="ignore"):
+        reference, _ = _whole_and_per_step(est, est.init(np.tile(X0, (64, 1)), P0), z, monkeypatch)
+        monkeypatch.setattr(linalg, "FUSED_BLOCK", block)
+        part, steps = _whole_and_per_step(est, est.init(np.tile(X0, (batch, 1)), P0), z[:batch], monkeypatch)
+    _assert_same_track(part, steps)
+    for field in ("mean", "cov", "diverged_step", "divergence_cause"):
+        assert _same(getattr(reference, field)[:batch], getattr(part, field)), field
+    assert reference.diverged.any() != flags[2]          # as printed some runs diverge; inflate-only none
+
+
+@pytest.mark.parametrize("name", ["NAUKF", "AUKF", "NAUKF[inflate-only]", "AUKF[inflate-only]"])
+@pytest.mark.parametrize("where", ["zhou2017", "tseng2011"])
+def test_arena_adaptive_filters_run_whole_in_one_call(name, where, monkeypatch):
+    """The arena's single-model adaptive filters (window 10) on Zhou's radar and Tseng's GNSS scenarios: run() is one
+    call of :func:`mmlib.core.linalg.adaptive_run` that does not decline, and never a step of the layer (its predict
+    and update replaced by stubs that fail), with the bits of the run step by step."""
+    from mmlib.arena import recipes, study
+    from mmlib.core.filters import FilterLayer
+    from mmlib.experiment import evaluation
+    s = study.scenario(where)
+    est = recipes.build(name, s)
+    B, K_ = 6, 60
+    mc = MonteCarlo(s.root_seed, B)
+    make_batch = evaluation.with_initial_states(s.simulator(mc), {name: est},
+                                                lambda e, start, runs: recipes.initial_state(e, s, start, runs, mc))
+    truth, z, init = make_batch(range(B))
+    kw = dict(consistency=True, truth=truth[:, :K_ + 1])
+    if s.measurement_models is not None:
+        z, kw["measurement_models"] = z[:K_], s.measurement_models[:K_]
+    else:
+        z = z[:, :K_]
+    calls = _spy_whole_runs(monkeypatch)
+
+    def no_step(*a, **k):
+        raise AssertionError("a step of the layer ran in the whole run")
+    with monkeypatch.context() as m, np.errstate(all="ignore"):
+        m.setattr(InnovationAdaptive, "update", no_step)
+        m.setattr(FilterLayer, "predict", no_step)
+        whole = run(est, init[name], z, **kw)
+    assert calls == [True]
+    _per_step(monkeypatch)
+    with np.errstate(all="ignore"):
+        steps = run(est, init[name], z, **kw)
+    _assert_same_track(whole, steps)
+    assert calls == [True]
+    assert np.isfinite(whole.mean).all() or "inflate-only" not in name
+
+
+def _outcome(est, state, z, whole: bool, monkeypatch, **kw):
+    """run()'s Track, or the type and message of what it raised; ``whole=False``: step by step."""
+    with monkeypatch.context() as m, np.errstate(all="ignore"):
+        if not whole:
+            _per_step(m)
+        try:
+            return run(est, state, z, **kw)
+        except Exception as err:            # noqa: BLE001 -- the outcome compared is any exception
+            return type(err), str(err)
+
+
+class _OwnAdaptive(InnovationAdaptive):
+    """A subclass (it may override a step): never run as a whole-run call."""
+
+
+@pytest.mark.parametrize("why", ["one-component steps", "layer subclass", "state with innovations", "numpy kernels",
+                                 "fusion off"])
+def test_adaptive_whole_run_declines_where_its_steps_would_not_be_the_layers(why, monkeypatch):
+    """Where the compiled run would not compute the layer's steps, run() goes step by step and gives what it always
+    gave: steps of one component (the layer's C is numpy's dot there): :func:`mmlib.core.linalg.adaptive_run` is
+    called and returns None; a subclass of the layer, a state that already holds innovations (not a run's start), the
+    numpy kernels, fusion off: it is not called.  NAUKF inflate-only."""
+    B = 5
+    measurement = MEASUREMENTS["linear"]
+    est = _adaptive((True, True, True), measurement, layer=_OwnAdaptive if why == "layer subclass" else None)
+    sched = ManeuverSchedule(_modes(), [(8, 16, 1)], 0, T, K, truncate=True)
+    z, kw = simulate(sched, X0, measurement, MonteCarlo(11, B), range(B)).measurements, {}
+    state = est.init(np.tile(X0, (B, 1)), P0)
+    declines = why == "one-component steps"
+    if why == "one-component steps":        # the x position alone at steps 7-13: a full window of one component
+        x_only = models.LinearMeasurement([[1.0, 0, 0, 0]], [[100.0]])
+        kw = dict(measurement_models=[x_only if 7 <= k < 14 else measurement for k in range(K)])
+        z = [z[:, k, :1] if 7 <= k < 14 else z[:, k] for k in range(K)]
+    elif why == "state with innovations":
+        state, _ = est.step(state, z[:, 0])
+        z = z[:, 1:]
+    calls = _spy_whole_runs(monkeypatch)
+    with linalg.use_fused(why != "fusion off"), linalg.use_kernel("numpy" if why == "numpy kernels" else "numba"):
+        whole = _outcome(est, state, z, True, monkeypatch, **kw)
+        assert calls == ([False] if declines else [])
+        steps = _outcome(est, state, z, False, monkeypatch, **kw)
+    assert isinstance(whole, estimation.Track) and isinstance(steps, estimation.Track)
+    _assert_same_track(whole, steps)
+    assert np.isfinite(whole.mean).all()
+
+
+@pytest.mark.parametrize("why", ["a NaN covariance", "a wild measurement", "a NaN covariance over pseudoranges"])
+def test_inflate_only_with_a_failed_run_runs_whole_and_reports_it(why, monkeypatch):
+    """A run that fails (a NaN covariance from the start, or a wild measurement that makes its C - S overflow) under
+    the inflate-only reading: its innovation covariance is NaN from then on (:func:`mmlib.core.linalg.psd_part`), so
+    its update fails and it is reported at its step, the other runs untouched, the whole run taken and equal to the
+    run step by step (before, numpy's eigh raised for the whole batch, or returned NaN for 2 x 2 matrices)."""
+    from mmlib.arena import recipes, study
+    B = 5
+    measurement = MEASUREMENTS["linear"]
+    est = _adaptive((True, True, True), measurement)
+    sched = ManeuverSchedule(_modes(), [(8, 16, 1)], 0, T, K, truncate=True)
+    z, kw = simulate(sched, X0, measurement, MonteCarlo(11, B), range(B)).measurements, {}
+    state = est.init(np.tile(X0, (B, 1)), P0)
+    bad = 3 if why != "a wild measurement" else 1
+    if why == "a NaN covariance":
+        cov = state.cov.copy()
+        cov[3] = np.nan
+        state = state._replace(cov=cov)
+    elif why == "a wild measurement":
+        z = _wild(z, 1, 6)
+    else:
+        s = study.scenario("tseng2011")
+        est, state, z, models_k, _ = _gnss_epochs(recipes.build("NAUKF[inflate-only]", s), 20, ())
+        kw = dict(measurement_models=models_k)
+        cov = state.cov.copy()
+        cov[3] = np.nan
+        state = state._replace(cov=cov)
+    calls = _spy_whole_runs(monkeypatch)
+    whole = _outcome(est, state, z, True, monkeypatch, **kw)
+    assert calls == [True]
+    steps = _outcome(est, state, z, False, monkeypatch, **kw)
+    assert isinstance(whole, estimation.Track) and isinstance(steps, estimation.Track)
+    _assert_same_track(whole, steps)
+    good = [b for b in range(whole.mean.shape[0]) if b != bad]
+    assert whole.diverged_step[bad] >= 0 and (whole.diverged_step[good] < 0).all()
+    assert np.isfinite(whole.mean[good]).all()
+
+
+def test_adaptive_whole_run_raises_at_the_same_run_and_step(monkeypatch):
+    """``on_divergence='raise'`` over the as-printed NAUKF names the run and the step the step-by-step run stops at."""
+    measurement = MEASUREMENTS["range-bearing"]
+    est = _adaptive((True, True, False), measurement, 5)
+    z = _problem(measurement, 9)
+    state = est.init(np.tile(X0, (9, 1)), P0)
+    messages = []
+    for whole in (True, False):
+        with monkeypatch.context() as m, np.errstate(all="ignore"):
+            if not whole:
+                _per_step(m)
+            with pytest.raises(estimation.FilterDivergence) as err:
+                run(est, state, z, on_divergence="raise")
+        messages.append(str(err.value))
+    assert messages[0] == messages[1] and "diverged at step" in messages[0]
+
+
+def test_adaptive_whole_run_reads_an_infinite_zeta_as_numpy_does(monkeypatch):
+    """Eq. 35 overflowing: NAUKF inflate-only with a sensor of 1 cm on a quiet CV model (tr(P - Q) about 1e-3) and, at
+    the last step, one measurement 5e153 m off, so that C stays finite (about 1e307) while tr(C - R) / tr(P - Q) is
+    +inf: the layer reads it as the largest float (``np.nan_to_num``) and inflates the prior to about 1e304, which the
+    Track shows; the whole run's bits are the run's step by step.  (At the last step: the run fails there, and a run
+    that is not finite at a later step would send the whole batch step by step.)"""
+    measurement = models.LinearMeasurement([[1.0, 0, 0, 0], [0, 0, 1.0, 0]], np.diag([1e-4, 1e-4]))
+    dynamics = models.constant_velocity(T, 1e-4)
+    est = _adaptive((True, True, True), measurement, dynamics=dynamics)
+    B, K_ = 4, 12
+    sim = simulate(ManeuverSchedule([dynamics], [], 0, T, K_, truncate=True), X0, measurement, MonteCarlo(5, B),
+                   range(B))
+    z = sim.measurements.copy()
+    z[1, K_ - 1, 0] += 5e153
+    state = est.init(np.tile(X0, (B, 1)), np.eye(4) * 1e-2)
+    with np.errstate(all="ignore"):
+        whole, steps = _whole_and_per_step(est, state, z, monkeypatch, consistency=True, truth=sim.truth)
+    _assert_same_track(whole, steps)
+    assert _adaptive_branches(est, state, np.swapaxes(z, 0, 1), monkeypatch)["huge"] == 1
+    assert np.isfinite(whole.cov[1, -1]).all() and whole.cov[1, -1].max() > 1e300
+    assert not whole.diverged[[0, 2, 3]].any()

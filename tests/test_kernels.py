@@ -17,6 +17,7 @@ Failure semantics (which matrices are not positive definite) are the same decisi
 """
 from __future__ import annotations
 
+import functools
 import sys
 import warnings
 from pathlib import Path
@@ -452,3 +453,315 @@ def test_a_shape_mismatch_is_an_error_not_a_silent_read():
             linalg.matmul_rows(np.ones((3, 6)), np.ones((4, 2)))
         with pytest.raises(ValueError, match="sigma_points"):
             linalg.sigma_points(np.zeros((2, 3)), np.broadcast_to(np.eye(4), (2, 4, 4)), np.eye(3))
+
+
+# ---------------------------------------------------------------------------------------------- gram and psd_part
+# The compiled twins of linalg.gram (U^T U) and linalg.psd_part (V max(L, 0) V^T) sum every entry over its terms in
+# order, one fused multiply-add per term from 0.0, then add 0.0 (mmlib.core._kernels._gram_core, _psd_part_lane): the
+# order of OpenBLAS's AVX2 kernels.  Checked three ways: against an exact reference of that sum (rational arithmetic,
+# each FMA rounded once: the compiled twin's bits on every machine), against the numpy body to a round-off bound
+# derived below (every machine), and against the numpy body bit for bit where a probe finds that this machine's numpy
+# sums that way (else skipped, saying why).
+EPS = np.finfo(float).eps
+UNIT = EPS / 2                                       # the unit round-off
+TINY = np.finfo(float).smallest_subnormal
+
+#: (K rows, m columns) of the stacks U: the adaptive layer's windows (K = 2..10) of 2..7-component innovations, and
+#: beyond (m = 9, 13; K = 20, 40)
+GRAM_SHAPES = [(2, 2), (3, 2), (2, 5), (5, 3), (10, 7), (20, 9), (3, 13), (40, 4)]
+
+
+def _fma(a: float, b: float, c: float) -> float:
+    """a b + c rounded once to the nearest double (ties to even): ``Fraction`` is exact and its ``float`` rounds
+    correctly, subnormals included."""
+    from fractions import Fraction
+    return float(Fraction(a) * Fraction(b) + Fraction(c))
+
+
+def _in_order_fma(a: np.ndarray, b: np.ndarray, fused: bool = True) -> np.ndarray:
+    """out[..., i, j] = sum over k of a[..., i, k] b[..., j, k], summed in order k = 0, 1, ... from 0.0 with one FMA
+    per term (``fused=False``: the product and the sum each rounded), then added to 0.0: a (..., M, K), b (..., P, K)
+    -> (..., M, P).  The reference: Python floats and fractions, one term at a time."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    lead = a.shape[:-2]
+    A, Bm = a.reshape((-1,) + a.shape[-2:]), b.reshape((-1,) + b.shape[-2:])
+    out = np.empty((A.shape[0], A.shape[1], Bm.shape[1]))
+    for s in range(A.shape[0]):
+        for i in range(A.shape[1]):
+            for j in range(Bm.shape[1]):
+                acc = 0.0
+                for k in range(A.shape[2]):
+                    x, y = float(A[s, i, k]), float(Bm[s, j, k])
+                    acc = _fma(x, y, acc) if fused else acc + x * y
+                out[s, i, j] = acc + 0.0
+    return out.reshape(lead + out.shape[1:])
+
+
+def _gram_reference(u, fused: bool = True) -> np.ndarray:
+    ut = np.swapaxes(np.asarray(u, dtype=float), -1, -2)
+    return _in_order_fma(ut, ut, fused)
+
+
+def _same_bits(a, b) -> bool:
+    a, b = np.asarray(a), np.asarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def _spread(rng, shape, decades: int = 12) -> np.ndarray:
+    """Standard normals scaled by powers of ten over ``2 decades + 1`` decades, entry by entry."""
+    return rng.standard_normal(shape) * 10.0 ** rng.integers(-decades, decades + 1, shape)
+
+
+def _gram_stacks(K: int, m: int) -> list:
+    """Stacks (N, K, m) for gram: magnitudes over 25 decades; over 3 decades with exact cancellations (a row and its
+    negative) and signed zeros; and (4-D) a stack of stacks whose products are subnormal for one of its matrices."""
+    rng = np.random.default_rng(1000 * K + m)
+    wide = _spread(rng, (4, K, m))
+    mild = _spread(rng, (3, K, m), 1)
+    mild[0, 1] = -mild[0, 0]
+    mild[1, :, 0] = -0.0
+    mild[2, 0, :] = 0.0
+    tiny = _spread(rng, (2, 2, K, m), 1)
+    tiny[1, 0] *= 1e-160                              # products near 1e-320: subnormal, each rounded once
+    return [wide, mild, tiny]
+
+
+@functools.lru_cache(maxsize=None)
+def _numpy_gram_order() -> str:
+    """"" if this machine's numpy computes ``u^T u`` (BLAS ``syrk``) of the probe stacks -- the adaptive layer's
+    shapes -- with the bits of the in-order FMA sum, else why not.  The probe discriminates: on it that sum differs
+    from the sum of separately rounded products and from the in-order FMA sum of the rows reversed."""
+    rng = np.random.default_rng(2024)
+    for K, m in ((3, 2), (10, 7)):
+        u = _spread(rng, (6, K, m), 3)
+        ref = _gram_reference(u)
+        assert not _same_bits(ref, _gram_reference(u, fused=False)), "the probe does not tell FMA from mul + add"
+        assert not _same_bits(ref, _gram_reference(u[..., ::-1, :])), "the probe does not tell the order of the rows"
+        if not _same_bits(np.swapaxes(u, -1, -2) @ u, ref):
+            return (f"numpy's u^T u of ({K}, {m}) matrices does not sum each entry in order with one FMA per term on "
+                    f"this machine (its BLAS kernel sums otherwise): the twins agree to round-off only")
+    return ""
+
+
+@functools.lru_cache(maxsize=None)
+def _numpy_psd_part_order(m: int) -> str:
+    """"" if on this machine numpy's ``eigh`` of the probe matrices (m, m) has the bits of numba's (the LAPACK of
+    scipy, which the compiled twin calls) and numpy's product of two (m, m) matrices, the second transposed (BLAS
+    ``gemm``), the bits of the in-order FMA sum; else why not."""
+    import numba
+    eigh = numba.njit(lambda a: np.linalg.eigh(a))
+    rng = np.random.default_rng(4096 + m)
+    d = rng.standard_normal((4, m, m))
+    d = d + np.swapaxes(d, -1, -2)
+    for one in d:
+        w, v = np.linalg.eigh(one)
+        w_nb, v_nb = eigh(one)
+        if not (_same_bits(w, w_nb) and _same_bits(v, v_nb)):
+            return (f"numpy's eigh of a ({m}, {m}) matrix differs from numba's (scipy's LAPACK) on this machine: the "
+                    f"twins agree to round-off only")
+    a, b = _spread(rng, (4, m, m), 3), _spread(rng, (4, m, m), 3)
+    ref = _in_order_fma(a, b)
+    assert m < 2 or not _same_bits(ref, _in_order_fma(a, b, fused=False)), "the probe does not tell FMA from mul + add"
+    if not _same_bits(a @ np.swapaxes(b, -1, -2), ref):
+        return (f"numpy's product of two ({m}, {m}) matrices does not sum each entry in order with one FMA per term on "
+                f"this machine (its BLAS kernel sums otherwise, e.g. OpenBLAS's Haswell dgemm in the last row of an "
+                f"odd number of rows, over 8 terms or more): the twins agree to round-off only")
+    return ""
+
+
+@pytest.mark.parametrize("K, m", GRAM_SHAPES)
+def test_gram_compiled_is_the_in_order_fma_sum(K, m):
+    """The compiled twin's bits are those of the exact reference of its summation (each entry in order over the K
+    rows, one correctly rounded FMA per term from 0.0, then + 0.0), on every machine: magnitudes over 25 decades,
+    exact cancellations, signed zeros, subnormal products, a 4-D stack.  The data tell that sum from the sum of
+    separately rounded products and from the rows summed in reverse."""
+    gram = linalg.gram.implementations["numba"]
+    for u in _gram_stacks(K, m):
+        ref = _gram_reference(u)
+        got = gram(u)
+        assert got.shape == u.shape[:-2] + (m, m)
+        assert _same_bits(got, ref), np.argwhere(got != ref)[:5]
+    assert (np.abs(ref[1, 0]) < np.finfo(float).tiny).all() and ref[1, 0].any()     # subnormal sums, not all 0
+    u = _gram_stacks(K, m)[1]
+    assert not _same_bits(_gram_reference(u), _gram_reference(u, fused=False))
+    assert not _same_bits(_gram_reference(u), _gram_reference(u[..., ::-1, :]))
+
+
+@pytest.mark.parametrize("K, m", GRAM_SHAPES + [(64, 12)])
+def test_gram_compiled_agrees_with_numpy_within_round_off(K, m):
+    """On every machine: a computed inner product of K terms, in any order, with or without FMA, is within
+    gamma_K sum_t |u_ti u_tj| of the exact one (gamma_K = K u / (1 - K u), u the unit round-off; Higham, Accuracy and
+    Stability, Sec. 3.1), plus K times half the smallest subnormal for products that underflow; the two twins, each
+    so close to the exact value, differ by at most twice that."""
+    for u in _gram_stacks(K, m)[:2] + [_spread(np.random.default_rng(K * m), (5, K, m), 3)]:
+        got, ref = _both(linalg.gram, u)
+        bound = 2 * K * UNIT / (1 - K * UNIT) * (np.swapaxes(np.abs(u), -1, -2) @ np.abs(u)) + K * TINY
+        assert got.shape == ref.shape == u.shape[:-2] + (m, m)
+        assert (np.abs(got - ref) <= bound).all(), np.max(np.abs(got - ref) / bound)
+
+
+@pytest.mark.parametrize("K, m", GRAM_SHAPES)
+def test_gram_compiled_is_numpys_bits_where_blas_sums_in_order_with_fma(K, m):
+    """Where numpy's ``u^T u`` sums as the compiled twin does (a probe against the exact reference decides: OpenBLAS's
+    AVX2 kernels, the reference machine's), the twins agree bit for bit."""
+    why = _numpy_gram_order()
+    if why:
+        pytest.skip(why)
+    for u in _gram_stacks(K, m):
+        got, ref = _both(linalg.gram, u)
+        assert _same_bits(got, ref), np.argwhere(got != ref)[:5]
+
+
+def _symmetric(rng, N: int, m: int) -> np.ndarray:
+    """N symmetric (m, m) matrices Q diag(lam) Q^T, Q orthogonal, lam of both signs over 16 decades (a pair of them
+    equal, one 0 in some), each matrix scaled by a power of ten in 1e-8..1e8."""
+    Q, _ = np.linalg.qr(rng.standard_normal((N, m, m)))
+    lam = rng.choice([-1.0, 1.0], (N, m)) * 10.0 ** rng.uniform(-8, 8, (N, m))
+    lam[::3, -1] = lam[::3, 0]
+    lam[1::3, 0] = 0.0
+    scale = 10.0 ** rng.integers(-8, 9, (N, 1, 1))
+    return scale * ((Q * lam[:, None, :]) @ np.swapaxes(Q, -1, -2))
+
+
+#: the bound on |psd_part(D) - the exact PSD part| in units of m eps ||D||_F, for either twin: LAPACK's eigensolver is
+#: accepted by its own tests (sep.in, threshold 50) with a backward error ||D - V L V^T|| and a loss of orthogonality
+#: ||I - V^T V|| below 50 m eps ||D|| and 50 m eps; the PSD part is a projection onto a convex set, so it moves by no
+#: more than the backward error (Frobenius norm); V not orthogonal adds 2 x 50 m eps ||D||, the product's round-off
+#: m eps ||D||: 151, rounded up to 160 -- for one twin; the two differ by at most twice that
+PSD_ROUND_OFF = 160.0
+
+
+@pytest.mark.parametrize("m", [2, 3, 4, 6, 7, 9])
+def test_psd_part_compiled_agrees_with_numpy_within_round_off(m):
+    """On every machine: each matrix's PSD part from the compiled twin within 2 x PSD_ROUND_OFF m eps ||D||_F of the
+    numpy body's, matrices of both signs, repeated and zero eigenvalues, over 16 decades; a 4-D stack."""
+    rng = np.random.default_rng(m)
+    for d in (_symmetric(rng, 30, m), _symmetric(rng, 6, m).reshape(2, 3, m, m)):
+        got, ref = _both(linalg.psd_part, d)
+        assert got.shape == ref.shape == d.shape
+        bound = 2 * PSD_ROUND_OFF * m * EPS * np.linalg.norm(d, axis=(-2, -1))
+        assert (np.abs(got - ref).max(axis=(-2, -1)) <= bound).all()
+
+
+@pytest.mark.parametrize("m", [2, 3, 4, 6, 7, 8])
+def test_psd_part_compiled_is_numpys_bits_where_lapack_and_blas_agree(m):
+    """Where numpy's ``eigh`` gives numba's bits and its product sums in order with one FMA per term (a probe
+    decides), the twins agree bit for bit: random symmetric matrices (m, m), and not symmetric ones (both read the
+    lower triangle)."""
+    why = _numpy_psd_part_order(m)
+    if why:
+        pytest.skip(why)
+    rng = np.random.default_rng(100 + m)
+    d = _spread(rng, (40, m, m), 2)
+    for stack in (d + np.swapaxes(d, -1, -2), d, _symmetric(rng, 30, m)):
+        got, ref = _both(linalg.psd_part, stack)
+        assert _same_bits(got, ref), np.argwhere(got != ref)[:5]
+
+
+@pytest.mark.parametrize("kernel", linalg.KERNELS)
+@pytest.mark.parametrize("m", [2, 3, 5, 9])
+def test_psd_part_is_the_positive_semi_definite_part(kernel, m):
+    """Against its definition, in both twins: D = Q diag(lam) Q^T (Q orthogonal) gives Q diag(max(lam, 0)) Q^T, to
+    PSD_ROUND_OFF m eps ||D||_F (with the round-off of forming D and of Q's orthogonality, a few m eps ||D|| more:
+    2 x PSD_ROUND_OFF); symmetric and with no eigenvalue below minus that; D itself where D is PSD (rank deficient
+    included); exactly zero where D is negative definite (every computed eigenvalue negative: every term 0), +0.0 in
+    the compiled twin (its sums start at +0.0)."""
+    rng = np.random.default_rng(7 * m)
+    N = 24
+    Q, _ = np.linalg.qr(rng.standard_normal((N, m, m)))
+    lam = rng.standard_normal((N, m)) * 10.0 ** rng.uniform(-3, 3, (N, m))
+    lam[:8] = np.abs(lam[:8])                       # PSD ...
+    lam[:4, 0] = 0.0                                # ... rank deficient
+    lam[8:12] = -np.abs(lam[8:12]) - 1e-3 * np.abs(lam[8:12]).max(axis=1, keepdims=True)     # negative definite
+    lam[12:, 0], lam[12:, -1] = 1.0, -1.0           # both signs
+    d = (Q * lam[:, None, :]) @ np.swapaxes(Q, -1, -2)
+    expected = (Q * np.maximum(lam, 0.0)[:, None, :]) @ np.swapaxes(Q, -1, -2)
+    with linalg.use_kernel(kernel):
+        p = linalg.psd_part(d)
+    tol = 2 * PSD_ROUND_OFF * m * EPS * np.linalg.norm(d, axis=(-2, -1))[:, None, None]
+    assert (np.abs(p - expected) <= tol).all()
+    assert (np.abs(p - np.swapaxes(p, -1, -2)) <= tol).all()
+    assert (np.linalg.eigvalsh(p) >= -tol[:, 0]).all()
+    assert (np.abs(p[:8] - d[:8]) <= tol[:8]).all()
+    assert (p[8:12] == 0.0).all()
+    if kernel == "numba":
+        assert not np.signbit(p[8:12]).any()
+    assert (np.abs(p[12:]).max(axis=(-2, -1)) > 0.1).all()     # the positive part is there
+
+
+def _outcome(fn, *args):
+    """``fn(*args)``'s result, or the type and message of what it raised."""
+    try:
+        return fn(*args)
+    except Exception as err:            # noqa: BLE001 -- the outcome compared is any exception
+        return type(err), str(err)
+
+
+def _same_outcome(a, b) -> bool:
+    if isinstance(a, tuple) or isinstance(b, tuple):
+        return a == b
+    return _same_bits(a, b)
+
+
+def test_psd_part_of_a_matrix_that_is_not_finite_is_nan_in_both_twins(monkeypatch):
+    """A matrix whose lower triangle (what ``eigh`` reads) is not finite -- a failed run's -- is NaN in both twins,
+    never an error (numpy's ``eigh`` would raise for the whole stack, or return NaN for 2 x 2 matrices, as LAPACK
+    decides); one not finite above the diagonal only is computed from its lower triangle; the other matrices of the
+    stack keep the bits they have alone (the batch changes no bit)."""
+    from mmlib.core import _kernels
+    called = []
+    real = _kernels.psd_part
+    monkeypatch.setattr(_kernels, "psd_part", lambda *a: called.append(1) or real(*a))
+    rng = np.random.default_rng(3)
+    for m in (2, 3, 7):
+        base = rng.standard_normal((3, m, m))
+        base = base + np.swapaxes(base, -1, -2)
+        for kernel in linalg.KERNELS:
+            alone = [linalg.psd_part.implementations[kernel](base[b:b + 1])[0] for b in range(3)]
+            for value, where in ((np.nan, (m - 1, 0)), (np.inf, (0, 0)), (-np.inf, (m - 1, m - 1)),
+                                 (np.nan, (0, m - 1))):
+                d = base.copy()
+                d[1][where] = value
+                got = linalg.psd_part.implementations[kernel](d)
+                for b in (0, 2):
+                    assert _same_bits(got[b], alone[b]), (kernel, m, value, where)
+                if where[0] >= where[1]:                       # in the lower triangle: a failed run
+                    assert np.isnan(got[1]).all(), (kernel, m, value, where)
+                else:                                          # above it: not read
+                    upper = d[1].copy()
+                    upper[where] = upper[where[::-1]]
+                    assert _same_bits(got[1], linalg.psd_part.implementations[kernel](upper[None])[0])
+    assert called                                   # the compiled twin's kernel, also for the stacks with NaN
+
+
+def test_gram_and_psd_part_of_one_component_or_one_row_are_numpys(monkeypatch):
+    """m = 1 (numpy's product is a dot, summed in another order) and, for gram, K = 1: the compiled twins run the numpy
+    body (the same bits, the kernels not called); an empty stack too.  The data tell the dot from the in-order FMA
+    sum, so a twin that ran its kernel for m = 1 would differ."""
+    from mmlib.core import _kernels
+    called = []
+    for name in ("gram", "psd_part"):
+        real = getattr(_kernels, name)
+        monkeypatch.setattr(_kernels, name, lambda *a, _real=real: called.append(1) or _real(*a))
+    rng = np.random.default_rng(8)
+    u = _spread(rng, (40, 10, 1), 3)
+    assert not _same_bits(_gram_reference(u), np.swapaxes(u, -1, -2) @ u)
+    for stack in (u, _spread(rng, (5, 1, 4), 3), _spread(rng, (2, 3, 1, 1), 3), np.zeros((0, 3, 2))):
+        assert _same_bits(linalg.gram.implementations["numba"](stack), linalg.gram.implementations["numpy"](stack))
+    d = np.array([[[2.5]], [[-1.0]], [[0.0]], [[-0.0]], [[1e-300]]])
+    for stack in (d, d.reshape(5, 1, 1, 1), np.zeros((0, 3, 3))):
+        assert _same_bits(linalg.psd_part.implementations["numba"](stack),
+                          linalg.psd_part.implementations["numpy"](stack))
+    assert not called
+
+
+def test_gram_and_psd_part_name_a_bad_argument():
+    """The compiled twins' operands: a stack of matrices for gram (``u``), of square matrices for psd_part (``d``),
+    else a ValueError naming the argument (the kernels do not check bounds)."""
+    with linalg.use_kernel("numba"):
+        for bad in (np.ones(3), np.float64(2.0)):
+            with pytest.raises(ValueError, match="^u: "):
+                linalg.gram(bad)
+        for bad in (np.ones(3), np.ones((2, 3, 4)), np.ones((3, 2))):
+            with pytest.raises(ValueError, match="^d: "):
+                linalg.psd_part(bad)

@@ -1853,8 +1853,16 @@ def _psd_part_lane(D, out):
     r"""The positive semi-definite part :math:`V\max(\Lambda, 0)V^T` of the symmetric D (m, m) into out (m, m): numpy's
     ``eigh`` (LAPACK ``syevd``, lower triangle; numba calls the LAPACK of scipy), the eigenvalues clipped at 0 (+0
     for -0), each column of V scaled by its eigenvalue, then the product with :math:`V^T` summed as
-    :func:`_gram_core` sums (OpenBLAS's ``gemm`` on AVX2 CPUs for most shapes).  D must be finite."""
+    :func:`_gram_core` sums (OpenBLAS's ``gemm`` on AVX2 CPUs for most shapes).  A D whose lower triangle (what
+    ``eigh`` reads) is not finite gives NaN (a failed run, reported by the caller), as :func:`mmlib.core.linalg.
+    psd_part` says.  D is a scratch copy: its upper triangle is overwritten by the lower one."""
     m = D.shape[0]
+    for i in range(m):
+        for j in range(i + 1):
+            if not np.isfinite(D[i, j]):
+                out[:, :] = np.nan
+                return
+            D[j, i] = D[i, j]               # the upper triangle, which LAPACK does not read, mirrored (numba checks it)
     w, v = np.linalg.eigh(D)
     a = np.empty((m, m))
     for k in range(m):
@@ -1871,7 +1879,7 @@ def _psd_part_lane(D, out):
 
 @njit(**_OPTS)
 def psd_part(D):
-    r""":func:`_psd_part_lane` of each matrix of a stack D (N, m, m) of finite symmetric matrices -> (N, m, m)."""
+    r""":func:`_psd_part_lane` of each matrix of a stack D (N, m, m) of symmetric matrices -> (N, m, m)."""
     N, m = D.shape[0], D.shape[1]
     out = np.empty((N, m, m))
     Dc = np.empty((m, m))
@@ -1905,8 +1913,8 @@ def _adaptive_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb
     ``zeta_on``, where :math:`\nu^T\nu > \psi\,\mathrm{tr}S`, the prior :math:`\zeta(P - Q) + Q` with
     :math:`\zeta = \max(1, \mathrm{tr}(\hat C - R)/\mathrm{tr}(P - Q))` (NaN read as 1, infinities as the largest
     floats, as ``np.nan_to_num``; Eqs. 32-35); then the Kalman update (:func:`_update_core`) with that covariance
-    ``S_used`` (m, m, N).  The layer's update, the same bits.  Returns ``(n_now, ok)``: ``ok`` False where
-    :math:`\hat C - S` is not finite in some lane (numpy's ``eigh`` raises there: the caller goes step by step)."""
+    ``S_used`` (m, m, N).  The layer's update, the same bits.  Returns ``n_now``.  A lane whose :math:`\hat C - S` is
+    not finite (a failed run) gets a NaN innovation covariance with ``inflate_only``, hence a failed update."""
     n, N = mb.shape
     m = zb.shape[0]
     Pl = np.empty((n, n, N))
@@ -1924,7 +1932,7 @@ def _adaptive_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb
     if have < window:                                   # not enough innovations yet: the base filter's update
         S_used[:, :, :] = S
         _update_core(prior, Pl, nu, S, Pxz, log_2pi, post_cov, ll, failed)
-        return n_now, True
+        return n_now
     used = now if include_current else past
     _gram_core(used, 0, have, S_used)
     for i in range(m):
@@ -1944,12 +1952,6 @@ def _adaptive_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb
     if inflate_only:
         D = np.empty((m, m))
         P = np.empty((m, m))
-        for lane in range(N):
-            for i in range(m):
-                for j in range(m):
-                    D[i, j] = S_used[i, j, lane] - S[i, j, lane]
-                    if not np.isfinite(D[i, j]):
-                        return n_now, False
         for lane in range(N):
             for i in range(m):
                 for j in range(m):
@@ -1979,21 +1981,20 @@ def _adaptive_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, A, idx, sensor, angular, Rb
                     for j in range(n):
                         Pl[i, j, lane] = zeta * (Pl[i, j, lane] - Qb[i, j, lane]) + Qb[i, j, lane]
     _update_core(prior, Pl, nu, S_used, Pxz, log_2pi, post_cov, ll, failed)
-    return n_now, True
+    return n_now
 
 
 @njit(**_OPTS)
 def adaptive_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angular, R, window, psi, zeta_on,
                  include_current, inflate_only, log_2pi, truth, nis_on, keep_cov, mean_out, cov_out, failed_out,
-                 nis_out, nees_out, declined, start, stop, block):
+                 nis_out, nees_out, start, stop, block):
     r"""Every step of an innovation-adaptive sigma-point filter (NAUKF / IAE-AUKF,
     :class:`mmlib.core.layers.adaptive.InnovationAdaptive`) on linear dynamics over K packed measement steps, for
     blocks of ``block`` runs: step k is :func:`_adaptive_core` on step k - 1's posterior and innovation window, which
     starts empty and restarts wherever the measurement dimension changes, as the layer's does: the bits of the
     layer's steps.  mean ... R, truth, nis_on, keep_cov and the outputs as :func:`sigma_run` (the NIS with the
     covariance the update used); ``window``, ``psi``, ``zeta_on``, ``include_current``, ``inflate_only`` the
-    layer's.  ``declined`` (B,) True for the runs of a block where :func:`_adaptive_core` was not ``ok`` (then none of
-    this call's outputs is used)."""
+    layer's."""
     n = mean.shape[1]
     K = zoff.shape[0] - 1
     for b0 in range(start, stop, block):
@@ -2017,13 +2018,9 @@ def adaptive_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, ang
             post_cov = np.empty((n, n, N))
             nu = np.empty((m, N))
             S = np.empty((m, m, N))
-            n_now, ok = _adaptive_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, Ak, idx, sensor, ang, Rb, zb, past, n_past,
-                                       window, psi, zeta_on, include_current, inflate_only, log_2pi, post_mean,
-                                       post_cov, nu, S, ll, failed, now)
-            if not ok:
-                for lane in range(N):
-                    declined[b0 + lane] = True
-                return
+            n_now = _adaptive_core(mb, Pb, xi, wm, wc, Fb, Qb, kind, Ak, idx, sensor, ang, Rb, zb, past, n_past, window,
+                                   psi, zeta_on, include_current, inflate_only, log_2pi, post_mean, post_cov, nu, S, ll,
+                                   failed, now)
             _store_single_step(k, b0, post_mean, post_cov, nu, S, failed, keep_cov, nis_on, truth, mean_out, cov_out,
                                failed_out, nis_out, nees_out)
             mb, Pb = post_mean, post_cov
@@ -2321,8 +2318,7 @@ def cubature_mix(means, covs, w):
 @njit(**_OPTS)
 def imm_layer_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angular, R, cubature, adaptive,
                   ekf, window, psi, zeta_on, include_current, inflate_only, with_cov, log_2pi, truth, nis_on, keep_cov,
-                  mean_out, cov_out, mu_out, failed_out, underflow_out, nis_out, nees_out, declined, start, stop,
-                  block):
+                  mean_out, cov_out, mu_out, failed_out, underflow_out, nis_out, nees_out, start, stop, block):
     r"""Every IMM cycle over K packed measurement steps, for blocks of ``block`` runs, of an IMM whose interaction is
     moment matching (:func:`_mix_core`) or, with ``cubature``, the cubature principle (:func:`_mixing_weights_core`,
     :func:`_cubature_points_core`),
@@ -2331,7 +2327,7 @@ def imm_layer_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, s
     innovation-adaptive ones (:func:`_adaptive_core`; ``window`` ... ``inflate_only`` the layer's, one window of
     innovations per mode, restarted wherever the measurement dimension changes), then the IMM output
     (:func:`_output_core`): the composed IMM's cycles, the same bits.  Arguments and outputs as
-    :func:`imm_sigma_run`; ``declined`` (B,) as :func:`adaptive_run`."""
+    :func:`imm_sigma_run`."""
     r = mu.shape[1]
     n = means.shape[2]
     K = zoff.shape[0] - 1
@@ -2373,14 +2369,10 @@ def imm_layer_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, s
             n_now = 0
             for j in range(r):
                 if adaptive:
-                    n_now, ok = _adaptive_core(mm[j], mc[j], xi, wm, wc, Fb[j], Qb[j], kind, Ak, idx, sensor, ang, Rb,
-                                               zb, past[j], n_past, window, psi, zeta_on, include_current,
-                                               inflate_only, log_2pi, post_mean[j], post_cov[j], nu[j], S[j], ll[j],
-                                               failed_modes[j], now[j])
-                    if not ok:
-                        for lane in range(N):
-                            declined[b0 + lane] = True
-                        return
+                    n_now = _adaptive_core(mm[j], mc[j], xi, wm, wc, Fb[j], Qb[j], kind, Ak, idx, sensor, ang, Rb, zb,
+                                           past[j], n_past, window, psi, zeta_on, include_current, inflate_only,
+                                           log_2pi, post_mean[j], post_cov[j], nu[j], S[j], ll[j], failed_modes[j],
+                                           now[j])
                 elif ekf:
                     _ekf_step(mm[j], mc[j], Fb[j], Qb[j], Rb, zb, kind, Ak, idx, sensor, ang, log_2pi, post_mean[j],
                               post_cov[j], nu[j], S[j], ll[j], failed_modes[j])

@@ -406,14 +406,23 @@ def _gram_compiled(u):
 @_operation
 def psd_part(d: np.ndarray) -> np.ndarray:
     r"""The positive semi-definite part :math:`V\max(\Lambda, 0)V^T` of each symmetric matrix of a stack ``d``
-    (..., m, m) (:math:`d = V\Lambda V^T`, numpy's ``eigh``, lower triangle) -> (..., m, m).  A matrix that is not
-    finite raises numpy's LinAlgError in both paths.  The compiled twin runs the same LAPACK routine (numba calls
-    scipy's) and sums the product in order with one fused multiply-add per term (:func:`mmlib.core._kernels.
-    _psd_part_lane`), as OpenBLAS's ``gemm`` does on AVX2 CPUs for most shapes (not its kernel for a last odd row,
-    e.g. m = 9): the same bits there, round-off otherwise (``tests/test_kernels.py``); for m = 1 both run numpy's."""
+    (..., m, m) (:math:`d = V\Lambda V^T`, numpy's ``eigh``, lower triangle) -> (..., m, m); NaN for a matrix whose
+    lower triangle is not finite (a failed run: reported by the caller at its step, where numpy's ``eigh`` would
+    raise for the whole stack or, for 2 x 2 matrices, return NaN).  Each matrix from itself alone (the batch
+    changes no bit).  The compiled twin runs the same LAPACK routine (numba calls scipy's) and sums the product in
+    order with one fused multiply-add per term (:func:`mmlib.core._kernels._psd_part_lane`), as OpenBLAS's ``gemm``
+    does on AVX2 CPUs for most shapes (not its kernel for a last odd row, e.g. m = 9): the same bits there,
+    round-off otherwise (``tests/test_kernels.py``); for m = 1 both run numpy's."""
     d = np.asarray(d, dtype=np.float64)
-    w, v = np.linalg.eigh(d)
-    return (v * np.clip(w, 0.0, None)[..., None, :]) @ np.swapaxes(v, -1, -2)
+    ok = np.isfinite(np.tril(d)).all(axis=(-2, -1))
+    if ok.all():
+        w, v = np.linalg.eigh(d)
+        return (v * np.clip(w, 0.0, None)[..., None, :]) @ np.swapaxes(v, -1, -2)
+    out = np.full(d.shape, np.nan)
+    if ok.any():
+        w, v = np.linalg.eigh(d[ok])
+        out[ok] = (v * np.clip(w, 0.0, None)[..., None, :]) @ np.swapaxes(v, -1, -2)
+    return out
 
 
 @psd_part.compiled
@@ -422,8 +431,8 @@ def _psd_part_compiled(d):
     if d.ndim < 2 or d.shape[-1] != d.shape[-2]:
         raise ValueError(f"d: expected a stack of square matrices (..., m, m), got shape {d.shape}")
     m = d.shape[-1]
-    if m < 2 or d.size == 0 or not np.isfinite(d).all():
-        return psd_part.implementations["numpy"](d)          # m = 1: numpy's dot; not finite: numpy's LinAlgError
+    if m < 2 or d.size == 0:
+        return psd_part.implementations["numpy"](d)          # m = 1: numpy's dot
     flat = _stack(d, 2)
     return _call("psd_part", flat.shape[0], flat).reshape(d.shape)
 
@@ -1532,8 +1541,7 @@ def imm_layer_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, cov
     windows): cycle k is what the composed IMM computes from cycle k - 1's state, the same bits.  Arguments and
     returns as :func:`imm_sigma_run` (the NIS with the innovation covariances the modes' updates used); None where
     the composed cycles would not be these (cubature mixing of one mode or a one-dimensional state, where numpy's
-    product is ``dot``; an adaptive layer's step measuring one component, or a non-finite :math:`\hat C - S` with
-    ``inflate_only``: :func:`adaptive_run`)."""
+    product is ``dot``; an adaptive layer's step measuring one component: :func:`adaptive_run`)."""
     B, r, n = mu.shape[0], mu.shape[1], means.shape[-1]
     z, zoff, kind, A, idx, sensor, angular, R = packed
     K = zoff.shape[0] - 1
@@ -1547,8 +1555,7 @@ def imm_layer_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, cov
     _check_shapes("imm_layer_run", B, (mu, transition, means, covs, xi, wm, wc, F, z, A, R, angular, Q))
     _check_offsets(zoff, R, z, B)
     means_out, covs_out, failed, nis_out, nees_out = _run_outputs(B, K, n, keep_cov, nis, truth is not None)
-    outputs = (means_out, covs_out, np.empty((B, K, r)), failed, np.zeros((B, K), dtype=np.bool_), nis_out, nees_out,
-               np.zeros(B, dtype=np.bool_))
+    outputs = (means_out, covs_out, np.empty((B, K, r)), failed, np.zeros((B, K), dtype=np.bool_), nis_out, nees_out)
     out = _over_threads(_compiled_module().imm_layer_run, (
         _contiguous(mu), _contiguous(transition), _contiguous(means), _contiguous(covs), _contiguous(xi),
         _contiguous(wm), _contiguous(wc), _contiguous(F), _periodic(Q, 2, (B, r)), z, zoff, kind, A, idx, sensor,
@@ -1556,9 +1563,7 @@ def imm_layer_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, cov
         bool(include_current),
         bool(inflate_only), bool(with_cov), float(log_2pi), _truth_operand(truth, B, K, n), bool(nis), bool(keep_cov)),
         outputs, B)
-    means_k, covs_k, mu_k, failed, underflow, nis_out, nees_out, declined = out
-    if declined.any():
-        return None
+    means_k, covs_k, mu_k, failed, underflow, nis_out, nees_out = out
     return (means_k, covs_k if keep_cov else None, mu_k, failed, underflow, nis_out if nis else None,
             nees_out if truth is not None else None)
 
@@ -1608,8 +1613,7 @@ def adaptive_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarr
     ``window``, ``psi``, ``zeta``, ``include_current``, ``inflate_only`` the layer's fields.  Returns
     :func:`sigma_run`'s ``(means, covs, failed, nis, nees)`` (the NIS with the innovation covariance the update
     used), or None where the layer's steps would not be these: a step measuring one component (the composed product
-    is numpy's ``dot`` there), or a run whose :math:`\hat C - S` is not finite with ``inflate_only`` (numpy's
-    ``eigh`` raises: step by step, the error is the layer's own)."""
+    is numpy's ``dot`` there)."""
     B, n = mean.shape
     z, zoff, kind, A, idx, sensor, angular, R = packed
     K = zoff.shape[0] - 1
@@ -1623,10 +1627,8 @@ def adaptive_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarr
         _periodic(Q, 2, (B,)), z, zoff, kind, A, idx, sensor, angular, R, int(window), float(psi), bool(zeta),
         bool(include_current), bool(inflate_only), float(log_2pi), _truth_operand(truth, B, K, n), bool(nis),
         bool(keep_cov)),
-        _run_outputs(B, K, n, keep_cov, nis, truth is not None) + (np.zeros(B, dtype=np.bool_),), B)
-    means, covs, failed, nis_out, nees_out, declined = out
-    if declined.any():
-        return None
+        _run_outputs(B, K, n, keep_cov, nis, truth is not None), B)
+    means, covs, failed, nis_out, nees_out = out
     return means, covs if keep_cov else None, failed, nis_out if nis else None, nees_out if truth is not None else None
 
 
