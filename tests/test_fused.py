@@ -1322,16 +1322,21 @@ def test_adaptive_whole_run_changes_no_bit_with_the_batch_or_the_block(flags, ba
     assert reference.diverged.any() != flags[2]          # as printed some runs diverge; inflate-only none
 
 
+#: the arena's scenarios of a paper by their measurement: Zhou's radar, Tseng's GNSS (named once each)
+ARENA_MEASURED_BY = {"radar": "zhou2017"}
+ARENA_MEASURED_BY["gnss"] = "tseng2011"
+
+
 @pytest.mark.parametrize("name", ["NAUKF", "AUKF", "NAUKF[inflate-only]", "AUKF[inflate-only]"])
-@pytest.mark.parametrize("where", ["zhou2017", "tseng2011"])
-def test_arena_adaptive_filters_run_whole_in_one_call(name, where, monkeypatch):
+@pytest.mark.parametrize("measured_by", sorted(ARENA_MEASURED_BY))
+def test_arena_adaptive_filters_run_whole_in_one_call(name, measured_by, monkeypatch):
     """The arena's single-model adaptive filters (window 10) on Zhou's radar and Tseng's GNSS scenarios: run() is one
     call of :func:`mmlib.core.linalg.adaptive_run` that does not decline, and never a step of the layer (its predict
     and update replaced by stubs that fail), with the bits of the run step by step."""
     from mmlib.arena import recipes, study
     from mmlib.core.filters import FilterLayer
     from mmlib.experiment import evaluation
-    s = study.scenario(where)
+    s = study.scenario(ARENA_MEASURED_BY[measured_by])
     est = recipes.build(name, s)
     B, K_ = 6, 60
     mc = MonteCarlo(s.root_seed, B)

@@ -142,7 +142,7 @@ class InnovationAdaptive(FilterLayer):
         return (type(self) is InnovationAdaptive and isinstance(self.base, SigmaPointFilter) and self.base.fusable
                 and type(state) is AdaptiveState and state.innovations is None)
 
-    def fused_adaptive_form(self, state) -> tuple | None:
+    def fused_adaptive_form(self, state: Any) -> tuple | None:
         """``(window, psi, zeta, include_current, inflate_only)`` where a compiled whole run computes this layer's
         steps from ``state`` (:meth:`_fuses`; e.g. the mode filters of :func:`mmlib.core.linalg.imm_layer_run`), else
         None."""
