@@ -409,3 +409,66 @@ def test_cubature_mix_of_a_failed_mode_is_nan_in_both_paths():
             m, c = linalg.cubature_mix(means, covs, w)
         assert np.isnan(m[1]).all() and np.isnan(c[1]).all(), kernel
         assert np.isfinite(m[[0, 2]]).all() and np.isfinite(c[[0, 2]]).all(), kernel
+
+
+def test_cubature_mix_reads_a_shared_weight_matrix_for_every_run():
+    """One mixing-weight matrix (1, r, r) shared by every run broadcasts in the compiled twin as in numpy's: every run
+    mixed with it (the kernel reads the weights run by run, so the operand is broadcast before the call, never read
+    past its rows)."""
+    rng = np.random.default_rng(6)
+    B, r, n = 6, 2, 3
+    A = rng.standard_normal((B, r, n, n))
+    covs = A @ np.swapaxes(A, -1, -2) + np.eye(n)
+    means = rng.standard_normal((B, r, n))
+    w = np.array([[[0.7, 0.4], [0.3, 0.6]]])
+    with linalg.use_kernel("numba"):
+        got = linalg.cubature_mix(means, covs, w)
+        each = [linalg.cubature_mix(means[b:b + 1], covs[b:b + 1], w) for b in range(B)]
+    with linalg.use_kernel("numpy"):
+        ref = linalg.cubature_mix(means, covs, w)
+    for g, e, f in zip(got, zip(*each), ref):
+        assert _same(g, np.concatenate(e))
+        assert np.allclose(g, f, rtol=1e-12, atol=0)
+
+
+def test_adaptive_whole_run_declines_traces_longer_than_numpys_order(monkeypatch):
+    """With the inflation of Eqs. 32-35 the layer sums traces in numpy's order, which the kernel reproduces up to
+    :data:`mmlib.core._kernels.NUMPY_SUM_MAX` terms: a measurement of more components makes the whole run decline
+    (called, None), and run() gives the run step by step."""
+    from mmlib.core import _kernels
+    m = _kernels.NUMPY_SUM_MAX + 1
+    H = np.zeros((m, 4))
+    H[np.arange(m), 2 * (np.arange(m) % 2)] = 1.0          # x and y, alternately
+    measurement = models.LinearMeasurement(H, np.eye(m) * 100.0)
+    est = SingleModel(_adaptive(SigmaPointFilter(UKF), (True, True, False)), models.constant_velocity(T, 0.5),
+                      measurement)
+    z = _simulation(measurement, 3).measurements[:, :8]
+    state = est.init(np.tile(X0, (3, 1)), P0)
+    with np.errstate(all="ignore"):
+        calls = _declined(est, state, z, monkeypatch, "adaptive_run")
+    assert calls == [("adaptive_run", False)]
+
+
+def test_an_adaptive_window_longer_than_the_run_needs_no_more_memory(monkeypatch):
+    """The kernel's window buffers hold what the run can fill (min(window, K) innovations), not ``window``: a window
+    of 10^8 innovations over 25 steps is the base filter's run (never full), as step by step."""
+    measurement = MEASUREMENTS["range-bearing"]
+    est = SingleModel(_adaptive(SigmaPointFilter(UKF), (True, True, False), window=10 ** 8),
+                      models.constant_velocity(T, 0.5), measurement)
+    z = _simulation(measurement, 4).measurements
+    state = est.init(np.tile(X0, (4, 1)), P0)
+    whole, steps = _whole_and_steps(est, state, z, monkeypatch, "adaptive_run")
+    _assert_same_track(whole, steps)
+
+
+def test_strong_tracking_run_refuses_the_jacobian_form_without_the_ekf():
+    """The Jacobian form of the fading factor exists over the EKF only: asked for over a sigma-point filter, the
+    compiled run is a ValueError naming ``jacobian`` (never the other form computed silently)."""
+    n, B = 4, 2
+    up = UKF.unit_points(n)
+    z = np.zeros((B, 2))
+    packed = linalg.packed_steps([z], [(linalg.MEASURE_LINEAR, np.eye(2, n), (), np.zeros(2))], [(False, False)],
+                                 [np.eye(2)], n)
+    with pytest.raises(ValueError, match="^jacobian:"):
+        linalg.strong_tracking_run(np.zeros((B, n)), np.tile(np.eye(n), (B, 1, 1)), up.xi, up.wm, up.wc, np.eye(n),
+                                   np.eye(n), packed, None, 0.95, 4.5, 1.0, keep_cov=False, nis=False, jacobian=True)

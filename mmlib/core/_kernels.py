@@ -65,7 +65,8 @@ _TWO_PI = 2.0 * math.pi
 @intrinsic
 def _fma(typingctx, a, b, c):
     """:math:`ab + c` rounded once (LLVM's ``llvm.fma``: the FMA instruction, or the C library's ``fma`` on a CPU
-    without one, the same bits).  Only where the composed path's BLAS product sums this way (:func:`_gram_core`)."""
+    without one, the same bits).  Only in the compiled twins of the composed layers' BLAS products
+    (:func:`_gram_core`, :func:`_psd_part_lane`, :func:`_jacobian_fading`, :func:`_cubature_points_core`)."""
     sig = _types.float64(_types.float64, _types.float64, _types.float64)
 
     def codegen(context, builder, signature, args):
@@ -734,18 +735,8 @@ def _mix_core(mub, T, Xb, Pb, c, mm, out):
     -> c (r, N), mixed means mm (r, n, N), mixed covs out (r, n, n, N)."""
     r, N = mub.shape
     n = Xb.shape[1]
-    c[:, :] = 0.0
-    for j in range(r):
-        for i in range(r):
-            t = T[i, j]
-            for b in range(N):
-                c[j, b] += mub[i, b] * t
     W = np.empty((r, r, N))                                  # W[j, i] = mu_{i|j}
-    for j in range(r):
-        for i in range(r):
-            t = T[i, j]
-            for b in range(N):
-                W[j, i, b] = t * mub[i, b] / c[j, b] if c[j, b] > 0.0 else mub[i, b]
+    _mixing_weights_core(mub, T, c, W)
     mm[:, :, :] = 0.0
     for j in range(r):
         for k in range(n):
@@ -1041,24 +1032,26 @@ def imm_output(loglik, c, means, covs, nu, S, with_cov):
 def congruence(A, P, add):
     r"""The linearised moments of the EKF: :math:`A P A^T + \mathrm{add}` and :math:`P A^T` for a stack:
     A (N, d, n) (a Jacobian), P (N, n, n), add (N, d, d) (the noise Q or R) -> ``((N, d, d), (N, n, d))``;
-    :math:`APA^T` is computed as :math:`A(PA^T)` and symmetrised as the numpy path's sum is not."""
+    :math:`APA^T` is computed as :math:`A(PA^T)` (:func:`_congruence_core`) and not symmetrised (the numpy path's
+    product is not either)."""
     N = P.shape[0]                          # (A and add may be periodic over the runs)
     d, n = A.shape[1], A.shape[2]
-    Ab = _inner(A, N)
-    Pb = _inner(P, N)
-    PAt = np.zeros((n, d, N))
-    for i in range(n):
-        for j in range(d):
-            for k in range(n):
-                for b in range(N):
-                    PAt[i, j, b] += Pb[i, k, b] * Ab[j, k, b]
-    S = _inner(add, N)
-    for i in range(d):
-        for j in range(d):
-            for k in range(n):
-                for b in range(N):
-                    S[i, j, b] += Ab[i, k, b] * PAt[k, j, b]
+    S = np.empty((d, d, N))
+    PAt = np.empty((n, d, N))
+    _congruence_core(_inner(A, N), _inner(P, N), _inner(add, N), S, PAt)
     return _outer(S), _outer(PAt)
+
+
+@njit(**_OPTS)
+def _linear_mean_core(Fb, mb, out):
+    """out (n, N) = F m for F (n, n, N) and m (n, N), batch innermost, each sum in index order from 0."""
+    n, N = mb.shape
+    for i in range(n):
+        for b in range(N):
+            out[i, b] = 0.0
+        for k in range(n):
+            for b in range(N):
+                out[i, b] += Fb[i, k, b] * mb[k, b]
 
 
 @njit(**_OPTS)
@@ -1066,13 +1059,8 @@ def linear_predict(mean, cov, F, Q):
     r"""The Kalman filter's time update through linear dynamics, fused: :math:`(F m, F P F^T + Q)` with
     :math:`FPF^T = F(PF^T)` (as :func:`congruence`): mean (N, n), cov (N, n, n), F (N, n, n), Q (N, n, n)."""
     N, n = mean.shape
-    Fb = _inner(F, N)
-    mb = _inner(mean, N)
-    out = np.zeros((n, N))
-    for i in range(n):
-        for k in range(n):
-            for b in range(N):
-                out[i, b] += Fb[i, k, b] * mb[k, b]
+    out = np.empty((n, N))
+    _linear_mean_core(_inner(F, N), _inner(mean, N), out)
     S, _ = congruence(F, cov, Q)
     return _outer(out), S
 
@@ -1989,7 +1977,7 @@ def adaptive_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, ang
                  include_current, inflate_only, log_2pi, truth, nis_on, keep_cov, mean_out, cov_out, failed_out,
                  nis_out, nees_out, start, stop, block):
     r"""Every step of an innovation-adaptive sigma-point filter (NAUKF / IAE-AUKF,
-    :class:`mmlib.core.layers.adaptive.InnovationAdaptive`) on linear dynamics over K packed measement steps, for
+    :class:`mmlib.core.layers.adaptive.InnovationAdaptive`) on linear dynamics over K packed measurement steps, for
     blocks of ``block`` runs: step k is :func:`_adaptive_core` on step k - 1's posterior and innovation window, which
     starts empty and restarts wherever the measurement dimension changes, as the layer's does: the bits of the
     layer's steps.  mean ... R, truth, nis_on, keep_cov and the outputs as :func:`sigma_run` (the NIS with the
@@ -2004,14 +1992,15 @@ def adaptive_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, ang
         failed = np.empty(N, dtype=np.bool_)
         m_cur = -1
         n_past = 0
-        past = np.empty((window, 1, N))
-        now = np.empty((window, 1, N))
+        cap = min(window, K)                # the innovations a window can hold in this run
+        past = np.empty((cap, 1, N))
+        now = np.empty((cap, 1, N))
         for k in range(K):
             zb, Ak, Rb, ang = _step_measurement(k, z, zoff, A, R, angular, b0, N)
             m = zb.shape[0]
             if m != m_cur:                  # the measurement set changed dimension: the window starts again
-                past = np.empty((window, m, N))
-                now = np.empty((window, m, N))
+                past = np.empty((cap, m, N))
+                now = np.empty((cap, m, N))
                 n_past = 0
                 m_cur = m
             post_mean = np.empty((n, N))
@@ -2107,12 +2096,7 @@ def _ekf_predict_and_moments(mb, Pb, Fb, Qb, kind, A, idx, sensor, Rb, prior, Pl
     (:func:`linear_predict`: the prior ``prior`` (n, N) and ``Pl`` (n, n, N)), then its measurement prediction
     (:func:`_ekf_moments`), batch innermost."""
     n, N = mb.shape
-    for i in range(n):
-        for b in range(N):
-            prior[i, b] = 0.0
-        for k in range(n):
-            for b in range(N):
-                prior[i, b] += Fb[i, k, b] * mb[k, b]
+    _linear_mean_core(Fb, mb, prior)
     PFt = np.empty((n, n, N))
     _congruence_core(Fb, Pb, Qb, Pl, PFt)
     _ekf_moments(prior, Pl, kind, A, idx, sensor, Rb, zp, S, Pxz, H)
@@ -2226,8 +2210,10 @@ def ekf_run(mean, cov, F, Q, z, zoff, kind, A, idx, sensor, angular, R, log_2pi,
 @njit(**_OPTS)
 def _mixing_weights_core(mub, T, c, W):
     r"""c (r, N) and W (r, r, N), W[j, i] = :math:`\mu_{i|j}`, from mub (r, N) and T (r, r), batch innermost, as
-    :func:`mmlib.core.linalg.mixing_weights` computes them with the compiled kernels (:func:`_mix_core`'s first
-    part)."""
+    :func:`mmlib.core.linalg.mixing_weights` computes them with the compiled kernels (``matmul_rows``, then
+    :math:`T_{ij}\mu_i / c_j`, :math:`\mu_i` itself where :math:`c_j` is not > 0: ``mixing_weights`` tests
+    :math:`c_j \le 0`, which differs only for a NaN :math:`c_j`, whose run's mode probabilities are then all NaN in both
+    paths, :func:`_output_core`)."""
     r, N = mub.shape
     c[:, :] = 0.0
     for j in range(r):
@@ -2341,14 +2327,15 @@ def imm_layer_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, s
         failed_modes = np.empty((r, N), dtype=np.bool_)
         m_cur = -1
         n_past = 0
-        past = np.empty((r, window, 1, N))
-        now = np.empty((r, window, 1, N))
+        cap = min(window, K) if adaptive else 1     # the innovations a window can hold in this run
+        past = np.empty((r, cap, 1, N))
+        now = np.empty((r, cap, 1, N))
         for k in range(K):
             zb, Ak, Rb, ang = _step_measurement(k, z, zoff, A, R, angular, b0, N)
             m = zb.shape[0]
             if m != m_cur:                  # the measurement set changed dimension: the windows start again
-                past = np.empty((r, window, m, N))
-                now = np.empty((r, window, m, N))
+                past = np.empty((r, cap, m if adaptive else 1, N))
+                now = np.empty((r, cap, m if adaptive else 1, N))
                 n_past = 0
                 m_cur = m
             c = np.empty((1, r, N))

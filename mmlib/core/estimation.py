@@ -818,15 +818,19 @@ def run(estimator: protocols.Estimator, state: tuple, measurements: ArrayLike | 
 
 def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, consistency: bool, x_true,
                name: str, on_divergence: str) -> Track | None:
-    """:func:`run` in one compiled call (:func:`mmlib.core.linalg.sigma_run`, :func:`~mmlib.core.linalg.imm_sigma_run`)
-    where every step of it would be a fused step: a :class:`SingleModel` (exactly, not a subclass) whose steps
-    :meth:`SingleModel._step` fuses (:func:`_fusable`, one ``F``; or a layer offering a ``whole_run`` of its own, e.g.
-    :meth:`mmlib.core.layers.strong_tracking.StrongTracking.whole_run`, which decides), or an :class:`IMM` whose steps
-    :meth:`IMM._fused_step` fuses (moment mixing), with measurement models whose function the kernels evaluate
-    (:func:`_fused_measure`) and that one call can take (:func:`mmlib.core.linalg.packed_steps`: one kind, one R per
-    step).  The steps' inputs are checked as the step-by-step loop checks them (``check`` once per model), the kernel
-    computes every step as the fused step does, and the divergences, NIS and NEES follow from its per-step outputs as
-    the loop records them (:func:`_assemble`): the same Track, bit for bit (``tests/test_fused.py``).  None where it
+    """:func:`run` in one compiled call where every step of it is one the compiled kernels compute: a
+    :class:`SingleModel` (exactly, not a subclass) over linear dynamics with one ``F`` whose filter is a plain
+    sigma-point filter (:func:`_fusable`: :func:`mmlib.core.linalg.sigma_run`), an extended Kalman filter
+    (:func:`_ekf_runs`: :func:`mmlib.core.linalg.ekf_run`) or a layer offering a ``whole_run`` of its own, which
+    decides (:meth:`mmlib.core.layers.strong_tracking.StrongTracking.whole_run`,
+    :meth:`mmlib.core.layers.adaptive.InnovationAdaptive.whole_run`); or an :class:`IMM` whose steps
+    :meth:`IMM._fused_step` fuses (moment mixing: :func:`mmlib.core.linalg.imm_sigma_run`) or whose cycles
+    :func:`_imm_layer_run` takes (cubature-principle mixing, EKF or innovation-adaptive mode filters); with
+    measurement models whose function the kernels evaluate (:func:`_fused_measure`) and that one call can take
+    (:func:`mmlib.core.linalg.packed_steps`: one kind, one R per step).  The steps' inputs are checked as the
+    step-by-step loop checks them (``check`` once per model), the kernel computes every step as the step does, and
+    the divergences, NIS and NEES follow from its per-step outputs as the loop records them (:func:`_assemble`): the
+    same Track, bit for bit (``tests/test_fused.py``, ``tests/test_whole_runs_layers.py``).  None where it
     does not apply (the loop runs).  Every step's model is checked before the first step runs: a model that does not
     fit is named even where, step by step, a run diverging earlier would have stopped ``on_divergence='raise'``
     first."""
@@ -874,23 +878,10 @@ def _whole_run(estimator, state, steps, check, with_cov: bool, keep_cov: bool, c
     return _assemble(means, covs, None, failed, None, None, nis, nees, steps, consistency, name, on_divergence)
 
 
-class _NoRule(NamedTuple):
-    """The rule operands (unit points and weights of one point, unused) of a whole run whose filters use no rule
-    (:func:`_ekf_runs`), for an n-state."""
-
-    xi: np.ndarray
-    wm: np.ndarray
-    wc: np.ndarray
-
-    @classmethod
-    def of(cls, n: int) -> "_NoRule":
-        return cls(np.zeros((1, n)), np.zeros(1), np.zeros(1))
-
-
 def _ekf_runs(filt, state) -> bool:
     """Whether a compiled whole run computes the steps of ``filt`` from ``state``: the compiled kernels with fusion
     on, exactly an :class:`~mmlib.core.filters.ExtendedKalmanFilter` (a subclass may override a step) and a
-    :class:`~mmlib.core.filters.GaussianState` (the caller checks the dynamics: linear, one F)."""
+    :class:`~mmlib.core.filters.GaussianState` (the caller checks the dynamics: linear, one F, or one per mode)."""
     return linalg.fused() and type(filt) is ExtendedKalmanFilter and type(state) is GaussianState
 
 
@@ -907,12 +898,12 @@ def _imm_layer_run(imm: "IMM", state, steps, check, with_cov: bool, keep_cov: bo
     if not isinstance(state, IMMState) or not bool(getattr(imm.stacked, "is_linear", False)):
         return None
     moment = type(imm.mixing) is MomentMixing
-    form = getattr(imm.mixing, "fused_form", None)
-    cubature = not moment and callable(form) and form() == "cubature"
+    mixing_form = getattr(imm.mixing, "fused_form", None)
+    cubature = not moment and callable(mixing_form) and mixing_form() == "cubature"
     if not (moment or cubature):
         return None
-    form = getattr(imm.filter, "fused_adaptive_form", None)
-    adaptive = form(state.modes) if callable(form) else None
+    filter_form = getattr(imm.filter, "fused_adaptive_form", None)
+    adaptive = filter_form(state.modes) if callable(filter_form) else None
     ekf = adaptive is None and _ekf_runs(imm.filter, state.modes)
     if adaptive is None and not ekf and (moment or not _fusable(imm.filter, state.modes, imm.stacked)):
         return None
@@ -920,10 +911,14 @@ def _imm_layer_run(imm: "IMM", state, steps, check, with_cov: bool, keep_cov: bo
     if packed is None:
         return None
     n = imm.stacked.dim
-    up = _NoRule.of(n) if ekf else (imm.filter if adaptive is None else imm.filter.base).rule.unit_points(n)
-    out = linalg.imm_layer_run(state.mode_probabilities, imm.transition, state.modes.mean, state.modes.cov, up.xi,
-                               up.wm, up.wc, imm.stacked.F, imm.stacked.Q, packed, cubature, adaptive, with_cov,
-                               LOG_2PI, keep_cov=keep_cov, nis=consistency, truth=x_true, ekf=ekf)
+    if ekf:
+        xi, wm, wc = linalg.no_rule_operands(n)
+    else:
+        up = (imm.filter if adaptive is None else imm.filter.base).rule.unit_points(n)
+        xi, wm, wc = up.xi, up.wm, up.wc
+    out = linalg.imm_layer_run(state.mode_probabilities, imm.transition, state.modes.mean, state.modes.cov, xi, wm,
+                               wc, imm.stacked.F, imm.stacked.Q, packed, cubature, adaptive, with_cov, LOG_2PI,
+                               keep_cov=keep_cov, nis=consistency, truth=x_true, ekf=ekf)
     if out is None:
         return None
     means, covs, mus, failed, underflow, nis, nees = out

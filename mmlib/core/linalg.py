@@ -59,7 +59,7 @@ __all__ = ["kernel", "set_kernel", "use_kernel", "KERNELS", "fused", "use_fused"
            "linear_transition", "linear_predict", "sigma_point_predict_linear", "sigma_step", "imm_sigma_step",
            "fading_factor", "jacobian_fading_factor", "strong_tracking_step", "packed_steps", "sigma_run",
            "imm_sigma_run", "strong_tracking_run",
-           "adaptive_run", "imm_layer_run", "ekf_run", "cubature_mix",
+           "adaptive_run", "imm_layer_run", "ekf_run", "cubature_mix", "no_rule_operands",
            "fuzzy_imm_run", "power", "compiled_rule_count",
            "mixing_weights", "mix_moments", "imm_mix", "imm_output", "combine_covariances", "BLOCK", "FUSED_BLOCK",
            "FUSED_STEPS",
@@ -382,8 +382,8 @@ def trace(a: np.ndarray) -> np.ndarray:
 def gram(u: np.ndarray) -> np.ndarray:
     r""":math:`U^TU` of each matrix of a stack ``u`` (..., K, m) -> (..., m, m): numpy's ``@``, which hands it to
     BLAS ``syrk``.  The compiled twin sums each entry over the K rows in order, one fused multiply-add per term
-    (:func:`mmlib.core._kernels._gram_core`): how OpenBLAS's ``syrk`` sums it on AVX2 CPUs (the shapes checked on the
-    reference machine), so the two agree bit for bit there and to round-off where BLAS sums otherwise
+    (:func:`mmlib.core._kernels._gram_core`): how OpenBLAS's ``syrk`` sums it on AVX2 CPUs for K <= 256 (beyond, it
+    sums blocks of 256), so the two agree bit for bit there and to round-off where BLAS sums otherwise
     (``tests/test_kernels.py``).  The compiled order is the same on every machine (a fused multiply-add is exact
     rounding, in hardware or in the C library).  For m = 1 or K = 1 (numpy's ``dot``, which sums in another order)
     both run numpy's product."""
@@ -1144,9 +1144,8 @@ _FUSED = [_initial_fused()]
 
 def fused() -> bool:
     """Whether a filter or IMM step that can be fused (:func:`sigma_step`, :func:`imm_sigma_step`,
-    :func:`strong_tracking_step`) is, and a run all of whose steps can be is one call (:func:`sigma_run`,
-    :func:`imm_sigma_run`, :func:`strong_tracking_run`, from :func:`mmlib.core.estimation.run`): fusion on and
-    the compiled kernels in use."""
+    :func:`strong_tracking_step`) is, and a run all of whose steps can be is one call (the whole runs of
+    :data:`FUSED_STEPS`, from :func:`mmlib.core.estimation.run`): fusion on and the compiled kernels in use."""
     return _FUSED[0] and _KERNEL[0] == "numba"
 
 
@@ -1541,11 +1540,11 @@ def imm_layer_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, cov
     windows): cycle k is what the composed IMM computes from cycle k - 1's state, the same bits.  Arguments and
     returns as :func:`imm_sigma_run` (the NIS with the innovation covariances the modes' updates used); None where
     the composed cycles would not be these (cubature mixing of one mode or a one-dimensional state, where numpy's
-    product is ``dot``; an adaptive layer's step measuring one component: :func:`adaptive_run`)."""
+    product is ``dot``; an adaptive layer's steps :func:`_adaptive_declines` declines)."""
     B, r, n = mu.shape[0], mu.shape[1], means.shape[-1]
     z, zoff, kind, A, idx, sensor, angular, R = packed
     K = zoff.shape[0] - 1
-    if (cubature and (r < 2 or n < 2)) or (adaptive is not None and (np.diff(zoff) < 2).any()):
+    if (cubature and (r < 2 or n < 2)) or (adaptive is not None and _adaptive_declines(zoff, n, adaptive[2])):
         return None
     window, psi, zeta, include_current, inflate_only = (2, 1.0, False, False, False) if adaptive is None \
         else adaptive
@@ -1584,6 +1583,8 @@ def strong_tracking_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: n
     B, n = mean.shape
     z, zoff, kind, A, idx, sensor, angular, R = packed
     K = zoff.shape[0] - 1
+    if jacobian and not ekf:
+        raise ValueError("jacobian: the Jacobian form of the fading factor needs the EKF base (ekf=True)")
     if ekf and jacobian and (np.diff(zoff) < 2).any():
         return None
     m0 = int(zoff[1] - zoff[0]) if zoff.shape[0] > 1 else 0
@@ -1602,6 +1603,20 @@ def strong_tracking_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: n
     return means, covs if keep_cov else None, failed, nis_out if nis else None, nees_out if truth is not None else None
 
 
+def _adaptive_declines(zoff: np.ndarray, n: int, zeta: bool) -> bool:
+    """Whether the compiled adaptive layer would not compute the layer's steps over the packed steps of offsets
+    ``zoff``: a step of one component (the composed product is numpy's ``dot``), or, with ``zeta``, traces of more
+    terms than :data:`mmlib.core._kernels.NUMPY_SUM_MAX` (numpy sums those in another order)."""
+    widths = np.diff(zoff)
+    return bool((widths < 2).any()) or (zeta and max(int(widths.max()), n) > _compiled_module().NUMPY_SUM_MAX)
+
+
+def no_rule_operands(n: int) -> tuple:
+    """``(xi (1, n), wm (1,), wc (1,))`` of zeros: the rule operands of a whole run whose filter has no rule (the
+    extended Kalman filter; :func:`ekf_run`'s IMM and strong-tracking forms), which the kernel does not read."""
+    return np.zeros((1, n)), np.zeros(1), np.zeros(1)
+
+
 def adaptive_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray, wc: np.ndarray, F: np.ndarray,
                  Q: np.ndarray, packed: tuple, window: int, psi: float, zeta: bool, include_current: bool,
                  inflate_only: bool, log_2pi: float, *, keep_cov: bool, nis: bool,
@@ -1612,12 +1627,12 @@ def adaptive_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarr
     step k - 1's posterior and window, the same bits.  ``mean`` ... ``packed`` and ``log_2pi`` as :func:`sigma_run`;
     ``window``, ``psi``, ``zeta``, ``include_current``, ``inflate_only`` the layer's fields.  Returns
     :func:`sigma_run`'s ``(means, covs, failed, nis, nees)`` (the NIS with the innovation covariance the update
-    used), or None where the layer's steps would not be these: a step measuring one component (the composed product
-    is numpy's ``dot`` there)."""
+    used), or None where the layer's steps would not be these (:func:`_adaptive_declines`: a step measuring one
+    component, numpy's ``dot`` there; traces longer than numpy's order the kernel reproduces)."""
     B, n = mean.shape
     z, zoff, kind, A, idx, sensor, angular, R = packed
     K = zoff.shape[0] - 1
-    if (np.diff(zoff) < 2).any():
+    if _adaptive_declines(zoff, n, zeta):
         return None
     cov = _stack(cov, 2, (B,))
     _check_shapes("adaptive_run", B, (mean, cov, xi, wm, wc, F, z, A, R, angular, Q))
@@ -1834,7 +1849,8 @@ def _cubature_mix_compiled(means, covs, w):
     B, r, n = means.shape
     if r < 2 or n < 2:
         return cubature_mix.implementations["numpy"](means, covs, w)
-    return _call("cubature_mix", B, _stack(means, 2), _stack(covs, 3), _stack(w, 2))
+    # every operand with the runs' rows: the kernel reads w run by run (a shared w broadcast here, as numpy does)
+    return _call("cubature_mix", B, _stack(means, 2), _stack(covs, 3, (B,)), _stack(w, 2, (B,)))
 
 
 @_operation

@@ -24,7 +24,9 @@ strong-tracking filter whose factor never exceeds 1 *is* its base filter, bit fo
 STF, STUKF, STCKF, STSSRCKF (and a strong-tracking 5th-degree CKF or CDKF) are this
 layer over the corresponding base filter: configurations, not classes.  Over a plain
 sigma-point filter on linear dynamics, a single model's whole step (time update and this
-update) runs as one compiled call with the same bits (:meth:`StrongTracking.fused_step`).
+update) runs as one compiled call with the same bits (:meth:`StrongTracking.fused_step`), and a
+whole run, over such a filter or over the extended Kalman filter (either form), is one call
+(:meth:`StrongTracking.whole_run`).
 """
 from __future__ import annotations
 
@@ -149,7 +151,7 @@ class StrongTracking(FilterLayer):
             return None
         n = dynamics.dim
         if ekf:
-            xi, wm, wc = np.zeros((1, n)), np.zeros(1), np.zeros(1)
+            xi, wm, wc = linalg.no_rule_operands(n)
         else:
             up = self.base.rule.unit_points(n)
             xi, wm, wc = up.xi, up.wm, up.wc
