@@ -1629,7 +1629,7 @@ def _store_single_step(k, b0, mean, cov, nu, S, failed, keep_cov, nis_on, truth,
 
 
 @njit(**_OPTS)
-def sigma_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angular, R, log_2pi, truth, nis_on,
+def sigma_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angular, R, log_2pi, ekf, truth, nis_on,
               keep_cov, mean_out, cov_out, failed_out, nis_out, nees_out, start, stop, block):
     r"""Every step of a single-model sigma-point filter on linear dynamics over K packed measurement steps, for blocks
     of ``block`` runs: step k is :func:`sigma_step`'s body (:func:`_filter_step`) on the posterior of step k - 1, the
@@ -1640,7 +1640,8 @@ def sigma_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angula
     function's matrix, :func:`_measure` ``kind``, ``idx``, ``sensor``), of R (sum m_k, max m_k) (step k's R, shared by
     the runs) and of angular (sum m_k,).  ``truth`` (B, K, n) for the NEES or (0, 0, 0), ``nis_on`` for the NIS.
     Writes, for the runs start..stop-1: the posterior means mean_out (B, K, n), covariances cov_out (B, K, n, n) (if
-    ``keep_cov``), ``failed_out`` (B, K) (:func:`_filter_step`), nis_out and nees_out (B, K) (when computed)."""
+    ``keep_cov``), ``failed_out`` (B, K) (:func:`_filter_step`), nis_out and nees_out (B, K) (when computed).  With
+    ``ekf`` the filter is the extended Kalman filter instead (:func:`_ekf_step`; the rule's arguments unused)."""
     n = mean.shape[1]
     K = zoff.shape[0] - 1
     for b0 in range(start, stop, block):
@@ -1655,8 +1656,12 @@ def sigma_run(mean, cov, xi, wm, wc, F, Q, z, zoff, kind, A, idx, sensor, angula
             post_cov = np.empty((n, n, N))
             nu = np.empty((m, N))
             S = np.empty((m, m, N))
-            _filter_step(mb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, Ak, idx, sensor, ang, log_2pi, post_mean, post_cov,
-                         nu, S, ll, failed)
+            if ekf:
+                _ekf_step(mb, Pb, Fb, Qb, Rb, zb, kind, Ak, idx, sensor, ang, log_2pi, post_mean, post_cov, nu, S, ll,
+                          failed)
+            else:
+                _filter_step(mb, Pb, xi, wm, wc, Fb, Qb, Rb, zb, kind, Ak, idx, sensor, ang, log_2pi, post_mean,
+                             post_cov, nu, S, ll, failed)
             _store_single_step(k, b0, post_mean, post_cov, nu, S, failed, keep_cov, nis_on, truth, mean_out, cov_out,
                                failed_out, nis_out, nees_out)
             mb, Pb = post_mean, post_cov
@@ -2178,33 +2183,6 @@ def _ekf_step(mb, Pb, Fb, Qb, Rb, zb, kind, A, idx, sensor, angular, log_2pi, me
     _ekf_predict_and_moments(mb, Pb, Fb, Qb, kind, A, idx, sensor, Rb, mean, Pl, zp, S, Pxz, H)
     _residual_core(zb, zp, angular, nu)
     _joseph_update_core(mean, Pl, nu, S, Pxz, H, Rb, log_2pi, cov, ll, failed)
-
-
-@njit(**_OPTS)
-def ekf_run(mean, cov, F, Q, z, zoff, kind, A, idx, sensor, angular, R, log_2pi, truth, nis_on, keep_cov, mean_out,
-            cov_out, failed_out, nis_out, nees_out, start, stop, block):
-    r"""Every step of an extended Kalman filter on linear dynamics over K packed measurement steps, for blocks of
-    ``block`` runs: step k is :func:`_ekf_step` on step k - 1's posterior, the bits of the filter's composed steps.
-    Arguments and outputs as :func:`sigma_run` without the rule."""
-    n = mean.shape[1]
-    K = zoff.shape[0] - 1
-    for b0 in range(start, stop, block):
-        N = min(block, stop - b0)
-        mb, Pb, Fb, Qb = _single_block_start(mean, cov, F, Q, b0, N)
-        ll = np.empty(N)
-        failed = np.empty(N, dtype=np.bool_)
-        for k in range(K):
-            zb, Ak, Rb, ang = _step_measurement(k, z, zoff, A, R, angular, b0, N)
-            m = zb.shape[0]
-            post_mean = np.empty((n, N))
-            post_cov = np.empty((n, n, N))
-            nu = np.empty((m, N))
-            S = np.empty((m, m, N))
-            _ekf_step(mb, Pb, Fb, Qb, Rb, zb, kind, Ak, idx, sensor, ang, log_2pi, post_mean, post_cov, nu, S, ll,
-                      failed)
-            _store_single_step(k, b0, post_mean, post_cov, nu, S, failed, keep_cov, nis_on, truth, mean_out, cov_out,
-                               failed_out, nis_out, nees_out)
-            mb, Pb = post_mean, post_cov
 
 
 @njit(**_OPTS)

@@ -256,7 +256,6 @@ _SHAPES = {
     "imm_sigma_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N t", "t a", "t w", "t", "... n n"),
     "strong_tracking_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n", "N v v"),
     "adaptive_run": ("N n", "N n n", "M n", "M", "M", "n n", "N t", "t a", "t w", "t", "... n n"),
-    "ekf_run": ("N n", "N n n", "n n", "N t", "t a", "t w", "t", "... n n"),
     "imm_layer_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "N t", "t a", "t w", "t", "... n n"),
     "fuzzy_imm_run": ("N r", "r r", "N r n", "N r n n", "M n", "M", "M", "r n n", "n n", "n n", "N r", "r", "N t",
                       "t a", "t w", "t", "N h c", "N"),
@@ -1435,6 +1434,11 @@ def sigma_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray,
     ``log_2pi``.  Returns ``(means (B, K, n), covs (B, K, n, n) or None without ``keep_cov``, failed (B, K),
     nis (B, K) or None, nees (B, K) or None)``: the NIS of each step's innovation with ``nis``, the NEES of each
     posterior against ``truth`` x_1..x_K (B, K, n) when given, each as :func:`normalised_square` computes it."""
+    return _single_run(mean, cov, xi, wm, wc, F, Q, packed, log_2pi, False, keep_cov, nis, truth)
+
+
+def _single_run(mean, cov, xi, wm, wc, F, Q, packed, log_2pi, ekf: bool, keep_cov: bool, nis: bool, truth) -> tuple:
+    """:func:`sigma_run`, or with ``ekf`` :func:`ekf_run` (the rule's operands then unused): one kernel."""
     B, n = mean.shape
     z, zoff, kind, A, idx, sensor, angular, R = packed
     K = zoff.shape[0] - 1
@@ -1443,7 +1447,7 @@ def sigma_run(mean: np.ndarray, cov: np.ndarray, xi: np.ndarray, wm: np.ndarray,
     _check_offsets(zoff, R, z, B)
     out = _over_threads(_compiled_module().sigma_run, (
         _contiguous(mean), _contiguous(cov), _contiguous(xi), _contiguous(wm), _contiguous(wc), _contiguous(F),
-        _periodic(Q, 2, (B,)), z, zoff, kind, A, idx, sensor, angular, R, float(log_2pi),
+        _periodic(Q, 2, (B,)), z, zoff, kind, A, idx, sensor, angular, R, float(log_2pi), bool(ekf),
         _truth_operand(truth, B, K, n), bool(nis), bool(keep_cov)),
         _run_outputs(B, K, n, keep_cov, nis, truth is not None), B)
     means, covs, failed, nis_out, nees_out = out
@@ -1514,18 +1518,8 @@ def ekf_run(mean: np.ndarray, cov: np.ndarray, F: np.ndarray, Q: np.ndarray, pac
     the Joseph-form update) in one compiled call (compiled kernels only; :func:`fused`): step k is what the filter's
     predict and update compute from step k - 1's posterior with the compiled operations, the same bits.  ``mean``,
     ``cov``, ``F``, ``Q``, ``packed``, ``log_2pi`` and the returns as :func:`sigma_run`."""
-    B, n = mean.shape
-    z, zoff, kind, A, idx, sensor, angular, R = packed
-    K = zoff.shape[0] - 1
-    cov = _stack(cov, 2, (B,))
-    _check_shapes("ekf_run", B, (mean, cov, F, z, A, R, angular, Q))
-    _check_offsets(zoff, R, z, B)
-    out = _over_threads(_compiled_module().ekf_run, (
-        _contiguous(mean), _contiguous(cov), _contiguous(F), _periodic(Q, 2, (B,)), z, zoff, kind, A, idx, sensor,
-        angular, R, float(log_2pi), _truth_operand(truth, B, K, n), bool(nis), bool(keep_cov)),
-        _run_outputs(B, K, n, keep_cov, nis, truth is not None), B)
-    means, covs, failed, nis_out, nees_out = out
-    return means, covs if keep_cov else None, failed, nis_out if nis else None, nees_out if truth is not None else None
+    xi, wm, wc = no_rule_operands(mean.shape[-1])
+    return _single_run(mean, cov, xi, wm, wc, F, Q, packed, log_2pi, True, keep_cov, nis, truth)
 
 
 def imm_layer_run(mu: np.ndarray, transition: np.ndarray, means: np.ndarray, covs: np.ndarray, xi: np.ndarray,
