@@ -1202,15 +1202,8 @@ def _update_core(mean, Pm, nu, S, Pxz, log_2pi, cov, ll, failed):
     and cov Pm (n, n, N) with nu (m, N), S (m, m, N), Pxz (n, m, N) -> ``cov`` (n, n, N), the log-likelihood
     :math:`-\tfrac12(\nu^TS^{-1}\nu + \log|S| + m\log 2\pi)` ``ll`` (N,) and ``failed`` (N,) (S or the posterior
     covariance without a Cholesky factor: its mean, cov and ll NaN), as :func:`mmlib.core.filters.kalman_update`."""
-    m, N = nu.shape
-    nis = np.empty(N)
-    logdet = np.empty(N)
-    no_H = np.empty((0, 0, N))
-    _kalman_core(mean, Pm, nu, S, Pxz, no_H, no_H, False, cov, nis, logdet, failed)
-    _nan_lanes(mean, failed)
-    _nan_lanes(cov, failed)
-    for lane in range(N):
-        ll[lane] = np.nan if failed[lane] else -0.5 * (nis[lane] + logdet[lane] + m * log_2pi)
+    no_H = np.empty((0, 0, nu.shape[1]))
+    _joseph_update_core(mean, Pm, nu, S, Pxz, no_H, no_H, log_2pi, cov, ll, failed)
 
 
 @njit(**_OPTS)
@@ -1719,6 +1712,18 @@ def _run_block_start(mu, means, covs, F, b0, N):
 
 
 @njit(**_OPTS)
+def _imm_block_start(mu, means, covs, F, Q, b0, N):
+    """:func:`_run_block_start` and each mode's Q (r, n, n, N), Q (P, n, n) periodic over the flattened (runs, modes)
+    stack: ``(mub, Xb, Pb, Fb, Qb)``."""
+    r, n = mu.shape[1], means.shape[2]
+    mub, Xb, Pb, Fb = _run_block_start(mu, means, covs, F, b0, N)
+    Qb = np.empty((r, n, n, N))
+    for j in range(r):
+        _lanes(Q, b0, N, (r, j), Qb[j])
+    return mub, Xb, Pb, Fb, Qb
+
+
+@njit(**_OPTS)
 def _store_imm_step(k, b0, under, fused, fcov, innov, icov, mu_b, failed, keep_cov, nis_on, truth, mean_out, cov_out,
                     mu_out, failed_out, underflow_out, nis_out, nees_out):
     """An IMM cycle's outputs of step k for the lanes of the runs b0..: the fused estimate (and covariance with
@@ -1751,14 +1756,10 @@ def imm_sigma_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, s
     failed), ``underflow_out`` (B, K) (every mode's likelihood underflowed), nis_out and nees_out (B, K) (when
     computed: the NIS of the mixture prior's innovation, the NEES of the fused estimate)."""
     r = mu.shape[1]
-    n = means.shape[2]
     K = zoff.shape[0] - 1
     for b0 in range(start, stop, block):
         N = min(block, stop - b0)
-        mub, Xb, Pb, Fb = _run_block_start(mu, means, covs, F, b0, N)
-        Qb = np.empty((r, n, n, N))
-        for j in range(r):
-            _lanes(Q, b0, N, (r, j), Qb[j])
+        mub, Xb, Pb, Fb, Qb = _imm_block_start(mu, means, covs, F, Q, b0, N)
         failed = np.empty(N, dtype=np.bool_)
         failed_modes = np.empty((r, N), dtype=np.bool_)
         for k in range(K):
@@ -2110,11 +2111,12 @@ def _ekf_predict_and_moments(mb, Pb, Fb, Qb, kind, A, idx, sensor, Rb, prior, Pl
 @njit(**_OPTS)
 def _joseph_update_core(mean, Pm, nu, S, Pxz, H, Rb, log_2pi, cov, ll, failed):
     r""":func:`_update_core` in the Joseph form (H (m, n, N) and Rb (m, m, N): :func:`kalman_moments` with H), as
-    :func:`mmlib.core.filters.kalman_update` computes it for the extended Kalman filter."""
+    :func:`mmlib.core.filters.kalman_update` computes it for the extended Kalman filter; with H of shape (0, 0, N) the
+    form :math:`P - AA^T` (:func:`_update_core`)."""
     m, N = nu.shape
     nis = np.empty(N)
     logdet = np.empty(N)
-    _kalman_core(mean, Pm, nu, S, Pxz, H, Rb, True, cov, nis, logdet, failed)
+    _kalman_core(mean, Pm, nu, S, Pxz, H, Rb, H.shape[0] > 0, cov, nis, logdet, failed)
     _nan_lanes(mean, failed)
     _nan_lanes(cov, failed)
     for lane in range(N):
@@ -2297,10 +2299,7 @@ def imm_layer_run(mu, T, means, covs, xi, wm, wc, F, Q, z, zoff, kind, A, idx, s
     K = zoff.shape[0] - 1
     for b0 in range(start, stop, block):
         N = min(block, stop - b0)
-        mub, Xb, Pb, Fb = _run_block_start(mu, means, covs, F, b0, N)
-        Qb = np.empty((r, n, n, N))
-        for j in range(r):
-            _lanes(Q, b0, N, (r, j), Qb[j])
+        mub, Xb, Pb, Fb, Qb = _imm_block_start(mu, means, covs, F, Q, b0, N)
         failed = np.empty(N, dtype=np.bool_)
         failed_modes = np.empty((r, N), dtype=np.bool_)
         m_cur = -1
