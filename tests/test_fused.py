@@ -1053,15 +1053,22 @@ def test_whole_run_raises_at_the_same_run_and_step(monkeypatch):
     imm = IMM(SigmaPointFilter(RULES["UKF"]), _modes(), measurement, TRANSITION)
     z = _wild(_wild(_problem(measurement, 9), 6, 5), 3, 5)
     state = imm.init(np.tile(X0, (9, 1)), P0)
+    messages = _divergence_messages(imm, state, z, monkeypatch)
+    assert messages[0] == messages[1] and "run 3 diverged at step 5" in messages[0]
+
+
+def _divergence_messages(est, state, z, monkeypatch) -> list:
+    """The messages of the FilterDivergence that ``run(..., on_divergence="raise")`` raises as a whole run and step by
+    step (it must raise both ways)."""
     messages = []
     for whole in (True, False):
-        with monkeypatch.context() as m:
+        with monkeypatch.context() as m, np.errstate(all="ignore"):
             if not whole:
                 _per_step(m)
             with pytest.raises(estimation.FilterDivergence) as err:
-                run(imm, state, z, on_divergence="raise")
+                run(est, state, z, on_divergence="raise")
         messages.append(str(err.value))
-    assert messages[0] == messages[1] and "run 3 diverged at step 5" in messages[0]
+    return messages
 
 
 class _OwnSingleModel(SingleModel):
@@ -1455,14 +1462,7 @@ def test_adaptive_whole_run_raises_at_the_same_run_and_step(monkeypatch):
     est = _adaptive((True, True, False), measurement, 5)
     z = _problem(measurement, 9)
     state = est.init(np.tile(X0, (9, 1)), P0)
-    messages = []
-    for whole in (True, False):
-        with monkeypatch.context() as m, np.errstate(all="ignore"):
-            if not whole:
-                _per_step(m)
-            with pytest.raises(estimation.FilterDivergence) as err:
-                run(est, state, z, on_divergence="raise")
-        messages.append(str(err.value))
+    messages = _divergence_messages(est, state, z, monkeypatch)
     assert messages[0] == messages[1] and "diverged at step" in messages[0]
 
 

@@ -15,13 +15,14 @@ same operands, so any difference is a defect, not round-off.
 """
 from __future__ import annotations
 
-from fractions import Fraction
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from mmlib import MonteCarlo
-from mmlib.core import estimation, gnss, linalg, models, rules
+from mmlib.core import estimation, linalg, models, rules
 from mmlib.core.estimation import IMM, MomentMixing, SingleModel, run
 from mmlib.core.filters import ExtendedKalmanFilter, SigmaPointFilter
 from mmlib.core.layers.adaptive import InnovationAdaptive
@@ -29,37 +30,23 @@ from mmlib.core.layers.strong_tracking import StrongTracking
 from mmlib.core.mixing import CubatureMixing
 from mmlib.experiment.simulate import ManeuverSchedule, simulate
 
+sys.path.insert(0, str(Path(__file__).parent))
+# the shared set-up of the whole-run tests (a turning target, its measurements, Tseng's GNSS epochs) and the exact
+# reference of the in-order fused multiply-add sum
+from test_fused import K, MEASUREMENTS, P0, T, TRANSITION, X0, _gnss_epochs, _modes, _same, _wild  # noqa: E402
+from test_fused import _assert_same_track as _assert_same_estimates  # noqa: E402
+from test_kernels import _in_order_fma  # noqa: E402
+
 pytestmark = pytest.mark.skipif(linalg.kernel() != "numba", reason="the whole runs exist on the compiled kernels")
 
-K = 25
-T, OMEGA = 1.0, np.radians(3.0)
-TRANSITION = np.array([[0.90, 0.05, 0.05], [0.10, 0.85, 0.05], [0.10, 0.05, 0.85]])
-X0 = np.array([20000.0, -150.0, 15000.0, 60.0])
-P0 = np.diag([400.0, 100.0, 400.0, 100.0])
-MEASUREMENTS = {
-    "range-bearing": models.RangeBearing(np.diag([100.0, np.radians(0.5) ** 2])),
-    "range-bearing off-centre": models.RangeBearing(np.diag([25.0, np.radians(1.0) ** 2]), sensor=(-3000.0, 500.0)),
-    "linear": models.LinearMeasurement([[1.0, 0, 0, 0], [0, 0, 1.0, 0]], np.diag([100.0, 150.0])),
-}
 WHOLE_RUNS = ("imm_layer_run", "ekf_run", "strong_tracking_run", "sigma_run", "imm_sigma_run", "adaptive_run")
 UKF = rules.Unscented(1.0, 2.0, 0.0)
 
 
-def _modes():
-    return [models.constant_velocity(T, 1.0), models.coordinated_turn(T, OMEGA, 1.0),
-            models.coordinated_turn(T, -OMEGA, 1.0)]
-
-
-def _same(a, b) -> bool:
-    if a is None or b is None:
-        return a is None and b is None
-    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
-    return a.shape == b.shape and a.dtype == b.dtype and np.array_equal(a.view(np.uint8), b.view(np.uint8))
-
-
 def _assert_same_track(a, b):
-    for field in ("mean", "cov", "mode_probabilities", "diverged_step", "divergence_cause", "nees", "nis", "nis_dof"):
-        assert _same(getattr(a, field, None), getattr(b, field, None)), field
+    """Every field of two Tracks bit for bit (``test_fused``'s comparison) and their NIS degrees of freedom."""
+    _assert_same_estimates(a, b)
+    assert _same(a.nis_dof, b.nis_dof), "nis_dof"
 
 
 def _spy_whole_runs(monkeypatch) -> list:
@@ -93,12 +80,6 @@ def _whole_and_steps(est, state, z, monkeypatch, kernel: str, **kw):
     steps = _step_by_step(est, state, z, monkeypatch, **kw)
     assert calls == [(kernel, True)]
     return whole, steps
-
-
-def _wild(z, run_index: int, step: int):
-    z = z.copy()
-    z[run_index, step, 0] += 1e200
-    return z
 
 
 def _simulation(measurement, B: int, seed: int = 11):
@@ -218,28 +199,14 @@ def test_single_ekf_whole_run_equals_the_run_step_by_step(form, meas, monkeypatc
 
 
 def _tseng(name: str, n_epochs: int, fewer=()):
-    """The arena's ``name`` on Tseng et al. 2011's scenario, 5 runs, its first epochs up to ``n_epochs`` past the
-    first change of the satellites in view, with one satellite fewer at the epochs ``fewer`` (the measurement
-    dimension changes there and after): ``(estimator, state, measurements, models, truth)``."""
+    """The arena's ``name`` on Tseng et al. 2011's scenario (``test_fused._gnss_epochs``: 5 runs, one satellite fewer
+    at the epochs ``fewer``), its epochs up to ``n_epochs`` past the first change of the satellites in view:
+    ``(estimator, state, measurements, models, truth)``."""
     from mmlib.arena import recipes, study
-    from mmlib.experiment import evaluation
     s = study.scenario("tseng2011")
-    est = recipes.build(name, s)
-    mc = MonteCarlo(s.root_seed, 5)
-    make_batch = evaluation.with_initial_states(s.simulator(mc), {est.name: est},
-                                                lambda e, start, runs: recipes.initial_state(e, s, start, runs, mc))
-    truth, z, init = make_batch(range(5))
-    dims = [zk.shape[1] for zk in z]
-    Kt = next(k for k in range(1, len(dims)) if dims[k] != dims[k - 1]) + n_epochs
-    zs, models_k = [], []
-    for k in range(Kt):
-        model, zk = s.measurement_models[k], z[k]
-        if k in fewer:
-            model = gnss.Pseudoranges(model.satellites[:-1], np.asarray(model.R)[:-1, :-1])
-            zk = zk[:, :-1]
-        zs.append(zk)
-        models_k.append(model)
-    return est, init[est.name], zs, models_k, truth[:, :Kt + 1]
+    dims = [model.dim for model in s.measurement_models]
+    first_change = next(k for k in range(1, len(dims)) if dims[k] != dims[k - 1])
+    return _gnss_epochs(recipes.build(name, s), first_change + n_epochs, fewer)
 
 
 @pytest.mark.parametrize("name", ["EKF", "IMMEKF", "STF", "CPIMM-UKF", "CPIMM-NAUKF", "IMM-NAUKF",
@@ -329,15 +296,6 @@ def test_inflate_only_with_a_run_that_is_not_finite_runs_whole_and_reports_it(me
 
 
 # --------------------------------------------------------------------------- the operations' compiled twins
-def _fma_sum(pairs) -> float:
-    """0 + the in-order fused multiply-add sum of ``pairs`` ((a, b), ...), each step rounded once (exact rationals),
-    then + 0.0: the order the compiled twins sum a product's entry."""
-    acc = 0.0
-    for a, b in pairs:
-        acc = float(Fraction(acc) + Fraction(a) * Fraction(b))
-    return acc + 0.0
-
-
 def test_jacobian_fading_factor_compiled_is_the_in_order_sum_and_numpys_to_round_off():
     """The Jacobian-form fading factor (Liu & Wu 2017, Eqs. 15-16): the compiled twin's diagonals are the in-order
     fused multiply-add sums (an exact reference), and its factor is numpy's to round-off -- a relative 64 m n eps of
@@ -357,10 +315,10 @@ def test_jacobian_fading_factor_compiled_is_the_in_order_sum_and_numpys_to_round
         with linalg.use_kernel("numpy"):
             ref = linalg.jacobian_fading_factor(H, Pl, Q, V, R, 4.5)
         for b in range(B):
-            hq = [[_fma_sum(zip(H[b, c], Q[:, k])) for k in range(n)] for c in range(m)]
-            hd = [[_fma_sum(zip(H[b, c], (Pl[b] - Q)[:, k])) for k in range(n)] for c in range(m)]
-            dn = [(V[b, c, c] - _fma_sum(zip(hq[c], H[b, c]))) - 4.5 * R[c, c] for c in range(m)]
-            dm = [_fma_sum(zip(hd[c], H[b, c])) for c in range(m)]
+            hq = _in_order_fma(H[b], Q.T)                     # (HQ)_ck, each summed in order
+            hd = _in_order_fma(H[b], (Pl[b] - Q).T)
+            dn = [(V[b, c, c] - x) - 4.5 * R[c, c] for c, x in enumerate(np.diagonal(_in_order_fma(hq, H[b])))]
+            dm = list(np.diagonal(_in_order_fma(hd, H[b])))
             tr_n, tr_m = float(np.sum(np.array(dn))), float(np.sum(np.array(dm)))
             exact = max(tr_n / tr_m, 1.0) if tr_m > 0 else 1.0
             assert lam[b] == exact, (m, n, b)
